@@ -1,0 +1,16 @@
+//! The scene model of shrad (spec section 3) and everything that makes one:
+//! glTF 2.0 and OBJ/MTL importers, the TOML scene file, and the built-in scenes.
+//!
+//! A [`Scene`] is a list of [`Object`]s: a triangle mesh in the object's own (rest) frame,
+//! one [`Material`], a [`Role`] and an optional rigid [`Animation`]. Everything here is plain
+//! data; patches, visibility and the solvers live in the crates above this one.
+
+mod builtin;
+mod error;
+mod model;
+mod roles;
+
+pub use builtin::{builtin, builtin_names, cornell_box, room, RoomParams};
+pub use error::SceneError;
+pub use model::*;
+pub use roles::infer_roles;

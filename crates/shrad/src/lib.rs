@@ -1,0 +1,1 @@
+//! shrad core.
