@@ -205,7 +205,7 @@ pub fn eval_basis_reference(bands: usize, dir: Vec3, out: &mut [f32]) {
             let v = match m {
                 0 => k * p,
                 m if m > 0 => 2f64.sqrt() * k * (m as f64 * phi).cos() * p,
-                m => 2f64.sqrt() * k * (am as f64 * phi).sin() * p,
+                _ => 2f64.sqrt() * k * (am as f64 * phi).sin() * p,
             };
             out[sh_index(l, m)] = v as f32;
         }
