@@ -42,6 +42,30 @@
 //!   row-major inside a face, OpenGL cube-map orientation; see [`cubemap`].
 //! * **Rotation.** Rotating a function `f` by `R` gives `g(ω) = f(R⁻¹ω)`;
 //!   see [`ShRotation`].
+//!
+//! # Example
+//!
+//! ```
+//! use glam::Vec3;
+//! use shrad_sh::*;
+//!
+//! // Once: quadrature tables and projection weights.
+//! let cube = CubeMap::new(16);
+//! let proj = ShProjector::new(DEFAULT_BANDS, &cube);
+//! // Per probe: per-texel radiance, e.g. from hit ids and a radiosity table.
+//! let palette = [Vec3::ONE, Vec3::ZERO];
+//! let probe = proj.project_indexed(|t| palette[usize::from(cube.directions[t].z < 0.0)]);
+//! // Per patch, once: the clamped-cosine lobe (9 floats suffice, A_3 = 0).
+//! let mut lobe = [0.0f32; 9];
+//! cosine_lobe_sh(3, Vec3::Z, &mut lobe);
+//! // Per patch, per frame: trilinear interpolation of 8 probes, then a dot.
+//! let probes = [&probe; 8];
+//! let mut interp = ShRgb::zeros(DEFAULT_BANDS);
+//! ShRgb::lerp8_into(&probes, &trilinear_weights(Vec3::splat(0.5)), &mut interp);
+//! let e = irradiance_from_lobe(&interp, &lobe);
+//! // Upper hemisphere lit with L = 1: E = π (up to SH truncation).
+//! assert!((e.x - std::f32::consts::PI).abs() < 0.2);
+//! ```
 
 mod basis;
 mod convolve;

@@ -221,7 +221,8 @@ mod tests {
         let e4 = gram_max_error(4, 64);
         assert!(e4 < 1e-3, "4 bands: {e4}");
         let e8 = gram_max_error(8, 64);
-        assert!(e8 < 5e-3, "8 bands: {e8}");
+        println!("max |G - I| at R=64: 4 bands {e4:.2e}, 8 bands {e8:.2e}");
+        assert!(e8 < 1e-3, "8 bands: {e8}");
     }
 
     #[test]
