@@ -5,12 +5,20 @@
 //! one [`Material`], a [`Role`] and an optional rigid [`Animation`]. Everything here is plain
 //! data; patches, visibility and the solvers live in the crates above this one.
 
+mod base64;
 mod builtin;
 mod error;
+mod gltf_io;
+mod load;
 mod model;
+mod obj_io;
 mod roles;
+mod scene_file;
 
 pub use builtin::{builtin, builtin_names, cornell_box, room, RoomParams};
 pub use error::SceneError;
+pub use gltf_io::write_gltf;
+pub use load::{load, LoadOptions};
 pub use model::*;
+pub use obj_io::write_obj;
 pub use roles::infer_roles;

@@ -1,0 +1,113 @@
+//! [`load`]: read any scene shrad knows (glTF, GLB, OBJ, TOML scene file, built-in name),
+//! infer missing roles and validate.
+
+use std::path::Path;
+
+use crate::gltf_io::PartNames;
+use crate::{builtin, builtin_names, infer_roles, Scene, SceneError};
+
+/// Options of [`load`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Drop zero-area triangles with a warning instead of failing.
+    pub drop_degenerate: bool,
+}
+
+/// Read a scene: `.gltf` / `.glb` (glTF 2.0), `.obj` (+ MTL), `.toml` (shrad scene file, see
+/// docs/scene-format.md), or, when `path` does not exist and has no extension, a built-in
+/// scene by name (`cornell`, `room`). Then infer the roles the input did not give, clamp
+/// reflectances >= 1 to 0.999 (with a warning) and [`Scene::validate`]. Every error names
+/// the file and what is wrong with it.
+pub fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
+    if !path.exists() && path.extension().is_none() {
+        let name = path.to_string_lossy();
+        if !builtin_names().contains(&name.as_ref()) {
+            return Err(SceneError::Io {
+                path: path.to_path_buf(),
+                source: std::io::Error::new(
+                    std::io::ErrorKind::NotFound,
+                    format!(
+                        "no such file, and not a built-in scene (built-ins: {})",
+                        builtin_names().join(", ")
+                    ),
+                ),
+            });
+        }
+        let mut scene = builtin(&name)?;
+        let source = std::path::PathBuf::from(&scene.source);
+        finish(&mut scene, &source, opts)?;
+        return Ok(scene);
+    }
+    let mut scene = read_any(path)?.0;
+    finish(&mut scene, path, opts)?;
+    Ok(scene)
+}
+
+/// Role inference, reflectance clamping and validation.
+fn finish(scene: &mut Scene, path: &Path, opts: &LoadOptions) -> Result<(), SceneError> {
+    infer_roles(scene);
+    clamp_reflectance(scene);
+    scene.validate(path, opts.drop_degenerate)
+}
+
+/// Clamp reflectance components >= 1 (common in exported files) to 0.999 with a warning.
+pub(crate) fn clamp_reflectance(scene: &mut Scene) {
+    for (i, o) in scene.objects.iter_mut().enumerate() {
+        let r = o.material.reflectance;
+        if r.is_finite() && r.max_element() >= 1.0 {
+            o.material.reflectance = r.min(glam::Vec3::splat(0.999));
+            scene.warnings.push(format!(
+                "object {i} '{}': reflectance {r} clamped to {} (must be < 1)",
+                o.name, o.material.reflectance
+            ));
+        }
+    }
+}
+
+/// The file's format from its extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Format {
+    Gltf,
+    Obj,
+    Toml,
+}
+
+pub(crate) fn format_of(path: &Path) -> Result<Format, SceneError> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("gltf" | "glb") => Ok(Format::Gltf),
+        Some("obj") => Ok(Format::Obj),
+        Some("toml") => Ok(Format::Toml),
+        _ => Err(SceneError::UnknownFormat {
+            path: path.to_path_buf(),
+            builtins: builtin_names().join(", "),
+        }),
+    }
+}
+
+/// Read a file of any format without inference or validation; also returns, per object,
+/// the node and mesh names it came from (for the scene file's filters).
+pub(crate) fn read_any(path: &Path) -> Result<(Scene, Vec<PartNames>), SceneError> {
+    match format_of(path)? {
+        Format::Gltf => crate::gltf_io::read(path),
+        Format::Obj => {
+            let scene = crate::obj_io::read(path)?;
+            let names = scene
+                .objects
+                .iter()
+                .map(|o| PartNames {
+                    node: Some(o.name.clone()),
+                    mesh: Some(o.name.clone()),
+                })
+                .collect();
+            Ok((scene, names))
+        }
+        Format::Toml => {
+            let scene = crate::scene_file::read(path)?;
+            let names = vec![PartNames::default(); scene.objects.len()];
+            Ok((scene, names))
+        }
+    }
+}

@@ -1,0 +1,166 @@
+//! Wavefront OBJ + MTL import and export.
+//!
+//! Import: each model (`o` / `g`, split further by `usemtl`) becomes one object in world
+//! space (identity transform), faces triangulated; `Kd` is the reflectance, `Ke` the emitted
+//! radiance. OBJ has no roles: they are inferred. Export: world-space vertices, one `o` per
+//! object, one material per object with `Kd` and `Ke`.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use glam::Vec3;
+
+use crate::{Material, Mesh, Object, Scene, SceneError};
+
+/// Read an OBJ file (and the MTL files it names) into a scene, no role inference or validation.
+pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
+    // tobj reports a missing file without the OS error: check first for a clear message.
+    std::fs::metadata(path).map_err(|source| SceneError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let opts = tobj::LoadOptions {
+        single_index: true,
+        triangulate: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    // tobj can panic on some malformed material lines (e.g. `Kd 0.5`): turn that into an error.
+    let loaded = std::panic::catch_unwind(|| tobj::load_obj(path, &opts)).map_err(|_| {
+        SceneError::invalid(path, "malformed OBJ or MTL (the reader gave up on it)")
+    })?;
+    let (models, materials) =
+        loaded.map_err(|e| SceneError::invalid(path, format!("invalid OBJ: {e}")))?;
+    let mut scene = Scene {
+        source: path.display().to_string(),
+        ..Default::default()
+    };
+    let materials = match materials {
+        Ok(m) => m,
+        Err(e) => {
+            scene.warnings.push(format!(
+                "{}: material library not loaded ({e}); using the default material",
+                path.display()
+            ));
+            Vec::new()
+        }
+    };
+    let mut seen = std::collections::HashMap::<String, usize>::new();
+    for (mi, model) in models.iter().enumerate() {
+        let m = &model.mesh;
+        if m.indices.is_empty() {
+            continue;
+        }
+        let positions: Vec<Vec3> = m
+            .positions
+            .chunks_exact(3)
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .collect();
+        let triangles: Vec<[u32; 3]> = m
+            .indices
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect();
+        let material = match m.material_id {
+            Some(id) => match materials.get(id) {
+                Some(mat) => Material {
+                    reflectance: mat
+                        .diffuse
+                        .map_or(Material::default().reflectance, Vec3::from),
+                    emitted_radiance: mat.emissive.map_or(Vec3::ZERO, Vec3::from),
+                    double_sided: false,
+                },
+                None => Material::default(),
+            },
+            None => {
+                if !materials.is_empty() {
+                    scene.warnings.push(format!(
+                        "{}: object '{}' has no material; using the default",
+                        path.display(),
+                        model.name
+                    ));
+                }
+                Material::default()
+            }
+        };
+        let base = if model.name.is_empty() {
+            format!("object{mi}")
+        } else {
+            model.name.clone()
+        };
+        // `usemtl` inside one `o` splits it into several models of the same name.
+        let count = seen.entry(base.clone()).or_insert(0);
+        let name = if *count == 0 {
+            base.clone()
+        } else {
+            format!("{base}.{count}")
+        };
+        *count += 1;
+        scene.objects.push(Object::new(
+            name,
+            Mesh {
+                positions,
+                triangles,
+            },
+            material,
+        ));
+    }
+    Ok(scene)
+}
+
+fn clean_name(s: &str) -> String {
+    let s: String = s
+        .chars()
+        .map(|c| if c.is_whitespace() { '_' } else { c })
+        .collect();
+    if s.is_empty() {
+        "unnamed".into()
+    } else {
+        s
+    }
+}
+
+/// Write the scene as OBJ with an MTL file beside it (same name, `.mtl`): world-space
+/// vertices at rest, one `o` per object, one material per object with `Kd` (reflectance) and
+/// `Ke` (emitted radiance). Roles, double-sidedness, animation and the camera are not
+/// written (OBJ has no place for them; roles are inferred again on load).
+pub fn write_obj(scene: &Scene, obj_path: &Path) -> Result<(), SceneError> {
+    let mtl_path = obj_path.with_extension("mtl");
+    let mtl_name = mtl_path
+        .file_name()
+        .ok_or_else(|| SceneError::invalid(obj_path, "not a file path"))?
+        .to_string_lossy()
+        .into_owned();
+    let mut obj = String::new();
+    let mut mtl = String::new();
+    let _ = writeln!(obj, "# written by shrad from {}", scene.source);
+    let _ = writeln!(obj, "mtllib {mtl_name}");
+    let _ = writeln!(mtl, "# written by shrad from {}", scene.source);
+    let mut base = 1usize;
+    for (i, o) in scene.objects.iter().enumerate() {
+        let name = clean_name(&o.name);
+        let mat_name = format!("m{i}_{name}");
+        let m = &o.material;
+        let (r, e) = (m.reflectance, m.emitted_radiance);
+        let _ = writeln!(mtl, "\nnewmtl {mat_name}");
+        let _ = writeln!(mtl, "Kd {} {} {}", r.x, r.y, r.z);
+        let _ = writeln!(mtl, "Ke {} {} {}", e.x, e.y, e.z);
+        let _ = writeln!(mtl, "Ka 0 0 0\nKs 0 0 0\nillum 1");
+        let _ = writeln!(obj, "\no {name}");
+        if let Some(role) = o.role {
+            let _ = writeln!(obj, "# shrad role: {role}");
+        }
+        let _ = writeln!(obj, "usemtl {mat_name}");
+        for p in &o.mesh.positions {
+            let p = o.world_from_object.transform_point3(*p);
+            let _ = writeln!(obj, "v {} {} {}", p.x, p.y, p.z);
+        }
+        for t in &o.mesh.triangles {
+            let [a, b, c] = t.map(|v| v as usize + base);
+            let _ = writeln!(obj, "f {a} {b} {c}");
+        }
+        base += o.mesh.positions.len();
+    }
+    crate::gltf_io::write_atomic(&mtl_path, mtl.as_bytes())?;
+    crate::gltf_io::write_atomic(obj_path, obj.as_bytes())
+}
