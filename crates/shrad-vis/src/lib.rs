@@ -26,7 +26,12 @@ pub struct Hit {
 
 impl Hit {
     /// A miss.
-    pub const MISS: Hit = Hit { id: NO_HIT, object: u32::MAX, t: f32::INFINITY, front: false };
+    pub const MISS: Hit = Hit {
+        id: NO_HIT,
+        object: u32::MAX,
+        t: f32::INFINITY,
+        front: false,
+    };
     /// Did the ray hit anything?
     pub fn is_hit(&self) -> bool {
         self.id != NO_HIT
@@ -90,17 +95,192 @@ pub trait Visibility: Send + Sync {
     fn commit(&mut self);
     /// Nearest hit of ray `i` = (`origins[i]`, `directions[i]`), ignoring objects in `exclude`
     /// (they are transparent). `out.len() == origins.len() == directions.len()`.
-    fn closest(&self, origins: &[Vec3], directions: &[Vec3], t_min: f32, exclude: &[u32], out: &mut [Hit]);
+    fn closest(
+        &self,
+        origins: &[Vec3],
+        directions: &[Vec3],
+        t_min: f32,
+        exclude: &[u32],
+        out: &mut [Hit],
+    );
     /// Cube-map capture: for every point `p` and every texel direction `d`, the nearest hit;
     /// `out[p * directions.len() + d]`. Rays from one point are coherent: backends use packets.
-    fn capture(&self, points: &[Vec3], directions: &[Vec3], t_min: f32, exclude: &[u32], out: &mut [Hit]);
+    fn capture(
+        &self,
+        points: &[Vec3],
+        directions: &[Vec3],
+        t_min: f32,
+        exclude: &[u32],
+        out: &mut [Hit],
+    );
     /// Shadow rays: `out[i]` is true when something lies strictly between `from[i]` and
     /// `to[i]` (shortened by `eps` at both ends), ignoring objects in `exclude`.
     fn occluded(&self, from: &[Vec3], to: &[Vec3], eps: f32, exclude: &[u32], out: &mut [bool]);
 }
 
-/// Build a visibility structure over `meshes` with their initial transforms.
-pub fn build(backend: Backend, meshes: &[MeshRef<'_>], transforms: &[Affine3A]) -> Result<Box<dyn Visibility>, VisError> {
-    let _ = (backend, meshes, transforms);
-    Err(VisError::Unavailable("not built yet"))
+/// The backends compiled into this build, best first (Embree when the system library was
+/// found at build time, then the pure-Rust BVH). [`Backend::Auto`] is not listed.
+pub fn available_backends() -> Vec<Backend> {
+    let mut v = Vec::with_capacity(2);
+    if cfg!(shrad_embree) {
+        v.push(Backend::Embree);
+    }
+    v.push(Backend::Bvh);
+    v
 }
+
+/// Build a visibility structure over `meshes` with their initial transforms.
+///
+/// Errors: [`VisError::Invalid`] when `meshes` and `transforms` differ in length, a mesh has
+/// not one id per triangle, or an index is out of range; [`VisError::Unavailable`] when
+/// [`Backend::Embree`] is asked for but this build has no Embree (or the device failed).
+pub fn build(
+    backend: Backend,
+    meshes: &[MeshRef<'_>],
+    transforms: &[Affine3A],
+) -> Result<Box<dyn Visibility>, VisError> {
+    validate(meshes, transforms)?;
+    match backend {
+        Backend::Bvh => Ok(Box::new(bvh::BvhVis::new(meshes, transforms))),
+        Backend::Embree => build_embree(meshes, transforms),
+        Backend::Auto => {
+            if cfg!(shrad_embree) {
+                if let Ok(v) = build_embree(meshes, transforms) {
+                    return Ok(v);
+                }
+            }
+            Ok(Box::new(bvh::BvhVis::new(meshes, transforms)))
+        }
+    }
+}
+
+#[cfg(shrad_embree)]
+fn build_embree(
+    meshes: &[MeshRef<'_>],
+    transforms: &[Affine3A],
+) -> Result<Box<dyn Visibility>, VisError> {
+    Ok(Box::new(embree::EmbreeVis::new(meshes, transforms)?))
+}
+
+#[cfg(not(shrad_embree))]
+fn build_embree(
+    _meshes: &[MeshRef<'_>],
+    _transforms: &[Affine3A],
+) -> Result<Box<dyn Visibility>, VisError> {
+    Err(VisError::Unavailable(
+        "this build of shrad has no Embree: install libembree-dev (Embree 3) and rebuild without SHRAD_NO_EMBREE",
+    ))
+}
+
+fn validate(meshes: &[MeshRef<'_>], transforms: &[Affine3A]) -> Result<(), VisError> {
+    if meshes.len() != transforms.len() {
+        return Err(VisError::Invalid(format!(
+            "{} meshes but {} transforms",
+            meshes.len(),
+            transforms.len()
+        )));
+    }
+    if meshes.len() >= u32::MAX as usize {
+        return Err(VisError::Invalid("too many objects".into()));
+    }
+    for (o, m) in meshes.iter().enumerate() {
+        if m.ids.len() != m.triangles.len() {
+            return Err(VisError::Invalid(format!(
+                "object {o}: {} triangles but {} ids",
+                m.triangles.len(),
+                m.ids.len()
+            )));
+        }
+        let n = m.positions.len();
+        if let Some((t, _)) = m
+            .triangles
+            .iter()
+            .enumerate()
+            .find(|(_, t)| t.iter().any(|&i| i as usize >= n))
+        {
+            return Err(VisError::Invalid(format!(
+                "object {o}: triangle {t} indexes past {n} vertices"
+            )));
+        }
+        if m.positions.iter().any(|p| !p.is_finite()) {
+            return Err(VisError::Invalid(format!(
+                "object {o}: non-finite vertex position"
+            )));
+        }
+        if !transforms[o].is_finite() {
+            return Err(VisError::Invalid(format!(
+                "object {o}: non-finite transform"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Per-triangle data both backends keep: the object-frame geometric normal
+/// `(v1 - v0) x (v2 - v0)` (unnormalised) and the payload.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TriInfo {
+    pub n: Vec3,
+    pub id: u32,
+}
+
+/// An object's transform with what queries need from it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Xform {
+    pub world_from_object: Affine3A,
+    pub object_from_world: Affine3A,
+    /// -1 when the transform mirrors (the world winding flips), else +1.
+    pub det_sign: f32,
+}
+
+impl Xform {
+    pub fn new(world_from_object: Affine3A) -> Self {
+        let det = world_from_object.matrix3.determinant();
+        Xform {
+            world_from_object,
+            object_from_world: world_from_object.inverse(),
+            det_sign: if det < 0.0 { -1.0 } else { 1.0 },
+        }
+    }
+
+    /// Does world direction `d` meet the front of a triangle with object-frame normal `n`?
+    /// dot(d, n_world) = det * dot(L^-1 d, n) for n_world = cross of the transformed edges.
+    #[inline]
+    pub fn front(&self, n: Vec3, d: Vec3) -> bool {
+        let d_obj = self.object_from_world.transform_vector3(d);
+        self.det_sign * d_obj.dot(n) < 0.0
+    }
+}
+
+pub(crate) fn tri_infos(m: &MeshRef<'_>) -> Vec<TriInfo> {
+    m.triangles
+        .iter()
+        .zip(m.ids)
+        .map(|(t, &id)| {
+            let [a, b, c] = t.map(|i| m.positions[i as usize]);
+            TriInfo {
+                n: (b - a).cross(c - a),
+                id,
+            }
+        })
+        .collect()
+}
+
+/// A shadow segment as (unit direction, length), or `None` when it is too short to hold
+/// anything strictly inside after the `eps` trims (or is not finite).
+#[inline]
+pub(crate) fn segment(from: Vec3, to: Vec3, eps: f32) -> Option<(Vec3, f32)> {
+    let delta = to - from;
+    let len = delta.length();
+    (len > 2.0 * eps && len.is_finite() && from.is_finite()).then(|| (delta / len, len))
+}
+
+/// Rays per parallel work item.
+pub(crate) const CHUNK: usize = 256;
+
+mod bvh;
+#[cfg(shrad_embree)]
+mod embree;
+
+#[cfg(test)]
+mod tests;
