@@ -229,7 +229,7 @@ pub fn room(params: &RoomParams) -> Scene {
         let cell = ((w - 2.0 * margin) / cols as f32).min((d - 2.0 * margin) / rows as f32);
         let s = (0.35 * cell).min(0.6) * (0.8 + 0.4 * ((i * 7 % 5) as f32 / 4.0));
         let material = Material::diffuse(palette[i % palette.len()]);
-        let mut o = if i % 3 == 2 {
+        let o = if i % 3 == 2 {
             let mut o = object(&format!("sphere_{i}"), sphere_mesh(s, 24), material, Role::Interior);
             o.world_from_object = Affine3A::from_translation(v(x, s, z));
             o
@@ -240,7 +240,6 @@ pub fn room(params: &RoomParams) -> Scene {
                 Affine3A::from_rotation_translation(Quat::from_rotation_y(0.3 * i as f32), v(x, half.y, z));
             o
         };
-        o.name = format!("{}", o.name);
         objects.push(o);
     }
     let mut scene = Scene {

@@ -425,7 +425,7 @@ impl Scene {
             let scale = o.mesh.bounds().map_or(0.0, |(lo, hi)| (hi - lo).length());
             let eps = 1e-10 * scale * scale;
             let degenerate: Vec<usize> = (0..o.mesh.triangles.len())
-                .filter(|&t| !(o.mesh.triangle_area(t) > eps))
+                .filter(|&t| o.mesh.triangle_area(t).partial_cmp(&eps) != Some(std::cmp::Ordering::Greater))
                 .collect();
             if !degenerate.is_empty() {
                 if !drop_degenerate {
