@@ -672,3 +672,31 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
     };
     write_atomic(path, &bytes)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strips_and_fans_keep_counter_clockwise_order() {
+        assert_eq!(
+            to_triangles(Mode::TriangleStrip, &[0, 1, 2, 3, 4]),
+            vec![[0, 1, 2], [2, 1, 3], [2, 3, 4]]
+        );
+        assert_eq!(
+            to_triangles(Mode::TriangleFan, &[0, 1, 2, 3]),
+            vec![[0, 1, 2], [0, 2, 3]]
+        );
+        assert_eq!(
+            to_triangles(Mode::Triangles, &[0, 1, 2, 3]),
+            vec![[0, 1, 2]]
+        );
+        assert!(to_triangles(Mode::TriangleStrip, &[0, 1]).is_empty());
+    }
+
+    #[test]
+    fn percent_decoding() {
+        assert_eq!(percent_decode("a%20b%2"), "a b%2");
+        assert_eq!(percent_decode("%zz%41"), "%zzA");
+    }
+}

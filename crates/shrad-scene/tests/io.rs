@@ -834,3 +834,18 @@ fn obj_materials_missing_mtl_and_malformed_lines() {
         assert!(e.to_string().contains("m.obj"), "{e}");
     }
 }
+
+#[test]
+fn gltf_unknown_role_in_extras() {
+    let mut root = one_box_gltf();
+    root["nodes"][0]["extras"] = json!({"shrad_role": "wall"});
+    let dir = temp_dir("extras");
+    let p = dir.join("role.gltf");
+    std::fs::write(&p, serde_json::to_string(&root).unwrap()).unwrap();
+    assert_err_names(load(&p, &opts()), "role.gltf", "unknown shrad_role 'wall'");
+    root["nodes"][0]["extras"] = json!({"shrad_role": "light", "shrad_patch_size": 0.25});
+    std::fs::write(&p, serde_json::to_string(&root).unwrap()).unwrap();
+    let s = load(&p, &opts()).unwrap();
+    assert_eq!(s.objects[0].role, Some(Role::Light));
+    assert_eq!(s.objects[0].patch_size, Some(0.25));
+}
