@@ -5,8 +5,10 @@
 //! radiance. OBJ has no roles: they are inferred. Export: world-space vertices, one `o` per
 //! object, one material per object with `Kd` and `Ke`.
 
+use std::cell::RefCell;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::panic::AssertUnwindSafe;
+use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
@@ -14,32 +16,56 @@ use crate::{Material, Mesh, Object, Scene, SceneError};
 
 /// Read an OBJ file (and the MTL files it names) into a scene, no role inference or validation.
 pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
-    // tobj reports a missing file without the OS error: check first for a clear message.
-    std::fs::metadata(path).map_err(|source| SceneError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
     let opts = tobj::LoadOptions {
         single_index: true,
         triangulate: true,
         ignore_points: true,
         ignore_lines: true,
     };
-    // tobj can panic on some malformed material lines (e.g. `Kd 0.5`): turn that into an error.
-    let loaded = std::panic::catch_unwind(|| tobj::load_obj(path, &opts)).map_err(|_| {
-        SceneError::invalid(path, "malformed OBJ or MTL (the reader gave up on it)")
+    let file = std::fs::File::open(path).map_err(|source| SceneError::Io {
+        path: path.to_path_buf(),
+        source,
     })?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let problems = RefCell::new(Vec::<MtlProblem>::new());
+    let loaded = std::panic::catch_unwind(AssertUnwindSafe(|| {
+        tobj::load_obj_buf(&mut std::io::BufReader::new(file), &opts, |mtl| {
+            load_mtl(dir, mtl, &problems)
+        })
+    }))
+    .map_err(|_| SceneError::invalid(path, "malformed OBJ or MTL (the reader gave up on it)"))?;
     let (models, materials) =
         loaded.map_err(|e| SceneError::invalid(path, format!("invalid OBJ: {e}")))?;
     let mut scene = Scene {
         source: path.display().to_string(),
         ..Default::default()
     };
+    let problems = problems.into_inner();
+    if let Some(MtlProblem::Invalid(file, m)) = problems
+        .iter()
+        .find(|p| matches!(p, MtlProblem::Invalid(..)))
+    {
+        return Err(SceneError::invalid(
+            file,
+            format!("{m} (material library of {})", path.display()),
+        ));
+    }
     let materials = match materials {
         Ok(m) => m,
         Err(e) => {
+            let why: Vec<String> = problems
+                .iter()
+                .map(|p| match p {
+                    MtlProblem::Missing(m) | MtlProblem::Invalid(_, m) => m.clone(),
+                })
+                .collect();
+            let why = if why.is_empty() {
+                e.to_string()
+            } else {
+                why.join("; ")
+            };
             scene.warnings.push(format!(
-                "{}: material library not loaded ({e}); using the default material",
+                "{}: material library not loaded ({why}); using the default material",
                 path.display()
             ));
             Vec::new()
@@ -106,6 +132,59 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
         ));
     }
     Ok(scene)
+}
+
+enum MtlProblem {
+    /// The library cannot be read: a warning, default materials.
+    Missing(String),
+    /// The library is malformed: an error naming it.
+    Invalid(PathBuf, String),
+}
+
+/// Load one MTL library named by the OBJ. Colour lines with a single value (`Kd 0.5`, which
+/// the MTL format allows and means grey) are expanded to three values first; malformed ones
+/// are recorded as errors with their line.
+fn load_mtl(dir: &Path, name: &Path, problems: &RefCell<Vec<MtlProblem>>) -> tobj::MTLLoadResult {
+    let file = dir.join(name);
+    let text = match std::fs::read_to_string(&file) {
+        Ok(t) => t,
+        Err(e) => {
+            problems.borrow_mut().push(MtlProblem::Missing(format!(
+                "cannot read '{}': {e}",
+                file.display()
+            )));
+            return Err(tobj::LoadError::OpenFileFailed);
+        }
+    };
+    let mut fixed = String::with_capacity(text.len() + 64);
+    for (ln, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")) = words.next() {
+            let values: Option<Vec<f32>> = words.map(|w| w.parse().ok()).collect();
+            match values.as_deref() {
+                Some([v]) => {
+                    let _ = writeln!(fixed, "{key} {v} {v} {v}");
+                    continue;
+                }
+                Some([_, _, _]) => {}
+                _ => {
+                    problems.borrow_mut().push(MtlProblem::Invalid(
+                        file.clone(),
+                        format!("line {}: '{}' needs 1 or 3 numbers", ln + 1, line.trim()),
+                    ));
+                    return Err(tobj::LoadError::MaterialParseError);
+                }
+            }
+        }
+        fixed.push_str(line);
+        fixed.push('\n');
+    }
+    tobj::load_mtl_buf(&mut fixed.as_bytes()).inspect_err(|e| {
+        problems.borrow_mut().push(MtlProblem::Invalid(
+            file.clone(),
+            format!("invalid MTL: {e}"),
+        ));
+    })
 }
 
 fn clean_name(s: &str) -> String {

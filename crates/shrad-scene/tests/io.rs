@@ -827,12 +827,17 @@ fn obj_materials_missing_mtl_and_malformed_lines() {
         s.warnings
     );
     assert_eq!(s.objects[0].material, Material::default());
-    // A malformed MTL line must not panic.
-    std::fs::write(dir.join("m.mtl"), "newmtl lamp\nKd 0.5\n").unwrap();
-    let r = load(&p, &opts());
-    if let Err(e) = &r {
-        assert!(e.to_string().contains("m.obj"), "{e}");
-    }
+    // A one-value colour is grey (MTL allows it); a malformed one is an error naming the MTL.
+    std::fs::write(dir.join("m.mtl"), "newmtl lamp\nKd 0.5\nKe 2\n").unwrap();
+    let s = load(&p, &opts()).unwrap();
+    assert_eq!(s.objects[0].material.reflectance, Vec3::splat(0.5));
+    assert_eq!(s.objects[0].material.emitted_radiance, Vec3::splat(2.0));
+    std::fs::write(dir.join("m.mtl"), "newmtl lamp\nKd 0.5 0.5\n").unwrap();
+    let msg = err_of(load(&p, &opts()));
+    assert!(
+        msg.contains("m.mtl") && msg.contains("line 2") && msg.contains("m.obj"),
+        "{msg}"
+    );
 }
 
 #[test]
