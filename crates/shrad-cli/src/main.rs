@@ -1,1 +1,395 @@
-fn main() {}
+//! The `shrad` command line: parses options, loads the scene and calls the library.
+//! It holds no algorithm.
+
+mod progress;
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use shrad::image_io::{write_exr, write_png, Tonemap};
+use shrad::reference::ReferenceOptions;
+use shrad::render::{render, RenderOptions, Shading};
+use shrad::{PatchSizing, Progress, World};
+use shrad_scene::{LoadOptions, Scene};
+
+/// Global illumination (radiosity) for dynamic scenes: the dispersive SH method of Wang, Liu
+/// and Wu (2007), its probe-grid baseline and a converged reference solver.
+#[derive(Parser)]
+#[command(name = "shrad", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Solve a scene and write a picture (PNG, optionally linear EXR and patch CSV).
+    Render(RenderArgs),
+    /// Print what a scene contains: objects, roles, materials, patches.
+    Info(InfoArgs),
+}
+
+/// Options shared by every command that loads a scene.
+#[derive(Args, Clone)]
+struct SceneArgs {
+    /// Scene: a .gltf, .glb, .obj or .toml file, or a built-in name (cornell, room).
+    scene: String,
+    /// Patch edge length in scene units [default: the scene file's, else --patches].
+    #[arg(long, conflicts_with = "patches")]
+    patch_size: Option<f32>,
+    /// Target total patch count [default: the scene file's, else 20000].
+    #[arg(long)]
+    patches: Option<usize>,
+    /// Skip zero-area triangles (with a warning) instead of rejecting the file.
+    #[arg(long)]
+    drop_degenerate: bool,
+    /// Visibility backend.
+    #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
+    backend: BackendArg,
+    /// No progress bars.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum BackendArg {
+    /// Embree when this build has it, else the pure-Rust BVH.
+    Auto,
+    /// Intel Embree 3.
+    Embree,
+    /// Pure-Rust BVH.
+    Bvh,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq)]
+enum SolverArg {
+    /// Converged radiosity of the patches (ground truth).
+    Reference,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ShadingArg {
+    /// Interpolated from patch corners.
+    Smooth,
+    /// One colour per patch.
+    Flat,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum TonemapArg {
+    /// Exposure (auto unless --exposure) and sRGB.
+    Exposure,
+    /// The paper's linear map of [min, max] to [0, 255].
+    Minmax,
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Which solver computes the radiosity.
+    #[arg(long, value_enum, default_value_t = SolverArg::Reference)]
+    solver: SolverArg,
+    /// Output PNG [default: SCENE-NAME.png].
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Also write linear radiance to this OpenEXR file.
+    #[arg(long)]
+    hdr: Option<PathBuf>,
+    /// Also write every patch (object, role, centre, normal, area, radiosity) as CSV.
+    #[arg(long)]
+    export_patches: Option<PathBuf>,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 512)]
+    width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 512)]
+    height: u32,
+    /// Samples (primary rays) per pixel.
+    #[arg(long, default_value_t = 4)]
+    spp: u32,
+    /// How radiosity is drawn.
+    #[arg(long, value_enum, default_value_t = ShadingArg::Smooth)]
+    shading: ShadingArg,
+    /// How radiance becomes PNG colour.
+    #[arg(long, value_enum, default_value_t = TonemapArg::Exposure)]
+    tonemap: TonemapArg,
+    /// Exposure scale for --tonemap exposure [default: auto, 99th percentile to 0.9].
+    #[arg(long)]
+    exposure: Option<f32>,
+    /// Reference solver: form-factor rays per patch.
+    #[arg(long, default_value_t = ReferenceOptions::standard().rays_per_patch)]
+    rays_per_patch: u32,
+    /// Reference solver: shadow rays per patch and emitter for direct light.
+    #[arg(long, default_value_t = ReferenceOptions::standard().direct_samples)]
+    direct_samples: u32,
+}
+
+#[derive(Args)]
+struct InfoArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(args) => cmd_render(args),
+        Command::Info(args) => cmd_info(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn progress_for(quiet: bool) -> Box<dyn Progress> {
+    if quiet {
+        Box::new(shrad::NoProgress)
+    } else {
+        Box::new(progress::Bars::default())
+    }
+}
+
+/// Load the scene and print its warnings.
+fn load_scene(args: &SceneArgs) -> Result<Scene> {
+    let scene = shrad_scene::load(
+        Path::new(&args.scene),
+        &LoadOptions {
+            drop_degenerate: args.drop_degenerate,
+        },
+    )?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(scene)
+}
+
+fn check_positive(name: &str, value: f32) -> Result<()> {
+    if !(value.is_finite() && value > 0.0) {
+        bail!("{name} must be a positive number, got {value}");
+    }
+    Ok(())
+}
+
+fn sizing(args: &SceneArgs, scene: &Scene) -> Result<PatchSizing> {
+    if let Some(h) = args.patch_size {
+        check_positive("--patch-size", h)?;
+        return Ok(PatchSizing::Size(h));
+    }
+    if let Some(n) = args.patches {
+        if n == 0 || n > 50_000_000 {
+            bail!("--patches must be between 1 and 50000000, got {n}");
+        }
+        return Ok(PatchSizing::Count(n));
+    }
+    Ok(match (scene.settings.patch_size, scene.settings.patches) {
+        (Some(h), _) => PatchSizing::Size(h),
+        (None, Some(n)) => PatchSizing::Count(n),
+        (None, None) => PatchSizing::Count(20_000),
+    })
+}
+
+fn backend(b: BackendArg) -> shrad::vis::Backend {
+    match b {
+        BackendArg::Auto => shrad::vis::Backend::Auto,
+        BackendArg::Embree => shrad::vis::Backend::Embree,
+        BackendArg::Bvh => shrad::vis::Backend::Bvh,
+    }
+}
+
+fn build_world(args: &SceneArgs, quiet: bool) -> Result<World> {
+    let scene = load_scene(args)?;
+    let sizing = sizing(args, &scene)?;
+    let t = Instant::now();
+    let world = World::new(scene, sizing, backend(args.backend))?;
+    if !quiet {
+        let (b, i, l) = world.patches.count_by_role();
+        eprintln!(
+            "{}: {} patches (boundary {b}, interior {i}, light {l}), patch size {:.4}, visibility: {} ({:.2} s)",
+            world.scene.source,
+            world.patches.len(),
+            world.patches.patch_size,
+            world.vis.name(),
+            t.elapsed().as_secs_f64()
+        );
+    }
+    Ok(world)
+}
+
+fn default_output(scene: &str) -> PathBuf {
+    let stem = Path::new(scene)
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "shrad".into());
+    PathBuf::from(format!("{stem}.png"))
+}
+
+fn cmd_render(args: RenderArgs) -> Result<()> {
+    if args.width == 0 || args.height == 0 || args.width > 16384 || args.height > 16384 {
+        bail!(
+            "--width and --height must be between 1 and 16384, got {}x{}",
+            args.width,
+            args.height
+        );
+    }
+    if args.spp == 0 || args.spp > 4096 {
+        bail!("--spp must be between 1 and 4096, got {}", args.spp);
+    }
+    if let Some(e) = args.exposure {
+        check_positive("--exposure", e)?;
+    }
+    if args.rays_per_patch == 0 || args.direct_samples == 0 {
+        bail!("--rays-per-patch and --direct-samples must be at least 1");
+    }
+    let quiet = args.scene.quiet;
+    let progress = progress_for(quiet);
+    let world = build_world(&args.scene, quiet)?;
+    let t = Instant::now();
+    let radiosity = match args.solver {
+        SolverArg::Reference => {
+            let options = ReferenceOptions {
+                rays_per_patch: args.rays_per_patch,
+                direct_samples: args.direct_samples,
+                ..ReferenceOptions::standard()
+            };
+            let (b, stats) = shrad::reference::solve(&world, &options, progress.as_ref());
+            if !quiet {
+                eprintln!(
+                    "reference: {} iterations, residual {:.2e}{}, direct {:.2} s, form factors {:.2} s ({} entries, {:.1} MiB), solve {:.2} s",
+                    stats.iterations,
+                    stats.residual,
+                    if stats.converged { "" } else { " (NOT converged)" },
+                    stats.direct_seconds,
+                    stats.form_factor_seconds,
+                    stats.form_factor_entries,
+                    stats.form_factor_bytes as f64 / (1 << 20) as f64,
+                    stats.solve_seconds
+                );
+            }
+            b
+        }
+    };
+    let solve_seconds = t.elapsed().as_secs_f64();
+    let camera = world.scene.camera_or_default();
+    let options = RenderOptions {
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        shading: match args.shading {
+            ShadingArg::Smooth => Shading::Smooth,
+            ShadingArg::Flat => Shading::Flat,
+        },
+    };
+    let image = render(&world, &radiosity, &camera, &options);
+    let tonemap = match args.tonemap {
+        TonemapArg::Exposure => Tonemap::Exposure(args.exposure),
+        TonemapArg::Minmax => Tonemap::MinMax,
+    };
+    let output = args
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output(&args.scene.scene));
+    write_png(&image, &output, tonemap)?;
+    if let Some(hdr) = &args.hdr {
+        write_exr(&image, hdr)?;
+    }
+    if let Some(csv) = &args.export_patches {
+        shrad::image_io::write_atomic(csv, |tmp| {
+            export_patches(&world, &radiosity, tmp).map_err(|e| format!("{e:#}"))
+        })?;
+    }
+    if !quiet {
+        eprintln!("solved in {solve_seconds:.2} s; wrote {}", output.display());
+    }
+    Ok(())
+}
+
+fn export_patches(world: &World, radiosity: &[glam::Vec3], path: &Path) -> Result<()> {
+    use std::io::Write;
+    let file = std::fs::File::create(path).with_context(|| format!("{}", path.display()))?;
+    let mut w = std::io::BufWriter::new(file);
+    writeln!(w, "object,role,cx,cy,cz,nx,ny,nz,area,r,g,b")?;
+    let p = &world.patches;
+    for i in 0..p.len() {
+        let o = p.object[i] as usize;
+        let (c, n, b) = (p.centre[i], p.normal[i], radiosity[i]);
+        let name = &world.scene.objects[o].name;
+        let name = if name.contains([',', '"', '\n']) {
+            format!("\"{}\"", name.replace('"', "\"\""))
+        } else {
+            name.clone()
+        };
+        writeln!(
+            w,
+            "{name},{},{},{},{},{},{},{},{},{},{},{}",
+            p.role(i),
+            c.x,
+            c.y,
+            c.z,
+            n.x,
+            n.y,
+            n.z,
+            p.area[i],
+            b.x,
+            b.y,
+            b.z
+        )?;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+fn cmd_info(args: InfoArgs) -> Result<()> {
+    let scene = load_scene(&args.scene)?;
+    let sizing = sizing(&args.scene, &scene)?;
+    println!("scene: {}", scene.source);
+    if let Some((lo, hi)) = scene.bounds() {
+        println!(
+            "bounds: [{:.3}, {:.3}, {:.3}] .. [{:.3}, {:.3}, {:.3}]",
+            lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+        );
+    }
+    match &scene.camera {
+        Some(c) => println!(
+            "camera: from the scene, yfov {:.2} deg",
+            c.yfov.to_degrees()
+        ),
+        None => println!("camera: none in the scene (a default frames the scene)"),
+    }
+    if scene.duration() > 0.0 {
+        println!("animation: {:.2} s", scene.duration());
+    }
+    let patches = shrad::Patches::build(&scene, sizing);
+    println!(
+        "patch size: {:.4}, patches: {}",
+        patches.patch_size,
+        patches.len()
+    );
+    println!(
+        "{:<4} {:<24} {:<9} {:>9} {:>9} {:<22} {:<22} animated",
+        "#", "object", "role", "triangles", "patches", "reflectance", "emission L_e"
+    );
+    for (o, object) in scene.objects.iter().enumerate() {
+        let r = object.material.reflectance;
+        let e = object.material.emitted_radiance;
+        println!(
+            "{:<4} {:<24} {:<9} {:>9} {:>9} {:<22} {:<22} {}",
+            o,
+            object.name,
+            object.role(),
+            object.mesh.triangles.len(),
+            patches.range(o).len(),
+            format!("{:.3} {:.3} {:.3}", r.x, r.y, r.z),
+            format!("{:.3} {:.3} {:.3}", e.x, e.y, e.z),
+            if object.is_animated() { "yes" } else { "no" }
+        );
+    }
+    Ok(())
+}

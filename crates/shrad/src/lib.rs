@@ -1,1 +1,49 @@
-//! shrad core.
+//! shrad: global illumination (diffuse interreflection, "radiosity") for dynamic scenes.
+//!
+//! It implements Wang, Liu and Wu, "Dispersive calculation of global illumination based on
+//! spherical harmonics method" (2007), with the paper's baseline (a uniform grid of SH probes,
+//! Nijasure et al. 2003) and a converged reference solver, all over one scene model:
+//!
+//! ```text
+//! shrad_scene::Scene ─► Patches (SoA, per-object ranges) ─► World { patches, visibility }
+//!                                                             │
+//!               reference::solve / dispersive / grid  ◄───────┘ ─► radiosity per patch
+//!                                                             ─► render ─► PNG / EXR
+//! ```
+//!
+//! See `ARCHITECTURE.md` at the repository root for the layers and the data flow of a frame.
+
+pub mod direct;
+pub mod image_io;
+pub mod metrics;
+pub mod patches;
+pub mod progress;
+pub mod reference;
+pub mod render;
+pub mod sampling;
+mod world;
+
+pub use patches::{PatchSizing, Patches};
+pub use progress::{NoProgress, Progress};
+pub use shrad_scene as scene;
+pub use shrad_vis as vis;
+pub use world::World;
+
+use std::path::PathBuf;
+
+/// Errors of the shrad library.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A scene could not be loaded.
+    #[error(transparent)]
+    Scene(#[from] shrad_scene::SceneError),
+    /// Inputs that make no sense (the message says what).
+    #[error("{0}")]
+    Invalid(String),
+    /// An input file (not a scene) could not be read.
+    #[error("{0}: {1}")]
+    Input(PathBuf, String),
+    /// An output file could not be written (nothing is left behind).
+    #[error("{0}: cannot write: {1}")]
+    Output(PathBuf, String),
+}

@@ -1,0 +1,179 @@
+//! Writing pictures: PNG through exposure and sRGB (or the paper's linear min-max map),
+//! and linear OpenEXR (never clamped or tone mapped). Files are written to a temporary name
+//! beside the target and renamed, so a failure never leaves a half-written picture.
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+
+use crate::render::Image;
+use crate::Error;
+
+/// How linear radiance becomes display colour in a PNG.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Tonemap {
+    /// Multiply by `scale` (or, for `None`, a scale that maps the 99th percentile of the
+    /// luminance of non-emitter pixels to 0.9), then encode as sRGB; values above 1 clip.
+    Exposure(Option<f32>),
+    /// The paper's display map (paper 2.3.5): linear from [min, max] of the picture's
+    /// non-emitter radiance to [0, 255], no gamma.
+    MinMax,
+}
+
+impl Default for Tonemap {
+    fn default() -> Self {
+        Tonemap::Exposure(None)
+    }
+}
+
+fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+/// The exposure scale [`Tonemap::Exposure`]`(None)` would use for `image`.
+pub fn auto_exposure(image: &Image) -> f32 {
+    let mut lum: Vec<f32> = image
+        .pixels
+        .iter()
+        .zip(&image.emitter)
+        .filter(|(_, e)| !**e)
+        .map(|(c, _)| luminance(*c))
+        .filter(|l| *l > 0.0)
+        .collect();
+    if lum.is_empty() {
+        return 1.0;
+    }
+    let k = ((lum.len() as f32 * 0.99) as usize).min(lum.len() - 1);
+    let (_, p99, _) = lum.select_nth_unstable_by(k, f32::total_cmp);
+    0.9 / p99.max(f32::MIN_POSITIVE)
+}
+
+fn srgb_encode(x: f32) -> f32 {
+    let x = x.clamp(0.0, 1.0);
+    if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// 8-bit RGB pixels of `image` under `tonemap`.
+pub fn to_rgb8(image: &Image, tonemap: Tonemap) -> Vec<u8> {
+    match tonemap {
+        Tonemap::Exposure(scale) => {
+            let s = scale.unwrap_or_else(|| auto_exposure(image));
+            image
+                .pixels
+                .iter()
+                .flat_map(|c| {
+                    (*c * s)
+                        .to_array()
+                        .map(|x| (srgb_encode(x) * 255.0 + 0.5) as u8)
+                })
+                .collect()
+        }
+        Tonemap::MinMax => {
+            let vals = image
+                .pixels
+                .iter()
+                .zip(&image.emitter)
+                .filter(|(_, e)| !**e)
+                .map(|(c, _)| *c);
+            let (lo, hi) = vals.fold((f32::INFINITY, 0f32), |(lo, hi), c| {
+                (lo.min(c.min_element()), hi.max(c.max_element()))
+            });
+            let lo = if lo.is_finite() { lo } else { 0.0 };
+            let range = (hi - lo).max(f32::MIN_POSITIVE);
+            image
+                .pixels
+                .iter()
+                .flat_map(|c| {
+                    c.to_array()
+                        .map(|x| (((x - lo) / range).clamp(0.0, 1.0) * 255.0 + 0.5) as u8)
+                })
+                .collect()
+        }
+    }
+}
+
+/// A sibling temporary path for atomic writes, keeping the extension (encoders look at it).
+fn temp_path(path: &Path) -> PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    path.with_file_name(format!(".{name}.partial-{}", std::process::id()))
+        .with_extension(path.extension().unwrap_or_default())
+}
+
+/// Write through a temporary file and rename it into place.
+pub fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<(), String>,
+) -> Result<(), Error> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            return Err(Error::Output(
+                path.into(),
+                format!("directory {} does not exist", dir.display()),
+            ));
+        }
+    }
+    let tmp = temp_path(path);
+    let result = write(&tmp).and_then(|_| std::fs::rename(&tmp, path).map_err(|e| e.to_string()));
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::Output(path.into(), e));
+    }
+    Ok(())
+}
+
+/// Write a PNG.
+pub fn write_png(image: &Image, path: &Path, tonemap: Tonemap) -> Result<(), Error> {
+    let rgb = to_rgb8(image, tonemap);
+    write_atomic(path, |tmp| {
+        image::save_buffer_with_format(
+            tmp,
+            &rgb,
+            image.width,
+            image.height,
+            image::ColorType::Rgb8,
+            image::ImageFormat::Png,
+        )
+        .map_err(|e| e.to_string())
+    })
+}
+
+/// Write a linear OpenEXR (RGB, 32-bit float): radiance `B / pi`, `L_e` for emitters, 0
+/// for the background.
+pub fn write_exr(image: &Image, path: &Path) -> Result<(), Error> {
+    write_atomic(path, |tmp| {
+        let w = image.width as usize;
+        exr::prelude::write_rgb_file(tmp, w, image.height as usize, |x, y| {
+            let c = image.pixels[y * w + x];
+            (c.x, c.y, c.z)
+        })
+        .map_err(|e| e.to_string())
+    })
+}
+
+/// Read a linear OpenEXR written by [`write_exr`] (or any RGB EXR), for comparisons.
+pub fn read_exr(path: &Path) -> Result<Image, Error> {
+    use exr::prelude::read_first_rgba_layer_from_file;
+    let img = read_first_rgba_layer_from_file(
+        path,
+        |res, _| (res.width(), vec![Vec3::ZERO; res.width() * res.height()]),
+        |(w, px), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b)
+        },
+    )
+    .map_err(|e| crate::Error::Input(path.into(), e.to_string()))?;
+    let size = img.layer_data.size;
+    let (_, pixels) = img.layer_data.channel_data.pixels;
+    Ok(crate::render::Image {
+        width: size.width() as u32,
+        height: size.height() as u32,
+        emitter: vec![false; pixels.len()],
+        pixels,
+    })
+}

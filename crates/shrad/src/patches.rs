@@ -1,0 +1,571 @@
+//! Patches (spec section 3): every object's triangles subdivided until no edge is longer
+//! than the patch size `h`; planar parallelograms (wall quads, box faces: two triangles that
+//! share their longest edge) are divided into a grid of near-square cells, as the paper does
+//! ("墙面及地面划分为小正方形", paper 3). A patch is one cell (a parallelogram, two triangles)
+//! or one triangle, with one centre, normal and area.
+//!
+//! Storage is structure-of-arrays, object by object: object `o` owns the contiguous patch
+//! range `object_ranges[o]`. Geometry is kept in each object's own frame (rest frame) and the
+//! world-space centres and normals are recomputed when objects move.
+
+use std::ops::Range;
+
+use glam::{Affine3A, Vec3};
+use shrad_scene::{Object, Role, Scene};
+
+/// Marks "no patch".
+pub const NO_PATCH: u32 = u32::MAX;
+
+/// How to choose the patch size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PatchSizing {
+    /// Edge length `h` in scene units.
+    Size(f32),
+    /// About this many patches in the whole scene (the size is found by bisection).
+    Count(usize),
+}
+
+/// One object's patch mesh in its own frame, for visibility and drawing.
+#[derive(Clone, Debug, Default)]
+pub struct ObjectMesh {
+    /// Corner positions (object frame); not welded.
+    pub positions: Vec<Vec3>,
+    /// Triangles (counter-clockwise from the front).
+    pub triangles: Vec<[u32; 3]>,
+    /// Patch id (global) of every triangle.
+    pub triangle_patch: Vec<u32>,
+}
+
+/// All patches of a scene, structure of arrays.
+#[derive(Clone, Debug, Default)]
+pub struct Patches {
+    /// Owning object of each patch.
+    pub object: Vec<u32>,
+    /// Corners in the object frame: a parallelogram `c0, c1, c2, c3` or a triangle with
+    /// `c3 == c2` (see `is_quad`).
+    pub corners: Vec<[Vec3; 4]>,
+    /// Is the patch a parallelogram (else a triangle)?
+    pub is_quad: Vec<bool>,
+    /// Centre in the object frame.
+    pub centre_local: Vec<Vec3>,
+    /// Unit normal in the object frame.
+    pub normal_local: Vec<Vec3>,
+    /// Area (rigid motion keeps it).
+    pub area: Vec<f32>,
+    /// World-space centre (current transforms).
+    pub centre: Vec<Vec3>,
+    /// World-space unit normal (current transforms).
+    pub normal: Vec<Vec3>,
+    /// For a double-sided surface: the patch of the other side (same geometry, flipped
+    /// normal), else [`NO_PATCH`]. A ray that meets the back of a patch with a twin sees the
+    /// twin's front.
+    pub twin: Vec<u32>,
+    /// Index into `shading_vertices` of each corner (for smooth shading).
+    pub corner_vertex: Vec<[u32; 4]>,
+    /// Number of shading vertices (corners welded by position and normal, per object).
+    pub shading_vertex_count: usize,
+    /// Patch range of each object.
+    pub object_ranges: Vec<Range<u32>>,
+    /// Role of each object.
+    pub object_role: Vec<Role>,
+    /// Current world transform of each object.
+    pub world_from_object: Vec<Affine3A>,
+    /// Patch mesh of each object, for visibility.
+    pub meshes: Vec<ObjectMesh>,
+    /// The patch size used (the scene's default; objects may override).
+    pub patch_size: f32,
+}
+
+impl Patches {
+    /// Number of patches.
+    pub fn len(&self) -> usize {
+        self.area.len()
+    }
+    /// No patches at all?
+    pub fn is_empty(&self) -> bool {
+        self.area.is_empty()
+    }
+    /// Role of patch `p`.
+    pub fn role(&self, p: usize) -> Role {
+        self.object_role[self.object[p] as usize]
+    }
+    /// Patches of object `o` as a `usize` range.
+    pub fn range(&self, o: usize) -> Range<usize> {
+        let r = &self.object_ranges[o];
+        r.start as usize..r.end as usize
+    }
+
+    /// Subdivide every object of `scene`.
+    pub fn build(scene: &Scene, sizing: PatchSizing) -> Patches {
+        let h = match sizing {
+            PatchSizing::Size(h) => h,
+            PatchSizing::Count(n) => size_for_count(scene, n),
+        };
+        let mut patches = Patches {
+            patch_size: h,
+            ..Default::default()
+        };
+        let mut welder = Welder::default();
+        for (oi, object) in scene.objects.iter().enumerate() {
+            let start = patches.len() as u32;
+            let mesh = ObjectMesh::default();
+            patches.meshes.push(mesh);
+            let oh = object.patch_size.unwrap_or(h);
+            for cell in subdivide(object, oh) {
+                patches.push_cell(oi as u32, cell, &mut welder, false);
+                if object.material.double_sided {
+                    let me = patches.len() as u32 - 1;
+                    let flipped = Cell {
+                        corners: if cell.is_quad {
+                            [
+                                cell.corners[0],
+                                cell.corners[3],
+                                cell.corners[2],
+                                cell.corners[1],
+                            ]
+                        } else {
+                            let [a, b, c, _] = cell.corners;
+                            [a, c, b, b]
+                        },
+                        is_quad: cell.is_quad,
+                    };
+                    patches.push_cell(oi as u32, flipped, &mut welder, true);
+                    let twin = patches.len() as u32 - 1;
+                    patches.twin[me as usize] = twin;
+                    patches.twin[twin as usize] = me;
+                }
+            }
+            patches.object_ranges.push(start..patches.len() as u32);
+            patches.object_role.push(object.role());
+            patches.world_from_object.push(object.world_from_object);
+            welder.next_object();
+        }
+        patches.shading_vertex_count = welder.count;
+        patches.centre = patches.centre_local.clone();
+        patches.normal = patches.normal_local.clone();
+        for o in 0..scene.objects.len() {
+            patches.update_world(o);
+        }
+        patches
+    }
+
+    fn push_cell(&mut self, object: u32, cell: Cell, welder: &mut Welder, geometry_shared: bool) {
+        let id = self.len() as u32;
+        let c = cell.corners;
+        let (centre, cross) = if cell.is_quad {
+            (
+                0.25 * (c[0] + c[1] + c[2] + c[3]),
+                (c[1] - c[0]).cross(c[3] - c[0]),
+            )
+        } else {
+            (
+                (c[0] + c[1] + c[2]) / 3.0,
+                0.5 * (c[1] - c[0]).cross(c[2] - c[0]),
+            )
+        };
+        let normal = cross.normalize_or_zero();
+        self.object.push(object);
+        self.corners.push(c);
+        self.is_quad.push(cell.is_quad);
+        self.centre_local.push(centre);
+        self.normal_local.push(normal);
+        self.area.push(cross.length());
+        self.twin.push(NO_PATCH);
+        self.corner_vertex.push(c.map(|p| welder.vertex(p, normal)));
+        if geometry_shared {
+            // The twin has no triangles of its own: rays that meet the back of the front
+            // patch are redirected to it.
+            return;
+        }
+        let mesh = &mut self.meshes[object as usize];
+        let base = mesh.positions.len() as u32;
+        if cell.is_quad {
+            mesh.positions.extend_from_slice(&c);
+            mesh.triangles.push([base, base + 1, base + 2]);
+            mesh.triangles.push([base, base + 2, base + 3]);
+            mesh.triangle_patch.extend([id, id]);
+        } else {
+            mesh.positions.extend_from_slice(&c[..3]);
+            mesh.triangles.push([base, base + 1, base + 2]);
+            mesh.triangle_patch.push(id);
+        }
+    }
+
+    /// Set object `o`'s transform and recompute its patches' world centres and normals.
+    pub fn set_transform(&mut self, o: usize, world_from_object: Affine3A) {
+        self.world_from_object[o] = world_from_object;
+        self.update_world(o);
+    }
+
+    fn update_world(&mut self, o: usize) {
+        let m = self.world_from_object[o];
+        let normal_matrix = glam::Mat3A::from(m.matrix3).inverse().transpose();
+        for p in self.range(o) {
+            self.centre[p] = m.transform_point3(self.centre_local[p]);
+            self.normal[p] = (normal_matrix * glam::Vec3A::from(self.normal_local[p]))
+                .normalize_or_zero()
+                .into();
+        }
+    }
+
+    /// World-space corners of patch `p` (4; a triangle repeats its last corner).
+    pub fn world_corners(&self, p: usize) -> [Vec3; 4] {
+        let m = self.world_from_object[self.object[p] as usize];
+        self.corners[p].map(|c| m.transform_point3(c))
+    }
+
+    /// A point of patch `p` (world) from two numbers in [0,1)^2, uniform in area.
+    pub fn sample_point(&self, p: usize, u: f32, v: f32) -> Vec3 {
+        let c = self.world_corners(p);
+        if self.is_quad[p] {
+            c[0] + u * (c[1] - c[0]) + v * (c[3] - c[0])
+        } else {
+            let su = u.sqrt();
+            c[0] * (1.0 - su) + c[1] * (su * (1.0 - v)) + c[2] * (su * v)
+        }
+    }
+
+    /// Total count of patches by role `(boundary, interior, light)`.
+    pub fn count_by_role(&self) -> (usize, usize, usize) {
+        let mut n = (0, 0, 0);
+        for (o, r) in self.object_ranges.iter().enumerate() {
+            let k = (r.end - r.start) as usize;
+            match self.object_role[o] {
+                Role::Boundary => n.0 += k,
+                Role::Interior => n.1 += k,
+                Role::Light => n.2 += k,
+            }
+        }
+        n
+    }
+}
+
+/// One patch before it is stored: a parallelogram or a triangle (object frame).
+#[derive(Clone, Copy, Debug)]
+struct Cell {
+    corners: [Vec3; 4],
+    is_quad: bool,
+}
+
+/// Welds patch corners into shading vertices per object by quantised position and normal.
+#[derive(Default)]
+struct Welder {
+    map: std::collections::HashMap<([i64; 3], [i32; 3]), u32>,
+    count: usize,
+    scale: f32,
+}
+
+impl Welder {
+    fn next_object(&mut self) {
+        self.map.clear();
+    }
+    fn vertex(&mut self, p: Vec3, n: Vec3) -> u32 {
+        if self.scale == 0.0 {
+            self.scale = 1e4;
+        }
+        let qp = (p * self.scale).round().as_i64vec3().to_array();
+        // Normals that differ by more than ~10 degrees shade apart (box edges stay crisp).
+        let qn = (n * 6.0).round().as_ivec3().to_array();
+        let next = self.count as u32;
+        let id = *self.map.entry((qp, qn)).or_insert(next);
+        if id == next {
+            self.count += 1;
+        }
+        id
+    }
+}
+
+/// The cells of one object at patch size `h`.
+fn subdivide(object: &Object, h: f32) -> Vec<Cell> {
+    let mesh = &object.mesh;
+    let pos = |i: u32| mesh.positions[i as usize];
+    let mut cells = Vec::new();
+    for face in pair_parallelograms(mesh) {
+        match face {
+            Face::Quad(c) => {
+                let (e1, e2) = (c[1] - c[0], c[3] - c[0]);
+                let nu = cells_along(e1.length(), h);
+                let nv = cells_along(e2.length(), h);
+                for j in 0..nv {
+                    for i in 0..nu {
+                        let at = |a: usize, b: usize| {
+                            c[0] + e1 * (a as f32 / nu as f32) + e2 * (b as f32 / nv as f32)
+                        };
+                        cells.push(Cell {
+                            corners: [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)],
+                            is_quad: true,
+                        });
+                    }
+                }
+            }
+            Face::Triangle(t) => {
+                let [a, b, c] = t.map(pos);
+                let longest = (b - a).length().max((c - b).length()).max((a - c).length());
+                let n = cells_along(longest, h);
+                let at = |i: usize, j: usize| {
+                    a + (b - a) * (i as f32 / n as f32) + (c - a) * (j as f32 / n as f32)
+                };
+                for j in 0..n {
+                    for i in 0..n - j {
+                        cells.push(Cell {
+                            corners: [at(i, j), at(i + 1, j), at(i, j + 1), at(i, j + 1)],
+                            is_quad: false,
+                        });
+                        if i + j + 1 < n {
+                            cells.push(Cell {
+                                corners: [
+                                    at(i + 1, j),
+                                    at(i + 1, j + 1),
+                                    at(i, j + 1),
+                                    at(i, j + 1),
+                                ],
+                                is_quad: false,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+    }
+    cells
+}
+
+fn cells_along(length: f32, h: f32) -> usize {
+    if h > 0.0 && h.is_finite() {
+        ((length / h) * (1.0 - 1e-5)).ceil().clamp(1.0, 1e6) as usize
+    } else {
+        1
+    }
+}
+
+enum Face {
+    /// Parallelogram corners, counter-clockwise.
+    Quad([Vec3; 4]),
+    Triangle([u32; 3]),
+}
+
+/// Pair triangles that share their longest edge and together form a planar parallelogram
+/// (the usual export of a quad); the rest stay triangles. Deterministic: triangle order.
+fn pair_parallelograms(mesh: &shrad_scene::Mesh) -> Vec<Face> {
+    use std::collections::HashMap;
+    let p = |i: u32| mesh.positions[i as usize];
+    // Key vertices by position so unwelded exports pair too.
+    let key = |v: Vec3| (v * 1e4).round().as_i64vec3().to_array();
+    let tri_keys: Vec<[[i64; 3]; 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|i| key(p(i))))
+        .collect();
+    let longest_edge = |t: &[u32; 3]| -> usize {
+        let [a, b, c] = t.map(p);
+        let l = [
+            (b - a).length_squared(),
+            (c - b).length_squared(),
+            (a - c).length_squared(),
+        ];
+        (0..3).max_by(|&x, &y| l[x].total_cmp(&l[y])).unwrap_or(0)
+    };
+    let mut by_edge: HashMap<([i64; 3], [i64; 3]), Vec<usize>> = HashMap::new();
+    for (ti, t) in mesh.triangles.iter().enumerate() {
+        let e = longest_edge(t);
+        let (ka, kb) = (tri_keys[ti][e], tri_keys[ti][(e + 1) % 3]);
+        let k = if ka <= kb { (ka, kb) } else { (kb, ka) };
+        by_edge.entry(k).or_default().push(ti);
+    }
+    let mut used = vec![false; mesh.triangles.len()];
+    let mut faces = Vec::with_capacity(mesh.triangles.len());
+    for (ti, t) in mesh.triangles.iter().enumerate() {
+        if used[ti] {
+            continue;
+        }
+        used[ti] = true;
+        let e = longest_edge(t);
+        let (ka, kb) = (tri_keys[ti][e], tri_keys[ti][(e + 1) % 3]);
+        let k = if ka <= kb { (ka, kb) } else { (kb, ka) };
+        let mut paired = None;
+        for &other in by_edge.get(&k).into_iter().flatten() {
+            if used[other] {
+                continue;
+            }
+            if let Some(q) = parallelogram(
+                t,
+                &mesh.triangles[other],
+                e,
+                longest_edge(&mesh.triangles[other]),
+                &p,
+            ) {
+                paired = Some((other, q));
+                break;
+            }
+        }
+        match paired {
+            Some((other, q)) => {
+                used[other] = true;
+                faces.push(Face::Quad(q));
+            }
+            None => faces.push(Face::Triangle(*t)),
+        }
+    }
+    faces
+}
+
+/// If triangles `t` (longest edge `e`) and `u` (longest edge `f`) share that edge in opposite
+/// directions and form a planar parallelogram, its corners counter-clockwise.
+fn parallelogram(
+    t: &[u32; 3],
+    u: &[u32; 3],
+    e: usize,
+    f: usize,
+    p: &impl Fn(u32) -> Vec3,
+) -> Option<[Vec3; 4]> {
+    let (a, b, c) = (p(t[e]), p(t[(e + 1) % 3]), p(t[(e + 2) % 3]));
+    let (ua, ub, d) = (p(u[f]), p(u[(f + 1) % 3]), p(u[(f + 2) % 3]));
+    let scale = (b - a).length();
+    let tol = 1e-4 * scale;
+    // Shared edge in opposite directions: u's edge is (b, a).
+    if (ua - b).length() > tol || (ub - a).length() > tol {
+        return None;
+    }
+    // Parallelogram: the far corners are symmetric about the diagonal's midpoint.
+    if (c + d - a - b).length() > tol {
+        return None;
+    }
+    // Same plane and orientation.
+    let n1 = (b - a).cross(c - a);
+    let n2 = (a - b).cross(d - b);
+    if n1.normalize_or_zero().dot(n2.normalize_or_zero()) < 0.9999 {
+        return None;
+    }
+    // Corners counter-clockwise: a, d, b, c (t = a,b,c is ccw; d lies across edge ab).
+    Some([a, d, b, c])
+}
+
+/// Patch size that gives about `n` patches, by bisection on the count (cheap: no geometry).
+fn size_for_count(scene: &Scene, n: usize) -> f32 {
+    let count = |h: f32| -> usize {
+        scene
+            .objects
+            .iter()
+            .map(|o| {
+                let sides = if o.material.double_sided { 2 } else { 1 };
+                let oh = o.patch_size.unwrap_or(h);
+                sides * count_cells(o, oh)
+            })
+            .sum()
+    };
+    let total_area: f32 = scene
+        .objects
+        .iter()
+        .map(|o| o.mesh.transformed(o.world_from_object).area())
+        .sum();
+    let mut lo = (total_area / (n.max(1) as f32) / 50.0).sqrt();
+    let mut hi = (total_area / (n.max(1) as f32) * 50.0).sqrt().max(lo * 2.0);
+    for _ in 0..40 {
+        let mid = (lo * hi).sqrt();
+        if count(mid) > n {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    // The coarser of the two brackets never overshoots the target by much.
+    if count(lo).abs_diff(n) < count(hi).abs_diff(n) {
+        lo
+    } else {
+        hi
+    }
+}
+
+fn count_cells(object: &Object, h: f32) -> usize {
+    let mesh = &object.mesh;
+    let p = |i: u32| mesh.positions[i as usize];
+    pair_parallelograms(mesh)
+        .iter()
+        .map(|f| match f {
+            Face::Quad(c) => {
+                cells_along((c[1] - c[0]).length(), h) * cells_along((c[3] - c[0]).length(), h)
+            }
+            Face::Triangle(t) => {
+                let [a, b, c] = t.map(p);
+                let n = cells_along(
+                    (b - a).length().max((c - b).length()).max((a - c).length()),
+                    h,
+                );
+                n * n
+            }
+        })
+        .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cornell_walls_become_squares_and_area_is_kept() {
+        let scene = shrad_scene::cornell_box();
+        let patches = Patches::build(&scene, PatchSizing::Size(20.0));
+        for (o, object) in scene.objects.iter().enumerate() {
+            let area: f32 = patches.range(o).map(|p| patches.area[p]).sum();
+            let want = object.mesh.transformed(object.world_from_object).area();
+            assert!(
+                (area - want).abs() < 1e-3 * want,
+                "{}: {area} vs {want}",
+                object.name
+            );
+            assert!(
+                patches.range(o).all(|p| patches.is_quad[p]),
+                "{} has triangles",
+                object.name
+            );
+        }
+        // Walls of ~556 at h = 20 give 28 cells per side.
+        let floor = patches.range(0);
+        assert_eq!(floor.len(), 28 * 28);
+        let max_edge = patches
+            .corners
+            .iter()
+            .map(|c| (c[1] - c[0]).length().max((c[3] - c[0]).length()))
+            .fold(0.0, f32::max);
+        assert!(max_edge <= 20.0 + 1e-3, "max edge {max_edge}");
+    }
+
+    #[test]
+    fn patch_count_target_is_met() {
+        let scene = shrad_scene::cornell_box();
+        let patches = Patches::build(&scene, PatchSizing::Count(20_000));
+        let n = patches.len() as f32;
+        assert!((n - 20_000.0).abs() < 0.1 * 20_000.0, "{n}");
+    }
+
+    #[test]
+    fn triangles_subdivide_with_area_kept() {
+        let mut scene = shrad_scene::room(&Default::default());
+        scene.objects.retain(|o| o.name.starts_with("sphere"));
+        let patches = Patches::build(&scene, PatchSizing::Size(0.05));
+        let o = &scene.objects[0];
+        let area: f32 = patches.range(0).map(|p| patches.area[p]).sum();
+        assert!((area - o.mesh.area()).abs() < 1e-3 * area);
+        // Normals of a closed sphere point outward.
+        let centre: Vec3 = o.world_from_object.translation.into();
+        assert!(patches
+            .range(0)
+            .all(|p| patches.normal[p].dot(patches.centre[p] - centre) > 0.0));
+    }
+
+    #[test]
+    fn world_normals_follow_rotation() {
+        let scene = shrad_scene::cornell_box();
+        let patches = Patches::build(&scene, PatchSizing::Size(50.0));
+        let short = scene
+            .objects
+            .iter()
+            .position(|o| o.name == "short_block")
+            .unwrap();
+        // The block's top face points up in the world.
+        assert!(patches.range(short).any(|p| patches.normal[p].y > 0.999));
+        assert!(patches
+            .range(short)
+            .all(|p| (patches.normal[p].length() - 1.0).abs() < 1e-4));
+    }
+}

@@ -1,0 +1,119 @@
+//! The patched scene at one moment: scene description, patches, visibility, current
+//! materials. All three solvers read it; only [`World::set_time`] changes it.
+
+use glam::Vec3;
+use shrad_scene::Scene;
+use shrad_vis::{Backend, Hit, MeshRef, Visibility};
+
+use crate::patches::{PatchSizing, Patches, NO_PATCH};
+use crate::Error;
+
+/// A scene ready for solving.
+pub struct World {
+    /// The scene description.
+    pub scene: Scene,
+    /// Its patches.
+    pub patches: Patches,
+    /// Visibility over the patches' triangles (payload = patch id).
+    pub vis: Box<dyn Visibility>,
+    /// Reflectance of each patch.
+    pub reflectance: Vec<Vec3>,
+    /// Emitted exitance `M` of each patch at the current time.
+    pub exitance: Vec<Vec3>,
+    /// Current time (seconds).
+    pub time: f32,
+    /// Ray offset off surfaces (scene units), 1e-4 of the scene's diagonal.
+    pub eps: f32,
+}
+
+impl World {
+    /// Subdivide `scene` into patches and build its visibility.
+    pub fn new(scene: Scene, sizing: PatchSizing, backend: Backend) -> Result<World, Error> {
+        let patches = Patches::build(&scene, sizing);
+        if patches.is_empty() {
+            return Err(Error::Invalid(format!(
+                "{}: the scene has no patches",
+                scene.source
+            )));
+        }
+        let meshes: Vec<MeshRef<'_>> = patches
+            .meshes
+            .iter()
+            .map(|m| MeshRef {
+                positions: &m.positions,
+                triangles: &m.triangles,
+                ids: &m.triangle_patch,
+            })
+            .collect();
+        let vis = shrad_vis::build(backend, &meshes, &patches.world_from_object)
+            .map_err(|e| Error::Invalid(e.to_string()))?;
+        let reflectance = (0..patches.len())
+            .map(|p| {
+                scene.objects[patches.object[p] as usize]
+                    .material
+                    .reflectance
+            })
+            .collect();
+        let (lo, hi) = scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
+        let mut world = World {
+            eps: 1e-4 * (hi - lo).length().max(f32::MIN_POSITIVE),
+            exitance: vec![Vec3::ZERO; patches.len()],
+            scene,
+            patches,
+            vis,
+            reflectance,
+            time: f32::NAN,
+        };
+        world.set_time(0.0);
+        Ok(world)
+    }
+
+    /// Move animated objects and update emission to time `t`. Returns the objects whose
+    /// transform changed (lights whose emission changed are in the second list).
+    pub fn set_time(&mut self, t: f32) -> (Vec<usize>, Vec<usize>) {
+        let first = self.time.is_nan();
+        let mut moved = Vec::new();
+        let mut relit = Vec::new();
+        for (o, object) in self.scene.objects.iter().enumerate() {
+            if !first && object.animation.is_none() {
+                continue;
+            }
+            let xf = object.world_from_object_at(t);
+            if xf != self.patches.world_from_object[o] {
+                self.patches.set_transform(o, xf);
+                self.vis.set_transform(o, xf);
+                moved.push(o);
+            }
+            let m = object.material_at(t).exitance();
+            let r = self.patches.range(o);
+            if first || self.exitance[r.start] != m {
+                self.exitance[r].fill(m);
+                relit.push(o);
+            }
+        }
+        if !moved.is_empty() {
+            self.vis.commit();
+        }
+        self.time = t;
+        (moved, relit)
+    }
+
+    /// The patch whose front a hit sees (a double-sided surface's back is its twin's
+    /// front), or `None` for a miss or a single-sided back face (radiance 0, spec 2).
+    #[inline]
+    pub fn seen_patch(&self, hit: &Hit) -> Option<usize> {
+        if !hit.is_hit() {
+            return None;
+        }
+        if hit.front {
+            return Some(hit.id as usize);
+        }
+        let twin = self.patches.twin[hit.id as usize];
+        (twin != NO_PATCH).then_some(twin as usize)
+    }
+
+    /// Does any object emit at the current time?
+    pub fn has_emitter(&self) -> bool {
+        self.exitance.iter().any(|m| m.max_element() > 0.0)
+    }
+}
