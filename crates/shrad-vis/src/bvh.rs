@@ -8,10 +8,7 @@ use std::time::Duration;
 use glam::{Affine3A, Vec3, Vec3A};
 use obvhs::{
     aabb::Aabb,
-    cwbvh::{
-        builder::{build_cwbvh, build_cwbvh_from_tris},
-        CwBvh,
-    },
+    cwbvh::{builder::build_cwbvh, CwBvh},
     ray::{Ray, RayHit},
     triangle::Triangle,
     BvhBuildParams,
@@ -20,36 +17,77 @@ use rayon::prelude::*;
 
 use crate::{segment, tri_infos, Hit, MeshRef, TriInfo, Visibility, Xform, CHUNK};
 
-/// A triangle laid out for intersection: base vertex and the two edges.
+/// A triangle's vertices, exactly as given (watertightness needs shared vertices to be
+/// bit-identical, so no edge vectors).
 #[derive(Clone, Copy, Debug)]
 struct RtTri {
-    v0: Vec3A,
-    e1: Vec3A,
-    e2: Vec3A,
+    v: [Vec3A; 3],
 }
 
-impl RtTri {
-    /// Möller–Trumbore, both faces; `t` in `[tmin, tmax]` or infinity.
+/// Per-ray set-up of the watertight test (Woop, Benthin, Wald 2013): the ray's dominant axis
+/// `kz`, the other two `kx`, `ky` (swapped to keep the winding), and the shear.
+struct WRay {
+    org: Vec3A,
+    k: [usize; 3],
+    s: [f32; 3],
+}
+
+impl WRay {
     #[inline(always)]
-    fn intersect(&self, ray: &Ray) -> f32 {
-        let p = ray.direction.cross(self.e2);
-        let det = self.e1.dot(p);
+    fn new(ray: &Ray) -> WRay {
+        let d = ray.direction;
+        let a = d.abs();
+        let kz = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        WRay {
+            org: ray.origin,
+            k: [kx, ky, kz],
+            s: [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]],
+        }
+    }
+
+    /// Watertight ray/triangle distance, both faces; `t` in `[tmin, tmax]` or infinity.
+    #[inline(always)]
+    fn intersect(&self, tri: &RtTri, tmin: f32, tmax: f32) -> f32 {
+        let [kx, ky, kz] = self.k;
+        let [sx, sy, sz] = self.s;
+        let a = tri.v[0] - self.org;
+        let b = tri.v[1] - self.org;
+        let c = tri.v[2] - self.org;
+        let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
+        let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
+        let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
+        let mut u = cx * by - cy * bx;
+        let mut v = ax * cy - ay * cx;
+        let mut w = bx * ay - by * ax;
+        if u == 0.0 || v == 0.0 || w == 0.0 {
+            // On an edge in single precision: decide in double, as the paper does.
+            let (ax, ay, bx, by, cx, cy) = (
+                ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64,
+            );
+            u = (cx * by - cy * bx) as f32;
+            v = (ax * cy - ay * cx) as f32;
+            w = (bx * ay - by * ax) as f32;
+        }
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return f32::INFINITY;
+        }
+        let det = u + v + w;
         if det == 0.0 {
             return f32::INFINITY;
         }
-        let inv = 1.0 / det;
-        let s = ray.origin - self.v0;
-        let u = s.dot(p) * inv;
-        if !(0.0..=1.0).contains(&u) {
-            return f32::INFINITY;
-        }
-        let q = s.cross(self.e1);
-        let v = ray.direction.dot(q) * inv;
-        if v < 0.0 || u + v > 1.0 {
-            return f32::INFINITY;
-        }
-        let t = self.e2.dot(q) * inv;
-        if t >= ray.tmin && t <= ray.tmax {
+        let t = (u * sz * a[kz] + v * sz * b[kz] + w * sz * c[kz]) / det;
+        if t >= tmin && t <= tmax {
             t
         } else {
             f32::INFINITY
@@ -80,24 +118,33 @@ impl Blas {
                 Triangle { v0, v1, v2 }
             })
             .collect();
-        let bvh = build_cwbvh_from_tris(
-            &tris,
-            BvhBuildParams::medium_build(),
-            &mut Duration::default(),
-        );
         let mut bounds = Aabb::empty();
         for t in &tris {
             bounds.extend(t.v0).extend(t.v1).extend(t.v2);
         }
+        // Build over slightly padded triangle boxes: flat nodes (a floor's zero height) give
+        // a single-valued slab interval that rounding in the quantised node test can miss,
+        // letting rays slip through. The padding makes every interval non-empty.
+        let pad = (bounds.max - bounds.min).length() * 1e-5 + 1e-7;
+        let boxes: Vec<Aabb> = tris
+            .iter()
+            .map(|t| {
+                let b = t.aabb();
+                Aabb::new(b.min - Vec3A::splat(pad), b.max + Vec3A::splat(pad))
+            })
+            .collect();
+        let bvh = build_cwbvh(
+            &boxes,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
         let orig = bvh.primitive_indices.clone();
         let tris = orig
             .iter()
             .map(|&i| {
                 let t = &tris[i as usize];
                 RtTri {
-                    v0: t.v0,
-                    e1: t.v1 - t.v0,
-                    e2: t.v2 - t.v0,
+                    v: [t.v0, t.v1, t.v2],
                 }
             })
             .collect();
@@ -113,10 +160,10 @@ impl Blas {
     #[inline]
     fn closest(&self, ray: Ray) -> Option<(f32, u32)> {
         let mut hit = RayHit::none();
-        if self
-            .bvh
-            .ray_traverse(ray, &mut hit, |r, i| self.tris[i].intersect(r))
-        {
+        let w = WRay::new(&ray);
+        if self.bvh.ray_traverse(ray, &mut hit, |r, i| {
+            w.intersect(&self.tris[i], r.tmin, r.tmax)
+        }) {
             Some((hit.t, hit.primitive_id))
         } else {
             None
@@ -125,9 +172,10 @@ impl Blas {
 
     #[inline]
     fn any(&self, ray: Ray) -> bool {
+        let w = WRay::new(&ray);
         !self
             .bvh
-            .ray_traverse_miss(ray, |r, i| self.tris[i].intersect(r))
+            .ray_traverse_miss(ray, |r, i| w.intersect(&self.tris[i], r.tmin, r.tmax))
     }
 }
 

@@ -39,6 +39,7 @@ mod ffi {
     pub const RTC_BUILD_QUALITY_LOW: u32 = 0;
     pub const RTC_BUILD_QUALITY_HIGH: u32 = 2;
     pub const RTC_SCENE_FLAG_DYNAMIC: u32 = 1 << 0;
+    pub const RTC_SCENE_FLAG_ROBUST: u32 = 1 << 2;
     pub const RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION: u32 = 1 << 3;
     pub const RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT: u32 = 0;
     pub const RTC_INTERSECT_CONTEXT_FLAG_COHERENT: u32 = 1;
@@ -345,7 +346,11 @@ impl EmbreeVis {
             for (o, m) in meshes.iter().enumerate() {
                 let scene = rtcNewScene(device);
                 h.blas.push(scene);
-                rtcSetSceneFlags(scene, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
+                // ROBUST: watertight triangle tests (no rays slipping between neighbours).
+                rtcSetSceneFlags(
+                    scene,
+                    RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION,
+                );
                 rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
                 if !m.triangles.is_empty() {
                     let g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);

@@ -687,3 +687,85 @@ fn backend_selection() {
         }
     }
 }
+
+/// Inward-facing box room, each face an `n` x `n` grid of quads.
+fn room(h: Vec3, n: u32) -> Mesh {
+    let mut m = Mesh::default();
+    let e = [Vec3::X, Vec3::Y, Vec3::Z];
+    let mut id = 0;
+    for a in 0..3 {
+        for s in [1.0f32, -1.0] {
+            let (mut u, mut v) = (e[(a + 1) % 3] * h, e[(a + 2) % 3] * h);
+            if s > 0.0 {
+                std::mem::swap(&mut u, &mut v);
+            }
+            let c = e[a] * s * h;
+            for j in 0..n {
+                for i in 0..n {
+                    let f = |i: u32, j: u32| {
+                        c + u * (i as f32 / n as f32 * 2.0 - 1.0)
+                            + v * (j as f32 / n as f32 * 2.0 - 1.0)
+                    };
+                    m.quad([f(i, j), f(i + 1, j), f(i + 1, j + 1), f(i, j + 1)], id);
+                    id += 2;
+                }
+            }
+        }
+    }
+    m
+}
+
+#[test]
+fn closed_room_has_no_leaks() {
+    let m = room(Vec3::new(10.0, 4.0, 10.0), 32);
+    let xf = [Affine3A::from_translation(Vec3::new(0.0, 4.0, 0.0))];
+    let dirs = cube_dirs(64);
+    let points: Vec<Vec3> = (0..8)
+        .map(|i| {
+            Vec3::new(
+                -7.0 + 2.0 * i as f32,
+                3.5 + (i % 3) as f32,
+                7.0 - 2.0 * i as f32,
+            )
+        })
+        .collect();
+    for b in backends() {
+        let v = make(b, std::slice::from_ref(&m), &xf);
+        let mut cap = vec![Hit::MISS; points.len() * dirs.len()];
+        v.capture(&points, &dirs, 1e-4, &[], &mut cap);
+        let origins: Vec<Vec3> = points
+            .iter()
+            .flat_map(|&p| std::iter::repeat_n(p, dirs.len()))
+            .collect();
+        let all_dirs: Vec<Vec3> = points.iter().flat_map(|_| dirs.iter().copied()).collect();
+        let mut cl = vec![Hit::MISS; origins.len()];
+        v.closest(&origins, &all_dirs, 1e-4, &[], &mut cl);
+        let leaks_cap: Vec<usize> = (0..cap.len()).filter(|&i| !cap[i].is_hit()).collect();
+        let leaks_cl = cl.iter().filter(|h| !h.is_hit()).count();
+        for &i in leaks_cap.iter().take(5) {
+            let r = reference(
+                std::slice::from_ref(&m),
+                &xf,
+                origins[i],
+                all_dirs[i],
+                1e-4,
+                &[],
+            );
+            eprintln!(
+                "{b:?} leak {i}: {} {} ref {:?}",
+                origins[i],
+                all_dirs[i],
+                &r[..r.len().min(3)]
+            );
+        }
+        assert!(
+            leaks_cap.is_empty() && leaks_cl == 0,
+            "{b:?}: {} capture / {leaks_cl} closest rays escaped",
+            leaks_cap.len()
+        );
+        assert!(
+            cap.iter().all(|h| h.front),
+            "{b:?}: inward room seen from inside is front"
+        );
+    }
+}
