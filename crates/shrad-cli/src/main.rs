@@ -10,6 +10,7 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use shrad::image_io::{write_exr, write_png, Tonemap};
+use shrad::dispersive::{Changes, Dispersive, DispersiveOptions, ProbeRepair, Schedule, ToBoundary};
 use shrad::reference::ReferenceOptions;
 use shrad::render::{render, RenderOptions, Shading};
 use shrad::{PatchSizing, Progress, World};
@@ -68,6 +69,160 @@ enum BackendArg {
 enum SolverArg {
     /// Converged radiosity of the patches (ground truth).
     Reference,
+    /// The dispersive SH method (Wang, Liu, Wu 2007).
+    Dispersive,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq)]
+enum PresetArg {
+    /// shrad's default: the paper plus every measured improvement.
+    Default,
+    /// The paper as written.
+    Paper,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq)]
+enum ScheduleArg {
+    /// Objects in order, --per-frame a frame.
+    RoundRobin,
+    /// By motion and staleness, --per-frame a frame, --max-staleness bound.
+    Priority,
+    /// As many as fit in --budget-ms.
+    Budget,
+    /// Every object every frame.
+    Full,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq)]
+enum RepairArg {
+    /// Keep buried probes.
+    None,
+    /// Drop them and renormalise the weights.
+    Drop,
+    /// Move them towards the box centre until valid.
+    Move,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq)]
+enum ToBoundaryArg {
+    /// The paper's cube-map splat.
+    Splat,
+    /// Per-patch gather with a shadow ray.
+    Gather,
+}
+
+/// Settings of the dispersive solver; unset ones come from --preset.
+#[derive(Args, Clone)]
+struct DispersiveArgs {
+    /// Starting point for the dispersive settings.
+    #[arg(long, value_enum, default_value_t = PresetArg::Default)]
+    preset: PresetArg,
+    /// Cube-map face resolution of probes [paper: 128, default: 64].
+    #[arg(long)]
+    cube_res: Option<usize>,
+    /// SH bands, 1-8 [default: 4 = 16 coefficients].
+    #[arg(long)]
+    bands: Option<usize>,
+    /// Scheduler [paper: round-robin, default: priority].
+    #[arg(long, value_enum)]
+    schedule: Option<ScheduleArg>,
+    /// Objects updated per frame (K) [default: 1].
+    #[arg(long)]
+    per_frame: Option<usize>,
+    /// Staleness bound in frames for priority and budget scheduling [default: 16].
+    #[arg(long)]
+    max_staleness: Option<usize>,
+    /// Per-frame time budget (ms) for --schedule budget [default: 20].
+    #[arg(long)]
+    budget_ms: Option<f32>,
+    /// Buried-probe handling [paper: none, default: move].
+    #[arg(long, value_enum)]
+    repair: Option<RepairArg>,
+    /// Boundary-to-boundary light [paper: false, default: true].
+    #[arg(long)]
+    wall_exchange: Option<bool>,
+    /// Capture probes with the object's own geometry transparent [paper: false, default: true].
+    #[arg(long)]
+    see_through_self: Option<bool>,
+    /// Direct light on interior patches computed explicitly [paper: false, default: true].
+    #[arg(long)]
+    direct_interior: Option<bool>,
+    /// How objects send light to the boundary [paper: splat, default: gather].
+    #[arg(long, value_enum)]
+    to_boundary: Option<ToBoundaryArg>,
+    /// Probe box margin as a fraction of the box diagonal [paper: 0, default: 0.01].
+    #[arg(long)]
+    probe_margin: Option<f32>,
+}
+
+impl DispersiveArgs {
+    fn options(&self) -> Result<DispersiveOptions> {
+        let mut o = match self.preset {
+            PresetArg::Default => DispersiveOptions::improved(),
+            PresetArg::Paper => DispersiveOptions::paper(),
+        };
+        if let Some(r) = self.cube_res {
+            if !(1..=2048).contains(&r) {
+                bail!("--cube-res must be between 1 and 2048, got {r}");
+            }
+            o.cube_res = r;
+        }
+        if let Some(b) = self.bands {
+            if !(1..=8).contains(&b) {
+                bail!("--bands must be between 1 and 8, got {b}");
+            }
+            o.bands = b;
+        }
+        let k = self.per_frame.unwrap_or(1);
+        if k == 0 {
+            bail!("--per-frame must be at least 1");
+        }
+        let max_staleness = self.max_staleness.unwrap_or(16).max(1);
+        if let Some(ms) = self.budget_ms {
+            check_positive("--budget-ms", ms)?;
+        }
+        let schedule = self.schedule.unwrap_or(match o.schedule {
+            Schedule::RoundRobin { .. } => ScheduleArg::RoundRobin,
+            Schedule::Priority { .. } => ScheduleArg::Priority,
+            Schedule::Budget { .. } => ScheduleArg::Budget,
+            Schedule::Full => ScheduleArg::Full,
+        });
+        o.schedule = match schedule {
+            ScheduleArg::RoundRobin => Schedule::RoundRobin { per_frame: k },
+            ScheduleArg::Priority => Schedule::Priority { per_frame: k, max_staleness },
+            ScheduleArg::Budget => Schedule::Budget { ms: self.budget_ms.unwrap_or(20.0), max_staleness },
+            ScheduleArg::Full => Schedule::Full,
+        };
+        if let Some(r) = self.repair {
+            o.repair = match r {
+                RepairArg::None => ProbeRepair::None,
+                RepairArg::Drop => ProbeRepair::Drop,
+                RepairArg::Move => ProbeRepair::MoveInward,
+            };
+        }
+        if let Some(w) = self.wall_exchange {
+            o.wall_exchange = w;
+        }
+        if let Some(s) = self.see_through_self {
+            o.see_through_self = s;
+        }
+        if let Some(d) = self.direct_interior {
+            o.direct_on_interior = d;
+        }
+        if let Some(t) = self.to_boundary {
+            o.to_boundary = match t {
+                ToBoundaryArg::Splat => ToBoundary::Splat,
+                ToBoundaryArg::Gather => ToBoundary::Gather,
+            };
+        }
+        if let Some(m) = self.probe_margin {
+            if !(0.0..=1.0).contains(&m) {
+                bail!("--probe-margin must be between 0 and 1, got {m}");
+            }
+            o.probe_margin = m;
+        }
+        Ok(o)
+    }
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -93,6 +248,15 @@ struct RenderArgs {
     /// Which solver computes the radiosity.
     #[arg(long, value_enum, default_value_t = SolverArg::Reference)]
     solver: SolverArg,
+    /// Dispersive / grid: frames to run on the (static) scene before drawing
+    /// [default: 8 passes over the interior objects].
+    #[arg(long)]
+    frames: Option<usize>,
+    /// Also solve the reference and print the error of spec section 8 (dispersive / grid).
+    #[arg(long)]
+    compare: bool,
+    #[command(flatten)]
+    dispersive: DispersiveArgs,
     /// Output PNG [default: SCENE-NAME.png].
     #[arg(short, long)]
     output: Option<PathBuf>,
@@ -275,7 +439,42 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             }
             b
         }
+        SolverArg::Dispersive => {
+            let options = args.dispersive.options()?;
+            let mut solver = Dispersive::new(&world, options);
+            let frames = args.frames.unwrap_or(8 * solver.interior_objects().max(1));
+            progress.begin("dispersive frames", frames as u64);
+            let mut last = None;
+            let changes = Changes::default();
+            for _ in 0..frames {
+                last = Some(solver.step(&world, &changes));
+                progress.advance(1);
+            }
+            progress.end();
+            if let (false, Some(s)) = (quiet, last) {
+                eprintln!(
+                    "dispersive: {frames} frames; last frame {:.2} ms (direct {:.2}, objects {:.2}, to boundary {:.2}, assemble {:.2}), invalid probes {}, repaired {}",
+                    s.frame_ms, s.direct_ms, s.objects_ms, s.to_boundary_ms, s.assemble_ms, s.probes_invalid, s.probes_repaired
+                );
+            }
+            solver.radiosity().to_vec()
+        }
     };
+    if args.compare && args.solver != SolverArg::Reference {
+        let reference_options = ReferenceOptions {
+            rays_per_patch: args.rays_per_patch,
+            direct_samples: args.direct_samples,
+            ..ReferenceOptions::standard()
+        };
+        let (reference, _) = shrad::reference::solve(&world, &reference_options, progress.as_ref());
+        let e = shrad::metrics::relative_error(&world.patches, &radiosity, &reference);
+        println!(
+            "error vs reference (spec 8): overall {:.2} %, boundary {:.2} %, interior {:.2} %",
+            100.0 * e.overall,
+            100.0 * e.boundary,
+            100.0 * e.interior
+        );
+    }
     let solve_seconds = t.elapsed().as_secs_f64();
     let camera = world.scene.camera_or_default();
     let options = RenderOptions {

@@ -14,9 +14,11 @@
 //! See `ARCHITECTURE.md` at the repository root for the layers and the data flow of a frame.
 
 pub mod direct;
+pub mod dispersive;
 pub mod image_io;
 pub mod metrics;
 pub mod patches;
+pub mod probes;
 pub mod progress;
 pub mod reference;
 pub mod render;

@@ -98,6 +98,17 @@ pub fn form_factors(
     rays: u32,
     progress: &dyn Progress,
 ) -> FormFactors {
+    form_factors_with(world, rows, rays, &[], progress)
+}
+
+/// [`form_factors`] with the objects in `exclude` transparent.
+pub fn form_factors_with(
+    world: &World,
+    rows: &[u32],
+    rays: u32,
+    exclude: &[u32],
+    progress: &dyn Progress,
+) -> FormFactors {
     let p = &world.patches;
     let n = p.len();
     let rays = rays.max(1) as usize;
@@ -133,7 +144,7 @@ pub fn form_factors(
                 }
             });
         let mut hits = vec![shrad_vis::Hit::MISS; origins.len()];
-        world.vis.closest(&origins, &dirs, 0.0, &[], &mut hits);
+        world.vis.closest(&origins, &dirs, 0.0, exclude, &mut hits);
         let rows_out: Vec<Vec<(u32, f32)>> = hits
             .par_chunks(rays)
             .map(|h| {

@@ -1,0 +1,776 @@
+//! The dispersive method of Wang, Liu and Wu (2007), spec section 4.
+//!
+//! Every interior object carries 8 SH light probes at the corners of its rest-frame bounding
+//! box (expanded by a margin). A frame updates only the objects the scheduler picks:
+//!
+//! 1. direct light on the boundary (paper 2.3.2) — cached until a light or an occluder moves;
+//! 2. light the selected objects from their probes (paper 2.3.3): capture, project to SH,
+//!    interpolate trilinearly to each patch, dot with the patch's clamped-cosine lobe;
+//! 3. each selected object lights the boundary as one SH emitter at its centre (paper 2.3.4),
+//!    replacing its previous contribution;
+//! 4. assemble the boundary's radiosity (paper 2.3.5).
+//!
+//! Beyond the paper (spec 4.6), each switchable and measured against the reference in
+//! `docs/results.md`: probe validity and repair, wall-to-wall exchange among the static
+//! boundary patches, seeing through the object's own geometry when capturing, direct light on
+//! interior patches computed explicitly (probes then carry reflected light only), and a
+//! priority scheduler with a staleness bound and a time budget. `DispersiveOptions::paper()`
+//! is the paper as written.
+
+use std::time::Instant;
+
+use glam::{Affine3A, Vec3};
+use rayon::prelude::*;
+use shrad_scene::Role;
+use shrad_sh::{cosine_lobe, cosine_lobe_sh, eval_basis, num_coeffs, trilinear_weights, ShRgb};
+use shrad_vis::Hit;
+
+use crate::direct::direct_irradiance;
+use crate::probes::{ProbeCamera, Seen};
+use crate::reference::{form_factors, FormFactors};
+use crate::{NoProgress, World};
+
+/// Which objects a frame updates (spec 4.3).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Schedule {
+    /// Interior objects in order, `per_frame` a frame (paper: 1).
+    RoundRobin {
+        /// Objects per frame.
+        per_frame: usize,
+    },
+    /// Highest priority first: staleness times a weight that grows when the object or a
+    /// neighbour moved or a light changed; no object waits more than `max_staleness` frames.
+    Priority {
+        /// Objects per frame.
+        per_frame: usize,
+        /// Staleness bound in frames.
+        max_staleness: usize,
+    },
+    /// As many objects (by priority) as fit in `ms` milliseconds; at least one.
+    Budget {
+        /// Per-frame time budget for Steps 2 and 3.
+        ms: f32,
+        /// Staleness bound in frames.
+        max_staleness: usize,
+    },
+    /// Every object every frame: the same algorithm without dispersal.
+    Full,
+}
+
+/// How a buried probe (one that sees mostly back faces) is handled (spec 4.6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProbeRepair {
+    /// Keep it (the paper).
+    None,
+    /// Drop it and renormalise the trilinear weights of the others.
+    Drop,
+    /// Move it along the box diagonal towards the centre until it is valid (else drop it).
+    MoveInward,
+}
+
+/// How an object's reflected light reaches the boundary (Step 3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ToBoundary {
+    /// Render a cube map of ids at the object's centre and splat each texel's flux on the
+    /// boundary patch it sees (the paper).
+    Splat,
+    /// Evaluate the SH intensity towards every boundary patch, with one shadow ray each:
+    /// the same point emitter without the cube map's aliasing.
+    Gather,
+}
+
+/// Settings of the dispersive solver. See [`DispersiveOptions::paper`] and
+/// [`DispersiveOptions::improved`] (the default).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DispersiveOptions {
+    /// SH bands (paper: 4 = 16 coefficients).
+    pub bands: usize,
+    /// Cube-map face resolution of probes (paper: 128).
+    pub cube_res: usize,
+    /// Probe box margin as a fraction of the box diagonal (0: the paper's exact box).
+    pub probe_margin: f32,
+    /// The scheduler.
+    pub schedule: Schedule,
+    /// Back-face fraction above which a probe is invalid (DDGI: 0.25).
+    pub invalid_back_fraction: f32,
+    /// What to do with invalid probes.
+    pub repair: ProbeRepair,
+    /// Carry boundary-to-boundary light (precomputed sparse form factors among the static
+    /// boundary patches, one Jacobi sweep per frame).
+    pub wall_exchange: bool,
+    /// Form-factor rays per boundary patch for the wall exchange.
+    pub wall_rays: u32,
+    /// Capture probes with the object's own geometry transparent (else its texels are 0).
+    pub see_through_self: bool,
+    /// Direct light on interior patches computed like the boundary's; probes then record only
+    /// reflected light.
+    pub direct_on_interior: bool,
+    /// Shadow rays per (patch, emitter) for direct light.
+    pub direct_samples: u32,
+    /// Step 3 method.
+    pub to_boundary: ToBoundary,
+}
+
+impl DispersiveOptions {
+    /// The paper as written: exact box, no repair, no wall exchange, own texels black,
+    /// direct light on interior objects through the probes, cube-map splat, K = 1.
+    pub const fn paper() -> Self {
+        DispersiveOptions {
+            bands: 4,
+            cube_res: 128,
+            probe_margin: 0.0,
+            schedule: Schedule::RoundRobin { per_frame: 1 },
+            invalid_back_fraction: 0.25,
+            repair: ProbeRepair::None,
+            wall_exchange: false,
+            wall_rays: 64,
+            see_through_self: false,
+            direct_on_interior: false,
+            direct_samples: 16,
+            to_boundary: ToBoundary::Splat,
+        }
+    }
+
+    /// shrad's default: every improvement of spec 4.6 that measured better (docs/results.md).
+    pub const fn improved() -> Self {
+        DispersiveOptions {
+            cube_res: 64,
+            probe_margin: 0.01,
+            schedule: Schedule::Priority {
+                per_frame: 1,
+                max_staleness: 16,
+            },
+            repair: ProbeRepair::MoveInward,
+            wall_exchange: true,
+            see_through_self: true,
+            direct_on_interior: true,
+            to_boundary: ToBoundary::Gather,
+            ..Self::paper()
+        }
+    }
+}
+
+impl Default for DispersiveOptions {
+    fn default() -> Self {
+        Self::improved()
+    }
+}
+
+/// The objects a frame updates. `#[must_use]`: a batch that is not applied is a bug.
+#[must_use = "a scheduled batch must be lit (Step 2) and sent to the boundary (Step 3)"]
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Batch(pub Vec<usize>);
+
+/// What changed in the world since the last frame (from [`World::set_time`]).
+#[derive(Clone, Debug, Default)]
+pub struct Changes {
+    /// Objects whose transform changed.
+    pub moved: Vec<usize>,
+    /// Objects whose emission changed.
+    pub relit: Vec<usize>,
+}
+
+/// Flux bookkeeping of one frame (W, i.e. radiometric units x area).
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct EnergyBalance {
+    /// Emitted by lights: `sum M A`.
+    pub emitted: f64,
+    /// Arriving on all patches: `sum E A`.
+    pub received: f64,
+    /// Absorbed: `sum (1 - rho) E A`.
+    pub absorbed: f64,
+    /// Reflected: `sum rho E A`.
+    pub reflected: f64,
+    /// Sent to the boundary by the object emitters this frame.
+    pub object_emitters: f64,
+}
+
+/// Statistics of one frame (the paper's Table 3 columns and more).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct FrameStats {
+    /// Frame index.
+    pub frame: u64,
+    /// Objects updated this frame.
+    pub objects_updated: Vec<usize>,
+    /// Step 1 time (ms).
+    pub direct_ms: f64,
+    /// Step 2 time (ms).
+    pub objects_ms: f64,
+    /// Step 3 time (ms).
+    pub to_boundary_ms: f64,
+    /// Step 4 time (ms).
+    pub assemble_ms: f64,
+    /// Whole frame (ms).
+    pub frame_ms: f64,
+    /// Frames since the stalest interior object was updated.
+    pub stalest: u64,
+    /// Probes found invalid among those captured this frame.
+    pub probes_invalid: usize,
+    /// Of those, repaired by moving.
+    pub probes_repaired: usize,
+    /// Flux balance.
+    pub energy: EnergyBalance,
+}
+
+/// Per interior object: probe box, per-patch weights and exit directions (all in the rest
+/// frame, invariant under rigid motion: paper 2.3.1 item 3).
+struct ObjectProbes {
+    object: usize,
+    /// Box `(lo, hi)` in the object frame, margin included.
+    lo: Vec3,
+    hi: Vec3,
+    /// Trilinear weights of each patch (object's patch range order).
+    weights: Vec<[f32; 8]>,
+    /// Exit direction of each patch in the object frame (paper 2.3.4 Step 1).
+    exit_local: Vec<Vec3>,
+    /// Frame of the last update (None: never).
+    last_update: Option<u64>,
+    /// Something near it changed since its last update.
+    disturbed: f32,
+    /// Measured ms of its last update.
+    cost_ms: f64,
+    /// Its current contribution to the boundary: (patch, irradiance).
+    to_boundary: Vec<(u32, Vec3)>,
+}
+
+impl ObjectProbes {
+    fn corner_local(&self, c: usize) -> Vec3 {
+        let s = Vec3::new((c & 1) as f32, ((c >> 1) & 1) as f32, ((c >> 2) & 1) as f32);
+        self.lo + (self.hi - self.lo) * s
+    }
+    fn centre_local(&self) -> Vec3 {
+        0.5 * (self.lo + self.hi)
+    }
+}
+
+/// The dispersive solver's state.
+pub struct Dispersive {
+    options: DispersiveOptions,
+    camera: ProbeCamera,
+    objects: Vec<ObjectProbes>,
+    /// Radiosity of every patch.
+    radiosity: Vec<Vec3>,
+    /// Direct irradiance (boundary, and interior when `direct_on_interior`).
+    direct: Vec<Vec3>,
+    /// Irradiance of interior patches from their probes.
+    probe_irradiance: Vec<Vec3>,
+    /// Sum over objects of their contributions to each boundary patch.
+    indirect: Vec<Vec3>,
+    /// Irradiance of boundary patches from other boundary patches.
+    wall: Vec<Vec3>,
+    wall_ff: Option<FormFactors>,
+    boundary_patches: Vec<u32>,
+    direct_valid: bool,
+    frame: u64,
+    round_robin_next: usize,
+}
+
+impl Dispersive {
+    /// Precompute (paper 2.3.1): probe boxes, trilinear weights, exit directions, cube-map
+    /// directions and SH weights; the wall exchange's form factors if enabled.
+    pub fn new(world: &World, options: DispersiveOptions) -> Dispersive {
+        let p = &world.patches;
+        let camera = ProbeCamera::new(options.cube_res, options.bands);
+        let mut objects = Vec::new();
+        for (o, object) in world.scene.objects.iter().enumerate() {
+            if p.object_role[o] != Role::Interior {
+                continue;
+            }
+            let (mut lo, mut hi) = object.mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ZERO));
+            let margin = options.probe_margin.max(0.0) * (hi - lo).length();
+            // A flat object still needs a box with volume.
+            let pad = Vec3::splat(margin).max(Vec3::splat(1e-4 * (hi - lo).length().max(world.eps)));
+            lo -= pad;
+            hi += pad;
+            let range = p.range(o);
+            let centre = 0.5 * (lo + hi);
+            let weights = range
+                .clone()
+                .map(|i| trilinear_weights(((p.centre_local[i] - lo) / (hi - lo)).clamp(Vec3::ZERO, Vec3::ONE)))
+                .collect();
+            // paper 2.3.4, Step 1: halfway between "from the centre" and "along the normal".
+            let exit_local = range
+                .map(|i| ((p.centre_local[i] - centre).normalize_or_zero() + p.normal_local[i]).normalize_or(p.normal_local[i]))
+                .collect();
+            objects.push(ObjectProbes {
+                object: o,
+                lo,
+                hi,
+                weights,
+                exit_local,
+                last_update: None,
+                disturbed: 1.0,
+                cost_ms: 0.0,
+                to_boundary: Vec::new(),
+            });
+        }
+        let boundary_patches: Vec<u32> = (0..p.len() as u32).filter(|&i| p.role(i as usize) == Role::Boundary).collect();
+        let wall_ff = options.wall_exchange.then(|| {
+            // Every object occludes (at its rest position); only boundary-to-boundary
+            // entries are kept: light via interior objects is Step 3's. When objects move
+            // the occlusion goes stale: measured in docs/results.md.
+            let all = form_factors(world, &boundary_patches, options.wall_rays, &NoProgress);
+            keep_columns(&all, |j| p.role(j) == Role::Boundary)
+        });
+        let n = p.len();
+        let radiosity = world.exitance.clone();
+        Dispersive {
+            options,
+            camera,
+            objects,
+            radiosity,
+            direct: vec![Vec3::ZERO; n],
+            probe_irradiance: vec![Vec3::ZERO; n],
+            indirect: vec![Vec3::ZERO; n],
+            wall: vec![Vec3::ZERO; n],
+            wall_ff,
+            boundary_patches,
+            direct_valid: false,
+            frame: 0,
+            round_robin_next: 0,
+        }
+    }
+
+    /// Current radiosity of every patch.
+    pub fn radiosity(&self) -> &[Vec3] {
+        &self.radiosity
+    }
+
+    /// The options in use.
+    pub fn options(&self) -> &DispersiveOptions {
+        &self.options
+    }
+
+    /// Number of interior objects (the round-robin cycle length with K = 1).
+    pub fn interior_objects(&self) -> usize {
+        self.objects.len()
+    }
+
+    /// One frame (paper 2.2): the world is already at the frame's time; `changes` says what
+    /// moved or changed emission since the previous frame.
+    pub fn step(&mut self, world: &World, changes: &Changes) -> FrameStats {
+        let frame_start = Instant::now();
+        let mut stats = FrameStats {
+            frame: self.frame,
+            ..Default::default()
+        };
+        self.note_changes(world, changes);
+
+        let t = Instant::now();
+        self.direct_to_boundary(world, changes);
+        stats.direct_ms = ms(t);
+
+        let batch = self.schedule();
+        let t = Instant::now();
+        let lit = self.light_selected_objects(world, batch, &mut stats);
+        stats.objects_ms = ms(t);
+
+        let t = Instant::now();
+        stats.energy.object_emitters = self.objects_to_boundary(world, lit, &mut stats);
+        stats.to_boundary_ms = ms(t);
+
+        let t = Instant::now();
+        self.assemble(world);
+        stats.assemble_ms = ms(t);
+
+        stats.frame_ms = ms(frame_start);
+        stats.stalest = self
+            .objects
+            .iter()
+            .map(|o| o.last_update.map_or(self.frame + 1, |f| self.frame - f))
+            .max()
+            .unwrap_or(0);
+        stats.energy = EnergyBalance {
+            object_emitters: stats.energy.object_emitters,
+            ..self.energy(world)
+        };
+        self.frame += 1;
+        stats
+    }
+
+    /// Mark objects near what moved (or every object, when a light changed) as disturbed.
+    fn note_changes(&mut self, world: &World, changes: &Changes) {
+        let p = &world.patches;
+        let lights_changed = changes.relit.iter().chain(&changes.moved).any(|&o| p.object_role[o] == Role::Light);
+        let boxes: Vec<(Vec3, f32)> = changes
+            .moved
+            .iter()
+            .filter_map(|&o| {
+                let r = p.range(o);
+                let pts = r.map(|i| p.centre[i]);
+                let (lo, hi) = pts.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), c| (a.min(c), b.max(c)));
+                lo.is_finite().then(|| (0.5 * (lo + hi), 0.5 * (hi - lo).length()))
+            })
+            .collect();
+        for ob in &mut self.objects {
+            if changes.moved.contains(&ob.object) {
+                ob.disturbed = ob.disturbed.max(4.0);
+                continue;
+            }
+            if lights_changed {
+                ob.disturbed = ob.disturbed.max(2.0);
+            }
+            let m = p.world_from_object[ob.object];
+            let c = m.transform_point3(ob.centre_local());
+            let r = 0.5 * m.transform_vector3(ob.hi - ob.lo).length();
+            // A neighbour: within three times the two radii.
+            if boxes.iter().any(|(bc, br)| (c - *bc).length() < 3.0 * (r + br)) {
+                ob.disturbed = ob.disturbed.max(2.0);
+            }
+        }
+    }
+
+    /// Step 1 (paper 2.3.2): direct light on the boundary (and interior patches when
+    /// `direct_on_interior`). Recomputed only when a light or any object moved or a light
+    /// changed; otherwise cached.
+    fn direct_to_boundary(&mut self, world: &World, changes: &Changes) {
+        if self.direct_valid && changes.moved.is_empty() && changes.relit.is_empty() {
+            return;
+        }
+        let p = &world.patches;
+        let receivers: Vec<u32> = (0..p.len() as u32)
+            .filter(|&i| match p.role(i as usize) {
+                Role::Boundary => true,
+                Role::Interior => self.options.direct_on_interior,
+                Role::Light => false,
+            })
+            .filter(|&i| world.reflectance[i as usize].max_element() > 0.0)
+            .collect();
+        let e = direct_irradiance(world, &receivers, self.options.direct_samples);
+        for (&i, e) in receivers.iter().zip(e) {
+            self.direct[i as usize] = e;
+        }
+        self.direct_valid = true;
+    }
+
+    /// The scheduler (spec 4.3): which interior objects this frame updates.
+    fn schedule(&mut self) -> Batch {
+        let n = self.objects.len();
+        if n == 0 {
+            return Batch(Vec::new());
+        }
+        let frame = self.frame;
+        let staleness = |o: &ObjectProbes| o.last_update.map_or(u64::MAX / 4, |f| frame - f) as f64;
+        match self.options.schedule {
+            Schedule::Full => Batch((0..n).collect()),
+            Schedule::RoundRobin { per_frame } => {
+                let k = per_frame.clamp(1, n);
+                let picked = (0..k).map(|j| (self.round_robin_next + j) % n).collect();
+                self.round_robin_next = (self.round_robin_next + k) % n;
+                Batch(picked)
+            }
+            Schedule::Priority { per_frame, max_staleness } => {
+                let k = per_frame.clamp(1, n);
+                Batch(self.by_priority(max_staleness, &staleness).into_iter().take(k).collect())
+            }
+            Schedule::Budget { ms, max_staleness } => {
+                let order = self.by_priority(max_staleness, &staleness);
+                let mut spent = 0.0;
+                let mut picked = Vec::new();
+                for o in order {
+                    let cost = self.objects[o].cost_ms.max(0.01);
+                    if !picked.is_empty() && spent + cost > ms as f64 {
+                        break;
+                    }
+                    spent += cost;
+                    picked.push(o);
+                }
+                Batch(picked)
+            }
+        }
+    }
+
+    /// Objects in decreasing priority: over-stale objects first, then staleness x weight.
+    fn by_priority(&self, max_staleness: usize, staleness: &dyn Fn(&ObjectProbes) -> f64) -> Vec<usize> {
+        let mut order: Vec<(usize, f64)> = self
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| {
+                let s = staleness(o);
+                let forced = if s >= max_staleness as f64 { 1e12 } else { 0.0 };
+                (i, forced + (s + 1.0) * o.disturbed as f64)
+            })
+            .collect();
+        order.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+        order.into_iter().map(|(i, _)| i).collect()
+    }
+
+    /// Step 2 (paper 2.3.3): light each object of the batch from its 8 corner probes.
+    fn light_selected_objects(&mut self, world: &World, batch: Batch, stats: &mut FrameStats) -> Vec<usize> {
+        let p = &world.patches;
+        let bands = self.options.bands;
+        let nc = num_coeffs(bands);
+        for &k in &batch.0 {
+            let t = Instant::now();
+            let ob = &self.objects[k];
+            let o = ob.object;
+            let m = p.world_from_object[o];
+            let probes = self.capture_corner_probes(world, k, m, stats);
+            // Interpolate to each patch and dot with its clamped-cosine lobe (world normal).
+            let range = p.range(o);
+            let ob = &self.objects[k];
+            let e: Vec<Vec3> = range
+                .clone()
+                .into_par_iter()
+                .map(|i| {
+                    let w = ob.weights[i - range.start];
+                    let (mut sum_w, mut l) = (0.0, ShRgb::zeros(bands));
+                    for c in 0..8 {
+                        if let Some(sh) = &probes[c] {
+                            l.add_scaled(sh, w[c]);
+                            sum_w += w[c];
+                        }
+                    }
+                    if sum_w <= 0.0 {
+                        return Vec3::ZERO;
+                    }
+                    let mut lobe = [0f32; 64];
+                    cosine_lobe_sh(bands, p.normal[i], &mut lobe[..nc]);
+                    (l.dot(&lobe[..nc]) / sum_w).max(Vec3::ZERO)
+                })
+                .collect();
+            for (i, e) in range.clone().zip(e) {
+                self.probe_irradiance[i] = e;
+                let direct = if self.options.direct_on_interior { self.direct[i] } else { Vec3::ZERO };
+                self.radiosity[i] = world.exitance[i] + world.reflectance[i] * (e + direct);
+            }
+            let ob = &mut self.objects[k];
+            ob.last_update = Some(self.frame);
+            ob.disturbed = 1.0;
+            ob.cost_ms = ms(t);
+            stats.objects_updated.push(o);
+        }
+        batch.0
+    }
+
+    /// Capture the 8 probes of object `k`; `None` for a probe dropped as invalid.
+    fn capture_corner_probes(&self, world: &World, k: usize, m: Affine3A, stats: &mut FrameStats) -> Vec<Option<ShRgb>> {
+        let ob = &self.objects[k];
+        let o = ob.object as u32;
+        let exclude: Vec<u32> = if self.options.see_through_self { vec![o] } else { vec![] };
+        let points: Vec<Vec3> = (0..8).map(|c| m.transform_point3(ob.corner_local(c))).collect();
+        let shade = |h: &Hit| self.shade_probe_texel(world, h, o);
+        let captured = self.camera.capture(world, &points, &exclude, shade);
+        let limit = self.options.invalid_back_fraction;
+        let mut out: Vec<Option<ShRgb>> = captured.sh.into_iter().map(Some).collect();
+        for c in 0..8 {
+            if captured.back_fraction[c] <= limit {
+                continue;
+            }
+            stats.probes_invalid += 1;
+            match self.options.repair {
+                ProbeRepair::None => {}
+                ProbeRepair::Drop => out[c] = None,
+                ProbeRepair::MoveInward => {
+                    out[c] = None;
+                    let centre = ob.centre_local();
+                    for s in [0.8f32, 0.6, 0.4, 0.2] {
+                        let q = m.transform_point3(centre + (ob.corner_local(c) - centre) * s);
+                        let again = self.camera.capture(world, &[q], &exclude, shade);
+                        if again.back_fraction[0] <= limit {
+                            out[c] = again.sh.into_iter().next();
+                            stats.probes_repaired += 1;
+                            break;
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Radiance a probe texel of object `o` sees (paper 2.3.3: its own texels are 0).
+    fn shade_probe_texel(&self, world: &World, h: &Hit, o: u32) -> Seen {
+        if !h.is_hit() {
+            return Seen::Radiance(Vec3::ZERO);
+        }
+        if h.object == o {
+            // Only reached when the object is not transparent: the paper's black self.
+            return Seen::Radiance(Vec3::ZERO);
+        }
+        let Some(j) = world.seen_patch(h) else {
+            return Seen::BackFace;
+        };
+        let b = if self.options.direct_on_interior {
+            // Direct light is added apart; the probe carries reflected light only.
+            self.radiosity[j] - world.exitance[j]
+        } else {
+            self.radiosity[j]
+        };
+        Seen::Radiance(b * std::f32::consts::FRAC_1_PI)
+    }
+
+    /// Step 3 (paper 2.3.4): each lit object sends its reflected light to the boundary as one
+    /// SH emitter at its centre, replacing its previous contribution. Returns the flux sent.
+    fn objects_to_boundary(&mut self, world: &World, lit: Vec<usize>, _stats: &mut FrameStats) -> f64 {
+        let p = &world.patches;
+        let bands = self.options.bands;
+        let nc = num_coeffs(bands);
+        let mut flux_sent = 0.0;
+        for k in lit {
+            let ob = &self.objects[k];
+            let o = ob.object;
+            let m = p.world_from_object[o];
+            let centre = m.transform_point3(ob.centre_local());
+            // Outgoing intensity in SH: sum_i (rho_i E_i) A_i / pi * A_l Y_k(d_i).
+            let mut intensity = vec![Vec3::ZERO; nc];
+            let mut basis = [0f32; 64];
+            for i in p.range(o) {
+                let reflected = self.radiosity[i] - world.exitance[i];
+                let d = m.transform_vector3(ob.exit_local[i - p.range(o).start]).normalize_or_zero();
+                eval_basis(bands, d, &mut basis[..nc]);
+                let scale = reflected * p.area[i] * std::f32::consts::FRAC_1_PI;
+                for c in 0..nc {
+                    intensity[c] += scale * (cosine_lobe(shrad_sh::band_of(c)) * basis[c]);
+                }
+            }
+            let intensity = ShRgb::from_coeffs(intensity);
+            let contribution = match self.options.to_boundary {
+                ToBoundary::Splat => self.splat(world, o, centre, &intensity),
+                ToBoundary::Gather => self.gather(world, o, centre, &intensity),
+            };
+            // Replace the object's previous contribution (paper: "只更新当前物体对它的影响").
+            for &(j, e) in &self.objects[k].to_boundary {
+                self.indirect[j as usize] -= e;
+            }
+            for &(j, e) in &contribution {
+                self.indirect[j as usize] += e;
+                flux_sent += (e * p.area[j as usize]).element_sum() as f64 / 3.0;
+            }
+            self.objects[k].to_boundary = contribution;
+        }
+        flux_sent
+    }
+
+    /// The paper's Step 3: a cube map at the centre, each texel's flux onto the patch it sees.
+    fn splat(&self, world: &World, o: usize, centre: Vec3, intensity: &ShRgb) -> Vec<(u32, Vec3)> {
+        let p = &world.patches;
+        let cube = &self.camera.cube;
+        let n = cube.directions.len();
+        let mut hits = vec![Hit::MISS; n];
+        world.vis.capture(&[centre], &cube.directions, 0.0, &[o as u32], &mut hits);
+        let mut acc: std::collections::HashMap<u32, Vec3> = std::collections::HashMap::new();
+        for t in 0..n {
+            let Some(j) = world.seen_patch(&hits[t]) else { continue };
+            if p.role(j) != Role::Boundary {
+                continue;
+            }
+            let flux = intensity.eval(cube.directions[t]).max(Vec3::ZERO) * cube.solid_angles[t];
+            *acc.entry(j as u32).or_insert(Vec3::ZERO) += flux / p.area[j];
+        }
+        let mut v: Vec<(u32, Vec3)> = acc.into_iter().collect();
+        v.sort_unstable_by_key(|e| e.0);
+        v
+    }
+
+    /// Point-emitter gather: `E_j = I(w_j) cos_j / r^2`, one shadow ray per boundary patch.
+    fn gather(&self, world: &World, o: usize, centre: Vec3, intensity: &ShRgb) -> Vec<(u32, Vec3)> {
+        let p = &world.patches;
+        let recv = &self.boundary_patches;
+        let from: Vec<Vec3> = recv.iter().map(|&j| p.centre[j as usize] + p.normal[j as usize] * world.eps).collect();
+        let to = vec![centre; recv.len()];
+        let mut blocked = vec![false; recv.len()];
+        world.vis.occluded(&from, &to, world.eps, &[o as u32], &mut blocked);
+        recv.par_iter()
+            .zip(blocked.par_iter())
+            .filter_map(|(&j, &b)| {
+                if b {
+                    return None;
+                }
+                let d = centre - p.centre[j as usize];
+                let r2 = d.length_squared().max(1e-12);
+                let towards_object = d / r2.sqrt();
+                let cos = p.normal[j as usize].dot(towards_object);
+                if cos <= 0.0 {
+                    return None;
+                }
+                let e = intensity.eval(-towards_object).max(Vec3::ZERO) * (cos / r2);
+                (e.max_element() > 0.0).then_some((j, e))
+            })
+            .collect()
+    }
+
+    /// Step 4 (paper 2.3.5): boundary radiosity from direct, object and wall light.
+    fn assemble(&mut self, world: &World) {
+        let p = &world.patches;
+        if let Some(ff) = &self.wall_ff {
+            // One Jacobi sweep of the boundary's own exchange per frame.
+            let radiosity = &self.radiosity;
+            let exitance = &world.exitance;
+            let wall: Vec<Vec3> = self
+                .boundary_patches
+                .par_iter()
+                .map(|&j| ff.row(j as usize).map(|(k, f)| (radiosity[k] - exitance[k]) * f).sum())
+                .collect();
+            for (&j, w) in self.boundary_patches.iter().zip(wall) {
+                self.wall[j as usize] = w;
+            }
+        }
+        for &j in &self.boundary_patches {
+            let j = j as usize;
+            self.radiosity[j] = world.exitance[j] + world.reflectance[j] * (self.direct[j] + self.indirect[j] + self.wall[j]);
+        }
+        for (o, role) in p.object_role.iter().enumerate() {
+            if *role == Role::Light {
+                for i in p.range(o) {
+                    self.radiosity[i] = world.exitance[i] + world.reflectance[i] * self.direct[i];
+                }
+            }
+        }
+    }
+
+    /// Flux balance of the current state.
+    fn energy(&self, world: &World) -> EnergyBalance {
+        let p = &world.patches;
+        let mut e = EnergyBalance::default();
+        for i in 0..p.len() {
+            let a = p.area[i] as f64;
+            let avg = |v: Vec3| v.element_sum() as f64 / 3.0;
+            e.emitted += avg(world.exitance[i]) * a;
+            let irr = match p.role(i) {
+                Role::Interior => self.probe_irradiance[i] + if self.options.direct_on_interior { self.direct[i] } else { Vec3::ZERO },
+                _ => self.direct[i] + self.indirect[i] + self.wall[i],
+            };
+            e.received += avg(irr) * a;
+            e.reflected += avg(world.reflectance[i] * irr) * a;
+            e.absorbed += avg((Vec3::ONE - world.reflectance[i]) * irr) * a;
+        }
+        e
+    }
+
+    /// Run frames on a static world until every object was updated `passes` times.
+    pub fn converge(&mut self, world: &World, passes: usize) -> Vec<FrameStats> {
+        let frames = passes * self.objects.len().max(1);
+        let mut changes = Changes::default();
+        (0..frames)
+            .map(|_| {
+                let s = self.step(world, &changes);
+                changes = Changes::default();
+                s
+            })
+            .collect()
+    }
+}
+
+/// The same sparse rows with only the columns that `keep` accepts.
+fn keep_columns(ff: &FormFactors, keep: impl Fn(usize) -> bool) -> FormFactors {
+    let mut out = FormFactors {
+        row: vec![0],
+        ..Default::default()
+    };
+    for i in 0..ff.row.len() - 1 {
+        for (j, f) in ff.row(i) {
+            if keep(j) {
+                out.col.push(j as u32);
+                out.val.push(f);
+            }
+        }
+        out.row.push(out.col.len());
+    }
+    out
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}

@@ -1,0 +1,80 @@
+//! SH light probes: capture a cube map of what a point sees, project it to SH (paper 2.3.3
+//! Steps 2-3). Shared by the dispersive solver (8 probes at each object's box corners) and
+//! the grid baseline (a uniform grid of probes).
+
+use glam::Vec3;
+use rayon::prelude::*;
+use shrad_sh::{CubeMap, ShProjector, ShRgb};
+use shrad_vis::Hit;
+
+use crate::World;
+
+/// What a texel of a probe's cube map sees.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Seen {
+    /// Radiance arriving from that direction.
+    Radiance(Vec3),
+    /// The back of a single-sided surface: radiance 0, and a sign that the probe may be
+    /// inside or behind geometry (spec 4.6, probe validity).
+    BackFace,
+}
+
+/// A cube-map resolution with its SH projector, built once per solver.
+pub struct ProbeCamera {
+    /// Texel directions and solid angles.
+    pub cube: CubeMap,
+    /// Precomputed `Y_k(w_t) dW_t`.
+    pub projector: ShProjector,
+}
+
+/// The result of capturing some probes.
+pub struct Captured {
+    /// SH radiance of each probe.
+    pub sh: Vec<ShRgb>,
+    /// Fraction of each probe's sphere (by solid angle) that sees back faces.
+    pub back_fraction: Vec<f32>,
+}
+
+impl ProbeCamera {
+    /// Cube maps of `res` x `res` texels per face, SH of `bands` bands.
+    pub fn new(res: usize, bands: usize) -> Self {
+        let cube = CubeMap::new(res.max(1));
+        let projector = ShProjector::new(bands, &cube);
+        ProbeCamera { cube, projector }
+    }
+
+    /// Number of texels per probe.
+    pub fn texels(&self) -> usize {
+        self.cube.directions.len()
+    }
+
+    /// Capture a cube map of ids at each of `points` (objects in `exclude` are transparent),
+    /// turn every hit into radiance with `shade`, and project to SH.
+    pub fn capture(
+        &self,
+        world: &World,
+        points: &[Vec3],
+        exclude: &[u32],
+        shade: impl Fn(&Hit) -> Seen + Sync,
+    ) -> Captured {
+        let n = self.texels();
+        let mut hits = vec![Hit::MISS; points.len() * n];
+        world.vis.capture(points, &self.cube.directions, 0.0, exclude, &mut hits);
+        let results: Vec<(ShRgb, f32)> = hits
+            .par_chunks(n)
+            .map(|h| {
+                let mut back = 0.0;
+                let sh = self.projector.project_indexed(|t| match shade(&h[t]) {
+                    Seen::Radiance(l) => l,
+                    Seen::BackFace => {
+                        back += self.cube.solid_angles[t];
+                        Vec3::ZERO
+                    }
+                });
+                (sh, back / (4.0 * std::f32::consts::PI))
+            })
+            .collect();
+        let (sh, back_fraction) = results.into_iter().unzip();
+        Captured { sh, back_fraction }
+    }
+}
