@@ -9,10 +9,12 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use shrad::dispersive::{Changes, DispersiveOptions, ProbeRepair, Schedule, ToBoundary};
+use shrad::grid::GridOptions;
 use shrad::image_io::{write_exr, write_png, Tonemap};
-use shrad::dispersive::{Changes, Dispersive, DispersiveOptions, ProbeRepair, Schedule, ToBoundary};
 use shrad::reference::ReferenceOptions;
 use shrad::render::{render, RenderOptions, Shading};
+use shrad::solver::{Solver, SolverChoice};
 use shrad::{PatchSizing, Progress, World};
 use shrad_scene::{LoadOptions, Scene};
 
@@ -71,6 +73,8 @@ enum SolverArg {
     Reference,
     /// The dispersive SH method (Wang, Liu, Wu 2007).
     Dispersive,
+    /// The baseline: a uniform grid of SH probes, all updated every frame.
+    Grid,
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq)]
@@ -155,6 +159,64 @@ struct DispersiveArgs {
     probe_margin: Option<f32>,
 }
 
+/// Settings of the grid baseline.
+#[derive(Args, Clone)]
+struct GridArgs {
+    /// Grid solver: probes per axis (paper: 4 and 5).
+    #[arg(long, default_value_t = 5)]
+    grid: usize,
+}
+
+/// Settings of every solver.
+#[derive(Args, Clone)]
+struct SolverArgs {
+    /// Which solver computes the radiosity.
+    #[arg(long, value_enum, default_value_t = SolverArg::Reference)]
+    solver: SolverArg,
+    #[command(flatten)]
+    dispersive: DispersiveArgs,
+    #[command(flatten)]
+    grid: GridArgs,
+    /// Reference solver: form-factor rays per patch.
+    #[arg(long, default_value_t = ReferenceOptions::standard().rays_per_patch)]
+    rays_per_patch: u32,
+    /// Reference solver: shadow rays per patch and emitter for direct light.
+    #[arg(long, default_value_t = ReferenceOptions::standard().direct_samples)]
+    direct_samples: u32,
+}
+
+impl SolverArgs {
+    fn reference(&self) -> Result<ReferenceOptions> {
+        if self.rays_per_patch == 0 || self.direct_samples == 0 {
+            bail!("--rays-per-patch and --direct-samples must be at least 1");
+        }
+        Ok(ReferenceOptions {
+            rays_per_patch: self.rays_per_patch,
+            direct_samples: self.direct_samples,
+            ..ReferenceOptions::standard()
+        })
+    }
+    fn choice(&self) -> Result<SolverChoice> {
+        Ok(match self.solver {
+            SolverArg::Reference => SolverChoice::Reference(self.reference()?),
+            SolverArg::Dispersive => SolverChoice::Dispersive(self.dispersive.options()?),
+            SolverArg::Grid => {
+                if !(1..=64).contains(&self.grid.grid) {
+                    bail!("--grid must be between 1 and 64, got {}", self.grid.grid);
+                }
+                let mut g = GridOptions::paper(self.grid.grid);
+                if let Some(r) = self.dispersive.cube_res {
+                    g.cube_res = r;
+                }
+                if let Some(b) = self.dispersive.bands {
+                    g.bands = b;
+                }
+                SolverChoice::Grid(g)
+            }
+        })
+    }
+}
+
 impl DispersiveArgs {
     fn options(&self) -> Result<DispersiveOptions> {
         let mut o = match self.preset {
@@ -189,8 +251,14 @@ impl DispersiveArgs {
         });
         o.schedule = match schedule {
             ScheduleArg::RoundRobin => Schedule::RoundRobin { per_frame: k },
-            ScheduleArg::Priority => Schedule::Priority { per_frame: k, max_staleness },
-            ScheduleArg::Budget => Schedule::Budget { ms: self.budget_ms.unwrap_or(20.0), max_staleness },
+            ScheduleArg::Priority => Schedule::Priority {
+                per_frame: k,
+                max_staleness,
+            },
+            ScheduleArg::Budget => Schedule::Budget {
+                ms: self.budget_ms.unwrap_or(20.0),
+                max_staleness,
+            },
             ScheduleArg::Full => Schedule::Full,
         };
         if let Some(r) = self.repair {
@@ -245,18 +313,15 @@ enum TonemapArg {
 struct RenderArgs {
     #[command(flatten)]
     scene: SceneArgs,
-    /// Which solver computes the radiosity.
-    #[arg(long, value_enum, default_value_t = SolverArg::Reference)]
-    solver: SolverArg,
+    #[command(flatten)]
+    solver: SolverArgs,
     /// Dispersive / grid: frames to run on the (static) scene before drawing
-    /// [default: 8 passes over the interior objects].
+    /// [default: 8 passes over the interior objects, 8 frames for the grid].
     #[arg(long)]
     frames: Option<usize>,
     /// Also solve the reference and print the error of spec section 8 (dispersive / grid).
     #[arg(long)]
     compare: bool,
-    #[command(flatten)]
-    dispersive: DispersiveArgs,
     /// Output PNG [default: SCENE-NAME.png].
     #[arg(short, long)]
     output: Option<PathBuf>,
@@ -284,12 +349,6 @@ struct RenderArgs {
     /// Exposure scale for --tonemap exposure [default: auto, 99th percentile to 0.9].
     #[arg(long)]
     exposure: Option<f32>,
-    /// Reference solver: form-factor rays per patch.
-    #[arg(long, default_value_t = ReferenceOptions::standard().rays_per_patch)]
-    rays_per_patch: u32,
-    /// Reference solver: shadow rays per patch and emitter for direct light.
-    #[arg(long, default_value_t = ReferenceOptions::standard().direct_samples)]
-    direct_samples: u32,
 }
 
 #[derive(Args)]
@@ -409,20 +468,13 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     if let Some(e) = args.exposure {
         check_positive("--exposure", e)?;
     }
-    if args.rays_per_patch == 0 || args.direct_samples == 0 {
-        bail!("--rays-per-patch and --direct-samples must be at least 1");
-    }
+    let choice = args.solver.choice()?;
     let quiet = args.scene.quiet;
     let progress = progress_for(quiet);
     let world = build_world(&args.scene, quiet)?;
     let t = Instant::now();
-    let radiosity = match args.solver {
-        SolverArg::Reference => {
-            let options = ReferenceOptions {
-                rays_per_patch: args.rays_per_patch,
-                direct_samples: args.direct_samples,
-                ..ReferenceOptions::standard()
-            };
+    let radiosity = match choice {
+        SolverChoice::Reference(options) => {
             let (b, stats) = shrad::reference::solve(&world, &options, progress.as_ref());
             if !quiet {
                 eprintln!(
@@ -439,11 +491,10 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             }
             b
         }
-        SolverArg::Dispersive => {
-            let options = args.dispersive.options()?;
-            let mut solver = Dispersive::new(&world, options);
-            let frames = args.frames.unwrap_or(8 * solver.interior_objects().max(1));
-            progress.begin("dispersive frames", frames as u64);
+        _ => {
+            let mut solver = Solver::new(&world, choice);
+            let frames = args.frames.unwrap_or_else(|| solver.frames_to_converge(8));
+            progress.begin("frames", frames as u64);
             let mut last = None;
             let changes = Changes::default();
             for _ in 0..frames {
@@ -453,20 +504,16 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             progress.end();
             if let (false, Some(s)) = (quiet, last) {
                 eprintln!(
-                    "dispersive: {frames} frames; last frame {:.2} ms (direct {:.2}, objects {:.2}, to boundary {:.2}, assemble {:.2}), invalid probes {}, repaired {}",
+                    "{frames} frames; last frame {:.2} ms (direct {:.2}, objects/probes {:.2}, to boundary {:.2}, assemble {:.2}), invalid probes {}, repaired {}",
                     s.frame_ms, s.direct_ms, s.objects_ms, s.to_boundary_ms, s.assemble_ms, s.probes_invalid, s.probes_repaired
                 );
             }
             solver.radiosity().to_vec()
         }
     };
-    if args.compare && args.solver != SolverArg::Reference {
-        let reference_options = ReferenceOptions {
-            rays_per_patch: args.rays_per_patch,
-            direct_samples: args.direct_samples,
-            ..ReferenceOptions::standard()
-        };
-        let (reference, _) = shrad::reference::solve(&world, &reference_options, progress.as_ref());
+    if args.compare && args.solver.solver != SolverArg::Reference {
+        let (reference, _) =
+            shrad::reference::solve(&world, &args.solver.reference()?, progress.as_ref());
         let e = shrad::metrics::relative_error(&world.patches, &radiosity, &reference);
         println!(
             "error vs reference (spec 8): overall {:.2} %, boundary {:.2} %, interior {:.2} %",

@@ -279,18 +279,26 @@ impl Dispersive {
             let (mut lo, mut hi) = object.mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ZERO));
             let margin = options.probe_margin.max(0.0) * (hi - lo).length();
             // A flat object still needs a box with volume.
-            let pad = Vec3::splat(margin).max(Vec3::splat(1e-4 * (hi - lo).length().max(world.eps)));
+            let pad =
+                Vec3::splat(margin).max(Vec3::splat(1e-4 * (hi - lo).length().max(world.eps)));
             lo -= pad;
             hi += pad;
             let range = p.range(o);
             let centre = 0.5 * (lo + hi);
             let weights = range
                 .clone()
-                .map(|i| trilinear_weights(((p.centre_local[i] - lo) / (hi - lo)).clamp(Vec3::ZERO, Vec3::ONE)))
+                .map(|i| {
+                    trilinear_weights(
+                        ((p.centre_local[i] - lo) / (hi - lo)).clamp(Vec3::ZERO, Vec3::ONE),
+                    )
+                })
                 .collect();
             // paper 2.3.4, Step 1: halfway between "from the centre" and "along the normal".
             let exit_local = range
-                .map(|i| ((p.centre_local[i] - centre).normalize_or_zero() + p.normal_local[i]).normalize_or(p.normal_local[i]))
+                .map(|i| {
+                    ((p.centre_local[i] - centre).normalize_or_zero() + p.normal_local[i])
+                        .normalize_or(p.normal_local[i])
+                })
                 .collect();
             objects.push(ObjectProbes {
                 object: o,
@@ -304,7 +312,9 @@ impl Dispersive {
                 to_boundary: Vec::new(),
             });
         }
-        let boundary_patches: Vec<u32> = (0..p.len() as u32).filter(|&i| p.role(i as usize) == Role::Boundary).collect();
+        let boundary_patches: Vec<u32> = (0..p.len() as u32)
+            .filter(|&i| p.role(i as usize) == Role::Boundary)
+            .collect();
         let wall_ff = options.wall_exchange.then(|| {
             // Every object occludes (at its rest position); only boundary-to-boundary
             // entries are kept: light via interior objects is Step 3's. When objects move
@@ -341,9 +351,21 @@ impl Dispersive {
         &self.options
     }
 
-    /// Number of interior objects (the round-robin cycle length with K = 1).
+    /// Number of interior objects.
     pub fn interior_objects(&self) -> usize {
         self.objects.len()
+    }
+
+    /// Frames in which the scheduler updates every object once on a static scene.
+    pub fn frames_per_pass(&self) -> usize {
+        let n = self.objects.len().max(1);
+        match self.options.schedule {
+            Schedule::Full => 1,
+            Schedule::RoundRobin { per_frame } | Schedule::Priority { per_frame, .. } => {
+                n.div_ceil(per_frame.max(1))
+            }
+            Schedule::Budget { .. } => n,
+        }
     }
 
     /// One frame (paper 2.2): the world is already at the frame's time; `changes` says what
@@ -391,15 +413,22 @@ impl Dispersive {
     /// Mark objects near what moved (or every object, when a light changed) as disturbed.
     fn note_changes(&mut self, world: &World, changes: &Changes) {
         let p = &world.patches;
-        let lights_changed = changes.relit.iter().chain(&changes.moved).any(|&o| p.object_role[o] == Role::Light);
+        let lights_changed = changes
+            .relit
+            .iter()
+            .chain(&changes.moved)
+            .any(|&o| p.object_role[o] == Role::Light);
         let boxes: Vec<(Vec3, f32)> = changes
             .moved
             .iter()
             .filter_map(|&o| {
                 let r = p.range(o);
                 let pts = r.map(|i| p.centre[i]);
-                let (lo, hi) = pts.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), c| (a.min(c), b.max(c)));
-                lo.is_finite().then(|| (0.5 * (lo + hi), 0.5 * (hi - lo).length()))
+                let (lo, hi) = pts.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), c| {
+                    (a.min(c), b.max(c))
+                });
+                lo.is_finite()
+                    .then(|| (0.5 * (lo + hi), 0.5 * (hi - lo).length()))
             })
             .collect();
         for ob in &mut self.objects {
@@ -414,7 +443,10 @@ impl Dispersive {
             let c = m.transform_point3(ob.centre_local());
             let r = 0.5 * m.transform_vector3(ob.hi - ob.lo).length();
             // A neighbour: within three times the two radii.
-            if boxes.iter().any(|(bc, br)| (c - *bc).length() < 3.0 * (r + br)) {
+            if boxes
+                .iter()
+                .any(|(bc, br)| (c - *bc).length() < 3.0 * (r + br))
+            {
                 ob.disturbed = ob.disturbed.max(2.0);
             }
         }
@@ -459,9 +491,17 @@ impl Dispersive {
                 self.round_robin_next = (self.round_robin_next + k) % n;
                 Batch(picked)
             }
-            Schedule::Priority { per_frame, max_staleness } => {
+            Schedule::Priority {
+                per_frame,
+                max_staleness,
+            } => {
                 let k = per_frame.clamp(1, n);
-                Batch(self.by_priority(max_staleness, &staleness).into_iter().take(k).collect())
+                Batch(
+                    self.by_priority(max_staleness, &staleness)
+                        .into_iter()
+                        .take(k)
+                        .collect(),
+                )
             }
             Schedule::Budget { ms, max_staleness } => {
                 let order = self.by_priority(max_staleness, &staleness);
@@ -481,7 +521,11 @@ impl Dispersive {
     }
 
     /// Objects in decreasing priority: over-stale objects first, then staleness x weight.
-    fn by_priority(&self, max_staleness: usize, staleness: &dyn Fn(&ObjectProbes) -> f64) -> Vec<usize> {
+    fn by_priority(
+        &self,
+        max_staleness: usize,
+        staleness: &dyn Fn(&ObjectProbes) -> f64,
+    ) -> Vec<usize> {
         let mut order: Vec<(usize, f64)> = self
             .objects
             .iter()
@@ -497,7 +541,12 @@ impl Dispersive {
     }
 
     /// Step 2 (paper 2.3.3): light each object of the batch from its 8 corner probes.
-    fn light_selected_objects(&mut self, world: &World, batch: Batch, stats: &mut FrameStats) -> Vec<usize> {
+    fn light_selected_objects(
+        &mut self,
+        world: &World,
+        batch: Batch,
+        stats: &mut FrameStats,
+    ) -> Vec<usize> {
         let p = &world.patches;
         let bands = self.options.bands;
         let nc = num_coeffs(bands);
@@ -532,7 +581,11 @@ impl Dispersive {
                 .collect();
             for (i, e) in range.clone().zip(e) {
                 self.probe_irradiance[i] = e;
-                let direct = if self.options.direct_on_interior { self.direct[i] } else { Vec3::ZERO };
+                let direct = if self.options.direct_on_interior {
+                    self.direct[i]
+                } else {
+                    Vec3::ZERO
+                };
                 self.radiosity[i] = world.exitance[i] + world.reflectance[i] * (e + direct);
             }
             let ob = &mut self.objects[k];
@@ -545,11 +598,23 @@ impl Dispersive {
     }
 
     /// Capture the 8 probes of object `k`; `None` for a probe dropped as invalid.
-    fn capture_corner_probes(&self, world: &World, k: usize, m: Affine3A, stats: &mut FrameStats) -> Vec<Option<ShRgb>> {
+    fn capture_corner_probes(
+        &self,
+        world: &World,
+        k: usize,
+        m: Affine3A,
+        stats: &mut FrameStats,
+    ) -> Vec<Option<ShRgb>> {
         let ob = &self.objects[k];
         let o = ob.object as u32;
-        let exclude: Vec<u32> = if self.options.see_through_self { vec![o] } else { vec![] };
-        let points: Vec<Vec3> = (0..8).map(|c| m.transform_point3(ob.corner_local(c))).collect();
+        let exclude: Vec<u32> = if self.options.see_through_self {
+            vec![o]
+        } else {
+            vec![]
+        };
+        let points: Vec<Vec3> = (0..8)
+            .map(|c| m.transform_point3(ob.corner_local(c)))
+            .collect();
         let shade = |h: &Hit| self.shade_probe_texel(world, h, o);
         let captured = self.camera.capture(world, &points, &exclude, shade);
         let limit = self.options.invalid_back_fraction;
@@ -603,7 +668,12 @@ impl Dispersive {
 
     /// Step 3 (paper 2.3.4): each lit object sends its reflected light to the boundary as one
     /// SH emitter at its centre, replacing its previous contribution. Returns the flux sent.
-    fn objects_to_boundary(&mut self, world: &World, lit: Vec<usize>, _stats: &mut FrameStats) -> f64 {
+    fn objects_to_boundary(
+        &mut self,
+        world: &World,
+        lit: Vec<usize>,
+        _stats: &mut FrameStats,
+    ) -> f64 {
         let p = &world.patches;
         let bands = self.options.bands;
         let nc = num_coeffs(bands);
@@ -618,7 +688,9 @@ impl Dispersive {
             let mut basis = [0f32; 64];
             for i in p.range(o) {
                 let reflected = self.radiosity[i] - world.exitance[i];
-                let d = m.transform_vector3(ob.exit_local[i - p.range(o).start]).normalize_or_zero();
+                let d = m
+                    .transform_vector3(ob.exit_local[i - p.range(o).start])
+                    .normalize_or_zero();
                 eval_basis(bands, d, &mut basis[..nc]);
                 let scale = reflected * p.area[i] * std::f32::consts::FRAC_1_PI;
                 for c in 0..nc {
@@ -649,10 +721,14 @@ impl Dispersive {
         let cube = &self.camera.cube;
         let n = cube.directions.len();
         let mut hits = vec![Hit::MISS; n];
-        world.vis.capture(&[centre], &cube.directions, 0.0, &[o as u32], &mut hits);
+        world
+            .vis
+            .capture(&[centre], &cube.directions, 0.0, &[o as u32], &mut hits);
         let mut acc: std::collections::HashMap<u32, Vec3> = std::collections::HashMap::new();
         for t in 0..n {
-            let Some(j) = world.seen_patch(&hits[t]) else { continue };
+            let Some(j) = world.seen_patch(&hits[t]) else {
+                continue;
+            };
             if p.role(j) != Role::Boundary {
                 continue;
             }
@@ -668,10 +744,15 @@ impl Dispersive {
     fn gather(&self, world: &World, o: usize, centre: Vec3, intensity: &ShRgb) -> Vec<(u32, Vec3)> {
         let p = &world.patches;
         let recv = &self.boundary_patches;
-        let from: Vec<Vec3> = recv.iter().map(|&j| p.centre[j as usize] + p.normal[j as usize] * world.eps).collect();
+        let from: Vec<Vec3> = recv
+            .iter()
+            .map(|&j| p.centre[j as usize] + p.normal[j as usize] * world.eps)
+            .collect();
         let to = vec![centre; recv.len()];
         let mut blocked = vec![false; recv.len()];
-        world.vis.occluded(&from, &to, world.eps, &[o as u32], &mut blocked);
+        world
+            .vis
+            .occluded(&from, &to, world.eps, &[o as u32], &mut blocked);
         recv.par_iter()
             .zip(blocked.par_iter())
             .filter_map(|(&j, &b)| {
@@ -701,7 +782,11 @@ impl Dispersive {
             let wall: Vec<Vec3> = self
                 .boundary_patches
                 .par_iter()
-                .map(|&j| ff.row(j as usize).map(|(k, f)| (radiosity[k] - exitance[k]) * f).sum())
+                .map(|&j| {
+                    ff.row(j as usize)
+                        .map(|(k, f)| (radiosity[k] - exitance[k]) * f)
+                        .sum()
+                })
                 .collect();
             for (&j, w) in self.boundary_patches.iter().zip(wall) {
                 self.wall[j as usize] = w;
@@ -709,7 +794,8 @@ impl Dispersive {
         }
         for &j in &self.boundary_patches {
             let j = j as usize;
-            self.radiosity[j] = world.exitance[j] + world.reflectance[j] * (self.direct[j] + self.indirect[j] + self.wall[j]);
+            self.radiosity[j] = world.exitance[j]
+                + world.reflectance[j] * (self.direct[j] + self.indirect[j] + self.wall[j]);
         }
         for (o, role) in p.object_role.iter().enumerate() {
             if *role == Role::Light {
@@ -729,7 +815,14 @@ impl Dispersive {
             let avg = |v: Vec3| v.element_sum() as f64 / 3.0;
             e.emitted += avg(world.exitance[i]) * a;
             let irr = match p.role(i) {
-                Role::Interior => self.probe_irradiance[i] + if self.options.direct_on_interior { self.direct[i] } else { Vec3::ZERO },
+                Role::Interior => {
+                    self.probe_irradiance[i]
+                        + if self.options.direct_on_interior {
+                            self.direct[i]
+                        } else {
+                            Vec3::ZERO
+                        }
+                }
                 _ => self.direct[i] + self.indirect[i] + self.wall[i],
             };
             e.received += avg(irr) * a;

@@ -15,6 +15,7 @@
 
 pub mod direct;
 pub mod dispersive;
+pub mod grid;
 pub mod image_io;
 pub mod metrics;
 pub mod patches;
@@ -23,6 +24,7 @@ pub mod progress;
 pub mod reference;
 pub mod render;
 pub mod sampling;
+pub mod solver;
 mod world;
 
 pub use patches::{PatchSizing, Patches};

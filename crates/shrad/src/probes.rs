@@ -59,7 +59,9 @@ impl ProbeCamera {
     ) -> Captured {
         let n = self.texels();
         let mut hits = vec![Hit::MISS; points.len() * n];
-        world.vis.capture(points, &self.cube.directions, 0.0, exclude, &mut hits);
+        world
+            .vis
+            .capture(points, &self.cube.directions, 0.0, exclude, &mut hits);
         let results: Vec<(ShRgb, f32)> = hits
             .par_chunks(n)
             .map(|h| {

@@ -1,0 +1,156 @@
+//! The paper's baseline (spec section 5; Nijasure, Pattanaik and Goel 2003 as the paper
+//! describes it in sections 1 and 3): a uniform `G x G x G` grid of SH probes at the cell
+//! centres of the scene's box, every probe captured and projected every frame, every patch
+//! lit by trilinear interpolation of the 8 probes around it. Light arrives only through the
+//! probes; one bounce per frame. A probe inside an object sees only back faces and goes dark
+//! ("采样点失效", the paper's Figure 1): that failure is part of the baseline and shows.
+
+use glam::Vec3;
+use rayon::prelude::*;
+use shrad_sh::{cosine_lobe_sh, num_coeffs, trilinear_weights, ShRgb};
+
+use crate::dispersive::{Changes, FrameStats};
+use crate::probes::{ProbeCamera, Seen};
+use crate::World;
+
+/// Settings of the grid baseline.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridOptions {
+    /// Probes per axis (paper: 4 and 5).
+    pub per_axis: usize,
+    /// Cube-map face resolution (paper: 128).
+    pub cube_res: usize,
+    /// SH bands (paper: 4).
+    pub bands: usize,
+}
+
+impl GridOptions {
+    /// The paper's 4 x 4 x 4 grid.
+    pub const fn paper(per_axis: usize) -> Self {
+        GridOptions {
+            per_axis,
+            cube_res: 128,
+            bands: 4,
+        }
+    }
+}
+
+impl Default for GridOptions {
+    fn default() -> Self {
+        Self::paper(5)
+    }
+}
+
+/// The grid solver's state.
+pub struct Grid {
+    options: GridOptions,
+    camera: ProbeCamera,
+    lo: Vec3,
+    extent: Vec3,
+    probes: Vec<Vec3>,
+    radiosity: Vec<Vec3>,
+    frame: u64,
+}
+
+impl Grid {
+    /// Place the probes over the scene's box at rest.
+    pub fn new(world: &World, options: GridOptions) -> Grid {
+        let g = options.per_axis.max(1);
+        let (lo, hi) = world.scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
+        let extent = (hi - lo).max(Vec3::splat(1e-6));
+        let mut probes = Vec::with_capacity(g * g * g);
+        for k in 0..g {
+            for j in 0..g {
+                for i in 0..g {
+                    let cell = (Vec3::new(i as f32, j as f32, k as f32) + 0.5) / g as f32;
+                    probes.push(lo + cell * extent);
+                }
+            }
+        }
+        Grid {
+            camera: ProbeCamera::new(options.cube_res, options.bands),
+            options,
+            lo,
+            extent,
+            probes,
+            radiosity: world.exitance.clone(),
+            frame: 0,
+        }
+    }
+
+    /// Probe positions (x fastest, then y, then z).
+    pub fn probes(&self) -> &[Vec3] {
+        &self.probes
+    }
+
+    /// Current radiosity of every patch.
+    pub fn radiosity(&self) -> &[Vec3] {
+        &self.radiosity
+    }
+
+    /// The 8 probes around `x` and their trilinear weights (clamped at the grid's edge).
+    fn cell(&self, x: Vec3) -> ([usize; 8], [f32; 8]) {
+        let g = self.options.per_axis.max(1);
+        if g == 1 {
+            return ([0; 8], [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        }
+        let u = (x - self.lo) / self.extent * g as f32 - 0.5;
+        let i0 = u.floor().clamp(Vec3::ZERO, Vec3::splat((g - 2) as f32));
+        let t = (u - i0).clamp(Vec3::ZERO, Vec3::ONE);
+        let i0 = i0.as_uvec3();
+        let ids = std::array::from_fn(|c| {
+            let (dx, dy, dz) = ((c & 1) as u32, ((c >> 1) & 1) as u32, ((c >> 2) & 1) as u32);
+            let (i, j, k) = (
+                (i0.x + dx) as usize,
+                (i0.y + dy) as usize,
+                (i0.z + dz) as usize,
+            );
+            (k * g + j) * g + i
+        });
+        (ids, trilinear_weights(t))
+    }
+
+    /// One frame: capture every probe, light every patch.
+    pub fn step(&mut self, world: &World, _changes: &Changes) -> FrameStats {
+        let start = std::time::Instant::now();
+        let radiosity = &self.radiosity;
+        // Capture and project every probe (nothing left out).
+        let captured =
+            self.camera
+                .capture(world, &self.probes, &[], |h| match world.seen_patch(h) {
+                    Some(j) => Seen::Radiance(radiosity[j] * std::f32::consts::FRAC_1_PI),
+                    None if h.is_hit() => Seen::BackFace,
+                    None => Seen::Radiance(Vec3::ZERO),
+                });
+        let capture_ms = start.elapsed().as_secs_f64() * 1e3;
+        // Interpolate to every patch and shade.
+        let t = std::time::Instant::now();
+        let bands = self.options.bands;
+        let nc = num_coeffs(bands);
+        let p = &world.patches;
+        let next: Vec<Vec3> = (0..p.len())
+            .into_par_iter()
+            .map(|i| {
+                let (ids, w) = self.cell(p.centre[i]);
+                let probes: [&ShRgb; 8] = std::array::from_fn(|c| &captured.sh[ids[c]]);
+                let l = ShRgb::lerp8(&probes, &w);
+                let mut lobe = [0f32; 64];
+                cosine_lobe_sh(bands, p.normal[i], &mut lobe[..nc]);
+                let e = l.dot(&lobe[..nc]).max(Vec3::ZERO);
+                world.exitance[i] + world.reflectance[i] * e
+            })
+            .collect();
+        self.radiosity = next;
+        let shade_ms = t.elapsed().as_secs_f64() * 1e3;
+        let stats = FrameStats {
+            frame: self.frame,
+            objects_ms: capture_ms,
+            assemble_ms: shade_ms,
+            frame_ms: start.elapsed().as_secs_f64() * 1e3,
+            probes_invalid: captured.back_fraction.iter().filter(|&&f| f > 0.25).count(),
+            ..Default::default()
+        };
+        self.frame += 1;
+        stats
+    }
+}

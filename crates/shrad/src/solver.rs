@@ -1,0 +1,77 @@
+//! The three solvers behind one frame interface, so that `render`, `animate` and `bench`
+//! drive them the same way.
+
+use std::time::Instant;
+
+use glam::Vec3;
+
+use crate::dispersive::{Changes, Dispersive, DispersiveOptions, FrameStats};
+use crate::grid::{Grid, GridOptions};
+use crate::reference::{solve, ReferenceOptions};
+use crate::{NoProgress, World};
+
+/// Which solver, with its settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SolverChoice {
+    /// Converged radiosity every frame (ground truth, slow).
+    Reference(ReferenceOptions),
+    /// The paper's method.
+    Dispersive(DispersiveOptions),
+    /// The uniform probe grid baseline.
+    Grid(GridOptions),
+}
+
+/// A solver's state across frames.
+pub enum Solver {
+    /// See [`SolverChoice::Reference`].
+    Reference(ReferenceOptions, Vec<Vec3>),
+    /// See [`SolverChoice::Dispersive`].
+    Dispersive(Box<Dispersive>),
+    /// See [`SolverChoice::Grid`].
+    Grid(Box<Grid>),
+}
+
+impl Solver {
+    /// Precompute for `world`.
+    pub fn new(world: &World, choice: SolverChoice) -> Solver {
+        match choice {
+            SolverChoice::Reference(o) => Solver::Reference(o, world.exitance.clone()),
+            SolverChoice::Dispersive(o) => Solver::Dispersive(Box::new(Dispersive::new(world, o))),
+            SolverChoice::Grid(o) => Solver::Grid(Box::new(Grid::new(world, o))),
+        }
+    }
+
+    /// One frame at the world's current time.
+    pub fn step(&mut self, world: &World, changes: &Changes) -> FrameStats {
+        match self {
+            Solver::Reference(o, b) => {
+                let t = Instant::now();
+                *b = solve(world, o, &NoProgress).0;
+                FrameStats {
+                    frame_ms: t.elapsed().as_secs_f64() * 1e3,
+                    ..Default::default()
+                }
+            }
+            Solver::Dispersive(d) => d.step(world, changes),
+            Solver::Grid(g) => g.step(world, changes),
+        }
+    }
+
+    /// Frames a static scene needs to converge (`passes` updates of every object).
+    pub fn frames_to_converge(&self, passes: usize) -> usize {
+        match self {
+            Solver::Reference(..) => 1,
+            Solver::Dispersive(d) => passes * d.frames_per_pass(),
+            Solver::Grid(_) => passes,
+        }
+    }
+
+    /// Radiosity of every patch.
+    pub fn radiosity(&self) -> &[Vec3] {
+        match self {
+            Solver::Reference(_, b) => b,
+            Solver::Dispersive(d) => d.radiosity(),
+            Solver::Grid(g) => g.radiosity(),
+        }
+    }
+}
