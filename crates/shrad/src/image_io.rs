@@ -177,3 +177,34 @@ pub fn read_exr(path: &Path) -> Result<Image, Error> {
         pixels,
     })
 }
+
+/// Write an animated GIF of 8-bit RGB frames at `fps`.
+pub fn write_gif(
+    frames: &[Vec<u8>],
+    width: u32,
+    height: u32,
+    fps: f32,
+    path: &Path,
+) -> Result<(), Error> {
+    use image::codecs::gif::{GifEncoder, Repeat};
+    use image::{Delay, Frame, RgbaImage};
+    write_atomic(path, |tmp| {
+        let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
+        let mut encoder = GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
+        encoder
+            .set_repeat(Repeat::Infinite)
+            .map_err(|e| e.to_string())?;
+        let delay = Delay::from_numer_denom_ms(1000, fps.max(0.01).round().max(1.0) as u32);
+        for rgb in frames {
+            let rgba: Vec<u8> = rgb
+                .chunks(3)
+                .flat_map(|c| [c[0], c[1], c[2], 255])
+                .collect();
+            let img = RgbaImage::from_raw(width, height, rgba).ok_or("frame size mismatch")?;
+            encoder
+                .encode_frame(Frame::from_parts(img, 0, 0, delay))
+                .map_err(|e| e.to_string())?;
+        }
+        Ok(())
+    })
+}
