@@ -1,6 +1,7 @@
 //! The `shrad` command line: parses options, loads the scene and calls the library.
 //! It holds no algorithm.
 
+mod bench;
 mod progress;
 
 use std::path::{Path, PathBuf};
@@ -36,6 +37,9 @@ enum Command {
     /// Run an animated scene frame by frame: a PNG per frame, a GIF (and MP4 when ffmpeg is
     /// installed) and DIR/stats.csv with the paper's Table 3 columns and the error.
     Animate(AnimateArgs),
+    /// Reproduce the paper's Tables 1-3 and Figures 2-3 in one run: grid (G = 4, 5) and
+    /// dispersive (default and paper preset) on the same scenes, times, memory and error.
+    Bench(bench::BenchArgs),
 }
 
 #[derive(Args)]
@@ -402,6 +406,7 @@ fn main() -> ExitCode {
         Command::Render(args) => cmd_render(args),
         Command::Info(args) => cmd_info(args),
         Command::Animate(args) => cmd_animate(args),
+        Command::Bench(args) => bench::cmd_bench(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
