@@ -27,7 +27,7 @@ use shrad_vis::Hit;
 
 use crate::direct::direct_irradiance;
 use crate::probes::{ProbeCamera, Seen};
-use crate::reference::{form_factors, FormFactors};
+use crate::reference::{form_factor_rows, patch_rays};
 use crate::{NoProgress, World};
 
 /// Which objects a frame updates (spec 4.3).
@@ -258,8 +258,14 @@ pub struct Dispersive {
     indirect: Vec<Vec3>,
     /// Irradiance of boundary patches from other boundary patches.
     wall: Vec<Vec3>,
-    wall_ff: Option<FormFactors>,
+    /// Form-factor rows among boundary patches (aligned with `boundary_patches`), if the
+    /// wall exchange is on.
+    wall_rows: Option<Vec<Vec<(u32, f32)>>>,
     boundary_patches: Vec<u32>,
+    /// World bounding box of every object at the last frame (to know where movers were).
+    object_boxes: Vec<(Vec3, Vec3)>,
+    /// Wall-exchange rows waiting to be re-traced.
+    wall_dirty: Vec<bool>,
     direct_valid: bool,
     frame: u64,
     round_robin_next: usize,
@@ -315,13 +321,13 @@ impl Dispersive {
         let boundary_patches: Vec<u32> = (0..p.len() as u32)
             .filter(|&i| p.role(i as usize) == Role::Boundary)
             .collect();
-        let wall_ff = options.wall_exchange.then(|| {
-            // Every object occludes (at its rest position); only boundary-to-boundary
-            // entries are kept: light via interior objects is Step 3's. When objects move
-            // the occlusion goes stale: measured in docs/results.md.
-            let all = form_factors(world, &boundary_patches, options.wall_rays, &NoProgress);
-            keep_columns(&all, |j| p.role(j) == Role::Boundary)
+        let wall_rows = options.wall_exchange.then(|| {
+            // Every object occludes; only boundary-to-boundary entries are kept (light via
+            // interior objects is Step 3's). Rows whose rays pass where an object moves are
+            // re-traced then (see `refresh_wall_rows`).
+            form_factor_rows(world, &boundary_patches, options.wall_rays, &[], |j| p.role(j) == Role::Boundary, &NoProgress)
         });
+        let object_boxes = (0..world.scene.objects.len()).map(|o| world_box(world, o)).collect();
         let n = p.len();
         let radiosity = world.exitance.clone();
         Dispersive {
@@ -333,8 +339,10 @@ impl Dispersive {
             probe_irradiance: vec![Vec3::ZERO; n],
             indirect: vec![Vec3::ZERO; n],
             wall: vec![Vec3::ZERO; n],
-            wall_ff,
+            wall_rows,
+            wall_dirty: vec![false; boundary_patches.len()],
             boundary_patches,
+            object_boxes,
             direct_valid: false,
             frame: 0,
             round_robin_next: 0,
@@ -379,7 +387,9 @@ impl Dispersive {
         self.note_changes(world, changes);
 
         let t = Instant::now();
-        self.direct_to_boundary(world, changes);
+        let swept = self.swept_boxes(world, changes);
+        self.direct_to_boundary(world, changes, &swept);
+        self.refresh_wall_rows(world, &swept);
         stats.direct_ms = ms(t);
 
         let batch = self.schedule();
@@ -452,27 +462,116 @@ impl Dispersive {
         }
     }
 
+    /// Boxes swept by the objects that moved since the last frame (old and new positions),
+    /// as bounding spheres; updates the remembered boxes.
+    fn swept_boxes(&mut self, world: &World, changes: &Changes) -> Vec<(Vec3, Vec3)> {
+        let mut swept = Vec::new();
+        for &o in &changes.moved {
+            let old = self.object_boxes[o];
+            let new = world_box(world, o);
+            swept.push(old);
+            swept.push(new);
+            self.object_boxes[o] = new;
+        }
+        swept
+    }
+
     /// Step 1 (paper 2.3.2): direct light on the boundary (and interior patches when
-    /// `direct_on_interior`). Recomputed only when a light or any object moved or a light
-    /// changed; otherwise cached.
-    fn direct_to_boundary(&mut self, world: &World, changes: &Changes) {
+    /// `direct_on_interior`). The paper recomputes it every frame; here it is cached and
+    /// recomputed only for the patches whose view of a light an object's motion may have
+    /// changed (all of them when a light moved or changed).
+    fn direct_to_boundary(&mut self, world: &World, changes: &Changes, swept: &[(Vec3, Vec3)]) {
         if self.direct_valid && changes.moved.is_empty() && changes.relit.is_empty() {
             return;
         }
         let p = &world.patches;
+        let light_changed = !changes.relit.is_empty()
+            || changes.moved.iter().any(|&o| p.object_role[o] == Role::Light || world.exitance[p.range(o).start].max_element() > 0.0);
+        let everything = !self.direct_valid || light_changed;
+        let lights: Vec<(Vec3, f32)> = if everything {
+            Vec::new()
+        } else {
+            (0..world.scene.objects.len())
+                .filter(|&o| !p.range(o).is_empty() && world.exitance[p.range(o).start].max_element() > 0.0)
+                .map(|o| sphere(world_box(world, o)))
+                .collect()
+        };
+        let movers: Vec<(Vec3, f32)> = swept.iter().map(|&b| sphere(b)).collect();
         let receivers: Vec<u32> = (0..p.len() as u32)
+            .into_par_iter()
             .filter(|&i| match p.role(i as usize) {
                 Role::Boundary => true,
                 Role::Interior => self.options.direct_on_interior,
                 Role::Light => false,
             })
             .filter(|&i| world.reflectance[i as usize].max_element() > 0.0)
+            .filter(|&i| {
+                everything || {
+                    let x = p.centre[i as usize];
+                    lights.iter().any(|&(lc, lr)| movers.iter().any(|&(bc, br)| cone_meets_sphere(x, lc, lr, bc, br)))
+                }
+            })
             .collect();
+        // Interior patches of a moved object always need it (they moved).
+        let mut receivers = receivers;
+        if !everything && self.options.direct_on_interior {
+            for &o in &changes.moved {
+                receivers.extend(p.range(o).map(|i| i as u32));
+            }
+            receivers.sort_unstable();
+            receivers.dedup();
+        }
         let e = direct_irradiance(world, &receivers, self.options.direct_samples);
         for (&i, e) in receivers.iter().zip(e) {
             self.direct[i as usize] = e;
         }
         self.direct_valid = true;
+    }
+
+    /// Mark the wall-exchange rows whose rays pass through a box an object swept, and
+    /// re-trace the stalest dirty rows, at most an eighth of the boundary per frame (the
+    /// dispersive idea applied to the walls: the cost of a frame stays bounded).
+    fn refresh_wall_rows(&mut self, world: &World, swept: &[(Vec3, Vec3)]) {
+        let Some(rows) = &mut self.wall_rows else { return };
+        let p = &world.patches;
+        let rays = self.options.wall_rays.max(1) as usize;
+        if !swept.is_empty() {
+            let boundary = &self.boundary_patches;
+            let newly: Vec<usize> = (0..boundary.len())
+                .into_par_iter()
+                .filter(|&k| !self.wall_dirty[k])
+                .filter(|&k| {
+                    let i = boundary[k] as usize;
+                    let (c, n) = (p.centre[i], p.normal[i]);
+                    // A box wholly behind the patch cannot meet its rays.
+                    let in_front = swept.iter().any(|&(lo, hi)| {
+                        let (bc, br) = sphere((lo, hi));
+                        n.dot(bc - c) > -br
+                    });
+                    if !in_front {
+                        return false;
+                    }
+                    let mut o = vec![Vec3::ZERO; rays];
+                    let mut d = vec![Vec3::ZERO; rays];
+                    patch_rays(world, i, &mut o, &mut d);
+                    o.iter().zip(&d).any(|(o, d)| swept.iter().any(|&(lo, hi)| ray_meets_box(*o, *d, lo, hi)))
+                })
+                .collect();
+            for k in newly {
+                self.wall_dirty[k] = true;
+            }
+        }
+        let budget = self.boundary_patches.len().div_ceil(8).max(1);
+        let dirty: Vec<usize> = (0..self.boundary_patches.len()).filter(|&k| self.wall_dirty[k]).take(budget).collect();
+        if dirty.is_empty() {
+            return;
+        }
+        let ids: Vec<u32> = dirty.iter().map(|&k| self.boundary_patches[k]).collect();
+        let fresh = form_factor_rows(world, &ids, rays as u32, &[], |j| p.role(j) == Role::Boundary, &NoProgress);
+        for (k, row) in dirty.into_iter().zip(fresh) {
+            rows[k] = row;
+            self.wall_dirty[k] = false;
+        }
     }
 
     /// The scheduler (spec 4.3): which interior objects this frame updates.
@@ -775,18 +874,13 @@ impl Dispersive {
     /// Step 4 (paper 2.3.5): boundary radiosity from direct, object and wall light.
     fn assemble(&mut self, world: &World) {
         let p = &world.patches;
-        if let Some(ff) = &self.wall_ff {
+        if let Some(rows) = &self.wall_rows {
             // One Jacobi sweep of the boundary's own exchange per frame.
             let radiosity = &self.radiosity;
             let exitance = &world.exitance;
-            let wall: Vec<Vec3> = self
-                .boundary_patches
+            let wall: Vec<Vec3> = rows
                 .par_iter()
-                .map(|&j| {
-                    ff.row(j as usize)
-                        .map(|(k, f)| (radiosity[k] - exitance[k]) * f)
-                        .sum()
-                })
+                .map(|row| row.iter().map(|&(k, f)| (radiosity[k as usize] - exitance[k as usize]) * f).sum())
                 .collect();
             for (&j, w) in self.boundary_patches.iter().zip(wall) {
                 self.wall[j as usize] = w;
@@ -846,22 +940,43 @@ impl Dispersive {
     }
 }
 
-/// The same sparse rows with only the columns that `keep` accepts.
-fn keep_columns(ff: &FormFactors, keep: impl Fn(usize) -> bool) -> FormFactors {
-    let mut out = FormFactors {
-        row: vec![0],
-        ..Default::default()
+/// World bounding box of object `o` (its rest-frame mesh box, transformed).
+fn world_box(world: &World, o: usize) -> (Vec3, Vec3) {
+    let m = world.patches.world_from_object[o];
+    let Some((lo, hi)) = world.scene.objects[o].mesh.bounds() else {
+        return (Vec3::ZERO, Vec3::ZERO);
     };
-    for i in 0..ff.row.len() - 1 {
-        for (j, f) in ff.row(i) {
-            if keep(j) {
-                out.col.push(j as u32);
-                out.val.push(f);
-            }
-        }
-        out.row.push(out.col.len());
-    }
-    out
+    (0..8)
+        .map(|c| {
+            let s = Vec3::new((c & 1) as f32, ((c >> 1) & 1) as f32, ((c >> 2) & 1) as f32);
+            m.transform_point3(lo + (hi - lo) * s)
+        })
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), q| (a.min(q), b.max(q)))
+}
+
+/// Bounding sphere of a box.
+fn sphere((lo, hi): (Vec3, Vec3)) -> (Vec3, f32) {
+    (0.5 * (lo + hi), 0.5 * (hi - lo).length())
+}
+
+/// Does the cone from `x` to the sphere `(lc, lr)` (a light) meet the sphere `(bc, br)`?
+/// Conservative: the cone is widened linearly from 0 at `x` to `lr` at the light.
+fn cone_meets_sphere(x: Vec3, lc: Vec3, lr: f32, bc: Vec3, br: f32) -> bool {
+    let axis = lc - x;
+    let len2 = axis.length_squared().max(1e-30);
+    let s = ((bc - x).dot(axis) / len2).clamp(0.0, 1.0);
+    let closest = x + axis * s;
+    (bc - closest).length() <= br + lr * s * 1.1 + 1e-6
+}
+
+/// Slab test of the ray `o + t d`, `t > 0`, against a box.
+fn ray_meets_box(o: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> bool {
+    let inv = d.recip();
+    let t0 = (lo - o) * inv;
+    let t1 = (hi - o) * inv;
+    let near = t0.min(t1).max_element();
+    let far = t0.max(t1).min_element();
+    far >= near.max(0.0)
 }
 
 fn ms(t: Instant) -> f64 {
