@@ -588,6 +588,12 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| default_output(&args.scene.scene));
     write_png(&image, &output, tonemap)?;
+    if !quiet {
+        if let Tonemap::Exposure(scale) = tonemap {
+            let scale = scale.unwrap_or_else(|| shrad::image_io::auto_exposure(&image));
+            eprintln!("exposure {scale:.6e}");
+        }
+    }
     if let Some(hdr) = &args.hdr {
         write_exr(&image, hdr)?;
     }

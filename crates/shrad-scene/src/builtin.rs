@@ -227,14 +227,14 @@ pub fn room(params: &RoomParams) -> Scene {
         let x = margin + (cx as f32 + 0.5) / cols as f32 * (w - 2.0 * margin);
         let z = margin + (cz as f32 + 0.5) / rows as f32 * (d - 2.0 * margin);
         let cell = ((w - 2.0 * margin) / cols as f32).min((d - 2.0 * margin) / rows as f32);
-        let s = (0.35 * cell).min(0.6) * (0.8 + 0.4 * ((i * 7 % 5) as f32 / 4.0));
+        let s = (0.22 * cell).min(0.45) * (0.8 + 0.4 * ((i * 7 % 5) as f32 / 4.0));
         let material = Material::diffuse(palette[i % palette.len()]);
         let o = if i % 3 == 2 {
             let mut o = object(&format!("sphere_{i}"), sphere_mesh(s, 24), material, Role::Interior);
             o.world_from_object = Affine3A::from_translation(v(x, s, z));
             o
         } else {
-            let half = v(s, s * (1.0 + (i % 2) as f32), s * 0.8);
+            let half = v(s, s * (1.0 + 0.6 * (i % 2) as f32), s * 0.8);
             let mut o = object(&format!("box_{i}"), box_mesh(half, false), material, Role::Interior);
             o.world_from_object =
                 Affine3A::from_rotation_translation(Quat::from_rotation_y(0.3 * i as f32), v(x, half.y, z));
@@ -245,7 +245,7 @@ pub fn room(params: &RoomParams) -> Scene {
     let mut scene = Scene {
         source: "builtin:room".into(),
         objects,
-        camera: Some(Camera::look_at(v(0.6, 2.4, 0.4), v(5.0, 0.6, 4.5), 60f32.to_radians())),
+        camera: Some(Camera::look_at(v(0.25, 2.7, 0.25), v(5.2, 0.4, 4.4), 65f32.to_radians())),
         settings: Default::default(),
         warnings: Vec::new(),
     };
