@@ -1,0 +1,85 @@
+#!/usr/bin/env bash
+# Regenerates the figures and raw numbers behind docs/results.md (about 15 minutes on
+# 2 cores). Usage: docs/make_figures.sh [static|moving|timing|all]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+what=${1:-all}
+scripts/setup
+cargo build --release --locked --bin shrad
+S=target/release/shrad
+F=docs/figures
+mkdir -p "$F"
+
+# Python with matplotlib for the plots, in a venv of its own.
+if [ ! -x docs/.venv/bin/python ]; then
+  python3 -m venv docs/.venv
+  docs/.venv/bin/pip install -q -r docs/requirements.txt
+fi
+PY=docs/.venv/bin/python
+
+errline() { sed -n 's/^error vs reference (spec 8): overall \(.*\) %, boundary \(.*\) %, interior \(.*\) %$/\1,\2,\3/p'; }
+
+if [ "$what" = static ] || [ "$what" = all ]; then
+  # Static scenes after convergence: reference, shrad default, --preset paper (same exposure).
+  echo "scene,patches,solver,overall_pct,boundary_pct,interior_pct,last_frame_ms" > "$F/static_errors.csv"
+  for scene in cornell scenes/cornell.gltf room; do
+    name=$(basename "${scene%.*}")
+    [ "$scene" = scenes/cornell.gltf ] && name=cornell_gltf
+    log=$($S render "$scene" --patches 20000 -o "$F/${name}_reference.png" --width 320 --height 320 --spp 4 2>&1)
+    exposure=$(echo "$log" | sed -n 's/^exposure //p')
+    for preset in default paper; do
+      out=$($S render "$scene" --patches 20000 --solver dispersive --preset $preset --compare \
+        -o "$F/${name}_${preset}.png" --width 320 --height 320 --spp 4 --exposure "$exposure" 2>&1)
+      ms=$(echo "$out" | sed -n 's/.*last frame \([0-9.]*\) ms.*/\1/p')
+      echo "$scene,20000,$preset,$(echo "$out" | errline),$ms" >> "$F/static_errors.csv"
+    done
+    for g in 4 5; do
+      out=$($S render "$scene" --patches 20000 --solver grid --grid $g --compare \
+        -o "$F/${name}_grid$g.png" --width 320 --height 320 --spp 4 --exposure "$exposure" 2>&1)
+      ms=$(echo "$out" | sed -n 's/.*last frame \([0-9.]*\) ms.*/\1/p')
+      echo "$scene,20000,grid$g,$(echo "$out" | errline),$ms" >> "$F/static_errors.csv"
+    done
+  done
+  # What each improvement of spec 4.6 is worth (Cornell box, 20k patches).
+  echo "variant,overall_pct,boundary_pct,interior_pct" > "$F/ablation.csv"
+  while IFS='|' read -r label flags; do
+    # shellcheck disable=SC2086
+    out=$($S render cornell --patches 20000 --solver dispersive --compare -q -o /tmp/shrad_ablation.png $flags 2>&1)
+    echo "$label,$(echo "$out" | errline)" >> "$F/ablation.csv"
+  done <<'VARIANTS'
+paper (all off)|--preset paper
+paper + probe repair|--preset paper --repair move --probe-margin 0.01
+paper + wall exchange|--preset paper --wall-exchange true
+paper + repair + walls|--preset paper --repair move --probe-margin 0.01 --wall-exchange true
++ see through self|--preset paper --repair move --probe-margin 0.01 --wall-exchange true --see-through-self true
++ direct on interior|--preset paper --repair move --probe-margin 0.01 --wall-exchange true --see-through-self true --direct-interior true
++ gather (= default at R 128)|--cube-res 128
+default (R 64)|
+default, repair drop|--repair drop
+default, no repair|--repair none
+default, splat|--to-boundary splat
+default, 9 coefficients|--bands 3
+VARIANTS
+fi
+
+if [ "$what" = moving ] || [ "$what" = all ]; then
+  # A box sliding across the Cornell box floor over 120 frames, the light switching colour
+  # half way: per-frame error for K = 1 round robin and for motion priority.
+  for sched in round-robin priority; do
+    $S animate scenes/moving_box.toml --solver dispersive --schedule $sched --frames 120 --fps 30 \
+      --error-every 2 --patches 10000 --rays-per-patch 128 --width 256 --height 256 -q -o "/tmp/shrad_moving_$sched"
+    cp "/tmp/shrad_moving_$sched/stats.csv" "$F/moving_${sched}_stats.csv"
+  done
+  cp /tmp/shrad_moving_priority/animation.gif "$F/moving_box.gif"
+  $PY docs/plot.py moving "$F"
+fi
+
+if [ "$what" = timing ] || [ "$what" = all ]; then
+  # Per-frame time of each step on a 75k-patch room (the paper's largest Table 3 row).
+  for res in 128 32; do
+    $S animate room --patches 75000 --solver dispersive --cube-res $res --warmup 1 --frames 24 \
+      --width 64 --height 64 -q -o "/tmp/shrad_timing_$res"
+    cp "/tmp/shrad_timing_$res/stats.csv" "$F/timing_room75k_r${res}.csv"
+  done
+  $PY docs/plot.py timing "$F"
+fi

@@ -1,0 +1,45 @@
+"""Plots for docs/results.md from the CSV files docs/make_figures.sh writes."""
+import csv
+import statistics
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def rows(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def moving(folder):
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    for sched, label in [("round-robin", "round robin, K = 1"), ("priority", "motion priority, K = 1")]:
+        r = [x for x in rows(f"{folder}/moving_{sched}_stats.csv") if x["error"]]
+        ax.plot([int(x["frame"]) for x in r], [100 * float(x["error"]) for x in r], label=label)
+    ax.axvline(60, color="grey", ls=":", lw=1)
+    ax.text(61, ax.get_ylim()[1] * 0.9, "light changes colour", fontsize=8, color="grey")
+    ax.set_xlabel("frame (30 fps; the box slides for 120 frames)")
+    ax.set_ylabel("error vs reference (%)")
+    ax.set_title("Moving box in the Cornell box: per-frame error (spec 8)")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(f"{folder}/moving_error.png", dpi=110)
+
+
+def timing(folder):
+    out = []
+    for res in (128, 32):
+        r = rows(f"{folder}/timing_room75k_r{res}.csv")[4:]
+        med = {k: statistics.median(float(x[k]) for x in r) for k in ("direct_ms", "objects_ms", "to_boundary_ms", "assemble_ms", "frame_ms")}
+        out.append((res, med))
+    with open(f"{folder}/timing_room75k.md", "w") as f:
+        f.write("| cube res | Step 1 direct (ms) | Step 2 objects (ms) | Step 3 to boundary (ms) | Step 4 assemble (ms) | frame (ms) |\n|---|---|---|---|---|---|\n")
+        for res, m in out:
+            f.write(f"| {res} | {m['direct_ms']:.1f} | {m['objects_ms']:.1f} | {m['to_boundary_ms']:.1f} | {m['assemble_ms']:.1f} | {m['frame_ms']:.1f} |\n")
+
+
+if __name__ == "__main__":
+    {"moving": moving, "timing": timing}[sys.argv[1]](sys.argv[2])
