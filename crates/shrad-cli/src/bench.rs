@@ -37,8 +37,8 @@ struct RunBar {
 impl RunBar {
     fn println(&self, line: &str) {
         match self.bar.lock().ok().as_deref().and_then(|b| b.clone()) {
-            Some(b) => b.println(line),
-            None => eprintln!("{line}"),
+            Some(b) if !b.is_hidden() => b.println(line),
+            _ => eprintln!("{line}"),
         }
     }
 }
