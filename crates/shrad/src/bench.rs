@@ -311,9 +311,17 @@ pub struct Record {
     pub speedup_vs_grid5: Option<f64>,
     /// Time to build the solver (precomputation), ms.
     pub setup_ms: f64,
-    /// Process high-water mark (VmHWM) after this solver's run, MiB: a process-wide peak
-    /// that includes the world, the reference and every solver run before.
+    /// Process high-water mark (VmHWM) at the end of this solver's run, MiB. When
+    /// `peak_is_per_solver`, the mark was reset just before the solver was built, so this is
+    /// the peak during this solver's run (the world and the reference, held throughout,
+    /// included); else it is the process's peak so far.
     pub peak_mib: f64,
+    /// The high-water mark was reset before this solver (Linux /proc/self/clear_refs).
+    pub peak_is_per_solver: bool,
+    /// `peak_mib` minus the resident set just before the solver was built: the solver's own
+    /// peak, transient buffers (cube-map hit buffers) included. NaN when the mark could not
+    /// be reset.
+    pub solver_peak_mib: f64,
     /// Resident-set growth (VmRSS) from before building the solver to the end of its
     /// warm-up, MiB: the solver's own state (a lower bound when the allocator reuses memory
     /// freed by an earlier solver).
@@ -369,6 +377,12 @@ pub fn memory_mib() -> (f64, f64) {
             .map_or(0.0, |kb| kb / 1024.0)
     };
     (field("VmRSS:"), field("VmHWM:"))
+}
+
+/// Reset this process's high-water mark (VmHWM) to its current RSS (Linux: `5` written to
+/// /proc/self/clear_refs). False where that is not possible.
+pub fn reset_peak() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
 }
 
 /// Median (0 for an empty slice).
@@ -453,6 +467,7 @@ pub fn run_solver(
             (options.dispersive_timed_passes * n_obj).max(1),
         )
     };
+    let peak_reset = reset_peak();
     let (rss0, _) = memory_mib();
     let t = Instant::now();
     let mut solver = Solver::new(world, kind.choice());
@@ -485,7 +500,8 @@ pub fn run_solver(
             check_radiosity(world, solver.radiosity())
                 .map_err(|e| Error::Invalid(format!("{} on {}: {e}", kind.label(), spec.name)))?;
             let e = err();
-            if !(e.overall <= options.error_bound) {
+            let within = e.overall <= options.error_bound; // false for NaN
+            if !within {
                 check = format!(
                     "error {:.1} % after {frames} warm-up frames exceeds {:.0} %",
                     100.0 * e.overall,
@@ -570,6 +586,8 @@ pub fn run_solver(
         speedup_vs_grid5: None,
         setup_ms,
         peak_mib: hwm,
+        peak_is_per_solver: peak_reset,
+        solver_peak_mib: if peak_reset { hwm - rss0 } else { f64::NAN },
         solver_rss_mib: solver_rss,
         world_rss_mib,
         check,
@@ -771,8 +789,9 @@ pub fn markdown(report: &BenchReport, command: &str) -> String {
         s.push('\n');
     }
     let _ = writeln!(s, "## Every record: steps, error, memory\n");
+    let _ = writeln!(s, "Memory: \"solver RSS\" is the resident-set growth from before building the solver to the end of its warm-up (its lasting state); \"solver peak\" is the process high-water mark during the solver's run (reset before it through /proc/self/clear_refs) minus the resident set before it (transient buffers included); \"process peak\" is that high-water mark itself, world and reference included.\n");
     let _ = writeln!(s, "Errors are area-weighted relative L2 against the reference, in %, overall / boundary / interior. \"Same frames\": after the same number of frames from the initial state. \"Same time\": after the solver time of the first grid5 frames of that scene.\n");
-    let _ = writeln!(s, "| scene | patches | largest obj | solver | frame (ms) | direct | objects | to boundary | assemble | error same frames (frames) | error same time (frames) | setup (ms) | solver RSS (MiB) | peak (MiB) | check |");
+    let _ = writeln!(s, "| scene | patches | largest obj | solver | frame (ms) | direct | objects | to boundary | assemble | error same frames (frames) | error same time (frames) | setup (ms) | solver RSS (MiB) | solver peak (MiB) | process peak (MiB) | check |");
     let _ = writeln!(
         s,
         "|---|---:|---:|---|---:|---:|---:|---:|---:|---|---|---:|---:|---:|---|"
@@ -788,7 +807,7 @@ pub fn markdown(report: &BenchReport, command: &str) -> String {
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {:.1} | {:.2} | {:.2} | {:.2} | {:.2} | {} ({}) | {} ({}) | {:.0} | {:.0} | {:.0} | {} |",
+            "| {} | {} | {} | {} | {:.1} | {:.2} | {:.2} | {:.2} | {:.2} | {} ({}) | {} ({}) | {:.0} | {:.0} | {:.0} | {:.0} | {} |",
             r.scene,
             r.patches,
             r.largest_object_patches,
@@ -804,6 +823,7 @@ pub fn markdown(report: &BenchReport, command: &str) -> String {
             r.same_time_frames,
             r.setup_ms,
             r.solver_rss_mib,
+            r.solver_peak_mib,
             r.peak_mib,
             r.check,
         );

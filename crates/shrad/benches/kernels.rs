@@ -1,0 +1,211 @@
+//! Micro-benchmarks of the kernels of a frame: cube-map capture, SH projection, per-patch
+//! interpolation and shading, and whole dispersive / grid frames on a small room.
+//! Every benchmark checks its result once before it is timed. Run:
+//! `cargo bench -p shrad --bench kernels -- --measurement-time 3 --warm-up-time 1`.
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use glam::Vec3;
+use shrad::bench::{check_radiosity, Machine};
+use shrad::dispersive::{Changes, DispersiveOptions};
+use shrad::grid::GridOptions;
+use shrad::scene::{room, Role, RoomParams};
+use shrad::solver::{Solver, SolverChoice};
+use shrad::vis::{Backend, Hit};
+use shrad::{PatchSizing, World};
+use shrad_sh::{cosine_lobe_sh, num_coeffs, trilinear_weights, CubeMap, ShProjector, ShRgb};
+
+fn small_room(patches: usize) -> World {
+    let scene = room(&RoomParams {
+        objects: 8,
+        patches,
+        big_object_patches: None,
+    });
+    World::new(scene, PatchSizing::Count(patches), Backend::Auto).expect("room builds")
+}
+
+/// The 8 corners of the world bounds of the first interior object.
+fn corners_of_first_object(world: &World) -> Vec<Vec3> {
+    let p = &world.patches;
+    let o = (0..p.object_role.len())
+        .find(|&o| p.object_role[o] == Role::Interior)
+        .expect("an interior object");
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for i in p.range(o) {
+        lo = lo.min(p.centre[i]);
+        hi = hi.max(p.centre[i]);
+    }
+    let pad = 0.01 * (hi - lo).length();
+    let (lo, hi) = (lo - pad, hi + pad);
+    (0..8)
+        .map(|c| {
+            let s = Vec3::new((c & 1) as f32, ((c >> 1) & 1) as f32, ((c >> 2) & 1) as f32);
+            lo + (hi - lo) * s
+        })
+        .collect()
+}
+
+fn capture(c: &mut Criterion) {
+    let world = small_room(20_000);
+    eprintln!("machine: {}", Machine::detect(world.vis.name()).line());
+    let cube = CubeMap::new(128);
+    let points = corners_of_first_object(&world);
+    let n = points.len() * cube.directions.len();
+    let mut hits = vec![Hit::MISS; n];
+    // Check: a closed room, every ray from inside hits something.
+    world
+        .vis
+        .capture(&points, &cube.directions, 0.0, &[], &mut hits);
+    let missed = hits.iter().filter(|h| !h.is_hit()).count();
+    assert!(
+        missed * 1000 < n,
+        "{missed} of {n} rays missed in a closed room"
+    );
+    let mut g = c.benchmark_group("capture");
+    g.throughput(Throughput::Elements(n as u64));
+    g.bench_function("8 probes R=128 (rays), room 20k", |b| {
+        b.iter(|| {
+            world
+                .vis
+                .capture(black_box(&points), &cube.directions, 0.0, &[], &mut hits);
+            black_box(hits[0].id)
+        })
+    });
+    g.finish();
+}
+
+fn projection(c: &mut Criterion) {
+    let cube = CubeMap::new(128);
+    let projector = ShProjector::new(4, &cube);
+    // Check: constant radiance 1 projects to c0 = 4 pi Y00 = 2 sqrt(pi), the rest ~0.
+    let ones = vec![Vec3::ONE; cube.directions.len()];
+    let sh = projector.project(&ones);
+    let c0 = sh.coeffs()[0].x;
+    assert!(
+        (c0 - 2.0 * std::f32::consts::PI.sqrt()).abs() < 1e-3,
+        "c0 = {c0}"
+    );
+    assert!(sh.coeffs()[1..]
+        .iter()
+        .all(|v| v.abs().max_element() < 1e-3));
+    assert_eq!(sh.coeffs().len(), 16);
+    let radiance: Vec<Vec3> = cube
+        .directions
+        .iter()
+        .map(|d| Vec3::new(d.x.max(0.0), d.y * d.y, 1.0 + d.z))
+        .collect();
+    let mut g = c.benchmark_group("sh_projection");
+    g.throughput(Throughput::Elements(radiance.len() as u64));
+    g.bench_function("R=128, 16 coeffs, RGB (texels)", |b| {
+        b.iter(|| black_box(projector.project(black_box(&radiance))))
+    });
+    g.finish();
+}
+
+fn interpolation(c: &mut Criterion) {
+    // The loop of dispersive.rs light_selected_objects (Step 2 after the capture), over the
+    // patches of the largest object of the 77k room, one thread.
+    let world = small_room(77_000);
+    let p = &world.patches;
+    let o = (0..p.object_role.len())
+        .filter(|&o| p.object_role[o] == Role::Interior)
+        .max_by_key(|&o| p.range(o).len())
+        .expect("an interior object");
+    let range = p.range(o);
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for i in range.clone() {
+        lo = lo.min(p.centre_local[i]);
+        hi = hi.max(p.centre_local[i]);
+    }
+    let weights: Vec<[f32; 8]> = range
+        .clone()
+        .map(|i| {
+            trilinear_weights(((p.centre_local[i] - lo) / (hi - lo)).clamp(Vec3::ZERO, Vec3::ONE))
+        })
+        .collect();
+    let bands = 4;
+    let nc = num_coeffs(bands);
+    // Probes: uniform radiance k (DC only) plus a little of band 1.
+    let probes: Vec<ShRgb> = (0..8)
+        .map(|k| {
+            let mut c = vec![Vec3::ZERO; nc];
+            c[0] = Vec3::splat(1.0 + k as f32 * 0.1);
+            c[2] = Vec3::splat(0.05);
+            ShRgb::from_coeffs(c)
+        })
+        .collect();
+    let refs: [&ShRgb; 8] = std::array::from_fn(|c| &probes[c]);
+    let shade = |out: &mut Vec<Vec3>| {
+        out.clear();
+        for i in range.clone() {
+            let w = &weights[i - range.start];
+            let l = ShRgb::lerp8(&refs, w);
+            let mut lobe = [0f32; 64];
+            cosine_lobe_sh(bands, p.normal[i], &mut lobe[..nc]);
+            out.push(l.dot(&lobe[..nc]).max(Vec3::ZERO));
+        }
+    };
+    // Check: uniform radiance L gives irradiance pi L; here L is in [1, 1.7] / Y00 scaled.
+    let mut out = Vec::with_capacity(range.len());
+    shade(&mut out);
+    assert!(out
+        .iter()
+        .all(|e| e.is_finite() && e.min_element() > 0.0 && e.max_element() < 10.0));
+    let mut g = c.benchmark_group("interpolate_shade");
+    g.throughput(Throughput::Elements(range.len() as u64));
+    g.bench_function(
+        format!("lerp8 + cosine lobe dot, {} patches (patches)", range.len()),
+        |b| {
+            b.iter(|| {
+                shade(&mut out);
+                black_box(out.len())
+            })
+        },
+    );
+    g.finish();
+}
+
+fn frames(c: &mut Criterion) {
+    let world = small_room(12_000);
+    let n = world.patches.len() as u64;
+    let mut g = c.benchmark_group("frame");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(n));
+    let choices = [
+        (
+            "dispersive default, room 12k (patches)",
+            SolverChoice::Dispersive(DispersiveOptions::improved()),
+        ),
+        (
+            "dispersive paper, room 12k (patches)",
+            SolverChoice::Dispersive(DispersiveOptions::paper()),
+        ),
+        (
+            "grid G=4, room 12k (patches)",
+            SolverChoice::Grid(GridOptions::paper(4)),
+        ),
+    ];
+    for (name, choice) in choices {
+        let mut solver = Solver::new(&world, choice);
+        let changes = Changes::default();
+        for _ in 0..solver.frames_to_converge(1) {
+            let _ = solver.step(&world, &changes);
+        }
+        check_radiosity(&world, solver.radiosity()).expect("radiosity is sane");
+        g.bench_function(name, |b| {
+            b.iter(|| black_box(solver.step(&world, &changes).frame_ms))
+        });
+    }
+    g.finish();
+}
+
+criterion_group! {
+    name = kernels;
+    config = Criterion::default()
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(3));
+    targets = capture, projection, interpolation, frames
+}
+criterion_main!(kernels);
