@@ -65,12 +65,17 @@ fi
 if [ "$what" = moving ] || [ "$what" = all ]; then
   # A box sliding across the Cornell box floor over 120 frames, the light switching colour
   # half way: per-frame error for K = 1 round robin and for motion priority.
+  $S animate scenes/moving_box.toml --solver dispersive --schedule round-robin --frames 120 --fps 30 \
+    --error-every 2 --patches 10000 --rays-per-patch 128 --width 256 --height 256 -q -o /tmp/shrad_moving_single
+  cp /tmp/shrad_moving_single/stats.csv "$F/moving_single_stats.csv"
+  cp /tmp/shrad_moving_single/animation.gif "$F/moving_box.gif"
+  # The same motion among four static objects, where the scheduler has a choice.
   for sched in round-robin priority; do
-    $S animate scenes/moving_box.toml --solver dispersive --schedule $sched --frames 120 --fps 30 \
+    $S animate scenes/moving_box_scene.toml --solver dispersive --schedule $sched --frames 120 --fps 30 \
       --error-every 2 --patches 10000 --rays-per-patch 128 --width 256 --height 256 -q -o "/tmp/shrad_moving_$sched"
     cp "/tmp/shrad_moving_$sched/stats.csv" "$F/moving_${sched}_stats.csv"
   done
-  cp /tmp/shrad_moving_priority/animation.gif "$F/moving_box.gif"
+  cp /tmp/shrad_moving_priority/animation.gif "$F/moving_box_scene.gif"
   $PY docs/plot.py moving "$F"
 fi
 

@@ -16,8 +16,12 @@ def rows(path):
 
 def moving(folder):
     fig, ax = plt.subplots(figsize=(7, 3.5))
-    for sched, label in [("round-robin", "round robin, K = 1"), ("priority", "motion priority, K = 1")]:
-        r = [x for x in rows(f"{folder}/moving_{sched}_stats.csv") if x["error"]]
+    for name, label in [
+        ("single", "box alone, K = 1"),
+        ("round-robin", "box + 4 objects, round robin K = 1"),
+        ("priority", "box + 4 objects, motion priority K = 1"),
+    ]:
+        r = [x for x in rows(f"{folder}/moving_{name}_stats.csv") if x["error"]]
         ax.plot([int(x["frame"]) for x in r], [100 * float(x["error"]) for x in r], label=label)
     ax.axvline(60, color="grey", ls=":", lw=1)
     ax.text(61, ax.get_ylim()[1] * 0.9, "light changes colour", fontsize=8, color="grey")
