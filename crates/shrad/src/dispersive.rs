@@ -231,9 +231,17 @@ struct ObjectProbes {
     cost_ms: f64,
     /// Its current contribution to the boundary: (patch, irradiance).
     to_boundary: Vec<(u32, Vec3)>,
+    /// Where each probe sits on the line from the box centre to its corner (1: the corner);
+    /// repaired probes keep their place until the object moves.
+    probe_scale: [f32; 8],
 }
 
 impl ObjectProbes {
+    /// Probe `c`'s position in the object frame (its corner, or moved inward if repaired).
+    fn probe_local(&self, c: usize) -> Vec3 {
+        let centre = self.centre_local();
+        centre + (self.corner_local(c) - centre) * self.probe_scale[c]
+    }
     fn corner_local(&self, c: usize) -> Vec3 {
         let s = Vec3::new((c & 1) as f32, ((c >> 1) & 1) as f32, ((c >> 2) & 1) as f32);
         self.lo + (self.hi - self.lo) * s
@@ -316,6 +324,7 @@ impl Dispersive {
                 disturbed: 1.0,
                 cost_ms: 0.0,
                 to_boundary: Vec::new(),
+                probe_scale: [1.0; 8],
             });
         }
         let boundary_patches: Vec<u32> = (0..p.len() as u32)
@@ -453,6 +462,8 @@ impl Dispersive {
         for ob in &mut self.objects {
             if changes.moved.contains(&ob.object) {
                 ob.disturbed = ob.disturbed.max(4.0);
+                // Its surroundings changed: probes go back to the corners and are re-checked.
+                ob.probe_scale = [1.0; 8];
                 continue;
             }
             if lights_changed {
@@ -686,7 +697,8 @@ impl Dispersive {
             let ob = &self.objects[k];
             let o = ob.object;
             let m = p.world_from_object[o];
-            let probes = self.capture_corner_probes(world, k, m, stats);
+            let (probes, scale) = self.capture_corner_probes(world, k, m, stats);
+            self.objects[k].probe_scale = scale;
             // Interpolate to each patch and dot with its clamped-cosine lobe (world normal).
             let range = p.range(o);
             let ob = &self.objects[k];
@@ -735,7 +747,7 @@ impl Dispersive {
         k: usize,
         m: Affine3A,
         stats: &mut FrameStats,
-    ) -> Vec<Option<ShRgb>> {
+    ) -> (Vec<Option<ShRgb>>, [f32; 8]) {
         let ob = &self.objects[k];
         let o = ob.object as u32;
         let exclude: Vec<u32> = if self.options.see_through_self {
@@ -744,12 +756,13 @@ impl Dispersive {
             vec![]
         };
         let points: Vec<Vec3> = (0..8)
-            .map(|c| m.transform_point3(ob.corner_local(c)))
+            .map(|c| m.transform_point3(ob.probe_local(c)))
             .collect();
         let shade = |h: &Hit| self.shade_probe_texel(world, h, o);
         let captured = self.camera.capture(world, &points, &exclude, shade);
         let limit = self.options.invalid_back_fraction;
         let mut out: Vec<Option<ShRgb>> = captured.sh.into_iter().map(Some).collect();
+        let mut scale = ob.probe_scale;
         for c in 0..8 {
             if captured.back_fraction[c] <= limit {
                 continue;
@@ -761,11 +774,15 @@ impl Dispersive {
                 ProbeRepair::MoveInward => {
                     out[c] = None;
                     let centre = ob.centre_local();
-                    for s in [0.8f32, 0.6, 0.4, 0.2] {
+                    for s in [0.8f32, 0.6, 0.4, 0.2]
+                        .into_iter()
+                        .filter(|&s| s < scale[c])
+                    {
                         let q = m.transform_point3(centre + (ob.corner_local(c) - centre) * s);
                         let again = self.camera.capture(world, &[q], &exclude, shade);
                         if again.back_fraction[0] <= limit {
                             out[c] = again.sh.into_iter().next();
+                            scale[c] = s;
                             stats.probes_repaired += 1;
                             break;
                         }
@@ -773,7 +790,7 @@ impl Dispersive {
                 }
             }
         }
-        out
+        (out, scale)
     }
 
     /// Radiance a probe texel of object `o` sees (paper 2.3.3: its own texels are 0).
