@@ -197,6 +197,10 @@ struct DispersiveArgs {
     /// How objects send light to the boundary [paper: splat, default: gather].
     #[arg(long, value_enum)]
     to_boundary: Option<ToBoundaryArg>,
+    /// Rays per interior patch detecting faces in contact with other surfaces [paper: 0,
+    /// default: 8].
+    #[arg(long)]
+    contact_rays: Option<u32>,
     /// Probe box margin as a fraction of the box diagonal [paper: 0, default: 0.01].
     #[arg(long)]
     probe_margin: Option<f32>,
@@ -325,6 +329,12 @@ impl DispersiveArgs {
                 ToBoundaryArg::Splat => ToBoundary::Splat,
                 ToBoundaryArg::Gather => ToBoundary::Gather,
             };
+        }
+        if let Some(c) = self.contact_rays {
+            if c > 4096 {
+                bail!("--contact-rays must be at most 4096, got {c}");
+            }
+            o.contact_rays = c;
         }
         if let Some(m) = self.probe_margin {
             if !(0.0..=1.0).contains(&m) {

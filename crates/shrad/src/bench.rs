@@ -285,7 +285,8 @@ pub struct Record {
     pub table: Table,
     /// Patches of the scene.
     pub patches: usize,
-    /// Patches of the largest interior object.
+    /// Patches of the grown object (Table 3 scenes) or of the largest interior object
+    /// (Tables 1-2).
     pub largest_object_patches: usize,
     /// Interior objects.
     pub interior_objects: usize,
@@ -448,11 +449,15 @@ pub fn run_solver(
     let interior: Vec<usize> = (0..p.object_role.len())
         .filter(|&o| p.object_role[o] == Role::Interior)
         .collect();
-    let largest = interior
-        .iter()
-        .map(|&o| p.range(o).len())
-        .max()
-        .unwrap_or(0);
+    // Table 3: the grown object (the first interior one); else the largest.
+    let largest = match spec.table {
+        Table::BigObject => interior.first().map_or(0, |&o| p.range(o).len()),
+        Table::Scaling => interior
+            .iter()
+            .map(|&o| p.range(o).len())
+            .max()
+            .unwrap_or(0),
+    };
     let n_obj = interior.len().max(1);
     let same_frames = if options.same_frames > 0 {
         options.same_frames

@@ -109,6 +109,9 @@ pub struct DispersiveOptions {
     pub direct_samples: u32,
     /// Step 3 method.
     pub to_boundary: ToBoundary,
+    /// Rays per interior patch that detect faces in contact with other surfaces (0: off,
+    /// the paper). See `Dispersive::contact_openness`.
+    pub contact_rays: u32,
 }
 
 impl DispersiveOptions {
@@ -128,6 +131,7 @@ impl DispersiveOptions {
             direct_on_interior: false,
             direct_samples: 16,
             to_boundary: ToBoundary::Splat,
+            contact_rays: 0,
         }
     }
 
@@ -145,6 +149,7 @@ impl DispersiveOptions {
             see_through_self: true,
             direct_on_interior: true,
             to_boundary: ToBoundary::Gather,
+            contact_rays: 8,
             ..Self::paper()
         }
     }
@@ -722,7 +727,13 @@ impl Dispersive {
                     (l.dot(&lobe[..nc]) / sum_w).max(Vec3::ZERO)
                 })
                 .collect();
-            for (i, e) in range.clone().zip(e) {
+            let openness = if self.options.contact_rays > 0 {
+                self.contact_openness(world, k)
+            } else {
+                vec![1.0; range.len()]
+            };
+            for ((i, e), v) in range.clone().zip(e).zip(openness) {
+                let e = e * v;
                 self.probe_irradiance[i] = e;
                 let direct = if self.options.direct_on_interior {
                     self.direct[i]
@@ -738,6 +749,46 @@ impl Dispersive {
             stats.objects_updated.push(o);
         }
         batch.0
+    }
+
+    /// Per patch of object `k`, the (cosine-weighted) fraction of its hemisphere that is not
+    /// closed off right in front of it: rays start just *inside* the surface (the object
+    /// itself transparent) and look for anything within 2 % of the object's box diagonal.
+    /// A face resting on the floor gets 0 — the probes, a box-size apart, cannot see that
+    /// contact and would light it with the floor's radiance.
+    fn contact_openness(&self, world: &World, k: usize) -> Vec<f32> {
+        let p = &world.patches;
+        let ob = &self.objects[k];
+        let o = ob.object;
+        let m = p.world_from_object[o];
+        let reach = 0.02 * m.transform_vector3(ob.hi - ob.lo).length();
+        let rays = self.options.contact_rays as usize;
+        let range = p.range(o);
+        let mut origins = vec![Vec3::ZERO; range.len() * rays];
+        let mut dirs = vec![Vec3::ZERO; range.len() * rays];
+        origins
+            .par_chunks_mut(rays)
+            .zip(dirs.par_chunks_mut(rays))
+            .enumerate()
+            .for_each(|(k, (org, dir))| {
+                let i = range.start + k;
+                let n = p.normal[i];
+                let shift = (crate::sampling::unit(crate::sampling::hash(i as u32)), 0.5);
+                for j in 0..rays {
+                    let (u, v) = crate::sampling::hammersley(j as u32, rays as u32, shift);
+                    org[j] = p.centre[i] - n * world.eps;
+                    dir[j] = crate::sampling::square_to_cosine_hemisphere(u, v, n);
+                }
+            });
+        let mut hits = vec![Hit::MISS; origins.len()];
+        world
+            .vis
+            .closest(&origins, &dirs, 0.0, &[o as u32], &mut hits);
+        hits.chunks(rays)
+            .map(|h| {
+                h.iter().filter(|h| !(h.is_hit() && h.t <= reach)).count() as f32 / rays as f32
+            })
+            .collect()
     }
 
     /// Capture the 8 probes of object `k`; `None` for a probe dropped as invalid.
