@@ -38,7 +38,11 @@ fn corners_of_first_object(world: &World) -> Vec<Vec3> {
         hi = hi.max(p.centre[i]);
     }
     let pad = 0.01 * (hi - lo).length();
-    let (lo, hi) = (lo - pad, hi + pad);
+    // Keep the probes above the floor (objects stand on it): below it rays escape.
+    let (lo, hi) = (
+        (lo - pad).max(Vec3::new(f32::MIN, 0.05, f32::MIN)),
+        hi + pad,
+    );
     (0..8)
         .map(|c| {
             let s = Vec3::new((c & 1) as f32, ((c >> 1) & 1) as f32, ((c >> 2) & 1) as f32);
