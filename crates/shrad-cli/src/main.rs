@@ -201,6 +201,10 @@ struct DispersiveArgs {
     /// default: 8].
     #[arg(long)]
     contact_rays: Option<u32>,
+    /// Step 3 with one emitter per face direction instead of one at the centre [paper:
+    /// false, default: true].
+    #[arg(long)]
+    emitter_per_face: Option<bool>,
     /// Probe box margin as a fraction of the box diagonal [paper: 0, default: 0.01].
     #[arg(long)]
     probe_margin: Option<f32>,
@@ -329,6 +333,9 @@ impl DispersiveArgs {
                 ToBoundaryArg::Splat => ToBoundary::Splat,
                 ToBoundaryArg::Gather => ToBoundary::Gather,
             };
+        }
+        if let Some(e) = self.emitter_per_face {
+            o.emitter_per_face = e;
         }
         if let Some(c) = self.contact_rays {
             if c > 4096 {

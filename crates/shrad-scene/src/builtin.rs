@@ -16,7 +16,10 @@ pub fn builtin(name: &str) -> Result<Scene, SceneError> {
         "room" => Ok(room(&RoomParams::default())),
         _ => Err(SceneError::invalid(
             format!("builtin:{name}"),
-            format!("no built-in scene '{name}' (known: {})", builtin_names().join(", ")),
+            format!(
+                "no built-in scene '{name}' (known: {})",
+                builtin_names().join(", ")
+            ),
         )),
     }
 }
@@ -37,7 +40,13 @@ pub(crate) fn box_mesh(half: Vec3, inward: bool) -> Mesh {
     for axis in 0..3 {
         for sign in [-1.0f32, 1.0] {
             let n = Vec3::from_array(std::array::from_fn(|i| if i == axis { sign } else { 0.0 }));
-            let u = Vec3::from_array(std::array::from_fn(|i| if i == (axis + 1) % 3 { 1.0 } else { 0.0 }));
+            let u = Vec3::from_array(std::array::from_fn(|i| {
+                if i == (axis + 1) % 3 {
+                    1.0
+                } else {
+                    0.0
+                }
+            }));
             let v = n.cross(u);
             let c = n * half;
             let hu = u * half;
@@ -61,7 +70,13 @@ pub(crate) fn sphere_mesh(r: f32, segments: u32) -> Mesh {
         let theta = std::f32::consts::PI * i as f32 / rings as f32;
         for j in 0..segments {
             let phi = std::f32::consts::TAU * j as f32 / segments as f32;
-            positions.push(r * Vec3::new(theta.sin() * phi.cos(), theta.cos(), -theta.sin() * phi.sin()));
+            positions.push(
+                r * Vec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.cos(),
+                    -theta.sin() * phi.sin(),
+                ),
+            );
         }
     }
     positions.push(Vec3::new(0.0, -r, 0.0));
@@ -74,12 +89,20 @@ pub(crate) fn sphere_mesh(r: f32, segments: u32) -> Mesh {
     }
     for i in 1..rings - 1 {
         for j in 0..segments {
-            let (a, b, c, d) = (ring(i, j), ring(i, j + 1), ring(i + 1, j + 1), ring(i + 1, j));
+            let (a, b, c, d) = (
+                ring(i, j),
+                ring(i, j + 1),
+                ring(i + 1, j + 1),
+                ring(i + 1, j),
+            );
             triangles.push([a, d, c]);
             triangles.push([a, c, b]);
         }
     }
-    Mesh { positions, triangles }
+    Mesh {
+        positions,
+        triangles,
+    }
 }
 
 fn object(name: &str, mesh: Mesh, material: Material, role: Role) -> Object {
@@ -127,34 +150,77 @@ pub fn cornell_box() -> Scene {
     let v = Vec3::new;
     let white = Material::diffuse(WHITE);
     let mut objects = vec![
-        object("floor", quad([v(0., 0., 0.), v(0., 0., d), v(w, 0., d), v(w, 0., 0.)]), white, Role::Boundary),
-        object("ceiling", quad([v(0., h, 0.), v(w, h, 0.), v(w, h, d), v(0., h, d)]), white, Role::Boundary),
-        object("back", quad([v(0., 0., d), v(0., h, d), v(w, h, d), v(w, 0., d)]), white, Role::Boundary),
-        object("left_red", quad([v(w, 0., 0.), v(w, 0., d), v(w, h, d), v(w, h, 0.)]), Material::diffuse(RED), Role::Boundary),
-        object("right_green", quad([v(0., 0., 0.), v(0., h, 0.), v(0., h, d), v(0., 0., d)]), Material::diffuse(GREEN), Role::Boundary),
+        object(
+            "floor",
+            quad([v(0., 0., 0.), v(0., 0., d), v(w, 0., d), v(w, 0., 0.)]),
+            white,
+            Role::Boundary,
+        ),
+        object(
+            "ceiling",
+            quad([v(0., h, 0.), v(w, h, 0.), v(w, h, d), v(0., h, d)]),
+            white,
+            Role::Boundary,
+        ),
+        object(
+            "back",
+            quad([v(0., 0., d), v(0., h, d), v(w, h, d), v(w, 0., d)]),
+            white,
+            Role::Boundary,
+        ),
+        object(
+            "left_red",
+            quad([v(w, 0., 0.), v(w, 0., d), v(w, h, d), v(w, h, 0.)]),
+            Material::diffuse(RED),
+            Role::Boundary,
+        ),
+        object(
+            "right_green",
+            quad([v(0., 0., 0.), v(0., h, 0.), v(0., h, d), v(0., 0., d)]),
+            Material::diffuse(GREEN),
+            Role::Boundary,
+        ),
     ];
     let light_y = h - 0.5;
     let mut light = Material::diffuse(Vec3::ZERO);
     light.emitted_radiance = LIGHT;
     objects.push(object(
         "light",
-        quad([v(213., light_y, 227.), v(343., light_y, 227.), v(343., light_y, 332.), v(213., light_y, 332.)]),
+        quad([
+            v(213., light_y, 227.),
+            v(343., light_y, 227.),
+            v(343., light_y, 332.),
+            v(213., light_y, 332.),
+        ]),
         light,
         Role::Light,
     ));
-    let (short_mesh, short_xf) = cornell_block([[290., 114.], [130., 65.], [82., 225.], [240., 272.]], 165.0);
+    let (short_mesh, short_xf) = cornell_block(
+        [[290., 114.], [130., 65.], [82., 225.], [240., 272.]],
+        165.0,
+    );
     let mut short = object("short_block", short_mesh, white, Role::Interior);
     short.world_from_object = short_xf;
-    let (tall_mesh, tall_xf) = cornell_block([[472., 406.], [423., 247.], [265., 296.], [314., 456.]], 330.0);
+    let (tall_mesh, tall_xf) = cornell_block(
+        [[472., 406.], [423., 247.], [265., 296.], [314., 456.]],
+        330.0,
+    );
     let mut tall = object("tall_block", tall_mesh, white, Role::Interior);
     tall.world_from_object = tall_xf;
     objects.push(short);
     objects.push(tall);
-    let camera = Camera::look_at(v(278., 273., -800.), v(278., 273., 0.), 39.3077f32.to_radians());
+    let camera = Camera::look_at(
+        v(278., 273., -800.),
+        v(278., 273., 0.),
+        39.3077f32.to_radians(),
+    );
     Scene {
         source: "builtin:cornell".into(),
         objects,
-        camera: Some(Camera { aspect_ratio: Some(1.0), ..camera }),
+        camera: Some(Camera {
+            aspect_ratio: Some(1.0),
+            ..camera
+        }),
         settings: Default::default(),
         warnings: Vec::new(),
     }
@@ -189,14 +255,40 @@ pub fn room(params: &RoomParams) -> Scene {
     let size = Vec3::new(8.0, 3.0, 6.0);
     let v = Vec3::new;
     let (w, h, d) = (size.x, size.y, size.z);
-    let wall = |name: &str, p: [Vec3; 4], rho: Vec3| object(name, quad(p), Material::diffuse(rho), Role::Boundary);
+    let wall = |name: &str, p: [Vec3; 4], rho: Vec3| {
+        object(name, quad(p), Material::diffuse(rho), Role::Boundary)
+    };
     let mut objects = vec![
-        wall("floor", [v(0., 0., 0.), v(0., 0., d), v(w, 0., d), v(w, 0., 0.)], v(0.6, 0.55, 0.5)),
-        wall("ceiling", [v(0., h, 0.), v(w, h, 0.), v(w, h, d), v(0., h, d)], v(0.8, 0.8, 0.8)),
-        wall("back", [v(0., 0., d), v(0., h, d), v(w, h, d), v(w, 0., d)], v(0.7, 0.7, 0.7)),
-        wall("front", [v(0., 0., 0.), v(w, 0., 0.), v(w, h, 0.), v(0., h, 0.)], v(0.7, 0.7, 0.7)),
-        wall("left", [v(w, 0., 0.), v(w, 0., d), v(w, h, d), v(w, h, 0.)], v(0.7, 0.2, 0.15)),
-        wall("right", [v(0., 0., 0.), v(0., h, 0.), v(0., h, d), v(0., 0., d)], v(0.15, 0.5, 0.2)),
+        wall(
+            "floor",
+            [v(0., 0., 0.), v(0., 0., d), v(w, 0., d), v(w, 0., 0.)],
+            v(0.6, 0.55, 0.5),
+        ),
+        wall(
+            "ceiling",
+            [v(0., h, 0.), v(w, h, 0.), v(w, h, d), v(0., h, d)],
+            v(0.8, 0.8, 0.8),
+        ),
+        wall(
+            "back",
+            [v(0., 0., d), v(0., h, d), v(w, h, d), v(w, 0., d)],
+            v(0.7, 0.7, 0.7),
+        ),
+        wall(
+            "front",
+            [v(0., 0., 0.), v(w, 0., 0.), v(w, h, 0.), v(0., h, 0.)],
+            v(0.7, 0.7, 0.7),
+        ),
+        wall(
+            "left",
+            [v(w, 0., 0.), v(w, 0., d), v(w, h, d), v(w, h, 0.)],
+            v(0.7, 0.2, 0.15),
+        ),
+        wall(
+            "right",
+            [v(0., 0., 0.), v(0., h, 0.), v(0., h, d), v(0., 0., d)],
+            v(0.15, 0.5, 0.2),
+        ),
     ];
     let (lx, lz, ls) = (0.5 * w, 0.5 * d, 0.7f32);
     let ly = h - 0.01;
@@ -204,7 +296,12 @@ pub fn room(params: &RoomParams) -> Scene {
     light.emitted_radiance = Vec3::splat(8.0);
     objects.push(object(
         "light",
-        quad([v(lx - ls, ly, lz - ls), v(lx + ls, ly, lz - ls), v(lx + ls, ly, lz + ls), v(lx - ls, ly, lz + ls)]),
+        quad([
+            v(lx - ls, ly, lz - ls),
+            v(lx + ls, ly, lz - ls),
+            v(lx + ls, ly, lz + ls),
+            v(lx - ls, ly, lz + ls),
+        ]),
         light,
         Role::Light,
     ));
@@ -230,14 +327,26 @@ pub fn room(params: &RoomParams) -> Scene {
         let s = (0.22 * cell).min(0.45) * (0.8 + 0.4 * ((i * 7 % 5) as f32 / 4.0));
         let material = Material::diffuse(palette[i % palette.len()]);
         let o = if i % 3 == 2 {
-            let mut o = object(&format!("sphere_{i}"), sphere_mesh(s, 24), material, Role::Interior);
+            let mut o = object(
+                &format!("sphere_{i}"),
+                sphere_mesh(s, 24),
+                material,
+                Role::Interior,
+            );
             o.world_from_object = Affine3A::from_translation(v(x, s, z));
             o
         } else {
             let half = v(s, s * (1.0 + 0.6 * (i % 2) as f32), s * 0.8);
-            let mut o = object(&format!("box_{i}"), box_mesh(half, false), material, Role::Interior);
-            o.world_from_object =
-                Affine3A::from_rotation_translation(Quat::from_rotation_y(0.3 * i as f32), v(x, half.y, z));
+            let mut o = object(
+                &format!("box_{i}"),
+                box_mesh(half, false),
+                material,
+                Role::Interior,
+            );
+            o.world_from_object = Affine3A::from_rotation_translation(
+                Quat::from_rotation_y(0.3 * i as f32),
+                v(x, half.y, z),
+            );
             o
         };
         objects.push(o);
@@ -245,13 +354,21 @@ pub fn room(params: &RoomParams) -> Scene {
     let mut scene = Scene {
         source: "builtin:room".into(),
         objects,
-        camera: Some(Camera::look_at(v(0.25, 2.7, 0.25), v(5.2, 0.4, 4.4), 65f32.to_radians())),
+        camera: Some(Camera::look_at(
+            v(0.25, 2.7, 0.25),
+            v(5.2, 0.4, 4.4),
+            65f32.to_radians(),
+        )),
         settings: Default::default(),
         warnings: Vec::new(),
     };
     scene.settings.patches = Some(params.patches);
     if let Some(big) = params.big_object_patches {
-        if let Some(o) = scene.objects.iter_mut().find(|o| o.role == Some(Role::Interior)) {
+        if let Some(o) = scene
+            .objects
+            .iter_mut()
+            .find(|o| o.role == Some(Role::Interior))
+        {
             o.patch_size = Some((o.mesh.area() / big.max(1) as f32).sqrt());
         }
     }
@@ -266,7 +383,10 @@ mod tests {
     fn boxes_are_closed_with_outward_normals() {
         let m = box_mesh(Vec3::new(1.0, 2.0, 3.0), false);
         assert_eq!(m.triangles.len(), 12);
-        assert!((m.area() - 2.0 * (4.0 * 6.0 + 4.0 * 12.0 + 4.0 * 12.0) / 2.0 * 2.0 / 2.0).abs() < 1e-3 || m.area() > 0.0);
+        assert!(
+            (m.area() - 2.0 * (4.0 * 6.0 + 4.0 * 12.0 + 4.0 * 12.0) / 2.0 * 2.0 / 2.0).abs() < 1e-3
+                || m.area() > 0.0
+        );
         // Divergence theorem: the signed volume of a closed outward mesh is its volume.
         let vol: f32 = m
             .triangles
@@ -285,7 +405,10 @@ mod tests {
         let short = s.objects.iter().find(|o| o.name == "short_block").unwrap();
         let (lo, hi) = short.world_bounds().unwrap();
         assert!((lo.y).abs() < 1e-3 && (hi.y - 165.0).abs() < 1e-3);
-        assert!((lo.x - 82.0).abs() < 3.0 && (hi.x - 290.0).abs() < 3.0, "{lo} {hi}");
+        assert!(
+            (lo.x - 82.0).abs() < 3.0 && (hi.x - 290.0).abs() < 3.0,
+            "{lo} {hi}"
+        );
     }
 
     #[test]

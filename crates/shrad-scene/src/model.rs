@@ -297,7 +297,11 @@ impl Camera {
     /// A camera at `eye` looking at `target`, with +Y up.
     pub fn look_at(eye: Vec3, target: Vec3, yfov: f32) -> Self {
         let forward = (target - eye).normalize();
-        let up = if forward.y.abs() > 0.999 { Vec3::Z } else { Vec3::Y };
+        let up = if forward.y.abs() > 0.999 {
+            Vec3::Z
+        } else {
+            Vec3::Y
+        };
         let right = forward.cross(up).normalize();
         let true_up = right.cross(forward);
         let rot = glam::Mat3::from_cols(right, true_up, -forward);
@@ -376,9 +380,11 @@ impl Scene {
     pub fn has_emitter(&self) -> bool {
         self.objects.iter().any(|o| {
             o.material.is_emissive()
-                || o.animation
-                    .as_ref()
-                    .is_some_and(|a| a.emission.iter().any(|k| k.emitted_radiance.max_element() > 0.0))
+                || o.animation.as_ref().is_some_and(|a| {
+                    a.emission
+                        .iter()
+                        .any(|k| k.emitted_radiance.max_element() > 0.0)
+                })
         })
     }
 
@@ -398,7 +404,12 @@ impl Scene {
                 ));
             }
             let n = o.mesh.positions.len() as u32;
-            if let Some(t) = o.mesh.triangles.iter().position(|t| t.iter().any(|&i| i >= n)) {
+            if let Some(t) = o
+                .mesh
+                .triangles
+                .iter()
+                .position(|t| t.iter().any(|&i| i >= n))
+            {
                 return Err(SceneError::invalid(
                     path,
                     format!(
@@ -408,8 +419,13 @@ impl Scene {
                 ));
             }
             let m = o.world_from_object;
-            if !(m.matrix3.is_finite() && m.translation.is_finite()) || m.matrix3.determinant().abs() < 1e-12 {
-                return Err(SceneError::invalid(path, format!("{who}: transform is not finite or is singular")));
+            if !(m.matrix3.is_finite() && m.translation.is_finite())
+                || m.matrix3.determinant().abs() < 1e-12
+            {
+                return Err(SceneError::invalid(
+                    path,
+                    format!("{who}: transform is not finite or is singular"),
+                ));
             }
             let r = o.material.reflectance;
             if !r.is_finite() || r.min_element() < 0.0 || r.max_element() >= 1.0 {
@@ -420,12 +436,17 @@ impl Scene {
             }
             let e = o.material.emitted_radiance;
             if !e.is_finite() || e.min_element() < 0.0 {
-                return Err(SceneError::invalid(path, format!("{who}: emitted radiance {e} must be finite and >= 0")));
+                return Err(SceneError::invalid(
+                    path,
+                    format!("{who}: emitted radiance {e} must be finite and >= 0"),
+                ));
             }
             let scale = o.mesh.bounds().map_or(0.0, |(lo, hi)| (hi - lo).length());
             let eps = 1e-10 * scale * scale;
             let degenerate: Vec<usize> = (0..o.mesh.triangles.len())
-                .filter(|&t| o.mesh.triangle_area(t).partial_cmp(&eps) != Some(std::cmp::Ordering::Greater))
+                .filter(|&t| {
+                    o.mesh.triangle_area(t).partial_cmp(&eps) != Some(std::cmp::Ordering::Greater)
+                })
                 .collect();
             if !degenerate.is_empty() {
                 if !drop_degenerate {
@@ -439,7 +460,10 @@ impl Scene {
                         ),
                     ));
                 }
-                self.warnings.push(format!("{who}: dropped {} zero-area triangle(s)", degenerate.len()));
+                self.warnings.push(format!(
+                    "{who}: dropped {} zero-area triangle(s)",
+                    degenerate.len()
+                ));
                 let mut k = 0;
                 o.mesh.triangles.retain(|_| {
                     let keep = degenerate.binary_search(&k).is_err();
@@ -448,7 +472,10 @@ impl Scene {
                 });
             }
             if o.mesh.triangles.is_empty() {
-                return Err(SceneError::invalid(path, format!("{who}: has no triangles")));
+                return Err(SceneError::invalid(
+                    path,
+                    format!("{who}: has no triangles"),
+                ));
             }
         }
         if !self.has_emitter() {

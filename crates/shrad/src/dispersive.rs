@@ -112,6 +112,11 @@ pub struct DispersiveOptions {
     /// Rays per interior patch that detect faces in contact with other surfaces (0: off,
     /// the paper). See `Dispersive::contact_openness`.
     pub contact_rays: u32,
+    /// Step 3 with one SH emitter per face direction of the object (its patches grouped by
+    /// the dominant axis of their rest-frame normal, each emitter at its group's centroid,
+    /// lobes along the normals) instead of one at the centre: the floor beside a box is lit
+    /// by the box's near face, not by a point in its middle.
+    pub emitter_per_face: bool,
 }
 
 impl DispersiveOptions {
@@ -132,6 +137,7 @@ impl DispersiveOptions {
             direct_samples: 16,
             to_boundary: ToBoundary::Splat,
             contact_rays: 0,
+            emitter_per_face: false,
         }
     }
 
@@ -150,6 +156,7 @@ impl DispersiveOptions {
             direct_on_interior: true,
             to_boundary: ToBoundary::Gather,
             contact_rays: 8,
+            emitter_per_face: true,
             ..Self::paper()
         }
     }
@@ -239,6 +246,8 @@ struct ObjectProbes {
     /// Where each probe sits on the line from the box centre to its corner (1: the corner);
     /// repaired probes keep their place until the object moves.
     probe_scale: [f32; 8],
+    /// Step 3 emitters: (centre in the object frame, offsets of its patches in the range).
+    emitters: Vec<(Vec3, Vec<u32>)>,
 }
 
 impl ObjectProbes {
@@ -330,6 +339,7 @@ impl Dispersive {
                 cost_ms: 0.0,
                 to_boundary: Vec::new(),
                 probe_scale: [1.0; 8],
+                emitters: emitter_groups(p, o, centre, options.emitter_per_face),
             });
         }
         let boundary_patches: Vec<u32> = (0..p.len() as u32)
@@ -881,26 +891,55 @@ impl Dispersive {
             let ob = &self.objects[k];
             let o = ob.object;
             let m = p.world_from_object[o];
-            let centre = m.transform_point3(ob.centre_local());
-            // Outgoing intensity in SH: sum_i (rho_i E_i) A_i / pi * A_l Y_k(d_i).
-            let mut intensity = vec![Vec3::ZERO; nc];
-            let mut basis = [0f32; 64];
-            for i in p.range(o) {
-                let reflected = self.radiosity[i] - world.exitance[i];
-                let d = m
-                    .transform_vector3(ob.exit_local[i - p.range(o).start])
-                    .normalize_or_zero();
-                eval_basis(bands, d, &mut basis[..nc]);
-                let scale = reflected * p.area[i] * std::f32::consts::FRAC_1_PI;
-                for c in 0..nc {
-                    intensity[c] += scale * (cosine_lobe(shrad_sh::band_of(c)) * basis[c]);
+            let range = p.range(o);
+            let mut contribution: Vec<(u32, Vec3)> = Vec::new();
+            for (centre_local, members) in &ob.emitters {
+                let centre = m.transform_point3(*centre_local);
+                // Outgoing intensity in SH: sum_i (rho_i E_i) A_i / pi * A_l Y_k(d_i).
+                let mut intensity = vec![Vec3::ZERO; nc];
+                let mut basis = [0f32; 64];
+                for &k in members {
+                    let i = range.start + k as usize;
+                    let reflected = self.radiosity[i] - world.exitance[i];
+                    let local = if self.options.emitter_per_face {
+                        p.normal_local[i]
+                    } else {
+                        ob.exit_local[k as usize]
+                    };
+                    let d = m.transform_vector3(local).normalize_or_zero();
+                    eval_basis(bands, d, &mut basis[..nc]);
+                    let scale = reflected * p.area[i] * std::f32::consts::FRAC_1_PI;
+                    for c in 0..nc {
+                        intensity[c] += scale * (cosine_lobe(shrad_sh::band_of(c)) * basis[c]);
+                    }
                 }
+                let intensity = ShRgb::from_coeffs(intensity);
+                contribution.extend(match self.options.to_boundary {
+                    ToBoundary::Splat => self.splat(world, o, centre, &intensity),
+                    ToBoundary::Gather => {
+                        let soften = if self.options.emitter_per_face {
+                            members
+                                .iter()
+                                .map(|&k| p.area[range.start + k as usize])
+                                .sum::<f32>()
+                                * std::f32::consts::FRAC_1_PI
+                        } else {
+                            0.0
+                        };
+                        self.gather(world, o, centre, &intensity, soften)
+                    }
+                });
             }
-            let intensity = ShRgb::from_coeffs(intensity);
-            let contribution = match self.options.to_boundary {
-                ToBoundary::Splat => self.splat(world, o, centre, &intensity),
-                ToBoundary::Gather => self.gather(world, o, centre, &intensity),
-            };
+            // One entry per patch.
+            contribution.sort_unstable_by_key(|e| e.0);
+            contribution.dedup_by(|later, kept| {
+                if later.0 == kept.0 {
+                    kept.1 += later.1;
+                    true
+                } else {
+                    false
+                }
+            });
             // Replace the object's previous contribution (paper: "只更新当前物体对它的影响").
             for &(j, e) in &self.objects[k].to_boundary {
                 self.indirect[j as usize] -= e;
@@ -940,7 +979,17 @@ impl Dispersive {
     }
 
     /// Point-emitter gather: `E_j = I(w_j) cos_j / r^2`, one shadow ray per boundary patch.
-    fn gather(&self, world: &World, o: usize, centre: Vec3, intensity: &ShRgb) -> Vec<(u32, Vec3)> {
+    ///
+    /// `soften` (an area / pi) regularises `1 / r^2` near an extended emitter, as for a disc:
+    /// `cos / (r^2 + soften)` (on a disc's axis this is exact).
+    fn gather(
+        &self,
+        world: &World,
+        o: usize,
+        centre: Vec3,
+        intensity: &ShRgb,
+        soften: f32,
+    ) -> Vec<(u32, Vec3)> {
         let p = &world.patches;
         let recv = &self.boundary_patches;
         let from: Vec<Vec3> = recv
@@ -965,7 +1014,7 @@ impl Dispersive {
                 if cos <= 0.0 {
                     return None;
                 }
-                let e = intensity.eval(-towards_object).max(Vec3::ZERO) * (cos / r2);
+                let e = intensity.eval(-towards_object).max(Vec3::ZERO) * (cos / (r2 + soften));
                 (e.max_element() > 0.0).then_some((j, e))
             })
             .collect()
@@ -1042,6 +1091,35 @@ impl Dispersive {
             })
             .collect()
     }
+}
+
+/// The Step 3 emitters of object `o`: one at the box centre with every patch (the paper), or
+/// one per dominant normal axis (±x, ±y, ±z of the rest frame) at the area-weighted
+/// centroid of its patches.
+fn emitter_groups(
+    p: &crate::Patches,
+    o: usize,
+    box_centre: Vec3,
+    per_face: bool,
+) -> Vec<(Vec3, Vec<u32>)> {
+    let range = p.range(o);
+    if !per_face {
+        return vec![(box_centre, (0..range.len() as u32).collect())];
+    }
+    let mut groups: Vec<(Vec3, f32, Vec<u32>)> = vec![(Vec3::ZERO, 0.0, Vec::new()); 6];
+    for (k, i) in range.enumerate() {
+        let n = p.normal_local[i];
+        let axis = n.abs().max_position();
+        let g = 2 * axis + usize::from(n[axis] < 0.0);
+        groups[g].0 += p.centre_local[i] * p.area[i];
+        groups[g].1 += p.area[i];
+        groups[g].2.push(k as u32);
+    }
+    groups
+        .into_iter()
+        .filter(|g| g.1 > 0.0)
+        .map(|(sum, area, members)| (sum / area, members))
+        .collect()
 }
 
 /// World bounding box of object `o` (its rest-frame mesh box, transformed).
