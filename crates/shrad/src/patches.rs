@@ -199,7 +199,7 @@ impl Patches {
 
     fn update_world(&mut self, o: usize) {
         let m = self.world_from_object[o];
-        let normal_matrix = glam::Mat3A::from(m.matrix3).inverse().transpose();
+        let normal_matrix = m.matrix3.inverse().transpose();
         for p in self.range(o) {
             self.centre[p] = m.transform_point3(self.centre_local[p]);
             self.normal[p] = (normal_matrix * glam::Vec3A::from(self.normal_local[p]))
