@@ -435,7 +435,8 @@ impl Dispersive {
         stats.to_boundary_ms = ms(t);
 
         let t = Instant::now();
-        self.assemble(world);
+        let sweeps = if changes.relit.is_empty() { 1 } else { 8 };
+        self.assemble(world, sweeps);
         stats.assemble_ms = ms(t);
 
         stats.frame_ms = ms(frame_start);
@@ -1021,28 +1022,36 @@ impl Dispersive {
     }
 
     /// Step 4 (paper 2.3.5): boundary radiosity from direct, object and wall light.
-    fn assemble(&mut self, world: &World) {
+    ///
+    /// The boundary's own exchange takes one Jacobi sweep per frame, or `sweeps` when the
+    /// light changed (the walls then converge in one frame instead of lagging for several;
+    /// a sweep is one sparse product, cheap next to Step 2).
+    fn assemble(&mut self, world: &World, sweeps: usize) {
         let p = &world.patches;
-        if let Some(rows) = &self.wall_rows {
-            // One Jacobi sweep of the boundary's own exchange per frame.
-            let radiosity = &self.radiosity;
-            let exitance = &world.exitance;
-            let wall: Vec<Vec3> = rows
-                .par_iter()
-                .map(|row| {
-                    row.iter()
-                        .map(|&(k, f)| (radiosity[k as usize] - exitance[k as usize]) * f)
-                        .sum()
-                })
-                .collect();
-            for (&j, w) in self.boundary_patches.iter().zip(wall) {
-                self.wall[j as usize] = w;
+        for _ in 0..sweeps.max(1) {
+            if let Some(rows) = &self.wall_rows {
+                let radiosity = &self.radiosity;
+                let exitance = &world.exitance;
+                let wall: Vec<Vec3> = rows
+                    .par_iter()
+                    .map(|row| {
+                        row.iter()
+                            .map(|&(k, f)| (radiosity[k as usize] - exitance[k as usize]) * f)
+                            .sum()
+                    })
+                    .collect();
+                for (&j, w) in self.boundary_patches.iter().zip(wall) {
+                    self.wall[j as usize] = w;
+                }
             }
-        }
-        for &j in &self.boundary_patches {
-            let j = j as usize;
-            self.radiosity[j] = world.exitance[j]
-                + world.reflectance[j] * (self.direct[j] + self.indirect[j] + self.wall[j]);
+            for &j in &self.boundary_patches {
+                let j = j as usize;
+                self.radiosity[j] = world.exitance[j]
+                    + world.reflectance[j] * (self.direct[j] + self.indirect[j] + self.wall[j]);
+            }
+            if self.wall_rows.is_none() {
+                break;
+            }
         }
         for (o, role) in p.object_role.iter().enumerate() {
             if *role == Role::Light {
