@@ -156,6 +156,8 @@ enum ToBoundaryArg {
     Splat,
     /// Per-patch gather with a shadow ray.
     Gather,
+    /// Gather on small boundaries, splat on large ones (bounded cost).
+    Auto,
 }
 
 /// Settings of the dispersive solver; unset ones come from --preset.
@@ -194,7 +196,7 @@ struct DispersiveArgs {
     /// Direct light on interior patches computed explicitly [paper: false, default: true].
     #[arg(long)]
     direct_interior: Option<bool>,
-    /// How objects send light to the boundary [paper: splat, default: gather].
+    /// How objects send light to the boundary [paper: splat, default: auto].
     #[arg(long, value_enum)]
     to_boundary: Option<ToBoundaryArg>,
     /// Rays per interior patch detecting faces in contact with other surfaces [paper: 0,
@@ -332,6 +334,7 @@ impl DispersiveArgs {
             o.to_boundary = match t {
                 ToBoundaryArg::Splat => ToBoundary::Splat,
                 ToBoundaryArg::Gather => ToBoundary::Gather,
+                ToBoundaryArg::Auto => ToBoundary::Auto,
             };
         }
         if let Some(e) = self.emitter_per_face {

@@ -77,6 +77,9 @@ pub enum ToBoundary {
     /// Evaluate the SH intensity towards every boundary patch, with one shadow ray each:
     /// the same point emitter without the cube map's aliasing.
     Gather,
+    /// Gather while the boundary has fewer patches than twice a cube map's texels, else
+    /// splat: the cost of Step 3 then stays bounded however large the scene grows.
+    Auto,
 }
 
 /// Settings of the dispersive solver. See [`DispersiveOptions::paper`] and
@@ -154,7 +157,7 @@ impl DispersiveOptions {
             wall_exchange: true,
             see_through_self: true,
             direct_on_interior: true,
-            to_boundary: ToBoundary::Gather,
+            to_boundary: ToBoundary::Auto,
             contact_rays: 8,
             emitter_per_face: true,
             ..Self::paper()
@@ -915,8 +918,17 @@ impl Dispersive {
                     }
                 }
                 let intensity = ShRgb::from_coeffs(intensity);
-                contribution.extend(match self.options.to_boundary {
-                    ToBoundary::Splat => self.splat(world, o, centre, &intensity),
+                let method = match self.options.to_boundary {
+                    ToBoundary::Auto if self.boundary_patches.len() > 2 * self.camera.texels() => {
+                        ToBoundary::Splat
+                    }
+                    ToBoundary::Auto => ToBoundary::Gather,
+                    m => m,
+                };
+                contribution.extend(match method {
+                    ToBoundary::Splat | ToBoundary::Auto => {
+                        self.splat(world, o, centre, &intensity)
+                    }
                     ToBoundary::Gather => {
                         let soften = if self.options.emitter_per_face {
                             members
