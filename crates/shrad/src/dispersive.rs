@@ -1014,7 +1014,11 @@ impl Dispersive {
         world
             .vis
             .occluded(&from, &to, world.eps, &[o as u32], &mut blocked);
-        recv.par_iter()
+        // Irradiance with the softened and the plain 1 / r^2; the softened one is rescaled
+        // to the plain one's total flux, so softening moves light but neither adds nor
+        // loses any.
+        let both: Vec<(u32, Vec3, f32, f32)> = recv
+            .par_iter()
             .zip(blocked.par_iter())
             .filter_map(|(&j, &b)| {
                 if b {
@@ -1027,9 +1031,26 @@ impl Dispersive {
                 if cos <= 0.0 {
                     return None;
                 }
-                let e = intensity.eval(-towards_object).max(Vec3::ZERO) * (cos / (r2 + soften));
-                (e.max_element() > 0.0).then_some((j, e))
+                let e = intensity.eval(-towards_object).max(Vec3::ZERO) * cos;
+                let a = p.area[j as usize];
+                (e.max_element() > 0.0).then_some((
+                    j,
+                    e / (r2 + soften),
+                    a * e.element_sum() / r2,
+                    a * e.element_sum() / (r2 + soften),
+                ))
             })
+            .collect();
+        let (plain, softened) = both
+            .iter()
+            .fold((0f64, 0f64), |(x, y), e| (x + e.2 as f64, y + e.3 as f64));
+        let scale = if softened > 0.0 {
+            (plain / softened) as f32
+        } else {
+            1.0
+        };
+        both.into_iter()
+            .map(|(j, e, _, _)| (j, e * scale))
             .collect()
     }
 
