@@ -3,11 +3,9 @@
 //! progress bar over the whole run.
 
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
 use shrad::bench::{BenchOptions, BenchReport, Record, Table};
 
 /// Options of `shrad bench`.
@@ -26,53 +24,6 @@ pub struct BenchArgs {
     /// Only these scenes (comma-separated names, e.g. room-12k,big-18.5k-280).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
-}
-
-/// One bar over the whole run; log lines print above it.
-#[derive(Default)]
-struct RunBar {
-    bar: Mutex<Option<ProgressBar>>,
-}
-
-impl RunBar {
-    fn println(&self, line: &str) {
-        match self.bar.lock().ok().as_deref().and_then(|b| b.clone()) {
-            Some(b) if !b.is_hidden() => b.println(line),
-            _ => eprintln!("{line}"),
-        }
-    }
-}
-
-impl shrad::Progress for RunBar {
-    fn begin(&self, label: &str, total: u64) {
-        let bar = ProgressBar::new(total);
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{msg} [{bar:40}] {pos}/{len} steps ({elapsed}, eta {eta})",
-            )
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-        );
-        bar.set_message(label.to_string());
-        bar.enable_steady_tick(std::time::Duration::from_millis(500));
-        if let Ok(mut b) = self.bar.lock() {
-            *b = Some(bar);
-        }
-    }
-    fn advance(&self, n: u64) {
-        if let Ok(b) = self.bar.lock() {
-            if let Some(b) = b.as_ref() {
-                b.inc(n);
-            }
-        }
-    }
-    fn end(&self) {
-        if let Ok(mut b) = self.bar.lock() {
-            if let Some(b) = b.take() {
-                b.finish_and_clear();
-            }
-        }
-    }
 }
 
 /// Run the benchmark.
@@ -109,7 +60,9 @@ pub fn cmd_bench(args: BenchArgs) -> Result<()> {
         options.dispersive_warmup_passes,
         options.dispersive_timed_passes
     );
-    let bar = RunBar::default();
+    let bar = crate::progress::Bars::with_template(
+        "{msg} [{bar:40}] {pos}/{len} steps ({elapsed}, eta {eta})",
+    );
     let report = shrad::bench::run(&options, &bar, &|line| bar.println(line))?;
     write(
         &args.out.join("results.json"),
