@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates the figures and raw numbers behind docs/results.md (about 15 minutes on
-# 2 cores). Usage: docs/make_figures.sh [static|moving|timing|all]
+# 2 cores). Usage: docs/make_figures.sh [reference|static|moving|timing|all]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 what=${1:-all}
@@ -18,6 +18,15 @@ fi
 PY=docs/.venv/bin/python
 
 errline() { sed -n 's/^error vs reference (spec 8): overall \(.*\) %, boundary \(.*\) %, interior \(.*\) %$/\1,\2,\3/p'; }
+
+if [ "$what" = reference ] || [ "$what" = all ]; then
+  # The reference solver's convergence, time and peak memory (GNU time's maximum RSS).
+  for job in "cornell 20000" "room 100000"; do
+    set -- $job
+    /usr/bin/time -f "wall %e s, peak RSS %M KiB" $S render "$1" --patches "$2" \
+      -o "$F/reference_$1_$2.png" --width 320 --height 320 --spp 4 > "$F/reference_$1_$2.txt" 2>&1
+  done
+fi
 
 if [ "$what" = static ] || [ "$what" = all ]; then
   # Static scenes after convergence: reference, shrad default, --preset paper (same exposure).
