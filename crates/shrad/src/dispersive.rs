@@ -970,21 +970,30 @@ impl Dispersive {
     fn splat(&self, world: &World, o: usize, centre: Vec3, intensity: &ShRgb) -> Vec<(u32, Vec3)> {
         let p = &world.patches;
         let cube = &self.camera.cube;
-        let n = cube.directions.len();
-        let mut hits = vec![Hit::MISS; n];
+        // Only texels the emitter sends light into are traced: a face emitter's lobe is zero
+        // over the half of the sphere behind it.
+        let flux: Vec<(usize, Vec3)> = (0..cube.directions.len())
+            .into_par_iter()
+            .filter_map(|t| {
+                let f = intensity.eval(cube.directions[t]).max(Vec3::ZERO) * cube.solid_angles[t];
+                (f.max_element() > 0.0).then_some((t, f))
+            })
+            .collect();
+        let dirs: Vec<Vec3> = flux.iter().map(|&(t, _)| cube.directions[t]).collect();
+        let mut hits = vec![Hit::MISS; dirs.len()];
+        // Still in texel order, so the capture's ray packets stay coherent.
         world
             .vis
-            .capture(&[centre], &cube.directions, 0.0, &[o as u32], &mut hits);
+            .capture(&[centre], &dirs, 0.0, &[o as u32], &mut hits);
         let mut acc: std::collections::HashMap<u32, Vec3> = std::collections::HashMap::new();
-        for t in 0..n {
-            let Some(j) = world.seen_patch(&hits[t]) else {
+        for (h, &(_, f)) in hits.iter().zip(&flux) {
+            let Some(j) = world.seen_patch(h) else {
                 continue;
             };
             if p.role(j) != Role::Boundary {
                 continue;
             }
-            let flux = intensity.eval(cube.directions[t]).max(Vec3::ZERO) * cube.solid_angles[t];
-            *acc.entry(j as u32).or_insert(Vec3::ZERO) += flux / p.area[j];
+            *acc.entry(j as u32).or_insert(Vec3::ZERO) += f / p.area[j];
         }
         let mut v: Vec<(u32, Vec3)> = acc.into_iter().collect();
         v.sort_unstable_by_key(|e| e.0);
