@@ -77,8 +77,9 @@ pub enum ToBoundary {
     /// Evaluate the SH intensity towards every boundary patch, with one shadow ray each:
     /// the same point emitter without the cube map's aliasing.
     Gather,
-    /// Gather while the boundary has fewer patches than twice a cube map's texels, else
-    /// splat: the cost of Step 3 then stays bounded however large the scene grows.
+    /// Gather while the boundary has fewer patches than twice a cube map's texels (and at
+    /// least up to 32k patches), else splat: the cost of Step 3 then stays bounded however
+    /// large the scene grows.
     Auto,
 }
 
@@ -919,7 +920,12 @@ impl Dispersive {
                 }
                 let intensity = ShRgb::from_coeffs(intensity);
                 let method = match self.options.to_boundary {
-                    ToBoundary::Auto if self.boundary_patches.len() > 2 * self.camera.texels() => {
+                    // Gather up to 32k boundary patches even when the cube map is coarse:
+                    // a 32^2 splat aliases badly (docs/results.md, ablation).
+                    ToBoundary::Auto
+                        if self.boundary_patches.len()
+                            > (2 * self.camera.texels()).max(1 << 15) =>
+                    {
                         ToBoundary::Splat
                     }
                     ToBoundary::Auto => ToBoundary::Gather,
