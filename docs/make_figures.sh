@@ -62,18 +62,18 @@ paper (all off)|--preset paper
 + see through self|--preset paper --probe-margin 0.01 --repair move --wall-exchange true --see-through-self true
 + direct on interior|--preset paper --probe-margin 0.01 --repair move --wall-exchange true --see-through-self true --direct-interior true
 + contact openness|--preset paper --probe-margin 0.01 --repair move --wall-exchange true --see-through-self true --direct-interior true --contact-rays 8
-+ emitter per face, gather (all on, R 128, round robin)|--preset paper --probe-margin 0.01 --repair move --wall-exchange true --see-through-self true --direct-interior true --contact-rays 8 --emitter-per-face true --to-boundary auto
-default (R 64, priority)|
-default, repair drop|--repair drop
-default, no repair|--repair none
-default, no wall exchange|--wall-exchange false
-default, own texels black|--see-through-self false
-default, no contact openness|--contact-rays 0
-default, one emitter at the centre|--emitter-per-face false
-default, splat|--to-boundary splat
-default, 9 coefficients|--bands 3
-default, R 128|--cube-res 128
-default, R 32|--cube-res 32
++ emitter per face and gather (all on; R 128; round robin)|--preset paper --probe-margin 0.01 --repair move --wall-exchange true --see-through-self true --direct-interior true --contact-rays 8 --emitter-per-face true --to-boundary auto
+default (R 64; priority)|
+default: repair drop|--repair drop
+default: no repair|--repair none
+default: no wall exchange|--wall-exchange false
+default: own texels black|--see-through-self false
+default: no contact openness|--contact-rays 0
+default: one emitter at the centre|--emitter-per-face false
+default: splat|--to-boundary splat
+default: 9 coefficients|--bands 3
+default: R 128|--cube-res 128
+default: R 32|--cube-res 32
 VARIANTS
 fi
 
