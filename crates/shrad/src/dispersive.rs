@@ -30,6 +30,10 @@ use crate::probes::{ProbeCamera, Seen};
 use crate::reference::{form_factor_rows, patch_rays};
 use crate::{NoProgress, World};
 
+/// Wall-exchange rows refreshed per frame (Step 4): at most this many, so a frame's cost does
+/// not grow with the boundary beyond it (a 1M-patch room takes ~13 frames per full sweep).
+pub const WALL_ROWS_PER_FRAME: usize = 1 << 16;
+
 /// Which objects a frame updates (spec 4.3).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Schedule {
@@ -292,6 +296,8 @@ pub struct Dispersive {
     object_boxes: Vec<(Vec3, Vec3)>,
     /// Wall-exchange rows waiting to be re-traced.
     wall_dirty: Vec<bool>,
+    /// Where the next frame's window of wall-exchange rows starts.
+    wall_cursor: usize,
     direct_valid: bool,
     frame: u64,
     round_robin_next: usize,
@@ -378,6 +384,7 @@ impl Dispersive {
             wall: vec![Vec3::ZERO; n],
             wall_rows,
             wall_dirty: vec![false; boundary_patches.len()],
+            wall_cursor: 0,
             boundary_patches,
             object_boxes,
             direct_valid: false,
@@ -1071,25 +1078,36 @@ impl Dispersive {
 
     /// Step 4 (paper 2.3.5): boundary radiosity from direct, object and wall light.
     ///
-    /// The boundary's own exchange takes one Jacobi sweep per frame, or `sweeps` when the
-    /// light changed (the walls then converge in one frame instead of lagging for several;
-    /// a sweep is one sparse product, cheap next to Step 2).
+    /// The boundary's own exchange takes one Jacobi sweep per frame over at most
+    /// [`WALL_ROWS_PER_FRAME`] rows (a window that moves round the boundary, so the cost of a
+    /// frame stays bounded on large scenes: the dispersive idea applied to the walls), or
+    /// `sweeps` full sweeps when the light changed (the walls then converge in that frame).
     fn assemble(&mut self, world: &World, sweeps: usize) {
         let p = &world.patches;
+        let n = self.boundary_patches.len();
         for _ in 0..sweeps.max(1) {
             if let Some(rows) = &self.wall_rows {
+                let window = if sweeps > 1 {
+                    n
+                } else {
+                    n.min(WALL_ROWS_PER_FRAME)
+                };
+                let start = self.wall_cursor % n.max(1);
+                let ks: Vec<usize> = (0..window).map(|k| (start + k) % n).collect();
+                self.wall_cursor = (start + window) % n.max(1);
                 let radiosity = &self.radiosity;
                 let exitance = &world.exitance;
-                let wall: Vec<Vec3> = rows
+                let wall: Vec<Vec3> = ks
                     .par_iter()
-                    .map(|row| {
-                        row.iter()
-                            .map(|&(k, f)| (radiosity[k as usize] - exitance[k as usize]) * f)
+                    .map(|&k| {
+                        rows[k]
+                            .iter()
+                            .map(|&(j, f)| (radiosity[j as usize] - exitance[j as usize]) * f)
                             .sum()
                     })
                     .collect();
-                for (&j, w) in self.boundary_patches.iter().zip(wall) {
-                    self.wall[j as usize] = w;
+                for (&k, w) in ks.iter().zip(wall) {
+                    self.wall[self.boundary_patches[k] as usize] = w;
                 }
             }
             for &j in &self.boundary_patches {
