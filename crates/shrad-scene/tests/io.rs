@@ -100,7 +100,16 @@ fn err_of(r: Result<Scene, SceneError>) -> String {
             "expected an error, got a scene of {} objects",
             s.objects.len()
         ),
-        Err(e) => e.to_string(),
+        // What a user reads: the error and its causes, as the CLI prints them.
+        Err(e) => {
+            let mut msg = e.to_string();
+            let mut cause = std::error::Error::source(&e);
+            while let Some(c) = cause {
+                msg = format!("{msg}: {c}");
+                cause = c.source();
+            }
+            msg
+        }
     }
 }
 
