@@ -832,23 +832,35 @@ fn cmd_animate(args: AnimateArgs) -> Result<()> {
         std::fs::write(tmp, &extra).map_err(|e| e.to_string())
     })?;
     let mp4 = args.output.join("animation.mp4");
-    let ffmpeg = std::process::Command::new("ffmpeg")
-        .args(["-loglevel", "error", "-y", "-framerate"])
-        .arg(format!("{}", args.fps))
-        .arg("-i")
-        .arg(args.output.join("frame_%04d.png"))
-        .args([
-            "-pix_fmt",
-            "yuv420p",
-            "-vf",
-            "pad=ceil(iw/2)*2:ceil(ih/2)*2",
-        ])
-        .arg(&mp4)
-        .status();
+    // MP4 through ffmpeg when it is installed, written aside and renamed like every output.
+    let frames_pattern = args.output.join("frame_%04d.png");
+    let ffmpeg = shrad::image_io::write_atomic(&mp4, |tmp| {
+        let status = std::process::Command::new("ffmpeg")
+            .args(["-loglevel", "error", "-y", "-framerate"])
+            .arg(format!("{}", args.fps))
+            .arg("-i")
+            .arg(&frames_pattern)
+            .args([
+                "-pix_fmt",
+                "yuv420p",
+                "-vf",
+                "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+            ])
+            .arg(tmp)
+            .status()
+            .map_err(|e| e.to_string())?;
+        if status.success() {
+            Ok(())
+        } else {
+            Err(format!("ffmpeg failed ({status})"))
+        }
+    });
     if !quiet {
         match ffmpeg {
-            Ok(s) if s.success() => eprintln!("wrote {}", mp4.display()),
-            _ => eprintln!("ffmpeg not available: no MP4 (the GIF and PNG frames are there)"),
+            Ok(()) => eprintln!("wrote {}", mp4.display()),
+            Err(e) => {
+                eprintln!("no MP4 ({e}; is ffmpeg installed?): the GIF and PNG frames are there")
+            }
         }
         eprintln!(
             "wrote {} frames, animation.gif and stats.csv to {}",
