@@ -207,6 +207,10 @@ struct DispersiveArgs {
     /// false, default: true].
     #[arg(long)]
     emitter_per_face: Option<bool>,
+    /// Rays per interior patch for transfer vectors with self-visibility (concave objects
+    /// shadow and light themselves) [paper: 0, default: 64].
+    #[arg(long)]
+    self_shadow_rays: Option<u32>,
     /// Probe box margin as a fraction of the box diagonal [paper: 0, default: 0.01].
     #[arg(long)]
     probe_margin: Option<f32>,
@@ -336,6 +340,12 @@ impl DispersiveArgs {
                 ToBoundaryArg::Gather => ToBoundary::Gather,
                 ToBoundaryArg::Auto => ToBoundary::Auto,
             };
+        }
+        if let Some(r) = self.self_shadow_rays {
+            if r > 65536 {
+                bail!("--self-shadow-rays must be at most 65536, got {r}");
+            }
+            o.self_shadow_rays = r;
         }
         if let Some(e) = self.emitter_per_face {
             o.emitter_per_face = e;

@@ -125,6 +125,12 @@ pub struct DispersiveOptions {
     /// lobes along the normals) instead of one at the centre: the floor beside a box is lit
     /// by the box's near face, not by a point in its middle.
     pub emitter_per_face: bool,
+    /// Rays per interior patch for a precomputed transfer vector with self-visibility (the
+    /// precomputed radiance transfer the paper cites): irradiance is the probe SH dotted
+    /// with `T_i = ∫ V_self(w) max(0, n.w) Y(w) dw`, so a concave object shadows itself
+    /// although its probes see through it, plus the light of the object's own patches seen
+    /// in the blocked directions (self form factors). 0: the plain clamped-cosine lobe.
+    pub self_shadow_rays: u32,
 }
 
 impl DispersiveOptions {
@@ -146,6 +152,7 @@ impl DispersiveOptions {
             to_boundary: ToBoundary::Splat,
             contact_rays: 0,
             emitter_per_face: false,
+            self_shadow_rays: 0,
         }
     }
 
@@ -165,6 +172,7 @@ impl DispersiveOptions {
             to_boundary: ToBoundary::Auto,
             contact_rays: 8,
             emitter_per_face: true,
+            self_shadow_rays: 64,
             ..Self::paper()
         }
     }
@@ -256,6 +264,12 @@ struct ObjectProbes {
     probe_scale: [f32; 8],
     /// Step 3 emitters: (centre in the object frame, offsets of its patches in the range).
     emitters: Vec<(Vec3, Vec<u32>)>,
+    /// Per patch transfer vectors with self-visibility in the object frame (empty when off),
+    /// `num_coeffs` floats each.
+    transfer: Vec<f32>,
+    /// Per patch, the object's own patches its blocked directions see, with their form
+    /// factors: the light the object sends itself, which the transfer vector leaves out.
+    self_view: Vec<Vec<(u32, f32)>>,
 }
 
 impl ObjectProbes {
@@ -350,7 +364,13 @@ impl Dispersive {
                 to_boundary: Vec::new(),
                 probe_scale: [1.0; 8],
                 emitters: emitter_groups(p, o, centre, options.emitter_per_face),
+                transfer: Vec::new(),
+                self_view: Vec::new(),
             });
+        }
+        for ob in &mut objects {
+            (ob.transfer, ob.self_view) =
+                self_transfer(world, ob.object, options.bands, options.self_shadow_rays);
         }
         let boundary_patches: Vec<u32> = (0..p.len() as u32)
             .filter(|&i| p.role(i as usize) == Role::Boundary)
@@ -729,6 +749,8 @@ impl Dispersive {
             // Interpolate to each patch and dot with its clamped-cosine lobe (world normal).
             let range = p.range(o);
             let ob = &self.objects[k];
+            let (_, rotation, _) = m.to_scale_rotation_translation();
+            let to_local = shrad_sh::ShRotation::from_quat(bands, rotation.inverse());
             let e: Vec<Vec3> = range
                 .clone()
                 .into_par_iter()
@@ -743,6 +765,22 @@ impl Dispersive {
                     }
                     if sum_w <= 0.0 {
                         return Vec3::ZERO;
+                    }
+                    if !ob.transfer.is_empty() {
+                        // Object frame: probes rotated into it, dotted with the transfer.
+                        let k = i - range.start;
+                        let mut local = ShRgb::zeros(bands);
+                        to_local.rotate_rgb(&l, &mut local);
+                        let own: Vec3 = ob.self_view[k]
+                            .iter()
+                            .map(|&(q, f)| {
+                                let q = range.start + q as usize;
+                                (self.radiosity[q] - world.exitance[q]) * f
+                            })
+                            .sum();
+                        return (local.dot(&ob.transfer[k * nc..(k + 1) * nc]) / sum_w)
+                            .max(Vec3::ZERO)
+                            + own;
                     }
                     let mut lobe = [0f32; 64];
                     cosine_lobe_sh(bands, p.normal[i], &mut lobe[..nc]);
@@ -1197,6 +1235,74 @@ fn emitter_groups(
         .collect()
 }
 
+/// Transfer vectors with self-visibility of object `o`'s patches, in the object frame:
+/// `T_i = (pi / M) sum_j V_self(w_j) Y(w_j)` over `M` cosine-distributed directions (the
+/// pdf `cos / pi` turns the cosine-weighted integral into this mean). Rays are cast in the
+/// world at rest with every other object transparent, so only the object itself occludes.
+fn self_transfer(
+    world: &World,
+    o: usize,
+    bands: usize,
+    rays: u32,
+) -> (Vec<f32>, Vec<Vec<(u32, f32)>>) {
+    if rays == 0 {
+        return (Vec::new(), Vec::new());
+    }
+    let p = &world.patches;
+    let nc = num_coeffs(bands);
+    let rays = rays as usize;
+    let others: Vec<u32> = (0..p.object_role.len() as u32)
+        .filter(|&x| x as usize != o)
+        .collect();
+    let m = p.world_from_object[o];
+    let range = p.range(o);
+    let mut origins = vec![Vec3::ZERO; range.len() * rays];
+    let mut dirs_world = vec![Vec3::ZERO; range.len() * rays];
+    let mut dirs_local = vec![Vec3::ZERO; range.len() * rays];
+    for (k, i) in range.clone().enumerate() {
+        let shift = (
+            crate::sampling::unit(crate::sampling::hash(i as u32 ^ 0x5eed)),
+            0.25,
+        );
+        for j in 0..rays {
+            let (u, v) = crate::sampling::hammersley(j as u32, rays as u32, shift);
+            let local = crate::sampling::square_to_cosine_hemisphere(u, v, p.normal_local[i]);
+            dirs_local[k * rays + j] = local;
+            dirs_world[k * rays + j] = m.transform_vector3(local).normalize_or_zero();
+            origins[k * rays + j] = p.centre[i] + p.normal[i] * world.eps;
+        }
+    }
+    let mut hits = vec![Hit::MISS; origins.len()];
+    world
+        .vis
+        .closest(&origins, &dirs_world, 0.0, &others, &mut hits);
+    let mut transfer = vec![0f32; range.len() * nc];
+    let mut basis = [0f32; 64];
+    let w = std::f32::consts::PI / rays as f32;
+    let mut self_view = vec![Vec::new(); range.len()];
+    for (k, t) in transfer.chunks_mut(nc).enumerate() {
+        for j in 0..rays {
+            let h = &hits[k * rays + j];
+            if h.is_hit() {
+                if let Some(q) = world.seen_patch(h) {
+                    let row: &mut Vec<(u32, f32)> = &mut self_view[k];
+                    let q = (q - range.start) as u32;
+                    match row.iter_mut().find(|e| e.0 == q) {
+                        Some(e) => e.1 += 1.0 / rays as f32,
+                        None => row.push((q, 1.0 / rays as f32)),
+                    }
+                }
+                continue;
+            }
+            eval_basis(bands, dirs_local[k * rays + j], &mut basis[..nc]);
+            for c in 0..nc {
+                t[c] += w * basis[c];
+            }
+        }
+    }
+    (transfer, self_view)
+}
+
 /// World bounding box of object `o` (its rest-frame mesh box, transformed).
 fn world_box(world: &World, o: usize) -> (Vec3, Vec3) {
     let m = world.patches.world_from_object[o];
@@ -1418,6 +1524,39 @@ mod tests {
         let e = stats.last().unwrap().energy;
         let gap = (e.absorbed - e.emitted).abs() / e.emitted;
         assert!(gap < 0.05, "{e:?}");
+    }
+
+    /// For a convex object the transfer vector is the clamped-cosine lobe and nothing of the
+    /// object sees itself.
+    #[test]
+    fn transfer_of_a_convex_object_is_the_cosine_lobe() {
+        let world = World::new(
+            shrad_scene::cornell_box(),
+            PatchSizing::Count(2000),
+            Backend::Auto,
+        )
+        .unwrap();
+        let short = world
+            .scene
+            .objects
+            .iter()
+            .position(|o| o.name == "short_block")
+            .unwrap();
+        let (transfer, self_view) = self_transfer(&world, short, 3, 4096);
+        let nc = num_coeffs(3);
+        for (k, i) in world.patches.range(short).enumerate() {
+            let mut lobe = [0f32; 9];
+            cosine_lobe_sh(3, world.patches.normal_local[i], &mut lobe);
+            for c in 0..nc {
+                assert!(
+                    (transfer[k * nc + c] - lobe[c]).abs() < 0.02,
+                    "coefficient {c}: {} vs {}",
+                    transfer[k * nc + c],
+                    lobe[c]
+                );
+            }
+            assert!(self_view[k].is_empty());
+        }
     }
 
     /// The default against the reference on the Cornell box (docs/results.md has the full
