@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates the figures and raw numbers behind docs/results.md (about 15 minutes on
-# 2 cores). Usage: docs/make_figures.sh [reference|static|moving|timing|all]
+# 2 cores). Usage: docs/make_figures.sh [reference|static|concave|moving|timing|all]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 what=${1:-all}
@@ -74,6 +74,22 @@ default: splat|--to-boundary splat
 default: 9 coefficients|--bands 3
 default: R 128|--cube-res 128
 default: R 32|--cube-res 32
+VARIANTS
+fi
+
+if [ "$what" = concave ] || [ "$what" = all ]; then
+  # Self-occlusion on a concave object (an L-shaped block): see-through probes with the plain
+  # cosine lobe, with transfer vectors, and the paper's black own texels.
+  echo "variant,overall_pct,boundary_pct,interior_pct" > "$F/concave.csv"
+  while IFS='|' read -r label flags; do
+    # shellcheck disable=SC2086
+    out=$($S render scenes/concave.toml --patches 10000 --solver dispersive --compare -q -o /tmp/shrad_concave.png $flags 2>&1)
+    echo "$label,$(echo "$out" | errline)" >> "$F/concave.csv"
+  done <<'VARIANTS'
+default (transfer vectors: 64 rays)|
+default without transfer vectors|--self-shadow-rays 0
+default: own texels black instead of see-through|--see-through-self false --self-shadow-rays 0
+paper|--preset paper
 VARIANTS
 fi
 
