@@ -78,6 +78,19 @@ impl ShProjector {
         &self.weights
     }
 
+    /// The SH function `sh` at texel `t` times the texel's solid angle,
+    /// `Σ_k sh_k Y_k(ω_t) dω_t` (e.g. an intensity in SH becomes the flux
+    /// through the texel): a dot product with the stored weights, no basis
+    /// evaluation.
+    ///
+    /// # Panics
+    /// If `t >= texels()`.
+    #[inline]
+    pub fn texel_value(&self, sh: &ShRgb, t: usize) -> Vec3 {
+        let n = self.num_coeffs();
+        sh.dot(&self.weights[t * n..(t + 1) * n])
+    }
+
     /// Projects per-texel radiance (`radiance.len() == texels()`, cube-map
     /// layout) to SH.
     ///
@@ -260,6 +273,12 @@ mod tests {
         let g = proj.project(&radiance);
         for k in 0..16 {
             assert!((g[k] - f[k]).abs().max_element() < 3e-3, "k={k}");
+        }
+        // Texel values are the function times the solid angle.
+        for t in (0..cube.len()).step_by(97) {
+            let want = f.eval(cube.directions[t]) * cube.solid_angles[t];
+            let got = proj.texel_value(&f, t);
+            assert!((got - want).abs().max_element() <= 1e-5 * want.abs().max_element().max(1e-3));
         }
         // Palette form.
         let palette = [Vec3::new(1.0, 2.0, 3.0), Vec3::new(0.5, 0.0, 0.0)];

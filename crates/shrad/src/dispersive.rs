@@ -300,6 +300,8 @@ pub struct Dispersive {
     probe_irradiance: Vec<Vec3>,
     /// Sum over objects of their contributions to each boundary patch.
     indirect: Vec<Vec3>,
+    /// One zero per patch: Step 3 sums its pieces here.
+    scratch: Vec<Vec3>,
     /// Irradiance of boundary patches from other boundary patches.
     wall: Vec<Vec3>,
     /// Form-factor rows among boundary patches (aligned with `boundary_patches`), if the
@@ -401,6 +403,7 @@ impl Dispersive {
             direct: vec![Vec3::ZERO; n],
             probe_irradiance: vec![Vec3::ZERO; n],
             indirect: vec![Vec3::ZERO; n],
+            scratch: vec![Vec3::ZERO; n],
             wall: vec![Vec3::ZERO; n],
             wall_rows,
             wall_dirty: vec![false; boundary_patches.len()],
@@ -462,7 +465,7 @@ impl Dispersive {
         stats.objects_ms = ms(t);
 
         let t = Instant::now();
-        stats.energy.object_emitters = self.objects_to_boundary(world, lit, &mut stats);
+        stats.energy.object_emitters = self.objects_to_boundary(world, lit);
         stats.to_boundary_ms = ms(t);
 
         let t = Instant::now();
@@ -927,12 +930,7 @@ impl Dispersive {
 
     /// Step 3 (paper 2.3.4): each lit object sends its reflected light to the boundary as one
     /// SH emitter at its centre, replacing its previous contribution. Returns the flux sent.
-    fn objects_to_boundary(
-        &mut self,
-        world: &World,
-        lit: Vec<usize>,
-        _stats: &mut FrameStats,
-    ) -> f64 {
+    fn objects_to_boundary(&mut self, world: &World, lit: Vec<usize>) -> f64 {
         let p = &world.patches;
         let bands = self.options.bands;
         let nc = num_coeffs(bands);
@@ -942,7 +940,8 @@ impl Dispersive {
             let o = ob.object;
             let m = p.world_from_object[o];
             let range = p.range(o);
-            let mut contribution: Vec<(u32, Vec3)> = Vec::new();
+            // Irradiance pieces (boundary patch, E), several per patch.
+            let mut pieces: Vec<(u32, Vec3)> = Vec::new();
             for (centre_local, members) in &ob.emitters {
                 let centre = m.transform_point3(*centre_local);
                 // Outgoing intensity in SH: sum_i (rho_i E_i) A_i / pi * A_l Y_k(d_i).
@@ -976,7 +975,7 @@ impl Dispersive {
                     ToBoundary::Auto => ToBoundary::Gather,
                     m => m,
                 };
-                contribution.extend(match method {
+                pieces.extend(match method {
                     ToBoundary::Splat | ToBoundary::Auto => {
                         self.splat(world, o, centre, &intensity)
                     }
@@ -994,16 +993,7 @@ impl Dispersive {
                     }
                 });
             }
-            // One entry per patch.
-            contribution.sort_unstable_by_key(|e| e.0);
-            contribution.dedup_by(|later, kept| {
-                if later.0 == kept.0 {
-                    kept.1 += later.1;
-                    true
-                } else {
-                    false
-                }
-            });
+            let contribution = sum_by_patch(&mut self.scratch, pieces);
             // Replace the object's previous contribution (paper: "只更新当前物体对它的影响").
             for &(j, e) in &self.objects[k].to_boundary {
                 self.indirect[j as usize] -= e;
@@ -1017,16 +1007,19 @@ impl Dispersive {
         flux_sent
     }
 
-    /// The paper's Step 3: a cube map at the centre, each texel's flux onto the patch it sees.
+    /// The paper's Step 3: a cube map at the centre, each texel's flux onto the patch it
+    /// sees. Returns one irradiance piece per texel that lands on the boundary.
     fn splat(&self, world: &World, o: usize, centre: Vec3, intensity: &ShRgb) -> Vec<(u32, Vec3)> {
         let p = &world.patches;
         let cube = &self.camera.cube;
+        let projector = &self.camera.projector;
         // Only texels the emitter sends light into are traced: a face emitter's lobe is zero
-        // over the half of the sphere behind it.
+        // over the half of the sphere behind it. (Flux through a texel: the intensity times
+        // the texel's solid angle, read off the projector's table without evaluating Y_k.)
         let flux: Vec<(usize, Vec3)> = (0..cube.directions.len())
             .into_par_iter()
             .filter_map(|t| {
-                let f = intensity.eval(cube.directions[t]).max(Vec3::ZERO) * cube.solid_angles[t];
+                let f = projector.texel_value(intensity, t).max(Vec3::ZERO);
                 (f.max_element() > 0.0).then_some((t, f))
             })
             .collect();
@@ -1036,22 +1029,17 @@ impl Dispersive {
         world
             .vis
             .capture(&[centre], &dirs, 0.0, &[o as u32], &mut hits);
-        let mut acc: std::collections::HashMap<u32, Vec3> = std::collections::HashMap::new();
-        for (h, &(_, f)) in hits.iter().zip(&flux) {
-            let Some(j) = world.seen_patch(h) else {
-                continue;
-            };
-            if p.role(j) != Role::Boundary {
-                continue;
-            }
-            *acc.entry(j as u32).or_insert(Vec3::ZERO) += f / p.area[j];
-        }
-        let mut v: Vec<(u32, Vec3)> = acc.into_iter().collect();
-        v.sort_unstable_by_key(|e| e.0);
-        v
+        hits.iter()
+            .zip(&flux)
+            .filter_map(|(h, &(_, f))| {
+                let j = world.seen_patch(h)?;
+                (p.role(j) == Role::Boundary).then(|| (j as u32, f / p.area[j]))
+            })
+            .collect()
     }
 
-    /// Point-emitter gather: `E_j = I(w_j) cos_j / r^2`, one shadow ray per boundary patch.
+    /// Point-emitter gather: `E_j = I(w_j) cos_j / r^2`, one shadow ray per boundary patch
+    /// the emitter sends light to.
     ///
     /// `soften` (an area / pi) regularises `1 / r^2` near an extended emitter, as for a disc:
     /// `cos / (r^2 + soften)` (on a disc's axis this is exact).
@@ -1064,26 +1052,13 @@ impl Dispersive {
         soften: f32,
     ) -> Vec<(u32, Vec3)> {
         let p = &world.patches;
-        let recv = &self.boundary_patches;
-        let from: Vec<Vec3> = recv
-            .iter()
-            .map(|&j| p.centre[j as usize] + p.normal[j as usize] * world.eps)
-            .collect();
-        let to = vec![centre; recv.len()];
-        let mut blocked = vec![false; recv.len()];
-        world
-            .vis
-            .occluded(&from, &to, world.eps, &[o as u32], &mut blocked);
-        // Irradiance with the softened and the plain 1 / r^2; the softened one is rescaled
-        // to the plain one's total flux, so softening moves light but neither adds nor
-        // loses any.
-        let both: Vec<(u32, Vec3, f32, f32)> = recv
+        // Unoccluded irradiance with the softened and the plain 1 / r^2; the softened one is
+        // rescaled to the plain one's total flux, so softening moves light but neither adds
+        // nor loses any. Patches facing away or behind the emitter's lobe get no ray.
+        let lit: Vec<(u32, Vec3, f32, f32)> = self
+            .boundary_patches
             .par_iter()
-            .zip(blocked.par_iter())
-            .filter_map(|(&j, &b)| {
-                if b {
-                    return None;
-                }
+            .filter_map(|&j| {
                 let d = centre - p.centre[j as usize];
                 let r2 = d.length_squared().max(1e-12);
                 let towards_object = d / r2.sqrt();
@@ -1101,16 +1076,31 @@ impl Dispersive {
                 ))
             })
             .collect();
-        let (plain, softened) = both
+        let from: Vec<Vec3> = lit
             .iter()
-            .fold((0f64, 0f64), |(x, y), e| (x + e.2 as f64, y + e.3 as f64));
+            .map(|&(j, ..)| p.centre[j as usize] + p.normal[j as usize] * world.eps)
+            .collect();
+        let to = vec![centre; lit.len()];
+        let mut blocked = vec![false; lit.len()];
+        world
+            .vis
+            .occluded(&from, &to, world.eps, &[o as u32], &mut blocked);
+        let (plain, softened) = lit
+            .iter()
+            .zip(&blocked)
+            .filter(|(_, &b)| !b)
+            .fold((0f64, 0f64), |(x, y), (e, _)| {
+                (x + e.2 as f64, y + e.3 as f64)
+            });
         let scale = if softened > 0.0 {
             (plain / softened) as f32
         } else {
             1.0
         };
-        both.into_iter()
-            .map(|(j, e, _, _)| (j, e * scale))
+        lit.into_iter()
+            .zip(blocked)
+            .filter(|(_, b)| !b)
+            .map(|((j, e, _, _), _)| (j, e * scale))
             .collect()
     }
 
@@ -1204,6 +1194,27 @@ impl Dispersive {
             })
             .collect()
     }
+}
+
+/// Sum irradiance pieces per patch: one entry per patch, in order of first appearance.
+/// `scratch` (one value per patch, all zero) is left all zero.
+fn sum_by_patch(scratch: &mut [Vec3], pieces: Vec<(u32, Vec3)>) -> Vec<(u32, Vec3)> {
+    let mut touched: Vec<u32> = Vec::new();
+    for (j, e) in pieces {
+        let s = &mut scratch[j as usize];
+        if *s == Vec3::ZERO {
+            touched.push(j);
+        }
+        *s += e;
+    }
+    // A patch whose pieces cancelled to exactly zero would be listed twice: drop repeats.
+    touched
+        .into_iter()
+        .filter_map(|j| {
+            let e = std::mem::take(&mut scratch[j as usize]);
+            (e != Vec3::ZERO).then_some((j, e))
+        })
+        .collect()
 }
 
 /// The Step 3 emitters of object `o`: one at the box centre with every patch (the paper), or
@@ -1428,8 +1439,7 @@ mod tests {
                 d.radiosity[i] = b;
                 reflected_flux += (b * p.area[i]).element_sum() as f64;
             }
-            let mut stats = FrameStats::default();
-            d.objects_to_boundary(&world, vec![0], &mut stats);
+            d.objects_to_boundary(&world, vec![0]);
             let received: f64 = d
                 .boundary_patches
                 .iter()
