@@ -166,9 +166,12 @@ struct DispersiveArgs {
     /// Starting point for the dispersive settings.
     #[arg(long, value_enum, default_value_t = PresetArg::Default)]
     preset: PresetArg,
-    /// Cube-map face resolution of probes [paper: 128, default: 64].
+    /// Cube-map face resolution of probes [paper: 128, default: 32].
     #[arg(long)]
     cube_res: Option<usize>,
+    /// Cube-map face resolution of the Step 3 splat from each object [paper: 128, default: 64].
+    #[arg(long)]
+    emitter_res: Option<usize>,
     /// SH bands, 1-8 [default: 4 = 16 coefficients].
     #[arg(long)]
     bands: Option<usize>,
@@ -285,6 +288,12 @@ impl DispersiveArgs {
                 bail!("--cube-res must be between 1 and 2048, got {r}");
             }
             o.cube_res = r;
+        }
+        if let Some(r) = self.emitter_res {
+            if !(1..=2048).contains(&r) {
+                bail!("--emitter-res must be between 1 and 2048, got {r}");
+            }
+            o.emitter_res = r;
         }
         if let Some(b) = self.bands {
             if !(1..=8).contains(&b) {

@@ -106,6 +106,11 @@ fn unknown_option_values_and_absurd_parameters() {
         &["--solver", "dispersive", "--bands", "12"],
         "--bands",
     );
+    fails_cleanly(
+        cornell,
+        &["--solver", "dispersive", "--emitter-res", "0"],
+        "--emitter-res",
+    );
     // clap rejects unknown values itself (exit code 2).
     let o = shrad(&["render", "cornell", "--solver", "magic"]);
     assert_eq!(o.status.code(), Some(2));

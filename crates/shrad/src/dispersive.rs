@@ -93,8 +93,14 @@ pub enum ToBoundary {
 pub struct DispersiveOptions {
     /// SH bands (paper: 4 = 16 coefficients).
     pub bands: usize,
-    /// Cube-map face resolution of probes (paper: 128).
+    /// Cube-map face resolution of probes (paper: 128). The probes carry 16 SH
+    /// coefficients of smooth, reflected light: 32 measured the same as 64 and 128 once
+    /// direct light on interior objects is computed apart (docs/results.md).
     pub cube_res: usize,
+    /// Cube-map face resolution of the Step 3 splat (paper: the probes' 128). The splat
+    /// lands texels on boundary patches, so it needs more texels than a probe: at 32 it
+    /// aliases visibly (docs/results.md, ablation).
+    pub emitter_res: usize,
     /// Probe box margin as a fraction of the box diagonal (0: the paper's exact box).
     pub probe_margin: f32,
     /// The scheduler.
@@ -140,6 +146,7 @@ impl DispersiveOptions {
         DispersiveOptions {
             bands: 4,
             cube_res: 128,
+            emitter_res: 128,
             probe_margin: 0.0,
             schedule: Schedule::RoundRobin { per_frame: 1 },
             invalid_back_fraction: 0.25,
@@ -159,7 +166,8 @@ impl DispersiveOptions {
     /// shrad's default: every improvement of spec 4.6 that measured better (docs/results.md).
     pub const fn improved() -> Self {
         DispersiveOptions {
-            cube_res: 64,
+            cube_res: 32,
+            emitter_res: 64,
             probe_margin: 0.01,
             schedule: Schedule::Priority {
                 per_frame: 1,
@@ -290,7 +298,10 @@ impl ObjectProbes {
 /// The dispersive solver's state.
 pub struct Dispersive {
     options: DispersiveOptions,
+    /// Step 2's probes.
     camera: ProbeCamera,
+    /// Step 3's splat from each emitter.
+    emitter_camera: ProbeCamera,
     objects: Vec<ObjectProbes>,
     /// Radiosity of every patch.
     radiosity: Vec<Vec3>,
@@ -325,6 +336,7 @@ impl Dispersive {
     pub fn new(world: &World, options: DispersiveOptions) -> Dispersive {
         let p = &world.patches;
         let camera = ProbeCamera::new(options.cube_res, options.bands);
+        let emitter_camera = ProbeCamera::new(options.emitter_res, options.bands);
         let mut objects = Vec::new();
         for (o, object) in world.scene.objects.iter().enumerate() {
             if p.object_role[o] != Role::Interior {
@@ -398,6 +410,7 @@ impl Dispersive {
         Dispersive {
             options,
             camera,
+            emitter_camera,
             objects,
             radiosity,
             direct: vec![Vec3::ZERO; n],
@@ -968,7 +981,7 @@ impl Dispersive {
                     // a 32^2 splat aliases badly (docs/results.md, ablation).
                     ToBoundary::Auto
                         if self.boundary_patches.len()
-                            > (2 * self.camera.texels()).max(1 << 15) =>
+                            > (2 * self.emitter_camera.texels()).max(1 << 15) =>
                     {
                         ToBoundary::Splat
                     }
@@ -1011,8 +1024,8 @@ impl Dispersive {
     /// sees. Returns one irradiance piece per texel that lands on the boundary.
     fn splat(&self, world: &World, o: usize, centre: Vec3, intensity: &ShRgb) -> Vec<(u32, Vec3)> {
         let p = &world.patches;
-        let cube = &self.camera.cube;
-        let projector = &self.camera.projector;
+        let cube = &self.emitter_camera.cube;
+        let projector = &self.emitter_camera.projector;
         // Only texels the emitter sends light into are traced: a face emitter's lobe is zero
         // over the half of the sphere behind it. (Flux through a texel: the intensity times
         // the texel's solid angle, read off the projector's table without evaluating Y_k.)
@@ -1426,7 +1439,7 @@ mod tests {
                 World::new(sphere_in_a_room(), PatchSizing::Size(0.05), Backend::Auto).unwrap();
             let options = DispersiveOptions {
                 to_boundary,
-                cube_res: 128,
+                emitter_res: 128,
                 ..DispersiveOptions::improved()
             };
             let mut d = Dispersive::new(&world, options);
