@@ -278,6 +278,9 @@ struct ObjectProbes {
     /// Per patch, the object's own patches its blocked directions see, with their form
     /// factors: the light the object sends itself, which the transfer vector leaves out.
     self_view: Vec<Vec<(u32, f32)>>,
+    /// Per patch, the contact openness (see `Dispersive::contact_openness`); empty until
+    /// computed and again when the object or a neighbour moves (it is geometry only).
+    openness: Vec<f32>,
 }
 
 impl ObjectProbes {
@@ -380,6 +383,7 @@ impl Dispersive {
                 emitters: emitter_groups(p, o, centre, options.emitter_per_face),
                 transfer: Vec::new(),
                 self_view: Vec::new(),
+                openness: Vec::new(),
             });
         }
         for ob in &mut objects {
@@ -527,6 +531,7 @@ impl Dispersive {
                 ob.disturbed = ob.disturbed.max(4.0);
                 // Its surroundings changed: probes go back to the corners and are re-checked.
                 ob.probe_scale = [1.0; 8];
+                ob.openness.clear();
                 continue;
             }
             if lights_changed {
@@ -541,6 +546,7 @@ impl Dispersive {
                 .any(|(bc, br)| (c - *bc).length() < 3.0 * (r + br))
             {
                 ob.disturbed = ob.disturbed.max(2.0);
+                ob.openness.clear();
             }
         }
     }
@@ -803,12 +809,15 @@ impl Dispersive {
                     (l.dot(&lobe[..nc]) / sum_w).max(Vec3::ZERO)
                 })
                 .collect();
-            let openness = if self.options.contact_rays > 0 {
-                self.contact_openness(world, k)
-            } else {
-                vec![1.0; range.len()]
-            };
-            for ((i, e), v) in range.clone().zip(e).zip(openness) {
+            if self.objects[k].openness.len() != range.len() {
+                self.objects[k].openness = if self.options.contact_rays > 0 {
+                    self.contact_openness(world, k)
+                } else {
+                    vec![1.0; range.len()]
+                };
+            }
+            let openness = &self.objects[k].openness;
+            for ((i, e), &v) in range.clone().zip(e).zip(openness) {
                 let e = e * v;
                 self.probe_irradiance[i] = e;
                 let direct = if self.options.direct_on_interior {
@@ -1136,14 +1145,19 @@ impl Dispersive {
                 let start = self.wall_cursor % n.max(1);
                 let ks: Vec<usize> = (0..window).map(|k| (start + k) % n).collect();
                 self.wall_cursor = (start + window) % n.max(1);
-                let radiosity = &self.radiosity;
-                let exitance = &world.exitance;
+                // Reflected light of every patch first: one random read per row entry.
+                let reflected: Vec<Vec3> = self
+                    .radiosity
+                    .par_iter()
+                    .zip(&world.exitance)
+                    .map(|(b, e)| *b - *e)
+                    .collect();
                 let wall: Vec<Vec3> = ks
                     .par_iter()
                     .map(|&k| {
                         rows[k]
                             .iter()
-                            .map(|&(j, f)| (radiosity[j as usize] - exitance[j as usize]) * f)
+                            .map(|&(j, f)| reflected[j as usize] * f)
                             .sum()
                     })
                     .collect();
