@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::Args;
-use shrad::bench::{BenchOptions, BenchReport, Record, Table};
+use shrad::bench::{BenchOptions, BenchReport, Record, SolverKind, Table};
 
 /// Options of `shrad bench`.
 #[derive(Args)]
@@ -64,9 +64,15 @@ pub fn cmd_bench(args: BenchArgs) -> Result<()> {
         "{msg} [{bar:40}] {pos}/{len} steps ({elapsed}, eta {eta})",
     );
     let report = shrad::bench::run(&options, &bar, &|line| bar.println(line))?;
+    // results.json: the four solvers of the schema; report.json: everything.
+    let listed: Vec<&Record> = report
+        .records
+        .iter()
+        .filter(|r| SolverKind::in_results_json(&r.solver))
+        .collect();
     write(
         &args.out.join("results.json"),
-        &serde_json::to_string_pretty(&report.records)?,
+        &serde_json::to_string_pretty(&listed)?,
     )?;
     write(
         &args.out.join("report.json"),
@@ -94,7 +100,11 @@ pub fn cmd_bench(args: BenchArgs) -> Result<()> {
 }
 
 fn write(path: &Path, text: &str) -> Result<()> {
-    std::fs::write(path, text).with_context(|| format!("{}: cannot write", path.display()))
+    // Written aside and renamed, like every output: never a half-written file.
+    shrad::image_io::write_atomic(path, |tmp| {
+        std::fs::write(tmp, text).map_err(|e| e.to_string())
+    })?;
+    Ok(())
 }
 
 /// A series of one solver: (x, y) points.
@@ -103,7 +113,7 @@ struct Series {
     points: Vec<(f64, f64)>,
 }
 
-const SOLVERS: [&str; 4] = ["grid4", "grid5", "dispersive", "paper"];
+const SOLVERS: [&str; 5] = ["grid4", "grid5", "grid5-r32", "dispersive", "paper"];
 
 fn series_by_solver(
     records: &[&Record],
@@ -362,7 +372,9 @@ fn plot_png(
         }
         root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
     }
-    image::save_buffer(path, &buf, w, h, image::ExtendedColorType::Rgb8)
-        .with_context(|| format!("{}: cannot write", path.display()))?;
+    shrad::image_io::write_atomic(path, |tmp| {
+        image::save_buffer(tmp, &buf, w, h, image::ExtendedColorType::Rgb8)
+            .map_err(|e| e.to_string())
+    })?;
     Ok(())
 }

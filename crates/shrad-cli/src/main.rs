@@ -214,6 +214,10 @@ struct DispersiveArgs {
     /// shadow and light themselves) [paper: 0, default: 64].
     #[arg(long)]
     self_shadow_rays: Option<u32>,
+    /// Spread the Step 3 splat's flux over each hit patch's neighbours, against the
+    /// texel pattern [paper: false, default: true].
+    #[arg(long)]
+    splat_smoothing: Option<bool>,
     /// Probe box margin as a fraction of the box diagonal [paper: 0, default: 0.01].
     #[arg(long)]
     probe_margin: Option<f32>,
@@ -358,6 +362,9 @@ impl DispersiveArgs {
         }
         if let Some(e) = self.emitter_per_face {
             o.emitter_per_face = e;
+        }
+        if let Some(b) = self.splat_smoothing {
+            o.splat_smoothing = b;
         }
         if let Some(c) = self.contact_rays {
             if c > 4096 {
@@ -855,7 +862,7 @@ fn cmd_animate(args: AnimateArgs) -> Result<()> {
     let frames_pattern = args.output.join("frame_%04d.png");
     let ffmpeg = shrad::image_io::write_atomic(&mp4, |tmp| {
         let status = std::process::Command::new("ffmpeg")
-            .args(["-loglevel", "error", "-y", "-framerate"])
+            .args(["-nostdin", "-loglevel", "error", "-y", "-framerate"])
             .arg(format!("{}", args.fps))
             .arg("-i")
             .arg(&frames_pattern)
@@ -866,6 +873,8 @@ fn cmd_animate(args: AnimateArgs) -> Result<()> {
                 "pad=ceil(iw/2)*2:ceil(ih/2)*2",
             ])
             .arg(tmp)
+            // ffmpeg reads commands from stdin: it would eat the input of a calling script.
+            .stdin(std::process::Stdio::null())
             .status()
             .map_err(|e| e.to_string())?;
         if status.success() {

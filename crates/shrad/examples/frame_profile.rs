@@ -1,8 +1,8 @@
 //! Per-step timing of the dispersive frame on one bench scene (a profiling aid):
-//! `cargo run --release --example frame_profile -- room-77k [passes]`.
+//! `cargo run --release --example frame_profile -- room-77k [passes] [gather|splat]`.
 use shrad::bench::{build_world, median, scenes};
 use shrad::dispersive::Changes;
-use shrad::dispersive::{Dispersive, DispersiveOptions};
+use shrad::dispersive::{Dispersive, DispersiveOptions, ToBoundary};
 use shrad::vis::Backend;
 
 fn main() {
@@ -14,7 +14,13 @@ fn main() {
         .find(|s| s.name == name)
         .expect("scene name");
     let world = build_world(&spec, Backend::Auto).expect("world");
-    let mut d = Dispersive::new(&world, DispersiveOptions::improved());
+    let mut options = DispersiveOptions::improved();
+    match args.next().as_deref() {
+        Some("gather") => options.to_boundary = ToBoundary::Gather,
+        Some("splat") => options.to_boundary = ToBoundary::Splat,
+        _ => {}
+    }
+    let mut d = Dispersive::new(&world, options);
     let n = d.frames_per_pass();
     let ch = Changes::default();
     for _ in 0..n {

@@ -137,6 +137,11 @@ pub struct DispersiveOptions {
     /// although its probes see through it, plus the light of the object's own patches seen
     /// in the blocked directions (self form factors). 0: the plain clamped-cosine lobe.
     pub self_shadow_rays: u32,
+    /// Spread each boundary patch's splatted flux over the patch and its edge neighbours
+    /// (patches sharing a smooth-shading vertex, so never across a crease), keeping the
+    /// flux: the splat's texels and the patches are about the same size, so a patch gets
+    /// 0, 1 or 2 texels and the raw splat is noisy (the paper's texel pattern).
+    pub splat_smoothing: bool,
 }
 
 impl DispersiveOptions {
@@ -160,6 +165,7 @@ impl DispersiveOptions {
             contact_rays: 0,
             emitter_per_face: false,
             self_shadow_rays: 0,
+            splat_smoothing: false,
         }
     }
 
@@ -181,6 +187,7 @@ impl DispersiveOptions {
             contact_rays: 8,
             emitter_per_face: true,
             self_shadow_rays: 64,
+            splat_smoothing: true,
             ..Self::paper()
         }
     }
@@ -322,6 +329,8 @@ pub struct Dispersive {
     /// wall exchange is on.
     wall_rows: Option<Vec<Vec<(u32, f32)>>>,
     boundary_patches: Vec<u32>,
+    /// Boundary patches next to each patch (itself included), for `splat_smoothing`.
+    neighbours: Neighbours,
     /// World bounding box of every object at the last frame (to know where movers were).
     object_boxes: Vec<(Vec3, Vec3)>,
     /// Wall-exchange rows waiting to be re-traced.
@@ -422,6 +431,11 @@ impl Dispersive {
             indirect: vec![Vec3::ZERO; n],
             scratch: vec![Vec3::ZERO; n],
             wall: vec![Vec3::ZERO; n],
+            neighbours: if options.splat_smoothing {
+                Neighbours::of_boundary(p)
+            } else {
+                Neighbours::default()
+            },
             wall_rows,
             wall_dirty: vec![false; boundary_patches.len()],
             wall_cursor: 0,
@@ -962,7 +976,21 @@ impl Dispersive {
             let o = ob.object;
             let m = p.world_from_object[o];
             let range = p.range(o);
-            // Irradiance pieces (boundary patch, E), several per patch.
+            let method = match self.options.to_boundary {
+                // Gather while it costs about what a splat does (up to 2 x 6R^2 boundary
+                // patches, and at least up to 32k: a coarse splat aliases), splat beyond, so
+                // that the cost of Step 3 stays bounded however large the boundary grows.
+                ToBoundary::Auto
+                    if self.boundary_patches.len()
+                        > (2 * self.emitter_camera.texels()).max(1 << 15) =>
+                {
+                    ToBoundary::Splat
+                }
+                ToBoundary::Auto => ToBoundary::Gather,
+                m => m,
+            };
+            // Pieces (boundary patch, value), several per patch: irradiance from a gather,
+            // flux from a splat.
             let mut pieces: Vec<(u32, Vec3)> = Vec::new();
             for (centre_local, members) in &ob.emitters {
                 let centre = m.transform_point3(*centre_local);
@@ -985,18 +1013,6 @@ impl Dispersive {
                     }
                 }
                 let intensity = ShRgb::from_coeffs(intensity);
-                let method = match self.options.to_boundary {
-                    // Gather up to 32k boundary patches even when the cube map is coarse:
-                    // a 32^2 splat aliases badly (docs/results.md, ablation).
-                    ToBoundary::Auto
-                        if self.boundary_patches.len()
-                            > (2 * self.emitter_camera.texels()).max(1 << 15) =>
-                    {
-                        ToBoundary::Splat
-                    }
-                    ToBoundary::Auto => ToBoundary::Gather,
-                    m => m,
-                };
                 pieces.extend(match method {
                     ToBoundary::Splat | ToBoundary::Auto => {
                         self.splat(world, o, centre, &intensity)
@@ -1015,7 +1031,23 @@ impl Dispersive {
                     }
                 });
             }
-            let contribution = sum_by_patch(&mut self.scratch, pieces);
+            let contribution = match method {
+                ToBoundary::Gather => sum_by_patch(&mut self.scratch, pieces),
+                _ if self.options.splat_smoothing => {
+                    // Each patch's flux spread over its neighbourhood in proportion to area.
+                    let flux = sum_by_patch(&mut self.scratch, pieces);
+                    let near = &self.neighbours;
+                    let spread = flux.iter().flat_map(|&(k, f)| {
+                        let w = f * near.inv_area[k as usize];
+                        near.of(k as usize).iter().map(move |&i| (i, w))
+                    });
+                    sum_by_patch(&mut self.scratch, spread)
+                }
+                _ => {
+                    let by_area = pieces.into_iter().map(|(j, f)| (j, f / p.area[j as usize]));
+                    sum_by_patch(&mut self.scratch, by_area)
+                }
+            };
             // Replace the object's previous contribution (paper: "只更新当前物体对它的影响").
             for &(j, e) in &self.objects[k].to_boundary {
                 self.indirect[j as usize] -= e;
@@ -1030,7 +1062,7 @@ impl Dispersive {
     }
 
     /// The paper's Step 3: a cube map at the centre, each texel's flux onto the patch it
-    /// sees. Returns one irradiance piece per texel that lands on the boundary.
+    /// sees. Returns one flux piece per texel that lands on the boundary.
     fn splat(&self, world: &World, o: usize, centre: Vec3, intensity: &ShRgb) -> Vec<(u32, Vec3)> {
         let p = &world.patches;
         let cube = &self.emitter_camera.cube;
@@ -1055,7 +1087,7 @@ impl Dispersive {
             .zip(&flux)
             .filter_map(|(h, &(_, f))| {
                 let j = world.seen_patch(h)?;
-                (p.role(j) == Role::Boundary).then(|| (j as u32, f / p.area[j]))
+                (p.role(j) == Role::Boundary).then_some((j as u32, f))
             })
             .collect()
     }
@@ -1223,9 +1255,80 @@ impl Dispersive {
     }
 }
 
+/// Boundary patches around each boundary patch: those sharing one of its smooth-shading
+/// vertices (corners welded by position within the crease angle), itself first. Compressed
+/// rows over all patches; non-boundary patches have none.
+#[derive(Default)]
+struct Neighbours {
+    start: Vec<u32>,
+    list: Vec<u32>,
+    /// 1 / the summed area of each patch's neighbourhood.
+    inv_area: Vec<f32>,
+}
+
+impl Neighbours {
+    fn of_boundary(p: &crate::Patches) -> Neighbours {
+        let boundary = |i: usize| p.role(i) == Role::Boundary;
+        // Patches at each shading vertex.
+        let mut at_vertex: Vec<Vec<u32>> = vec![Vec::new(); p.shading_vertex_count];
+        for i in (0..p.len()).filter(|&i| boundary(i)) {
+            let mut v = p.corner_vertex[i];
+            v.sort_unstable();
+            for (k, &c) in v.iter().enumerate() {
+                if k == 0 || v[k - 1] != c {
+                    at_vertex[c as usize].push(i as u32);
+                }
+            }
+        }
+        let mut start = Vec::with_capacity(p.len() + 1);
+        let mut list = Vec::new();
+        start.push(0);
+        let mut near = Vec::new();
+        for i in 0..p.len() {
+            if boundary(i) {
+                near.clear();
+                for &c in &p.corner_vertex[i] {
+                    near.extend(at_vertex[c as usize].iter().filter(|&&k| k as usize != i));
+                }
+                near.sort_unstable();
+                near.dedup();
+                list.push(i as u32);
+                list.extend_from_slice(&near);
+            }
+            start.push(list.len() as u32);
+        }
+        let mut n = Neighbours {
+            start,
+            list,
+            inv_area: Vec::new(),
+        };
+        n.inv_area = (0..p.len())
+            .map(|i| {
+                let a: f32 = n.of(i).iter().map(|&k| p.area[k as usize]).sum();
+                if a > 0.0 {
+                    1.0 / a
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        n
+    }
+
+    fn of(&self, i: usize) -> &[u32] {
+        match (self.start.get(i), self.start.get(i + 1)) {
+            (Some(&a), Some(&b)) => &self.list[a as usize..b as usize],
+            _ => &[],
+        }
+    }
+}
+
 /// Sum irradiance pieces per patch: one entry per patch, in order of first appearance.
 /// `scratch` (one value per patch, all zero) is left all zero.
-fn sum_by_patch(scratch: &mut [Vec3], pieces: Vec<(u32, Vec3)>) -> Vec<(u32, Vec3)> {
+fn sum_by_patch(
+    scratch: &mut [Vec3],
+    pieces: impl IntoIterator<Item = (u32, Vec3)>,
+) -> Vec<(u32, Vec3)> {
     let mut touched: Vec<u32> = Vec::new();
     for (j, e) in pieces {
         let s = &mut scratch[j as usize];

@@ -247,30 +247,34 @@ struct Cell {
     is_quad: bool,
 }
 
-/// Welds patch corners into shading vertices per object by quantised position and normal.
+/// Welds patch corners into shading vertices per object: corners at the same (quantised)
+/// position share a vertex when their normals are within the crease angle of the vertex's
+/// first normal, so a tessellated sphere shades smooth across its facets while a box's
+/// edges stay crisp.
 #[derive(Default)]
 struct Welder {
-    map: std::collections::HashMap<([i64; 3], [i32; 3]), u32>,
+    /// Quantised position -> the vertices there, with the normal that opened each.
+    map: std::collections::HashMap<[i64; 3], Vec<(Vec3, u32)>>,
     count: usize,
-    scale: f32,
 }
+
+/// Cosine of the crease angle (40 degrees): a 24-segment sphere's facets (15 degrees apart)
+/// weld, a box's edges (90 degrees) and a 6-sided prism's (60 degrees) do not.
+const CREASE_COS: f32 = 0.766;
 
 impl Welder {
     fn next_object(&mut self) {
         self.map.clear();
     }
     fn vertex(&mut self, p: Vec3, n: Vec3) -> u32 {
-        if self.scale == 0.0 {
-            self.scale = 1e4;
+        let qp = (p * 1e4).round().as_i64vec3().to_array();
+        let here = self.map.entry(qp).or_default();
+        if let Some(&(_, id)) = here.iter().find(|(m, _)| m.dot(n) >= CREASE_COS) {
+            return id;
         }
-        let qp = (p * self.scale).round().as_i64vec3().to_array();
-        // Normals that differ by more than ~10 degrees shade apart (box edges stay crisp).
-        let qn = (n * 6.0).round().as_ivec3().to_array();
-        let next = self.count as u32;
-        let id = *self.map.entry((qp, qn)).or_insert(next);
-        if id == next {
-            self.count += 1;
-        }
+        let id = self.count as u32;
+        here.push((n, id));
+        self.count += 1;
         id
     }
 }
@@ -528,6 +532,44 @@ mod tests {
             .map(|c| (c[1] - c[0]).length().max((c[3] - c[0]).length()))
             .fold(0.0, f32::max);
         assert!(max_edge <= 20.0 + 1e-3, "max edge {max_edge}");
+    }
+
+    #[test]
+    fn corners_weld_across_facets_but_not_across_creases() {
+        // A tessellated sphere (facets 15 degrees apart): one shading vertex per position.
+        let mut scene = shrad_scene::room(&Default::default());
+        scene.objects.retain(|o| o.name.starts_with("sphere"));
+        scene.objects.truncate(1);
+        let sphere = Patches::build(&scene, PatchSizing::Size(0.05));
+        let positions: std::collections::HashSet<[i64; 3]> = sphere
+            .corners
+            .iter()
+            .flatten()
+            .map(|p| (*p * 1e4).round().as_i64vec3().to_array())
+            .collect();
+        assert_eq!(sphere.shading_vertex_count, positions.len());
+        // A box: the 8 corners of the short box each belong to 3 faces at right angles,
+        // which must not share a vertex.
+        let scene = shrad_scene::cornell_box();
+        let o = scene
+            .objects
+            .iter()
+            .position(|o| o.name.contains("short"))
+            .expect("the short box");
+        let patches = Patches::build(&scene, PatchSizing::Size(20.0));
+        for i in patches.range(o) {
+            for j in patches.range(o) {
+                let shared = patches.corner_vertex[i]
+                    .iter()
+                    .any(|v| patches.corner_vertex[j].contains(v));
+                if shared {
+                    assert!(
+                        patches.normal[i].dot(patches.normal[j]) > 0.9,
+                        "patches {i} and {j} share a vertex across a crease"
+                    );
+                }
+            }
+        }
     }
 
     #[test]
