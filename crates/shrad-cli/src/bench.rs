@@ -107,6 +107,19 @@ fn write(path: &Path, text: &str) -> Result<()> {
     Ok(())
 }
 
+/// One colour per solver, the same in every plot.
+fn colour_of(solver: &str) -> plotters::style::RGBColor {
+    use plotters::style::RGBColor;
+    match solver {
+        "grid4" => RGBColor(230, 120, 0),
+        "grid5" => RGBColor(30, 60, 200),
+        "grid5-r32" => RGBColor(100, 170, 230),
+        "dispersive" => RGBColor(200, 0, 120),
+        "paper" => RGBColor(40, 150, 40),
+        _ => RGBColor(90, 90, 90),
+    }
+}
+
 /// A series of one solver: (x, y) points.
 struct Series {
     name: String,
@@ -188,6 +201,12 @@ fn write_plots(report: &BenchReport, out: &Path) -> Result<String> {
     let mut scenes: Vec<(&str, usize)> = report
         .scenes
         .iter()
+        .filter(|s| {
+            report
+                .records
+                .iter()
+                .any(|r| r.scene == s.scene && r.table == Table::Scaling)
+        })
         .map(|s| (s.scene.as_str(), s.patches))
         .collect();
     scenes.sort_by_key(|s| (s.1 as i64 - 75_000).abs());
@@ -314,7 +333,6 @@ fn plot_png(
         }
         let y0 = (y0 * 0.8).max(1e-3);
         let y1 = (y1 * 1.25).max(y0 * 2.0);
-        let colours = [RED, BLUE, GREEN, MAGENTA];
         let mut builder = ChartBuilder::on(&root);
         builder.margin(15);
         if text {
@@ -333,8 +351,8 @@ fn plot_png(
                     mesh.disable_x_axis().disable_y_axis();
                 }
                 mesh.draw().map_err(|e| anyhow::anyhow!("{e}"))?;
-                for (i, s) in series.iter().enumerate() {
-                    let c = colours[i % colours.len()];
+                for s in series {
+                    let c = colour_of(&s.name);
                     let drawn = chart
                         .draw_series(LineSeries::new(s.points.iter().copied(), c.stroke_width(2)))
                         .map_err(|e| anyhow::anyhow!("{e}"))?;

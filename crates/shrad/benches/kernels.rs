@@ -1,5 +1,6 @@
 //! Micro-benchmarks of the kernels of a frame: cube-map capture, SH projection, per-patch
-//! interpolation and shading, and whole dispersive / grid frames on a small room.
+//! interpolation and shading, the boundary splat, and whole dispersive / grid frames on a
+//! small room.
 //! Every benchmark checks its result once before it is timed. Run:
 //! `cargo bench -p shrad --bench kernels -- --measurement-time 3 --warm-up-time 1`.
 
@@ -9,8 +10,9 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
 use shrad::bench::{check_radiosity, Machine};
-use shrad::dispersive::{Changes, DispersiveOptions};
+use shrad::dispersive::{splat_to_boundary, Changes, DispersiveOptions};
 use shrad::grid::GridOptions;
+use shrad::probes::ProbeCamera;
 use shrad::scene::{room, Role, RoomParams};
 use shrad::solver::{Solver, SolverChoice};
 use shrad::vis::{Backend, Hit};
@@ -54,29 +56,46 @@ fn corners_of_first_object(world: &World) -> Vec<Vec3> {
 fn capture(c: &mut Criterion) {
     let world = small_room(20_000);
     eprintln!("machine: {}", Machine::detect(world.vis.name()).line());
-    let cube = CubeMap::new(128);
     let points = corners_of_first_object(&world);
-    let n = points.len() * cube.directions.len();
-    let mut hits = vec![Hit::MISS; n];
-    // Check: a closed room, every ray from inside hits something.
-    world
-        .vis
-        .capture(&points, &cube.directions, 0.0, &[], &mut hits);
-    let missed = hits.iter().filter(|h| !h.is_hit()).count();
-    assert!(
-        missed * 1000 < n,
-        "{missed} of {n} rays missed in a closed room"
-    );
+    let own = (0..world.patches.object_role.len())
+        .find(|&o| world.patches.object_role[o] == Role::Interior)
+        .expect("an interior object") as u32;
     let mut g = c.benchmark_group("capture");
-    g.throughput(Throughput::Elements(n as u64));
-    g.bench_function("8 probes R=128 (rays), room 20k", |b| {
-        b.iter(|| {
-            world
-                .vis
-                .capture(black_box(&points), &cube.directions, 0.0, &[], &mut hits);
-            black_box(hits[0].id)
-        })
-    });
+    // The paper's probes (R = 128, own texels black) and the default's (R = 32, the object
+    // transparent).
+    for (res, exclude) in [(128, vec![]), (32, vec![own])] {
+        let cube = CubeMap::new(res);
+        let n = points.len() * cube.directions.len();
+        let mut hits = vec![Hit::MISS; n];
+        // Check: a closed room, every ray from inside hits something, never the excluded.
+        world
+            .vis
+            .capture(&points, &cube.directions, 0.0, &exclude, &mut hits);
+        let missed = hits.iter().filter(|h| !h.is_hit()).count();
+        assert!(
+            missed * 1000 < n,
+            "{missed} of {n} rays missed in a closed room"
+        );
+        assert!(hits.iter().all(|h| !exclude.contains(&h.object)));
+        g.throughput(Throughput::Elements(n as u64));
+        let name = if exclude.is_empty() {
+            format!("8 probes R={res} (rays), room 20k")
+        } else {
+            format!("8 probes R={res}, own object excluded (rays), room 20k")
+        };
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                world.vis.capture(
+                    black_box(&points),
+                    &cube.directions,
+                    0.0,
+                    &exclude,
+                    &mut hits,
+                );
+                black_box(hits[0].id)
+            })
+        });
+    }
     g.finish();
 }
 
@@ -171,6 +190,53 @@ fn interpolation(c: &mut Criterion) {
     g.finish();
 }
 
+fn splat(c: &mut Criterion) {
+    // Step 3 from one emitter: the first interior object's reflected light as a cosine lobe
+    // pointing up from its box centre, splatted with a 64^2 cube map onto the 77k room's
+    // boundary (the default's resolution), the object itself transparent.
+    let world = small_room(77_000);
+    let p = &world.patches;
+    let o = (0..p.object_role.len())
+        .find(|&o| p.object_role[o] == Role::Interior)
+        .expect("an interior object");
+    let corners = corners_of_first_object(&world);
+    let centre = corners.iter().copied().sum::<Vec3>() / 8.0;
+    let bands = 4;
+    let nc = num_coeffs(bands);
+    let mut lobe = [0f32; 64];
+    cosine_lobe_sh(bands, Vec3::Y, &mut lobe[..nc]);
+    // Intensity I(w) = max(0, cos) W/sr (SH of the clamped cosine / pi): 1 W in total.
+    let intensity = ShRgb::from_coeffs(
+        lobe[..nc]
+            .iter()
+            .map(|&c| Vec3::splat(c / std::f32::consts::PI))
+            .collect(),
+    );
+    let camera = ProbeCamera::new(64, bands);
+    // Check: the room is closed, so the flux lands on the boundary or on other objects;
+    // the emitter sends 1 W upwards and most of it reaches the ceiling and walls.
+    let pieces = splat_to_boundary(&world, &camera, o as u32, centre, &intensity);
+    let landed: f32 = pieces.iter().map(|e| e.1.x).sum();
+    assert!(
+        (0.7..=1.02).contains(&landed),
+        "splat landed {landed} W of 1 W on the boundary"
+    );
+    let rays = (0..camera.texels())
+        .filter(|&t| camera.projector.texel_value(&intensity, t).x > 0.0)
+        .count();
+    let mut g = c.benchmark_group("splat");
+    g.throughput(Throughput::Elements(rays as u64));
+    g.bench_function(
+        format!("one emitter, 64^2, room 77k, {rays} texels traced (rays)"),
+        |b| {
+            b.iter(|| {
+                black_box(splat_to_boundary(&world, &camera, o as u32, centre, &intensity).len())
+            })
+        },
+    );
+    g.finish();
+}
+
 fn frames(c: &mut Criterion) {
     let world = small_room(12_000);
     let n = world.patches.len() as u64;
@@ -210,6 +276,6 @@ criterion_group! {
     config = Criterion::default()
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(3));
-    targets = capture, projection, interpolation, frames
+    targets = capture, projection, interpolation, splat, frames
 }
 criterion_main!(kernels);

@@ -1061,35 +1061,9 @@ impl Dispersive {
         flux_sent
     }
 
-    /// The paper's Step 3: a cube map at the centre, each texel's flux onto the patch it
-    /// sees. Returns one flux piece per texel that lands on the boundary.
+    /// The paper's Step 3 from one emitter: see [`splat_to_boundary`].
     fn splat(&self, world: &World, o: usize, centre: Vec3, intensity: &ShRgb) -> Vec<(u32, Vec3)> {
-        let p = &world.patches;
-        let cube = &self.emitter_camera.cube;
-        let projector = &self.emitter_camera.projector;
-        // Only texels the emitter sends light into are traced: a face emitter's lobe is zero
-        // over the half of the sphere behind it. (Flux through a texel: the intensity times
-        // the texel's solid angle, read off the projector's table without evaluating Y_k.)
-        let flux: Vec<(usize, Vec3)> = (0..cube.directions.len())
-            .into_par_iter()
-            .filter_map(|t| {
-                let f = projector.texel_value(intensity, t).max(Vec3::ZERO);
-                (f.max_element() > 0.0).then_some((t, f))
-            })
-            .collect();
-        let dirs: Vec<Vec3> = flux.iter().map(|&(t, _)| cube.directions[t]).collect();
-        let mut hits = vec![Hit::MISS; dirs.len()];
-        // Still in texel order, so the capture's ray packets stay coherent.
-        world
-            .vis
-            .capture(&[centre], &dirs, 0.0, &[o as u32], &mut hits);
-        hits.iter()
-            .zip(&flux)
-            .filter_map(|(h, &(_, f))| {
-                let j = world.seen_patch(h)?;
-                (p.role(j) == Role::Boundary).then_some((j as u32, f))
-            })
-            .collect()
+        splat_to_boundary(world, &self.emitter_camera, o as u32, centre, intensity)
     }
 
     /// Point-emitter gather: `E_j = I(w_j) cos_j / r^2`, one shadow ray per boundary patch
@@ -1253,6 +1227,42 @@ impl Dispersive {
             })
             .collect()
     }
+}
+
+/// The paper's Step 3 (2.3.4) from one SH emitter: a cube map of `camera` at `centre` (object
+/// `own` transparent), each texel's flux (intensity times solid angle) onto the boundary
+/// patch it sees. Returns one (patch, flux) piece per texel that lands on the boundary; the
+/// rest of the flux leaves through the scene's openings or lands on other objects.
+pub fn splat_to_boundary(
+    world: &World,
+    camera: &ProbeCamera,
+    own: u32,
+    centre: Vec3,
+    intensity: &ShRgb,
+) -> Vec<(u32, Vec3)> {
+    let p = &world.patches;
+    let (cube, projector) = (&camera.cube, &camera.projector);
+    // Only texels the emitter sends light into are traced: a face emitter's lobe is zero
+    // over the half of the sphere behind it. (Flux through a texel: the intensity times the
+    // texel's solid angle, read off the projector's table without evaluating Y_k.)
+    let flux: Vec<(usize, Vec3)> = (0..cube.directions.len())
+        .into_par_iter()
+        .filter_map(|t| {
+            let f = projector.texel_value(intensity, t).max(Vec3::ZERO);
+            (f.max_element() > 0.0).then_some((t, f))
+        })
+        .collect();
+    let dirs: Vec<Vec3> = flux.iter().map(|&(t, _)| cube.directions[t]).collect();
+    let mut hits = vec![Hit::MISS; dirs.len()];
+    // Still in texel order, so the capture's ray packets stay coherent.
+    world.vis.capture(&[centre], &dirs, 0.0, &[own], &mut hits);
+    hits.iter()
+        .zip(&flux)
+        .filter_map(|(h, &(_, f))| {
+            let j = world.seen_patch(h)?;
+            (p.role(j) == Role::Boundary).then_some((j as u32, f))
+        })
+        .collect()
 }
 
 /// Boundary patches around each boundary patch: those sharing one of its smooth-shading
