@@ -22,7 +22,9 @@ use std::time::Instant;
 use glam::{Affine3A, Vec3};
 use rayon::prelude::*;
 use shrad_scene::Role;
-use shrad_sh::{cosine_lobe, cosine_lobe_sh, eval_basis, num_coeffs, trilinear_weights, ShRgb};
+use shrad_sh::{
+    cosine_lobe, cosine_lobe_sh, eval_basis, num_coeffs, trilinear_weights, ShRgb, MAX_COEFFS,
+};
 use shrad_vis::Hit;
 
 use crate::direct::direct_irradiance;
@@ -782,45 +784,72 @@ impl Dispersive {
             let m = p.world_from_object[o];
             let (probes, scale) = self.capture_corner_probes(world, k, m, stats);
             self.objects[k].probe_scale = scale;
-            // Interpolate to each patch and dot with its clamped-cosine lobe (world normal).
             let range = p.range(o);
             let ob = &self.objects[k];
-            let (_, rotation, _) = m.to_scale_rotation_translation();
-            let to_local = shrad_sh::ShRotation::from_quat(bands, rotation.inverse());
+            let with_transfer = !ob.transfer.is_empty();
+            // With transfer vectors (object frame) the probes are rotated into the object's
+            // frame once: rotation is linear, so this equals rotating every patch's
+            // interpolated SH.
+            let probes: Vec<Option<ShRgb>> = if with_transfer {
+                let (_, rotation, _) = m.to_scale_rotation_translation();
+                let to_local = shrad_sh::ShRotation::from_quat(bands, rotation.inverse());
+                probes
+                    .iter()
+                    .map(|sh| {
+                        sh.as_ref().map(|sh| {
+                            let mut local = ShRgb::zeros(bands);
+                            to_local.rotate_rgb(sh, &mut local);
+                            local
+                        })
+                    })
+                    .collect()
+            } else {
+                probes
+            };
             let e: Vec<Vec3> = range
                 .clone()
                 .into_par_iter()
                 .map(|i| {
-                    let w = ob.weights[i - range.start];
-                    let (mut sum_w, mut l) = (0.0, ShRgb::zeros(bands));
-                    for c in 0..8 {
-                        if let Some(sh) = &probes[c] {
-                            l.add_scaled(sh, w[c]);
-                            sum_w += w[c];
+                    let k = i - range.start;
+                    let w = ob.weights[k];
+                    // Interpolate the probes to the patch (paper 2.3.3, trilinear weights,
+                    // renormalised over the valid probes).
+                    let mut l = [Vec3::ZERO; MAX_COEFFS];
+                    let mut sum_w = 0.0;
+                    for (sh, &wc) in probes.iter().zip(&w) {
+                        if let Some(sh) = sh {
+                            for (a, &b) in l[..nc].iter_mut().zip(sh.coeffs()) {
+                                *a += b * wc;
+                            }
+                            sum_w += wc;
                         }
                     }
                     if sum_w <= 0.0 {
                         return Vec3::ZERO;
                     }
-                    if !ob.transfer.is_empty() {
-                        // Object frame: probes rotated into it, dotted with the transfer.
-                        let k = i - range.start;
-                        let mut local = ShRgb::zeros(bands);
-                        to_local.rotate_rgb(&l, &mut local);
-                        let own: Vec3 = ob.self_view[k]
+                    // Dot with the patch's transfer vector (object frame), or with the
+                    // clamped-cosine lobe of its world normal.
+                    let mut lobe = [0f32; MAX_COEFFS];
+                    let weights: &[f32] = if with_transfer {
+                        &ob.transfer[k * nc..(k + 1) * nc]
+                    } else {
+                        cosine_lobe_sh(bands, p.normal[i], &mut lobe[..nc]);
+                        &lobe[..nc]
+                    };
+                    let dot: Vec3 = l[..nc].iter().zip(weights).map(|(a, &b)| *a * b).sum();
+                    // The object's own light in the directions it blocks (self form factors).
+                    let own: Vec3 = if with_transfer {
+                        ob.self_view[k]
                             .iter()
                             .map(|&(q, f)| {
                                 let q = range.start + q as usize;
                                 (self.radiosity[q] - world.exitance[q]) * f
                             })
-                            .sum();
-                        return (local.dot(&ob.transfer[k * nc..(k + 1) * nc]) / sum_w)
-                            .max(Vec3::ZERO)
-                            + own;
-                    }
-                    let mut lobe = [0f32; 64];
-                    cosine_lobe_sh(bands, p.normal[i], &mut lobe[..nc]);
-                    (l.dot(&lobe[..nc]) / sum_w).max(Vec3::ZERO)
+                            .sum()
+                    } else {
+                        Vec3::ZERO
+                    };
+                    (dot / sum_w).max(Vec3::ZERO) + own
                 })
                 .collect();
             if self.objects[k].openness.len() != range.len() {
