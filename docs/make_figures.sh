@@ -53,7 +53,7 @@ if [ "$what" = static ] || [ "$what" = all ]; then
   echo "variant,overall_pct,boundary_pct,interior_pct" > "$F/ablation.csv"
   while IFS='|' read -r label flags; do
     # shellcheck disable=SC2086
-    out=$($S render cornell --patches 20000 --solver dispersive --compare -q -o /tmp/shrad_ablation.png $flags 2>&1)
+    out=$($S render cornell --patches 20000 --solver dispersive --compare -q -o /tmp/shrad_ablation.png $flags 2>&1 < /dev/null)
     echo "$label,$(echo "$out" | errline)" >> "$F/ablation.csv"
   done <<'VARIANTS'
 paper (all off)|--preset paper
@@ -63,7 +63,7 @@ paper (all off)|--preset paper
 + direct on interior|--preset paper --probe-margin 0.01 --repair move --wall-exchange true --see-through-self true --direct-interior true
 + contact openness|--preset paper --probe-margin 0.01 --repair move --wall-exchange true --see-through-self true --direct-interior true --contact-rays 8
 + emitter per face and gather (all on; R 128; round robin)|--preset paper --probe-margin 0.01 --repair move --wall-exchange true --see-through-self true --direct-interior true --contact-rays 8 --emitter-per-face true --to-boundary auto
-default (R 64; priority)|
+default (probes R 32, splat R 64; priority)|
 default: repair drop|--repair drop
 default: no repair|--repair none
 default: no wall exchange|--wall-exchange false
@@ -71,9 +71,10 @@ default: own texels black|--see-through-self false
 default: no contact openness|--contact-rays 0
 default: one emitter at the centre|--emitter-per-face false
 default: splat|--to-boundary splat
+default: splat without smoothing|--to-boundary splat --splat-smoothing false
 default: 9 coefficients|--bands 3
-default: R 128|--cube-res 128
-default: R 32|--cube-res 32
+default: probes R 64|--cube-res 64
+default: probes R 128|--cube-res 128
 VARIANTS
 fi
 
@@ -83,7 +84,7 @@ if [ "$what" = concave ] || [ "$what" = all ]; then
   echo "variant,overall_pct,boundary_pct,interior_pct" > "$F/concave.csv"
   while IFS='|' read -r label flags; do
     # shellcheck disable=SC2086
-    out=$($S render scenes/concave.toml --patches 10000 --solver dispersive --compare -q -o /tmp/shrad_concave.png $flags 2>&1)
+    out=$($S render scenes/concave.toml --patches 10000 --solver dispersive --compare -q -o /tmp/shrad_concave.png $flags 2>&1 < /dev/null)
     echo "$label,$(echo "$out" | errline)" >> "$F/concave.csv"
   done <<'VARIANTS'
 default (transfer vectors: 64 rays)|
@@ -111,11 +112,26 @@ if [ "$what" = moving ] || [ "$what" = all ]; then
 fi
 
 if [ "$what" = timing ] || [ "$what" = all ]; then
-  # Per-frame time of each step on a 75k-patch room (the paper's largest Table 3 row).
-  for res in 128 32; do
-    $S animate room --patches 75000 --solver dispersive --cube-res $res --warmup 1 --frames 24 \
-      --width 64 --height 64 -q -o "/tmp/shrad_timing_$res"
-    cp "/tmp/shrad_timing_$res/stats.csv" "$F/timing_room75k_r${res}.csv"
-  done
+  # Per-frame time of each step on a 75k-patch room (the paper's largest Table 3 row) and the
+  # error after convergence, for the default and its cube-map resolutions.
+  rm -f "$F"/timing_room75k_*.csv
+  echo "tag,label,overall_pct,boundary_pct,interior_pct" > "$F/timing_room75k_errors.csv"
+  while IFS='|' read -r tag label flags; do
+    # shellcheck disable=SC2086
+    $S animate room --patches 75000 --solver dispersive $flags --warmup 1 --frames 24 \
+      --width 64 --height 64 -q -o "/tmp/shrad_timing_$tag" < /dev/null
+    cp "/tmp/shrad_timing_$tag/stats.csv" "$F/timing_room75k_$tag.csv"
+    # shellcheck disable=SC2086
+    out=$($S render room --patches 75000 --solver dispersive $flags --compare -q \
+      --width 64 --height 64 -o /tmp/shrad_timing.png 2>&1 < /dev/null)
+    echo "$tag,$label,$(echo "$out" | errline)" >> "$F/timing_room75k_errors.csv"
+  done <<'VARIANTS'
+default|default: probes R 32; splat R 64 smoothed|
+probes64|probes R 64|--cube-res 64
+raw|splat not smoothed|--splat-smoothing false
+splat32|splat R 32|--emitter-res 32
+gather|gather instead of splat|--to-boundary gather
+paperres|probes and emitters R 128 (gathers: 2 x 6 x 128^2 > boundary)|--cube-res 128 --emitter-res 128
+VARIANTS
   $PY docs/plot.py timing "$F"
 fi

@@ -34,15 +34,22 @@ def moving(folder):
 
 
 def timing(folder):
-    out = []
-    for res in (128, 32):
-        r = rows(f"{folder}/timing_room75k_r{res}.csv")[4:]
-        med = {k: statistics.median(float(x[k]) for x in r) for k in ("direct_ms", "objects_ms", "to_boundary_ms", "assemble_ms", "frame_ms")}
-        out.append((res, med))
+    keys = ("direct_ms", "objects_ms", "to_boundary_ms", "assemble_ms", "frame_ms")
     with open(f"{folder}/timing_room75k.md", "w") as f:
-        f.write("| cube res | Step 1 direct (ms) | Step 2 objects (ms) | Step 3 to boundary (ms) | Step 4 assemble (ms) | frame (ms) |\n|---|---|---|---|---|---|\n")
-        for res, m in out:
-            f.write(f"| {res} | {m['direct_ms']:.1f} | {m['objects_ms']:.1f} | {m['to_boundary_ms']:.1f} | {m['assemble_ms']:.1f} | {m['frame_ms']:.1f} |\n")
+        f.write(
+            "| variant | Step 1 direct (ms) | Step 2 objects (ms) | Step 3 to boundary (ms) "
+            "| Step 4 assemble (ms) | frame (ms) | error overall / boundary / interior |\n"
+            "|---|---:|---:|---:|---:|---:|---|\n"
+        )
+        for v in rows(f"{folder}/timing_room75k_errors.csv"):
+            # Frames after the first pass over the 8 objects.
+            r = rows(f"{folder}/timing_room75k_{v['tag']}.csv")[4:]
+            m = {k: statistics.median(float(x[k]) for x in r) for k in keys}
+            f.write(
+                f"| {v['label']} | {m['direct_ms']:.1f} | {m['objects_ms']:.1f} "
+                f"| {m['to_boundary_ms']:.1f} | {m['assemble_ms']:.1f} | {m['frame_ms']:.1f} "
+                f"| {v['overall_pct']} / {v['boundary_pct']} / {v['interior_pct']} % |\n"
+            )
 
 
 if __name__ == "__main__":
