@@ -25,6 +25,7 @@ impl Mesh {
             positions: &self.p,
             triangles: &self.t,
             ids: &self.ids,
+            often_excluded: false,
         }
     }
 

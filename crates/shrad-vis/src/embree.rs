@@ -8,12 +8,13 @@
 //! Layout: one scene per object (one triangle geometry, built once with high quality) and
 //! a top scene of instances (instance geomID = object index, `RTC_SCENE_FLAG_DYNAMIC`).
 //! Moving an object updates the instance transform; commit rebuilds the small top level.
-//! Excluded objects are dropped by instance ray masks where that is exact: instance `o` has
-//! mask bit `o % 32`, and a ray that excludes some objects clears their bits, so Embree
-//! skips those instances at the top level without entering them. That is exact when no
-//! other object shares a cleared bit (always, up to 32 objects); otherwise, or when the
-//! library was built without ray masks, a context filter function rejects hits whose
-//! `instID` is in the exclude list. The mask halves the cost of a probe capture taken
+//! Excluded objects are dropped by instance ray masks where that is exact: each instance has
+//! one mask bit, and a ray that excludes some objects clears their bits, so Embree skips
+//! those instances at the top level without entering them. That is exact when no other
+//! object shares a cleared bit: always up to 32 objects; beyond, the objects flagged
+//! `often_excluded` get the first 31 bits of their own and the rest share the last one.
+//! Otherwise, or when the library was built without ray masks, a context filter function
+//! rejects hits whose `instID` is in the exclude list. The mask halves the cost of a probe capture taken
 //! right next to its own (excluded) object: the filter path pays for every candidate hit
 //! on the object before rejecting it.
 #![allow(unsafe_code)]
@@ -225,30 +226,63 @@ struct ExcludeContext {
     ray_mask: u32,
 }
 
-/// Instance `o`'s mask: one bit, `o % 32`.
-fn instance_mask(o: usize) -> u32 {
-    1 << (o % 32)
+/// Which of the 32 ray-mask bits each instance has, and the instances of each bit.
+struct MaskBits {
+    bit: Vec<u8>,
+    members: Vec<Vec<u32>>,
+}
+
+impl MaskBits {
+    /// A bit each up to 32 objects; beyond, the first 31 objects flagged `often_excluded`
+    /// get one each and every other object shares bit 31.
+    fn new(often_excluded: &[bool]) -> MaskBits {
+        let n = often_excluded.len();
+        let mut bit = vec![31u8; n];
+        if n <= 32 {
+            bit.iter_mut().enumerate().for_each(|(o, b)| *b = o as u8);
+        } else {
+            let flagged = (0..n).filter(|&o| often_excluded[o]);
+            for (b, o) in flagged.take(31).enumerate() {
+                bit[o] = b as u8;
+            }
+        }
+        let mut members = vec![Vec::new(); 32];
+        for (o, &b) in bit.iter().enumerate() {
+            members[b as usize].push(o as u32);
+        }
+        MaskBits { bit, members }
+    }
+
+    fn mask(&self, o: usize) -> u32 {
+        1 << self.bit[o]
+    }
+
+    /// The ray mask that excludes `exclude` exactly, if there is one: every object sharing
+    /// a bit with an excluded object must be excluded too.
+    fn excluding(&self, exclude: &[u32]) -> Option<u32> {
+        let exact = exclude.iter().all(|&e| {
+            self.bit
+                .get(e as usize)
+                .is_some_and(|&b| self.members[b as usize].iter().all(|o| exclude.contains(o)))
+        });
+        exact.then(|| {
+            exclude
+                .iter()
+                .fold(u32::MAX, |m, &e| m & !self.mask(e as usize))
+        })
+    }
 }
 
 impl ExcludeContext {
-    /// `objects`: the instance count; `masks`: whether the library tests ray masks.
-    fn new(flags: u32, exclude: &[u32], objects: usize, masks: bool) -> ExcludeContext {
-        // Clearing the excluded bits is exact when every object sharing one of them is
-        // itself excluded.
-        let by_mask = masks
-            && !exclude.is_empty()
-            && exclude.iter().all(|&e| {
-                (e as usize % 32..objects)
-                    .step_by(32)
-                    .all(|o| exclude.contains(&(o as u32)))
-            });
-        let ray_mask = if by_mask {
-            exclude
-                .iter()
-                .fold(u32::MAX, |m, &e| m & !instance_mask(e as usize))
+    /// `bits`: the instances' mask bits, `None` when the library does not test ray masks.
+    fn new(flags: u32, exclude: &[u32], bits: Option<&MaskBits>) -> ExcludeContext {
+        let by_mask = if exclude.is_empty() {
+            None
         } else {
-            u32::MAX
+            bits.and_then(|b| b.excluding(exclude))
         };
+        let ray_mask = by_mask.unwrap_or(u32::MAX);
+        let by_mask = by_mask.is_some();
         // rtcInitIntersectContext is an inline function in the header: replicated here.
         ExcludeContext {
             ctx: RTCIntersectContext {
@@ -333,8 +367,8 @@ pub(crate) struct EmbreeVis {
     infos: Vec<Vec<TriInfo>>,
     xforms: Vec<Xform>,
     dirty: bool,
-    /// The library tests ray masks (`EMBREE_RAY_MASK`), so exclusion can use them.
-    masks: bool,
+    /// The instances' mask bits, when the library tests ray masks (`EMBREE_RAY_MASK`).
+    masks: Option<MaskBits>,
 }
 
 /// Embree's RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR: the three axes, then the translation.
@@ -373,6 +407,7 @@ impl EmbreeVis {
                 blas: Vec::new(),
                 instances: Vec::new(),
             };
+            let bits = MaskBits::new(&meshes.iter().map(|m| m.often_excluded).collect::<Vec<_>>());
             let top = rtcNewScene(device);
             h.top = top;
             rtcSetSceneFlags(
@@ -440,7 +475,7 @@ impl EmbreeVis {
                     RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR,
                     x.as_ptr() as *const c_void,
                 );
-                rtcSetGeometryMask(inst, instance_mask(o));
+                rtcSetGeometryMask(inst, bits.mask(o));
                 rtcCommitGeometry(inst);
                 rtcAttachGeometryByID(top, inst, o as u32);
             }
@@ -451,13 +486,14 @@ impl EmbreeVis {
                 infos: meshes.iter().map(tri_infos).collect(),
                 xforms: transforms.iter().map(|&m| Xform::new(m)).collect(),
                 dirty: false,
-                masks: rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_RAY_MASK_SUPPORTED) != 0,
+                masks: (rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_RAY_MASK_SUPPORTED) != 0)
+                    .then_some(bits),
             })
         }
     }
 
     fn context(&self, flags: u32, exclude: &[u32]) -> ExcludeContext {
-        ExcludeContext::new(flags, exclude, self.xforms.len(), self.masks)
+        ExcludeContext::new(flags, exclude, self.masks.as_ref())
     }
 
     #[inline]
@@ -679,5 +715,27 @@ impl Visibility for EmbreeVis {
                     *b = ray.tfar == f32::NEG_INFINITY;
                 }
             });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::MaskBits;
+
+    #[test]
+    fn mask_bits_exclude_exactly_or_not_at_all() {
+        // Up to 32 objects: a bit each, any exclusion is exact.
+        let few = MaskBits::new(&[false; 20]);
+        assert_eq!(few.excluding(&[3]), Some(!(1 << 3)));
+        assert_eq!(few.excluding(&[3, 7]), Some(!(1 << 3 | 1 << 7)));
+        // 40 objects, 3 flagged: it has bit 0 alone; the others share bit 31.
+        let mut flags = [false; 40];
+        flags[3] = true;
+        let many = MaskBits::new(&flags);
+        assert_eq!(many.excluding(&[3]), Some(!1));
+        assert_eq!(many.excluding(&[35]), None);
+        assert_eq!(many.excluding(&[3, 35]), None);
+        // Out of range: no mask (the filter then ignores it).
+        assert_eq!(few.excluding(&[99]), None);
     }
 }

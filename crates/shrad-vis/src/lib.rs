@@ -47,6 +47,10 @@ pub struct MeshRef<'a> {
     pub triangles: &'a [[u32; 3]],
     /// One payload per triangle, returned in [`Hit::id`].
     pub ids: &'a [u32],
+    /// A hint: queries will often exclude this object (a probe's own object). Backends
+    /// that exclude by ray mask give such objects mask bits of their own first; exclusion
+    /// is exact either way.
+    pub often_excluded: bool,
 }
 
 /// Which backend [`build`] makes.

@@ -19,6 +19,7 @@ impl Mesh {
             positions: &self.p,
             triangles: &self.t,
             ids: &self.ids,
+            often_excluded: false,
         }
     }
 
@@ -451,12 +452,21 @@ fn random_rays_match_reference_and_each_other() {
         })
         .collect();
     let dirs: Vec<Vec3> = (0..n).map(|_| rng.dir()).collect();
-    // 40 objects: Embree's instance masks (bit `o % 32`) cannot exclude 3 alone, as 35
-    // shares its bit (the filter path), but can exclude 3 and 35 together (the mask path).
+    // 40 objects, more than Embree's 32 mask bits: object 3 is flagged `often_excluded`
+    // and gets a bit of its own (excluding it alone takes the mask path); 35 shares the
+    // last bit with the other unflagged objects (excluding it takes the filter path).
     let (excl, excl_pair) = ([3u32], [3u32, 35]);
     let mut all = Vec::new();
     for b in backends() {
-        let v = make(b, &meshes, &xf);
+        let refs: Vec<MeshRef<'_>> = meshes
+            .iter()
+            .enumerate()
+            .map(|(i, m)| MeshRef {
+                often_excluded: i == 3,
+                ..m.r()
+            })
+            .collect();
+        let v = build(b, &refs, &xf).unwrap();
         for exclude in [&[][..], &excl[..], &excl_pair[..]] {
             let mut out = vec![Hit::MISS; n];
             v.closest(&origins, &dirs, 1e-4, exclude, &mut out);
@@ -645,6 +655,7 @@ fn degenerate_inputs() {
             positions: &c.p,
             triangles: &c.t,
             ids: &c.ids[1..],
+            often_excluded: false,
         };
         assert!(matches!(
             build(b, &[bad], &[Affine3A::IDENTITY]),
@@ -656,6 +667,7 @@ fn degenerate_inputs() {
             positions: &c.p,
             triangles: &oob,
             ids: &[0],
+            often_excluded: false,
         };
         assert!(matches!(
             build(b, &[bad], &[Affine3A::IDENTITY]),

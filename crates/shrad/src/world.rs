@@ -39,10 +39,13 @@ impl World {
         let meshes: Vec<MeshRef<'_>> = patches
             .meshes
             .iter()
-            .map(|m| MeshRef {
+            .zip(&patches.object_role)
+            .map(|(m, role)| MeshRef {
                 positions: &m.positions,
                 triangles: &m.triangles,
                 ids: &m.triangle_patch,
+                // The dispersive solver's probes and emitters see through their own object.
+                often_excluded: *role == shrad_scene::Role::Interior,
             })
             .collect();
         let vis = shrad_vis::build(backend, &meshes, &patches.world_from_object)
