@@ -1308,17 +1308,36 @@ struct Neighbours {
 impl Neighbours {
     fn of_boundary(p: &crate::Patches) -> Neighbours {
         let boundary = |i: usize| p.role(i) == Role::Boundary;
-        // Patches at each shading vertex.
-        let mut at_vertex: Vec<Vec<u32>> = vec![Vec::new(); p.shading_vertex_count];
-        for i in (0..p.len()).filter(|&i| boundary(i)) {
+        // Patches at each shading vertex, as compressed rows (no allocation per vertex:
+        // a 1M-patch scene has about as many vertices).
+        let corners = |i: usize| {
             let mut v = p.corner_vertex[i];
             v.sort_unstable();
-            for (k, &c) in v.iter().enumerate() {
-                if k == 0 || v[k - 1] != c {
-                    at_vertex[c as usize].push(i as u32);
-                }
+            (0..4)
+                .filter(move |&k| k == 0 || v[k - 1] != v[k])
+                .map(move |k| v[k])
+        };
+        let mut vertex_start = vec![0u32; p.shading_vertex_count + 1];
+        for i in (0..p.len()).filter(|&i| boundary(i)) {
+            for c in corners(i) {
+                vertex_start[c as usize + 1] += 1;
             }
         }
+        for v in 0..p.shading_vertex_count {
+            vertex_start[v + 1] += vertex_start[v];
+        }
+        let mut fill = vertex_start.clone();
+        let mut vertex_patches = vec![0u32; *vertex_start.last().unwrap_or(&0) as usize];
+        for i in (0..p.len()).filter(|&i| boundary(i)) {
+            for c in corners(i) {
+                vertex_patches[fill[c as usize] as usize] = i as u32;
+                fill[c as usize] += 1;
+            }
+        }
+        let at_vertex = |c: u32| {
+            &vertex_patches
+                [vertex_start[c as usize] as usize..vertex_start[c as usize + 1] as usize]
+        };
         let mut start = Vec::with_capacity(p.len() + 1);
         let mut list = Vec::new();
         start.push(0);
@@ -1327,7 +1346,7 @@ impl Neighbours {
             if boundary(i) {
                 near.clear();
                 for &c in &p.corner_vertex[i] {
-                    near.extend(at_vertex[c as usize].iter().filter(|&&k| k as usize != i));
+                    near.extend(at_vertex(c).iter().filter(|&&k| k as usize != i));
                 }
                 near.sort_unstable();
                 near.dedup();
