@@ -402,7 +402,7 @@ impl Dispersive {
                 self_transfer(world, ob.object, options.bands, options.self_shadow_rays);
         }
         let boundary_patches: Vec<u32> = (0..p.len() as u32)
-            .filter(|&i| p.role(i as usize) == Role::Boundary)
+            .filter(|&i| receives_as_boundary(world, i as usize))
             .collect();
         let wall_rows = options.wall_exchange.then(|| {
             // Every object occludes; only boundary-to-boundary entries are kept (light via
@@ -413,7 +413,7 @@ impl Dispersive {
                 &boundary_patches,
                 options.wall_rays,
                 &[],
-                |j| p.role(j) == Role::Boundary,
+                |j| receives_as_boundary(world, j),
                 &NoProgress,
             )
         });
@@ -434,7 +434,7 @@ impl Dispersive {
             scratch: vec![Vec3::ZERO; n],
             wall: vec![Vec3::ZERO; n],
             neighbours: if options.splat_smoothing {
-                Neighbours::of_boundary(p)
+                Neighbours::of_boundary(world)
             } else {
                 Neighbours::default()
             },
@@ -610,9 +610,8 @@ impl Dispersive {
         let receivers: Vec<u32> = (0..p.len() as u32)
             .into_par_iter()
             .filter(|&i| match p.role(i as usize) {
-                Role::Boundary => true,
+                Role::Boundary | Role::Light => true,
                 Role::Interior => self.options.direct_on_interior,
-                Role::Light => false,
             })
             .filter(|&i| world.reflectance[i as usize].max_element() > 0.0)
             .filter(|&i| {
@@ -693,7 +692,7 @@ impl Dispersive {
             &ids,
             rays as u32,
             &[],
-            |j| p.role(j) == Role::Boundary,
+            |j| receives_as_boundary(world, j),
             &NoProgress,
         );
         for (k, row) in dirty.into_iter().zip(fresh) {
@@ -1209,10 +1208,11 @@ impl Dispersive {
                 break;
             }
         }
+        // Lights that reflect nothing are their emission (reflective ones are boundary).
         for (o, role) in p.object_role.iter().enumerate() {
             if *role == Role::Light {
-                for i in p.range(o) {
-                    self.radiosity[i] = world.exitance[i] + world.reflectance[i] * self.direct[i];
+                for i in p.range(o).filter(|&i| !receives_as_boundary(world, i)) {
+                    self.radiosity[i] = world.exitance[i];
                 }
             }
         }
@@ -1269,7 +1269,6 @@ pub fn splat_to_boundary(
     centre: Vec3,
     intensity: &ShRgb,
 ) -> Vec<(u32, Vec3)> {
-    let p = &world.patches;
     let (cube, projector) = (&camera.cube, &camera.projector);
     // Only texels the emitter sends light into are traced: a face emitter's lobe is zero
     // over the half of the sphere behind it. (Flux through a texel: the intensity times the
@@ -1289,9 +1288,21 @@ pub fn splat_to_boundary(
         .zip(&flux)
         .filter_map(|(h, &(_, f))| {
             let j = world.seen_patch(h)?;
-            (p.role(j) == Role::Boundary).then_some((j as u32, f))
+            receives_as_boundary(world, j).then_some((j as u32, f))
         })
         .collect()
+}
+
+/// Whether patch `i` is lit like the boundary (Steps 1, 3, 4 and the wall exchange): the
+/// boundary's patches, and those of lights that also reflect (a lamp panel, an emissive
+/// card: the paper's lights only emit, but a reflective emitter near a wall otherwise
+/// loses the light it bounces back).
+fn receives_as_boundary(world: &World, i: usize) -> bool {
+    match world.patches.role(i) {
+        Role::Boundary => true,
+        Role::Light => world.reflectance[i].max_element() > 0.0,
+        Role::Interior => false,
+    }
 }
 
 /// Boundary patches around each boundary patch: those sharing one of its smooth-shading
@@ -1306,8 +1317,9 @@ struct Neighbours {
 }
 
 impl Neighbours {
-    fn of_boundary(p: &crate::Patches) -> Neighbours {
-        let boundary = |i: usize| p.role(i) == Role::Boundary;
+    fn of_boundary(world: &World) -> Neighbours {
+        let p = &world.patches;
+        let boundary = |i: usize| receives_as_boundary(world, i);
         // Patches at each shading vertex, as compressed rows (no allocation per vertex:
         // a 1M-patch scene has about as many vertices).
         let corners = |i: usize| {
@@ -1777,5 +1789,27 @@ mod tests {
         .0;
         let e = crate::metrics::relative_error(&world.patches, d.radiosity(), &reference);
         assert!(e.overall < 0.11, "{e:?}");
+    }
+
+    /// A reflective, double-sided emitter lying just above the floor (scenes/example.toml's
+    /// `glow`): the floor and the emitter's back bounce light between them, which the
+    /// dispersive solver must carry like any boundary light (it lost half of it when lights
+    /// only emitted: 22 % error).
+    #[test]
+    fn reflective_light_near_the_floor_bounces_light() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.toml");
+        let scene = shrad_scene::load(&path, &Default::default()).unwrap();
+        let world = World::new(scene, PatchSizing::Count(4000), Backend::Auto).unwrap();
+        let mut d = Dispersive::new(&world, DispersiveOptions::improved());
+        d.converge(&world, 8);
+        let reference = crate::reference::solve(
+            &world,
+            &crate::reference::ReferenceOptions::standard(),
+            &NoProgress,
+        )
+        .0;
+        let e = crate::metrics::relative_error(&world.patches, d.radiosity(), &reference);
+        assert!(e.overall < 0.08, "{e:?}");
     }
 }

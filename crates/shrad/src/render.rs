@@ -1,7 +1,8 @@
 //! Pictures of a radiosity solution: one primary ray per sample through a pinhole camera;
 //! the surface seen shows its outgoing radiance `B / pi` (emitters `L_e` when they do not
 //! reflect), flat per patch or smooth (bilinear / barycentric from welded patch corners,
-//! area-weighted: Gouraud shading as radiosity systems have always drawn).
+//! area-weighted: Gouraud shading as radiosity systems have always drawn). The back of a
+//! single-sided surface is culled: the camera sees what lies behind it.
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -120,6 +121,28 @@ pub fn render(
         });
     let mut hits = vec![shrad_vis::Hit::MISS; origins.len()];
     world.vis.closest(&origins, &dirs, 0.0, &[], &mut hits);
+    // The back of a single-sided surface is transparent to the camera (back-face culling,
+    // as in a viewport): a camera outside a closed room sees in through the near wall
+    // instead of a black back. Up to 4 such layers per ray.
+    for _ in 0..4 {
+        let behind: Vec<usize> = (0..hits.len())
+            .filter(|&k| hits[k].is_hit() && world.seen_patch(&hits[k]).is_none())
+            .collect();
+        if behind.is_empty() {
+            break;
+        }
+        let from: Vec<Vec3> = behind
+            .iter()
+            .map(|&k| origins[k] + dirs[k] * (hits[k].t + world.eps))
+            .collect();
+        let towards: Vec<Vec3> = behind.iter().map(|&k| dirs[k]).collect();
+        let mut again = vec![shrad_vis::Hit::MISS; behind.len()];
+        world.vis.closest(&from, &towards, 0.0, &[], &mut again);
+        for ((&k, o), h) in behind.iter().zip(from).zip(again) {
+            origins[k] = o;
+            hits[k] = h;
+        }
+    }
     let vertex = match options.shading {
         Shading::Smooth => vertex_radiosity(world, radiosity),
         Shading::Flat => Vec::new(),
@@ -190,4 +213,32 @@ fn parallelogram_coords(y: Vec3, o: Vec3, e1: Vec3, e2: Vec3) -> (f32, f32) {
         ((c * p - b * q) / det).clamp(0.0, 1.0),
         ((a * q - b * p) / det).clamp(0.0, 1.0),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::PatchSizing;
+    use shrad_vis::Backend;
+
+    /// A camera outside a closed, inward-facing room sees in through the near wall's back.
+    #[test]
+    fn camera_outside_a_closed_room_sees_in() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.toml");
+        let scene = shrad_scene::load(&path, &Default::default()).unwrap();
+        let camera = scene.camera.clone().expect("the example has a camera");
+        let world = World::new(scene, PatchSizing::Count(2000), Backend::Auto).unwrap();
+        // Radiosity 1 everywhere: every pixel that reaches a front face is 1 / pi.
+        let b = vec![Vec3::ONE; world.patches.len()];
+        let options = RenderOptions {
+            width: 16,
+            height: 16,
+            spp: 1,
+            shading: Shading::Flat,
+        };
+        let image = render(&world, &b, &camera, &options);
+        let lit = image.pixels.iter().filter(|p| p.x > 0.3).count();
+        assert!(lit > 200, "only {lit} of 256 pixels see a front face");
+    }
 }
