@@ -227,7 +227,7 @@ mod tests {
         let path =
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.toml");
         let scene = shrad_scene::load(&path, &Default::default()).unwrap();
-        let camera = scene.camera.clone().expect("the example has a camera");
+        let camera = scene.camera.expect("the example has a camera");
         let world = World::new(scene, PatchSizing::Count(2000), Backend::Auto).unwrap();
         // Radiosity 1 everywhere: every pixel that reaches a front face is 1 / pi.
         let b = vec![Vec3::ONE; world.patches.len()];
