@@ -1,6 +1,13 @@
 //! Looks for the system Embree 3 (`libembree-dev`). When found, enables `cfg(shrad_embree)`
 //! and links `libembree3`; `SHRAD_NO_EMBREE=1` at build time turns it off. Extra search
 //! roots can be given with `EMBREE_DIR` (containing `include/embree3` and `lib`).
+//!
+//! The script reruns when Embree appears or disappears (say `scripts/setup` installs it after
+//! a first build), so the cfg follows the system. Cargo treats a `rerun-if-changed` path that
+//! does not exist as changed on *every* build (the crate and its dependents would recompile
+//! each time), so for each candidate header we watch the header when it exists, else the
+//! nearest existing directory of `ROOT/include/embree3`, `ROOT/include` (and `EMBREE_DIR`
+//! itself); cargo scans a watched directory recursively, so a file created below it counts.
 
 use std::path::{Path, PathBuf};
 
@@ -9,6 +16,11 @@ fn main() {
     println!("cargo::rerun-if-changed=build.rs");
     println!("cargo::rerun-if-env-changed=SHRAD_NO_EMBREE");
     println!("cargo::rerun-if-env-changed=EMBREE_DIR");
+    for (root, watch_root) in roots() {
+        if let Some(path) = watch_path(&root, watch_root) {
+            println!("cargo::rerun-if-changed={}", path.display());
+        }
+    }
 
     if std::env::var("SHRAD_NO_EMBREE").is_ok_and(|v| !v.is_empty() && v != "0") {
         return;
@@ -45,13 +57,7 @@ fn find_embree() -> Option<PathBuf> {
             }
         }
     }
-    let mut roots: Vec<PathBuf> = Vec::new();
-    if let Ok(d) = std::env::var("EMBREE_DIR") {
-        roots.push(d.into());
-    }
-    roots.push("/usr".into());
-    roots.push("/usr/local".into());
-    for root in roots {
+    for (root, _) in roots() {
         if !root.join("include/embree3/rtcore.h").is_file() {
             continue;
         }
@@ -62,6 +68,34 @@ fn find_embree() -> Option<PathBuf> {
         }
     }
     None
+}
+
+/// Search roots, each holding `include/embree3/rtcore.h` and a lib directory, and whether
+/// the root itself may be watched (`EMBREE_DIR` is an Embree prefix, small; `/usr/local` may
+/// hold a whole Cargo home, and a watched directory is scanned recursively).
+fn roots() -> Vec<(PathBuf, bool)> {
+    let mut roots: Vec<(PathBuf, bool)> = Vec::new();
+    if let Ok(d) = std::env::var("EMBREE_DIR") {
+        if !d.is_empty() {
+            roots.push((d.into(), true));
+        }
+    }
+    roots.push(("/usr".into(), false));
+    roots.push(("/usr/local".into(), false));
+    roots
+}
+
+/// What to watch for `root`: its header when present, else the nearest existing directory
+/// on the way to it: `include/embree3`, `include`, then the root itself when allowed.
+fn watch_path(root: &Path, watch_root: bool) -> Option<PathBuf> {
+    let include = root.join("include");
+    let dir = include.join("embree3");
+    let header = dir.join("rtcore.h");
+    let mut candidates = vec![header, dir, include];
+    if watch_root {
+        candidates.push(root.to_path_buf());
+    }
+    candidates.into_iter().find(|p| p.exists())
 }
 
 fn lib_dirs(root: Option<&Path>) -> Vec<PathBuf> {
