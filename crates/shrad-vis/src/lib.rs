@@ -233,26 +233,24 @@ pub(crate) struct TriInfo {
 pub(crate) struct Xform {
     pub world_from_object: Affine3A,
     pub object_from_world: Affine3A,
-    /// -1 when the transform mirrors (the world winding flips), else +1.
-    pub det_sign: f32,
 }
 
 impl Xform {
     pub fn new(world_from_object: Affine3A) -> Self {
-        let det = world_from_object.matrix3.determinant();
         Xform {
             world_from_object,
             object_from_world: world_from_object.inverse(),
-            det_sign: if det < 0.0 { -1.0 } else { 1.0 },
         }
     }
 
     /// Does world direction `d` meet the front of a triangle with object-frame normal `n`?
-    /// dot(d, n_world) = det * dot(L^-1 d, n) for n_world = cross of the transformed edges.
+    /// The front is the object frame's counter-clockwise side, whatever the transform (the
+    /// glTF rule: a mirroring transform makes the world winding clockwise, and the world
+    /// normal is the inverse transpose `L^-T n`), and `dot(d, L^-T n) = dot(L^-1 d, n)`.
     #[inline]
     pub fn front(&self, n: Vec3, d: Vec3) -> bool {
         let d_obj = self.object_from_world.transform_vector3(d);
-        self.det_sign * d_obj.dot(n) < 0.0
+        d_obj.dot(n) < 0.0
     }
 }
 

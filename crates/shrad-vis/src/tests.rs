@@ -157,8 +157,8 @@ fn closest_on_unit_box() {
 #[test]
 fn transformed_quads_and_front() {
     // Object 0: a quad in z = 0 facing +z, rotated to face +x and moved to x = 2.
-    // Object 1: the same quad mirrored (scale z by -1 does not change a z = 0 quad, so use
-    // scale x by -1: the world winding flips, front is now -z) at z = -3.
+    // Object 1: the same quad mirrored in x at z = -3: the world winding flips, but by the
+    // glTF rule the front stays the object frame's counter-clockwise side, +z (normal L^-T n).
     let mut q = Mesh::default();
     q.quad(
         [
@@ -185,14 +185,14 @@ fn transformed_quads_and_front() {
         let h = one(&*v, Vec3::new(0.0, 0.2, 0.3), Vec3::X, &[]);
         assert_eq!(h.object, 0);
         assert!(!h.front, "{b:?}");
-        // Mirrored quad: from above (+z side) it is the back.
+        // Mirrored quad: from above (+z side) it is the front.
         let h = one(&*v, Vec3::new(0.1, 0.2, 0.0), -Vec3::Z, &[]);
         assert_eq!(h.object, 1, "{b:?} {h:?}");
         assert!((h.t - 3.0).abs() < 1e-5);
-        assert!(!h.front, "{b:?}");
+        assert!(h.front, "{b:?}");
         let h = one(&*v, Vec3::new(0.1, 0.2, -5.0), Vec3::Z, &[]);
         assert_eq!(h.object, 1);
-        assert!(h.front, "{b:?}");
+        assert!(!h.front, "{b:?}");
     }
 }
 

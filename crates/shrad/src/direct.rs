@@ -37,12 +37,12 @@ fn emitters(world: &World) -> Vec<Emitter> {
         if radiance.max_element() <= 0.0 {
             continue;
         }
-        let m = world.patches.world_from_object[o];
-        let triangles: Vec<[Vec3; 3]> = object
-            .mesh
+        let m = world.patches.world_from_local[o];
+        let shape = &world.patches.shapes[o];
+        let triangles: Vec<[Vec3; 3]> = shape
             .triangles
             .iter()
-            .map(|t| t.map(|i| m.transform_point3(object.mesh.positions[i as usize])))
+            .map(|t| t.map(|i| m.transform_point3(shape.positions[i as usize])))
             .collect();
         let areas: Vec<f32> = triangles
             .iter()

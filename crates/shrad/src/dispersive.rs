@@ -352,11 +352,11 @@ impl Dispersive {
         let camera = ProbeCamera::new(options.cube_res, options.bands);
         let emitter_camera = ProbeCamera::new(options.emitter_res, options.bands);
         let mut objects = Vec::new();
-        for (o, object) in world.scene.objects.iter().enumerate() {
+        for o in 0..world.scene.objects.len() {
             if p.object_role[o] != Role::Interior {
                 continue;
             }
-            let (mut lo, mut hi) = object.mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ZERO));
+            let (mut lo, mut hi) = p.shapes[o].bounds().unwrap_or((Vec3::ZERO, Vec3::ZERO));
             let margin = options.probe_margin.max(0.0) * (hi - lo).length();
             // A flat object still needs a box with volume.
             let pad =
@@ -553,7 +553,7 @@ impl Dispersive {
             if lights_changed {
                 ob.disturbed = ob.disturbed.max(2.0);
             }
-            let m = p.world_from_object[ob.object];
+            let m = p.world_from_local[ob.object];
             let c = m.transform_point3(ob.centre_local());
             let r = 0.5 * m.transform_vector3(ob.hi - ob.lo).length();
             // A neighbour: within three times the two radii.
@@ -780,7 +780,7 @@ impl Dispersive {
             let t = Instant::now();
             let ob = &self.objects[k];
             let o = ob.object;
-            let m = p.world_from_object[o];
+            let m = p.world_from_local[o];
             let (probes, scale) = self.capture_corner_probes(world, k, m, stats);
             self.objects[k].probe_scale = scale;
             let range = p.range(o);
@@ -887,7 +887,7 @@ impl Dispersive {
         let p = &world.patches;
         let ob = &self.objects[k];
         let o = ob.object;
-        let m = p.world_from_object[o];
+        let m = p.world_from_local[o];
         let reach = 0.02 * m.transform_vector3(ob.hi - ob.lo).length();
         let rays = self.options.contact_rays as usize;
         let range = p.range(o);
@@ -1002,7 +1002,7 @@ impl Dispersive {
         for k in lit {
             let ob = &self.objects[k];
             let o = ob.object;
-            let m = p.world_from_object[o];
+            let m = p.world_from_local[o];
             let range = p.range(o);
             let method = match self.options.to_boundary {
                 // Gather while it costs about what a splat does (up to 2 x 6R^2 boundary
@@ -1465,7 +1465,7 @@ fn self_transfer(
     let others: Vec<u32> = (0..p.object_role.len() as u32)
         .filter(|&x| x as usize != o)
         .collect();
-    let m = p.world_from_object[o];
+    let m = p.world_from_local[o];
     let range = p.range(o);
     let mut origins = vec![Vec3::ZERO; range.len() * rays];
     let mut dirs_world = vec![Vec3::ZERO; range.len() * rays];
@@ -1516,8 +1516,8 @@ fn self_transfer(
 
 /// World bounding box of object `o` (its rest-frame mesh box, transformed).
 fn world_box(world: &World, o: usize) -> (Vec3, Vec3) {
-    let m = world.patches.world_from_object[o];
-    let Some((lo, hi)) = world.scene.objects[o].mesh.bounds() else {
+    let m = world.patches.world_from_local[o];
+    let Some((lo, hi)) = world.patches.shapes[o].bounds() else {
         return (Vec3::ZERO, Vec3::ZERO);
     };
     (0..8)

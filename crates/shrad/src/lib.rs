@@ -18,6 +18,7 @@ pub mod direct;
 pub mod dispersive;
 pub mod grid;
 pub mod image_io;
+pub mod limits;
 pub mod metrics;
 pub mod patches;
 pub mod probes;

@@ -5,16 +5,38 @@
 //! or one triangle, with one centre, normal and area.
 //!
 //! Storage is structure-of-arrays, object by object: object `o` owns the contiguous patch
-//! range `object_ranges[o]`. Geometry is kept in each object's own frame (rest frame) and the
-//! world-space centres and normals are recomputed when objects move.
+//! range `object_ranges[o]`.
+//!
+//! **World units under any rest transform** (spec section 3). An object's rest transform
+//! `world_from_object` may scale, shear or mirror (a Blender object with unapplied scale, an
+//! exporter that instances a unit cube). It is split by a polar decomposition into a rigid
+//! part and a *shape*: `world_from_object = world_from_local * local_from_object`, where
+//! `local_from_object` (symmetric, possibly with a negative determinant) holds every scale,
+//! shear and mirror, and `world_from_local` is a rotation and a translation. Patches are cut
+//! and measured in the *local* frame — the object's mesh with its shape applied — so `h`,
+//! areas, centres and normals are world quantities, and the probe box stays aligned with the
+//! object. Mirroring follows glTF: the mesh's triangles are counter-clockwise from the front
+//! in the object frame and world normals are the inverse transpose of object normals; a
+//! mirroring shape reverses the local winding so that local cross products point to the
+//! front again. When an object later moves rigidly its areas are kept; a transform that
+//! scales (an animation's scale keys) re-measures every area from the local one.
 
 use std::ops::Range;
 
-use glam::{Affine3A, Vec3};
-use shrad_scene::{Object, Role, Scene};
+use glam::{Affine3A, Mat3, Vec3};
+use shrad_scene::{Mesh, Role, Scene};
 
 /// Marks "no patch".
 pub const NO_PATCH: u32 = u32::MAX;
+
+/// What [`Patches::build`] will make, known before it is made.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PatchPlan {
+    /// The patch size `h` (world units).
+    pub patch_size: f32,
+    /// The number of patches (saturating at `usize::MAX`).
+    pub count: usize,
+}
 
 /// How to choose the patch size.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -25,10 +47,10 @@ pub enum PatchSizing {
     Count(usize),
 }
 
-/// One object's patch mesh in its own frame, for visibility and drawing.
+/// One object's patch mesh in its local frame, for visibility and drawing.
 #[derive(Clone, Debug, Default)]
 pub struct ObjectMesh {
-    /// Corner positions (object frame); not welded.
+    /// Corner positions (local frame); not welded.
     pub positions: Vec<Vec3>,
     /// Triangles (counter-clockwise from the front).
     pub triangles: Vec<[u32; 3]>,
@@ -41,16 +63,18 @@ pub struct ObjectMesh {
 pub struct Patches {
     /// Owning object of each patch.
     pub object: Vec<u32>,
-    /// Corners in the object frame: a parallelogram `c0, c1, c2, c3` or a triangle with
+    /// Corners in the local frame: a parallelogram `c0, c1, c2, c3` or a triangle with
     /// `c3 == c2` (see `is_quad`).
     pub corners: Vec<[Vec3; 4]>,
     /// Is the patch a parallelogram (else a triangle)?
     pub is_quad: Vec<bool>,
-    /// Centre in the object frame.
+    /// Centre in the local frame.
     pub centre_local: Vec<Vec3>,
-    /// Unit normal in the object frame.
+    /// Unit normal in the local frame.
     pub normal_local: Vec<Vec3>,
-    /// Area (rigid motion keeps it).
+    /// Area in the local frame (world units: the rest shape is applied).
+    pub area_local: Vec<f32>,
+    /// World area at the current transforms (equal to `area_local` under rigid motion).
     pub area: Vec<f32>,
     /// World-space centre (current transforms).
     pub centre: Vec<Vec3>,
@@ -68,8 +92,14 @@ pub struct Patches {
     pub object_ranges: Vec<Range<u32>>,
     /// Role of each object.
     pub object_role: Vec<Role>,
-    /// Current world transform of each object.
-    pub world_from_object: Vec<Affine3A>,
+    /// Current transform of each object's local frame (rigid unless an animation scales).
+    pub world_from_local: Vec<Affine3A>,
+    /// The rest shape of each object: its scale, shear and mirroring (see the module docs).
+    pub local_from_object: Vec<Mat3>,
+    /// Each object's input mesh in its local frame (shape applied, winding made
+    /// counter-clockwise from the front there): what the lights' exact irradiance and the
+    /// probe boxes are computed from.
+    pub shapes: Vec<Mesh>,
     /// Patch mesh of each object, for visibility.
     pub meshes: Vec<ObjectMesh>,
     /// The patch size used (the scene's default; objects may override).
@@ -95,23 +125,46 @@ impl Patches {
         r.start as usize..r.end as usize
     }
 
-    /// Subdivide every object of `scene`.
-    pub fn build(scene: &Scene, sizing: PatchSizing) -> Patches {
+    /// The patch size and the number of patches that [`Patches::build`] would make, found
+    /// without making them (so that an absurd size is refused before anything is allocated).
+    pub fn plan(scene: &Scene, sizing: PatchSizing) -> PatchPlan {
+        let shaped = shaped_objects(scene);
+        let faces: Vec<Vec<Face>> = shaped.iter().map(|(_, _, m)| pair_parallelograms(m)).collect();
         let h = match sizing {
             PatchSizing::Size(h) => h,
-            PatchSizing::Count(n) => size_for_count(scene, n),
+            PatchSizing::Count(n) => size_for_count(scene, &shaped, &faces, n),
+        };
+        PatchPlan {
+            patch_size: h,
+            count: count_patches(scene, &shaped, &faces, h),
+        }
+    }
+
+    /// Subdivide every object of `scene`. See [`Patches::plan`] for the count beforehand.
+    pub fn build(scene: &Scene, sizing: PatchSizing) -> Patches {
+        let shaped = shaped_objects(scene);
+        let h = match sizing {
+            PatchSizing::Size(h) => h,
+            PatchSizing::Count(n) => {
+                let faces: Vec<Vec<Face>> =
+                    shaped.iter().map(|(_, _, m)| pair_parallelograms(m)).collect();
+                size_for_count(scene, &shaped, &faces, n)
+            }
         };
         let mut patches = Patches {
             patch_size: h,
             ..Default::default()
         };
         let mut welder = Welder::default();
-        for (oi, object) in scene.objects.iter().enumerate() {
+        for (oi, (object, (world_from_local, local_from_object, shape))) in
+            scene.objects.iter().zip(shaped).enumerate()
+        {
             let start = patches.len() as u32;
             let mesh = ObjectMesh::default();
             patches.meshes.push(mesh);
             let oh = object.patch_size.unwrap_or(h);
-            for cell in subdivide(object, oh) {
+            welder.next_object(&shape);
+            for cell in subdivide(&shape, oh) {
                 patches.push_cell(oi as u32, cell, &mut welder, false);
                 if object.material.double_sided {
                     let me = patches.len() as u32 - 1;
@@ -137,12 +190,14 @@ impl Patches {
             }
             patches.object_ranges.push(start..patches.len() as u32);
             patches.object_role.push(object.role());
-            patches.world_from_object.push(object.world_from_object);
-            welder.next_object();
+            patches.world_from_local.push(world_from_local);
+            patches.local_from_object.push(local_from_object);
+            patches.shapes.push(shape);
         }
         patches.shading_vertex_count = welder.count;
         patches.centre = patches.centre_local.clone();
         patches.normal = patches.normal_local.clone();
+        patches.area = patches.area_local.clone();
         for o in 0..scene.objects.len() {
             patches.update_world(o);
         }
@@ -169,7 +224,7 @@ impl Patches {
         self.is_quad.push(cell.is_quad);
         self.centre_local.push(centre);
         self.normal_local.push(normal);
-        self.area.push(cross.length());
+        self.area_local.push(cross.length());
         self.twin.push(NO_PATCH);
         self.corner_vertex.push(c.map(|p| welder.vertex(p, normal)));
         if geometry_shared {
@@ -191,26 +246,41 @@ impl Patches {
         }
     }
 
-    /// Set object `o`'s transform and recompute its patches' world centres and normals.
-    pub fn set_transform(&mut self, o: usize, world_from_object: Affine3A) {
-        self.world_from_object[o] = world_from_object;
+    /// The transform of object `o`'s local frame that puts the object at
+    /// `world_from_object` (its rest transform, or that moved by an animation).
+    pub fn local_transform_for(&self, o: usize, world_from_object: Affine3A) -> Affine3A {
+        world_from_object * Affine3A::from_mat3(self.local_from_object[o].inverse())
+    }
+
+    /// Set object `o`'s local-frame transform (see [`Patches::local_transform_for`]) and
+    /// recompute its patches' world centres, normals and, if it does not keep lengths,
+    /// areas.
+    pub fn set_transform(&mut self, o: usize, world_from_local: Affine3A) {
+        self.world_from_local[o] = world_from_local;
         self.update_world(o);
     }
 
     fn update_world(&mut self, o: usize) {
-        let m = self.world_from_object[o];
+        let m = self.world_from_local[o];
         let normal_matrix = m.matrix3.inverse().transpose();
+        let rigid = is_rigid(Mat3::from(m.matrix3));
+        let det = m.matrix3.determinant().abs();
         for p in self.range(o) {
             self.centre[p] = m.transform_point3(self.centre_local[p]);
-            self.normal[p] = (normal_matrix * glam::Vec3A::from(self.normal_local[p]))
-                .normalize_or_zero()
-                .into();
+            let n = normal_matrix * glam::Vec3A::from(self.normal_local[p]);
+            self.normal[p] = n.normalize_or_zero().into();
+            // A planar element of area A and normal n maps to area |det L| |L^-T n| A.
+            self.area[p] = if rigid {
+                self.area_local[p]
+            } else {
+                self.area_local[p] * det * n.length()
+            };
         }
     }
 
     /// World-space corners of patch `p` (4; a triangle repeats its last corner).
     pub fn world_corners(&self, p: usize) -> [Vec3; 4] {
-        let m = self.world_from_object[self.object[p] as usize];
+        let m = self.world_from_local[self.object[p] as usize];
         self.corners[p].map(|c| m.transform_point3(c))
     }
 
@@ -240,7 +310,52 @@ impl Patches {
     }
 }
 
-/// One patch before it is stored: a parallelogram or a triangle (object frame).
+/// Split a rest transform into a rigid part and a shape (polar decomposition, Higham's
+/// iteration `R <- (R + R^-T) / 2` in f64): `world_from_object = world_from_local *
+/// local_from_object`, with `world_from_local` a proper rotation and a translation and
+/// `local_from_object = R^T L` (symmetric; negative determinant for a mirror).
+pub fn split_rest_transform(world_from_object: Affine3A) -> (Affine3A, Mat3) {
+    let l = Mat3::from(world_from_object.matrix3).as_dmat3();
+    let det = l.determinant();
+    if !det.is_finite() || det.abs() < 1e-300 {
+        return (world_from_object, Mat3::IDENTITY);
+    }
+    // -L has the opposite determinant in 3D, so its orthogonal factor is a proper rotation.
+    let mut r = if det < 0.0 { -l } else { l };
+    for _ in 0..100 {
+        let next = 0.5 * (r + r.inverse().transpose());
+        let change: f64 = (next - r).to_cols_array().iter().map(|x| x.abs()).fold(0.0, f64::max);
+        r = next;
+        if change < 1e-15 {
+            break;
+        }
+    }
+    let shape = r.transpose() * l;
+    let rigid = Affine3A::from_mat3_translation(r.as_mat3(), world_from_object.translation.into());
+    (rigid, shape.as_mat3())
+}
+
+/// Does `m` keep lengths (a rotation, possibly mirrored), within float precision?
+fn is_rigid(m: Mat3) -> bool {
+    let e = m.transpose() * m - Mat3::IDENTITY;
+    e.to_cols_array().iter().all(|x| x.abs() < 1e-5)
+}
+
+/// `mesh` with `local_from_object` applied; a mirroring shape reverses the winding so that
+/// the local cross products point to the front (glTF: front = object-frame CCW side).
+fn shape_mesh(mesh: &Mesh, local_from_object: Mat3) -> Mesh {
+    let mirror = local_from_object.determinant() < 0.0;
+    Mesh {
+        positions: mesh.positions.iter().map(|&p| local_from_object * p).collect(),
+        triangles: mesh
+            .triangles
+            .iter()
+            .map(|&[a, b, c]| if mirror { [a, c, b] } else { [a, b, c] })
+            .collect(),
+    }
+}
+
+/// One patch before it is stored: a parallelogram or a triangle (local frame).
 #[derive(Clone, Copy, Debug)]
 struct Cell {
     corners: [Vec3; 4],
@@ -256,6 +371,8 @@ struct Welder {
     /// Quantised position -> the vertices there, with the normal that opened each.
     map: std::collections::HashMap<[i64; 3], Vec<(Vec3, u32)>>,
     count: usize,
+    /// Positions closer than this (1e-6 of the object's size) are one.
+    inv_quantum: f32,
 }
 
 /// Cosine of the crease angle (40 degrees): a 24-segment sphere's facets (15 degrees apart)
@@ -263,11 +380,12 @@ struct Welder {
 const CREASE_COS: f32 = 0.766;
 
 impl Welder {
-    fn next_object(&mut self) {
+    fn next_object(&mut self, shape: &Mesh) {
         self.map.clear();
+        self.inv_quantum = 1.0 / quantum(shape);
     }
     fn vertex(&mut self, p: Vec3, n: Vec3) -> u32 {
-        let qp = (p * 1e4).round().as_i64vec3().to_array();
+        let qp = (p * self.inv_quantum).round().as_i64vec3().to_array();
         let here = self.map.entry(qp).or_default();
         if let Some(&(_, id)) = here.iter().find(|(m, _)| m.dot(n) >= CREASE_COS) {
             return id;
@@ -279,9 +397,15 @@ impl Welder {
     }
 }
 
-/// The cells of one object at patch size `h`.
-fn subdivide(object: &Object, h: f32) -> Vec<Cell> {
-    let mesh = &object.mesh;
+/// The length below which two positions of `mesh` are the same point: 1e-6 of its size,
+/// so welding and pairing behave alike whatever the scene's unit.
+fn quantum(mesh: &Mesh) -> f32 {
+    let size = mesh.bounds().map_or(1.0, |(lo, hi)| (hi - lo).max_element());
+    (1e-6 * size).max(f32::MIN_POSITIVE)
+}
+
+/// The cells of one (local-frame) mesh at patch size `h`.
+fn subdivide(mesh: &Mesh, h: f32) -> Vec<Cell> {
     let pos = |i: u32| mesh.positions[i as usize];
     let mut cells = Vec::new();
     for face in pair_parallelograms(mesh) {
@@ -350,11 +474,12 @@ enum Face {
 
 /// Pair triangles that share their longest edge and together form a planar parallelogram
 /// (the usual export of a quad); the rest stay triangles. Deterministic: triangle order.
-fn pair_parallelograms(mesh: &shrad_scene::Mesh) -> Vec<Face> {
+fn pair_parallelograms(mesh: &Mesh) -> Vec<Face> {
     use std::collections::HashMap;
     let p = |i: u32| mesh.positions[i as usize];
     // Key vertices by position so unwelded exports pair too.
-    let key = |v: Vec3| (v * 1e4).round().as_i64vec3().to_array();
+    let inv_quantum = 1.0 / quantum(mesh);
+    let key = |v: Vec3| (v * inv_quantum).round().as_i64vec3().to_array();
     let tri_keys: Vec<[[i64; 3]; 3]> = mesh
         .triangles
         .iter()
@@ -445,23 +570,9 @@ fn parallelogram(
 }
 
 /// Patch size that gives about `n` patches, by bisection on the count (cheap: no geometry).
-fn size_for_count(scene: &Scene, n: usize) -> f32 {
-    let count = |h: f32| -> usize {
-        scene
-            .objects
-            .iter()
-            .map(|o| {
-                let sides = if o.material.double_sided { 2 } else { 1 };
-                let oh = o.patch_size.unwrap_or(h);
-                sides * count_cells(o, oh)
-            })
-            .sum()
-    };
-    let total_area: f32 = scene
-        .objects
-        .iter()
-        .map(|o| o.mesh.transformed(o.world_from_object).area())
-        .sum();
+fn size_for_count(scene: &Scene, shaped: &[ShapedObject], faces: &[Vec<Face>], n: usize) -> f32 {
+    let count = |h: f32| count_patches(scene, shaped, faces, h);
+    let total_area: f32 = shaped.iter().map(|(_, _, m)| m.area()).sum();
     let mut lo = (total_area / (n.max(1) as f32) / 50.0).sqrt();
     let mut hi = (total_area / (n.max(1) as f32) * 50.0).sqrt().max(lo * 2.0);
     for _ in 0..40 {
@@ -480,25 +591,53 @@ fn size_for_count(scene: &Scene, n: usize) -> f32 {
     }
 }
 
-fn count_cells(object: &Object, h: f32) -> usize {
-    let mesh = &object.mesh;
+/// Every object's rest transform split, and its mesh in the local frame.
+type ShapedObject = (Affine3A, Mat3, Mesh);
+
+fn shaped_objects(scene: &Scene) -> Vec<ShapedObject> {
+    scene
+        .objects
+        .iter()
+        .map(|o| {
+            let (world_from_local, local_from_object) = split_rest_transform(o.world_from_object);
+            (world_from_local, local_from_object, shape_mesh(&o.mesh, local_from_object))
+        })
+        .collect()
+}
+
+/// Patches of the whole scene at size `h` (double-sided objects count twice), saturating.
+fn count_patches(scene: &Scene, shaped: &[ShapedObject], faces: &[Vec<Face>], h: f32) -> usize {
+    scene
+        .objects
+        .iter()
+        .zip(shaped.iter().zip(faces))
+        .map(|(o, ((_, _, mesh), faces))| {
+            let sides = if o.material.double_sided { 2 } else { 1 };
+            let oh = o.patch_size.unwrap_or(h);
+            count_faces(mesh, faces, oh).saturating_mul(sides)
+        })
+        .fold(0usize, usize::saturating_add)
+}
+
+/// How many cells `faces` (of `mesh`) give at patch size `h`, saturating (no overflow for
+/// an absurd `h`): what [`subdivide`] would make, without making it.
+fn count_faces(mesh: &Mesh, faces: &[Face], h: f32) -> usize {
     let p = |i: u32| mesh.positions[i as usize];
-    pair_parallelograms(mesh)
+    faces
         .iter()
         .map(|f| match f {
-            Face::Quad(c) => {
-                cells_along((c[1] - c[0]).length(), h) * cells_along((c[3] - c[0]).length(), h)
-            }
+            Face::Quad(c) => cells_along((c[1] - c[0]).length(), h)
+                .saturating_mul(cells_along((c[3] - c[0]).length(), h)),
             Face::Triangle(t) => {
                 let [a, b, c] = t.map(p);
                 let n = cells_along(
                     (b - a).length().max((c - b).length()).max((a - c).length()),
                     h,
                 );
-                n * n
+                n.saturating_mul(n)
             }
         })
-        .sum()
+        .fold(0usize, usize::saturating_add)
 }
 
 #[cfg(test)]

@@ -29,7 +29,9 @@ pub struct World {
 impl World {
     /// Subdivide `scene` into patches and build its visibility.
     pub fn new(scene: Scene, sizing: PatchSizing, backend: Backend) -> Result<World, Error> {
-        let patches = Patches::build(&scene, sizing);
+        let plan = Patches::plan(&scene, sizing);
+        crate::limits::check_patches(&scene.source, plan)?;
+        let patches = Patches::build(&scene, PatchSizing::Size(plan.patch_size));
         if patches.is_empty() {
             return Err(Error::Invalid(format!(
                 "{}: the scene has no patches",
@@ -48,7 +50,7 @@ impl World {
                 often_excluded: *role == shrad_scene::Role::Interior,
             })
             .collect();
-        let vis = shrad_vis::build(backend, &meshes, &patches.world_from_object)
+        let vis = shrad_vis::build(backend, &meshes, &patches.world_from_local)
             .map_err(|e| Error::Invalid(e.to_string()))?;
         let reflectance = (0..patches.len())
             .map(|p| {
@@ -81,8 +83,14 @@ impl World {
             if !first && object.animation.is_none() {
                 continue;
             }
-            let xf = object.world_from_object_at(t);
-            if xf != self.patches.world_from_object[o] {
+            let world_from_object = object.world_from_object_at(t);
+            // At rest exactly the transform the patches were built with (no float drift).
+            let xf = if world_from_object == object.world_from_object {
+                crate::patches::split_rest_transform(world_from_object).0
+            } else {
+                self.patches.local_transform_for(o, world_from_object)
+            };
+            if xf != self.patches.world_from_local[o] {
                 self.patches.set_transform(o, xf);
                 self.vis.set_transform(o, xf);
                 moved.push(o);

@@ -1,0 +1,141 @@
+//! Replays the fuzz seed corpus (`fuzz/seeds/<target>/*`) and every minimised crash input
+//! that was fixed (`fuzz/regressions/<target>/*`) through `shrad_scene::load`, the way the
+//! fuzz targets in `fuzz/fuzz_targets/` feed them, and asserts that nothing panics: neither
+//! out of `load` nor inside it (the readers' own `catch_unwind` guards would hide a panic,
+//! so a panic hook counts every panic on this thread). An `Err` is fine. See fuzz/README.md.
+
+use std::cell::Cell;
+use std::path::{Path, PathBuf};
+use std::sync::Once;
+
+use shrad_scene::{load, LoadOptions};
+
+thread_local! {
+    static PANICS: Cell<usize> = const { Cell::new(0) };
+}
+
+fn count_panics() {
+    static HOOK: Once = Once::new();
+    HOOK.call_once(|| {
+        let default = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            PANICS.with(|p| p.set(p.get() + 1));
+            default(info);
+        }));
+    });
+}
+
+fn fuzz_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz")
+}
+
+fn inputs(target: &str) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for set in ["seeds", "regressions"] {
+        let Ok(rd) = std::fs::read_dir(fuzz_dir().join(set).join(target)) else {
+            continue;
+        };
+        out.extend(rd.flatten().map(|e| e.path()).filter(|p| p.is_file()));
+    }
+    out.sort();
+    out
+}
+
+/// The files a target writes for one input, as in `fuzz/fuzz_targets/*.rs`.
+fn files(target: &str, data: &[u8]) -> Vec<(&'static str, Vec<u8>)> {
+    match target {
+        "gltf" => vec![("s.gltf", data.to_vec())],
+        "glb" => vec![("s.glb", data.to_vec())],
+        "toml" => vec![("s.toml", data.to_vec())],
+        "obj" => match data.iter().position(|&b| b == 0) {
+            Some(i) => vec![("s.obj", data[..i].to_vec()), ("m.mtl", data[i + 1..].to_vec())],
+            None => vec![("s.obj", data.to_vec())],
+        },
+        _ => unreachable!(),
+    }
+}
+
+fn replay(target: &str) {
+    count_panics();
+    let inputs = inputs(target);
+    assert!(!inputs.is_empty(), "no seeds for fuzz target {target}");
+    let mut failures = Vec::new();
+    for (k, input) in inputs.iter().enumerate() {
+        let data = std::fs::read(input).unwrap();
+        let dir = std::env::temp_dir().join(format!(
+            "shrad-fuzz-replay-{}-{target}-{k}",
+            std::process::id()
+        ));
+        std::fs::create_dir_all(&dir).unwrap();
+        let files = files(target, &data);
+        for (name, bytes) in &files {
+            std::fs::write(dir.join(name), bytes).unwrap();
+        }
+        let path = dir.join(files[0].0);
+        let before = PANICS.with(Cell::get);
+        for drop_degenerate in [false, true] {
+            let opts = LoadOptions { drop_degenerate };
+            let r = std::panic::catch_unwind(|| load(&path, &opts).map(|_| ()));
+            if r.is_err() {
+                failures.push(format!("{}: load panicked", input.display()));
+            }
+        }
+        if PANICS.with(Cell::get) != before {
+            failures.push(format!("{}: panicked inside load", input.display()));
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn gltf_inputs_never_panic() {
+    replay("gltf");
+}
+
+#[test]
+fn glb_inputs_never_panic() {
+    replay("glb");
+}
+
+#[test]
+fn obj_inputs_never_panic() {
+    replay("obj");
+}
+
+#[test]
+fn toml_inputs_never_panic() {
+    replay("toml");
+}
+
+/// The seeds are meant to be valid: they should load, so the fuzzer starts from the paths
+/// that matter (a typo in a seed would make it start from an error path).
+#[test]
+fn hand_written_seeds_load() {
+    for (target, name) in [
+        ("gltf", "tri.gltf"),
+        ("gltf", "strip.gltf"),
+        ("gltf", "cornell.gltf"),
+        ("glb", "tri.glb"),
+        ("glb", "cornell.glb"),
+        ("obj", "tri"),
+        ("obj", "cornell"),
+        ("toml", "minimal.toml"),
+        ("toml", "example_primitives.toml"),
+    ] {
+        let data = std::fs::read(fuzz_dir().join("seeds").join(target).join(name)).unwrap();
+        let dir = std::env::temp_dir().join(format!(
+            "shrad-fuzz-seed-{}-{target}-{name}",
+            std::process::id()
+        ));
+        std::fs::create_dir_all(&dir).unwrap();
+        let files = files(target, &data);
+        for (f, bytes) in &files {
+            std::fs::write(dir.join(f), bytes).unwrap();
+        }
+        let r = load(&dir.join(files[0].0), &LoadOptions::default());
+        let _ = std::fs::remove_dir_all(&dir);
+        let scene = r.unwrap_or_else(|e| panic!("seed {target}/{name}: {e}"));
+        assert!(!scene.objects.is_empty(), "seed {target}/{name}: no objects");
+    }
+}
