@@ -234,8 +234,12 @@ pub fn write_obj(scene: &Scene, obj_path: &Path) -> Result<(), SceneError> {
             let p = o.world_from_object.transform_point3(*p);
             let _ = writeln!(obj, "v {} {} {}", p.x, p.y, p.z);
         }
+        // Baked into world space, a mirrored object's (negative determinant) triangles would
+        // be clockwise from their front: flip them so the front stays front.
+        let mirrored = o.world_from_object.matrix3.determinant() < 0.0;
         for t in &o.mesh.triangles {
             let [a, b, c] = t.map(|v| v as usize + base);
+            let (b, c) = if mirrored { (c, b) } else { (b, c) };
             let _ = writeln!(obj, "f {a} {b} {c}");
         }
         base += o.mesh.positions.len();
