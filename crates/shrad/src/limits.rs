@@ -111,8 +111,13 @@ mod tests {
             patch_size: 1e-9,
             count: 3_000_000_000_000,
         };
-        let e = check_patches_within("cornell", plan, 24 << 30).unwrap_err().to_string();
-        assert!(e.contains("cornell") && e.contains("GiB") && e.contains("3.000e12"), "{e}");
+        let e = check_patches_within("cornell", plan, 24 << 30)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("cornell") && e.contains("GiB") && e.contains("3.000e12"),
+            "{e}"
+        );
         let fine = PatchPlan {
             patch_size: 0.05,
             count: 20_000,
@@ -127,7 +132,9 @@ mod tests {
 
     #[test]
     fn huge_images_are_refused() {
-        let e = check_image_within(100_000, 100_000, 16, 24 << 30).unwrap_err().to_string();
+        let e = check_image_within(100_000, 100_000, 16, 24 << 30)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("GiB"), "{e}");
         check_image_within(512, 512, 4, 24 << 30).unwrap();
         assert!(check_image_within(0, 512, 1, 24 << 30).is_err());

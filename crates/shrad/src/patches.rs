@@ -109,11 +109,11 @@ pub struct Patches {
 impl Patches {
     /// Number of patches.
     pub fn len(&self) -> usize {
-        self.area.len()
+        self.area_local.len()
     }
     /// No patches at all?
     pub fn is_empty(&self) -> bool {
-        self.area.is_empty()
+        self.area_local.is_empty()
     }
     /// Role of patch `p`.
     pub fn role(&self, p: usize) -> Role {
@@ -129,7 +129,10 @@ impl Patches {
     /// without making them (so that an absurd size is refused before anything is allocated).
     pub fn plan(scene: &Scene, sizing: PatchSizing) -> PatchPlan {
         let shaped = shaped_objects(scene);
-        let faces: Vec<Vec<Face>> = shaped.iter().map(|(_, _, m)| pair_parallelograms(m)).collect();
+        let faces: Vec<Vec<Face>> = shaped
+            .iter()
+            .map(|(_, _, m)| pair_parallelograms(m))
+            .collect();
         let h = match sizing {
             PatchSizing::Size(h) => h,
             PatchSizing::Count(n) => size_for_count(scene, &shaped, &faces, n),
@@ -146,8 +149,10 @@ impl Patches {
         let h = match sizing {
             PatchSizing::Size(h) => h,
             PatchSizing::Count(n) => {
-                let faces: Vec<Vec<Face>> =
-                    shaped.iter().map(|(_, _, m)| pair_parallelograms(m)).collect();
+                let faces: Vec<Vec<Face>> = shaped
+                    .iter()
+                    .map(|(_, _, m)| pair_parallelograms(m))
+                    .collect();
                 size_for_count(scene, &shaped, &faces, n)
             }
         };
@@ -324,7 +329,11 @@ pub fn split_rest_transform(world_from_object: Affine3A) -> (Affine3A, Mat3) {
     let mut r = if det < 0.0 { -l } else { l };
     for _ in 0..100 {
         let next = 0.5 * (r + r.inverse().transpose());
-        let change: f64 = (next - r).to_cols_array().iter().map(|x| x.abs()).fold(0.0, f64::max);
+        let change: f64 = (next - r)
+            .to_cols_array()
+            .iter()
+            .map(|x| x.abs())
+            .fold(0.0, f64::max);
         r = next;
         if change < 1e-15 {
             break;
@@ -346,7 +355,11 @@ fn is_rigid(m: Mat3) -> bool {
 fn shape_mesh(mesh: &Mesh, local_from_object: Mat3) -> Mesh {
     let mirror = local_from_object.determinant() < 0.0;
     Mesh {
-        positions: mesh.positions.iter().map(|&p| local_from_object * p).collect(),
+        positions: mesh
+            .positions
+            .iter()
+            .map(|&p| local_from_object * p)
+            .collect(),
         triangles: mesh
             .triangles
             .iter()
@@ -371,7 +384,7 @@ struct Welder {
     /// Quantised position -> the vertices there, with the normal that opened each.
     map: std::collections::HashMap<[i64; 3], Vec<(Vec3, u32)>>,
     count: usize,
-    /// Positions closer than this (1e-6 of the object's size) are one.
+    /// 1 / the quantum of [`quantum`]: positions that round together are one vertex.
     inv_quantum: f32,
 }
 
@@ -397,11 +410,13 @@ impl Welder {
     }
 }
 
-/// The length below which two positions of `mesh` are the same point: 1e-6 of its size,
+/// The length below which two positions of `mesh` are the same point: 1e-5 of its size,
 /// so welding and pairing behave alike whatever the scene's unit.
 fn quantum(mesh: &Mesh) -> f32 {
-    let size = mesh.bounds().map_or(1.0, |(lo, hi)| (hi - lo).max_element());
-    (1e-6 * size).max(f32::MIN_POSITIVE)
+    let size = mesh
+        .bounds()
+        .map_or(1.0, |(lo, hi)| (hi - lo).max_element());
+    (1e-5 * size).max(f32::MIN_POSITIVE)
 }
 
 /// The cells of one (local-frame) mesh at patch size `h`.
@@ -600,7 +615,11 @@ fn shaped_objects(scene: &Scene) -> Vec<ShapedObject> {
         .iter()
         .map(|o| {
             let (world_from_local, local_from_object) = split_rest_transform(o.world_from_object);
-            (world_from_local, local_from_object, shape_mesh(&o.mesh, local_from_object))
+            (
+                world_from_local,
+                local_from_object,
+                shape_mesh(&o.mesh, local_from_object),
+            )
         })
         .collect()
 }
@@ -684,7 +703,12 @@ mod tests {
             .corners
             .iter()
             .flatten()
-            .map(|p| (*p * 1e4).round().as_i64vec3().to_array())
+            .map(|p| {
+                (*p / quantum(&sphere.shapes[0]))
+                    .round()
+                    .as_i64vec3()
+                    .to_array()
+            })
             .collect();
         assert_eq!(sphere.shading_vertex_count, positions.len());
         // A box: the 8 corners of the short box each belong to 3 faces at right angles,
