@@ -24,6 +24,15 @@ pub struct BenchArgs {
     /// Only these scenes (comma-separated names, e.g. room-12k,big-18.5k-280).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
+    /// Only these solvers (comma-separated: grid5, grid4, grid5-r32, dispersive, paper).
+    #[arg(long, value_delimiter = ',')]
+    pub solvers: Vec<String>,
+    /// Override every scene's target patch count (smoke tests; not the paper's sizes).
+    #[arg(long, hide = true)]
+    pub patches: Option<usize>,
+    /// No progress bar and no informational lines (errors and warnings still print).
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 /// Run the benchmark.
@@ -44,13 +53,52 @@ pub fn cmd_bench(args: BenchArgs) -> Result<()> {
             options.scenes.push(spec.clone());
         }
     }
+    if !args.solvers.is_empty() {
+        let all = SolverKind::ALL;
+        options.solvers = Vec::new();
+        for name in &args.solvers {
+            let kind = all.iter().find(|k| k.label() == name).with_context(|| {
+                let names: Vec<&str> = all.iter().map(|k| k.label()).collect();
+                format!(
+                    "--solvers: unknown solver {name}; known: {}",
+                    names.join(", ")
+                )
+            })?;
+            if !options.solvers.contains(kind) {
+                options.solvers.push(*kind);
+            }
+        }
+        // grid5 sets the same-time budget of the others: it runs first when present.
+        options
+            .solvers
+            .sort_by_key(|k| all.iter().position(|a| a == k));
+    }
+    if let Some(n) = args.patches {
+        if !(100..=10_000_000).contains(&n) {
+            anyhow::bail!("--patches must be between 100 and 10000000, got {n}");
+        }
+        for spec in &mut options.scenes {
+            spec.params.patches = n;
+            if let Some(b) = spec.params.big_object_patches.as_mut() {
+                *b = (*b).min(n / 2);
+            }
+        }
+    }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("{}: cannot create directory", args.out.display()))?;
     let command = std::env::args()
         .map(|a| if a.contains(' ') { format!("'{a}'") } else { a })
         .collect::<Vec<_>>()
         .join(" ");
-    eprintln!(
+    let quiet = args.quiet;
+    if !quiet {
+        let embree = shrad::vis::available_backends().contains(&shrad::vis::Backend::Embree);
+        let name = if embree { "embree" } else { "bvh" };
+        eprintln!(
+            "visibility: {}",
+            crate::describe_backend(name, crate::BackendArg::Auto)
+        );
+        eprintln!(
         "shrad bench: {} scenes x {} solvers; reference with {} rays per patch; grids: {} warm-up + {} timed frames; dispersive: {} warm-up + {} timed passes (1 pass = 1 frame per interior object)",
         options.scenes.len(),
         options.solvers.len(),
@@ -60,10 +108,15 @@ pub fn cmd_bench(args: BenchArgs) -> Result<()> {
         options.dispersive_warmup_passes,
         options.dispersive_timed_passes
     );
+    }
     let bar = crate::progress::Bars::with_template(
         "{msg} [{bar:40}] {pos}/{len} steps ({elapsed}, eta {eta})",
     );
-    let report = shrad::bench::run(&options, &bar, &|line| bar.println(line))?;
+    let report = if quiet {
+        shrad::bench::run(&options, &shrad::NoProgress, &|_| {})?
+    } else {
+        shrad::bench::run(&options, &bar, &|line| bar.println(line))?
+    };
     // results.json: the four solvers of the schema; report.json: everything.
     let listed: Vec<&Record> = report
         .records
@@ -83,6 +136,9 @@ pub fn cmd_bench(args: BenchArgs) -> Result<()> {
     md.push_str("\n## Plots\n\n");
     md.push_str(&plots);
     write(&args.out.join("results.md"), &md)?;
+    if quiet {
+        return Ok(());
+    }
     eprintln!(
         "{}",
         shrad::bench::markdown(&report, &command)

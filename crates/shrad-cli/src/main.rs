@@ -3,13 +3,15 @@
 
 mod bench;
 mod progress;
+mod settings;
 
+use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{ArgMatches, Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
 use shrad::dispersive::{Changes, DispersiveOptions, ProbeRepair, Schedule, ToBoundary};
 use shrad::grid::GridOptions;
 use shrad::image_io::{write_exr, write_png, Tonemap};
@@ -270,9 +272,11 @@ impl SolverArgs {
                 }
                 let mut g = GridOptions::paper(self.grid.grid);
                 if let Some(r) = self.dispersive.cube_res {
+                    check_range("--cube-res", r, 1, 2048)?;
                     g.cube_res = r;
                 }
                 if let Some(b) = self.dispersive.bands {
+                    check_range("--bands", b, 1, 8)?;
                     g.bands = b;
                 }
                 SolverChoice::Grid(g)
@@ -447,11 +451,32 @@ struct InfoArgs {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let argv: Vec<OsString> = std::env::args_os().collect();
+    let matches = Cli::command().get_matches_from(&argv);
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    let sub = matches.subcommand().map(|(_, m)| m);
     let result = match cli.command {
-        Command::Render(args) => cmd_render(args),
-        Command::Info(args) => cmd_info(args),
-        Command::Animate(args) => cmd_animate(args),
+        Command::Render(args) => {
+            prepare(&args.scene, &argv, sub, true).and_then(|(scene, settings, cli)| {
+                let args = match cli.map(|c| c.command) {
+                    Some(Command::Render(a)) => a,
+                    _ => args,
+                };
+                cmd_render(args, scene, &settings)
+            })
+        }
+        Command::Info(args) => {
+            prepare(&args.scene, &argv, sub, false).and_then(|(scene, _, _)| cmd_info(args, scene))
+        }
+        Command::Animate(args) => {
+            prepare(&args.scene, &argv, sub, true).and_then(|(scene, settings, cli)| {
+                let args = match cli.map(|c| c.command) {
+                    Some(Command::Animate(a)) => a,
+                    _ => args,
+                };
+                cmd_animate(args, scene, &settings)
+            })
+        }
         Command::Bench(args) => bench::cmd_bench(args),
     };
     match result {
@@ -471,6 +496,26 @@ fn progress_for(quiet: bool) -> Box<dyn Progress> {
     }
 }
 
+/// Load the scene and take its `[settings.solver]`: every key is checked; when the command
+/// has solver options (`solver_options`), those the command line did not give are applied by
+/// parsing the command line again with them (returned as the new `Cli`).
+fn prepare(
+    args: &SceneArgs,
+    argv: &[OsString],
+    matches: Option<&ArgMatches>,
+    solver_options: bool,
+) -> Result<(Scene, settings::FileSettings, Option<Cli>)> {
+    let scene = load_scene(args)?;
+    let matches = matches.filter(|_| solver_options);
+    let file = settings::from_file(&scene.source, &scene.settings.solver, matches)?;
+    let cli = if solver_options && !file.applied.is_empty() {
+        Some(settings::reparse(argv, &file)?)
+    } else {
+        None
+    };
+    Ok((scene, file, cli))
+}
+
 /// Load the scene and print its warnings.
 fn load_scene(args: &SceneArgs) -> Result<Scene> {
     let scene = shrad_scene::load(
@@ -483,6 +528,13 @@ fn load_scene(args: &SceneArgs) -> Result<Scene> {
         eprintln!("warning: {w}");
     }
     Ok(scene)
+}
+
+fn check_range(name: &str, value: usize, lo: usize, hi: usize) -> Result<()> {
+    if !(lo..=hi).contains(&value) {
+        bail!("{name} must be between {lo} and {hi}, got {value}");
+    }
+    Ok(())
 }
 
 fn check_positive(name: &str, value: f32) -> Result<()> {
@@ -518,23 +570,46 @@ fn backend(b: BackendArg) -> shrad::vis::Backend {
     }
 }
 
-fn build_world(args: &SceneArgs, quiet: bool) -> Result<World> {
-    let scene = load_scene(args)?;
+fn build_world(scene: Scene, args: &SceneArgs, quiet: bool) -> Result<World> {
     let sizing = sizing(args, &scene)?;
     let t = Instant::now();
     let world = World::new(scene, sizing, backend(args.backend))?;
     if !quiet {
         let (b, i, l) = world.patches.count_by_role();
         eprintln!(
-            "{}: {} patches (boundary {b}, interior {i}, light {l}), patch size {:.4}, visibility: {} ({:.2} s)",
+            "{}: {} patches (boundary {b}, interior {i}, light {l}), patch size {:.4} ({:.2} s)",
             world.scene.source,
             world.patches.len(),
             world.patches.patch_size,
-            world.vis.name(),
             t.elapsed().as_secs_f64()
+        );
+        eprintln!(
+            "visibility: {}",
+            describe_backend(world.vis.name(), args.backend)
         );
     }
     Ok(world)
+}
+
+/// The visibility backend in use, for the user: `name` is [`shrad::vis::Visibility::name`].
+fn describe_backend(name: &str, requested: BackendArg) -> String {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads = std::env::var("RAYON_NUM_THREADS")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+        .filter(|&n| n > 0)
+        .unwrap_or(threads);
+    let compiled = shrad::vis::available_backends().contains(&shrad::vis::Backend::Embree);
+    match (name, requested) {
+        ("embree", _) => format!("Embree 3 ({threads} threads)"),
+        (_, BackendArg::Bvh) => format!("pure-Rust BVH (obvhs, {threads} threads; --backend bvh)"),
+        _ if compiled => format!(
+            "pure-Rust BVH (obvhs, {threads} threads): Embree is in this build but did not start"
+        ),
+        _ => format!(
+            "pure-Rust BVH (obvhs, {threads} threads) - install libembree-dev (scripts/setup) and rebuild for 2-4x speed"
+        ),
+    }
 }
 
 fn default_output(scene: &str) -> PathBuf {
@@ -545,7 +620,7 @@ fn default_output(scene: &str) -> PathBuf {
     PathBuf::from(format!("{stem}.png"))
 }
 
-fn cmd_render(args: RenderArgs) -> Result<()> {
+fn cmd_render(args: RenderArgs, scene: Scene, file: &settings::FileSettings) -> Result<()> {
     if args.width == 0 || args.height == 0 || args.width > 16384 || args.height > 16384 {
         bail!(
             "--width and --height must be between 1 and 16384, got {}x{}",
@@ -559,10 +634,10 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     if let Some(e) = args.exposure {
         check_positive("--exposure", e)?;
     }
-    let choice = args.solver.choice()?;
+    let choice = args.solver.choice().map_err(|e| file.attribute(e))?;
     let quiet = args.scene.quiet;
     let progress = progress_for(quiet);
-    let world = build_world(&args.scene, quiet)?;
+    let world = build_world(scene, &args.scene, quiet)?;
     let t = Instant::now();
     let radiosity = match choice {
         SolverChoice::Reference(options) => {
@@ -603,8 +678,8 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         }
     };
     if args.compare && args.solver.solver != SolverArg::Reference {
-        let (reference, _) =
-            shrad::reference::solve(&world, &args.solver.reference()?, progress.as_ref());
+        let options = args.solver.reference().map_err(|e| file.attribute(e))?;
+        let (reference, _) = shrad::reference::solve(&world, &options, progress.as_ref());
         let e = shrad::metrics::relative_error(&world.patches, &radiosity, &reference);
         println!(
             "error vs reference (spec 8): overall {:.2} %, boundary {:.2} %, interior {:.2} %",
@@ -689,8 +764,7 @@ fn export_patches(world: &World, radiosity: &[glam::Vec3], path: &Path) -> Resul
     Ok(())
 }
 
-fn cmd_info(args: InfoArgs) -> Result<()> {
-    let scene = load_scene(&args.scene)?;
+fn cmd_info(args: InfoArgs, scene: Scene) -> Result<()> {
     let sizing = sizing(&args.scene, &scene)?;
     println!("scene: {}", scene.source);
     if let Some((lo, hi)) = scene.bounds() {
@@ -737,7 +811,7 @@ fn cmd_info(args: InfoArgs) -> Result<()> {
     Ok(())
 }
 
-fn cmd_animate(args: AnimateArgs) -> Result<()> {
+fn cmd_animate(args: AnimateArgs, scene: Scene, file: &settings::FileSettings) -> Result<()> {
     use std::fmt::Write as _;
     if args.frames == 0 || args.frames > 100_000 {
         bail!("--frames must be between 1 and 100000, got {}", args.frames);
@@ -754,11 +828,11 @@ fn cmd_animate(args: AnimateArgs) -> Result<()> {
     if let Some(e) = args.exposure {
         check_positive("--exposure", e)?;
     }
-    let choice = args.solver.choice()?;
-    let reference_options = args.solver.reference()?;
+    let choice = args.solver.choice().map_err(|e| file.attribute(e))?;
+    let reference_options = args.solver.reference().map_err(|e| file.attribute(e))?;
     let quiet = args.scene.quiet;
     let progress = progress_for(quiet);
-    let mut world = build_world(&args.scene, quiet)?;
+    let mut world = build_world(scene, &args.scene, quiet)?;
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("{}: cannot create directory", args.output.display()))?;
     let camera = world.scene.camera_or_default();

@@ -226,17 +226,21 @@ fn settings(path: &Path, s: SettingsDef) -> Result<SceneSettings, SceneError> {
     if s.patches == Some(0) {
         return Err(bad("patches must be positive"));
     }
-    let solver = s
-        .solver
-        .into_iter()
-        .map(|(k, v)| {
-            let v = match v {
-                toml::Value::String(s) => s,
-                other => other.to_string(),
-            };
-            (k, v)
-        })
-        .collect();
+    // Values as the command line would spell them (the CLI applies them as its options).
+    let mut solver = BTreeMap::new();
+    for (k, v) in s.solver {
+        let v = match v {
+            toml::Value::String(s) => s,
+            toml::Value::Array(_) | toml::Value::Table(_) => {
+                return Err(SceneError::invalid(
+                    path,
+                    format!("[settings.solver] {k}: must be a string, number or boolean"),
+                ))
+            }
+            other => other.to_string(),
+        };
+        solver.insert(k, v);
+    }
     Ok(SceneSettings {
         patch_size: s.patch_size,
         patches: s.patches,
