@@ -54,7 +54,7 @@ struct AnimateArgs {
     #[arg(long, default_value_t = 120)]
     frames: usize,
     /// Frames per second of scene time (frame f shows time f / fps).
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, default_value_t = 30.0, allow_negative_numbers = true)]
     fps: f32,
     /// Output directory (created if missing).
     #[arg(short, long)]
@@ -76,7 +76,7 @@ struct AnimateArgs {
     #[arg(long, default_value_t = 1)]
     spp: u32,
     /// Exposure scale [default: auto from the middle frame, the same for every frame].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     exposure: Option<f32>,
 }
 
@@ -86,7 +86,7 @@ struct SceneArgs {
     /// Scene: a .gltf, .glb, .obj or .toml file, or a built-in name (cornell, room).
     scene: String,
     /// Patch edge length in scene units [default: the scene file's, else --patches].
-    #[arg(long, conflicts_with = "patches")]
+    #[arg(long, conflicts_with = "patches", allow_negative_numbers = true)]
     patch_size: Option<f32>,
     /// Target total patch count [default: the scene file's, else 20000].
     #[arg(long)]
@@ -187,7 +187,7 @@ struct DispersiveArgs {
     #[arg(long)]
     max_staleness: Option<usize>,
     /// Per-frame time budget (ms) for --schedule budget [default: 20].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     budget_ms: Option<f32>,
     /// Buried-probe handling [paper: none, default: move].
     #[arg(long, value_enum)]
@@ -221,7 +221,7 @@ struct DispersiveArgs {
     #[arg(long)]
     splat_smoothing: Option<bool>,
     /// Probe box margin as a fraction of the box diagonal [paper: 0, default: 0.01].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     probe_margin: Option<f32>,
 }
 
@@ -440,7 +440,7 @@ struct RenderArgs {
     #[arg(long, value_enum, default_value_t = TonemapArg::Exposure)]
     tonemap: TonemapArg,
     /// Exposure scale for --tonemap exposure [default: auto, 99th percentile to 0.9].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     exposure: Option<f32>,
 }
 
@@ -634,6 +634,8 @@ fn cmd_render(args: RenderArgs, scene: Scene, file: &settings::FileSettings) -> 
     if let Some(e) = args.exposure {
         check_positive("--exposure", e)?;
     }
+    shrad::limits::check_image(args.width, args.height, args.spp)
+        .context("--width, --height, --spp")?;
     let choice = args.solver.choice().map_err(|e| file.attribute(e))?;
     let quiet = args.scene.quiet;
     let progress = progress_for(quiet);
@@ -783,7 +785,10 @@ fn cmd_info(args: InfoArgs, scene: Scene) -> Result<()> {
     if scene.duration() > 0.0 {
         println!("animation: {:.2} s", scene.duration());
     }
-    let patches = shrad::Patches::build(&scene, sizing);
+    // The same memory check as a solve: a tiny --patch-size is an error, not an abort.
+    let plan = shrad::Patches::plan(&scene, sizing);
+    shrad::limits::check_patches(&scene.source, plan)?;
+    let patches = shrad::Patches::build(&scene, PatchSizing::Size(plan.patch_size));
     println!(
         "patch size: {:.4}, patches: {}",
         patches.patch_size,
@@ -827,6 +832,22 @@ fn cmd_animate(args: AnimateArgs, scene: Scene, file: &settings::FileSettings) -
     }
     if let Some(e) = args.exposure {
         check_positive("--exposure", e)?;
+    }
+    shrad::limits::check_image(args.width, args.height, args.spp)
+        .context("--width, --height, --spp")?;
+    // Every frame is kept (linear, then 8-bit for the GIF) until the exposure is known.
+    let stored = (args.frames as u64)
+        .saturating_mul(args.width as u64 * args.height as u64)
+        .saturating_mul(12 + 3);
+    if stored > shrad::limits::available_bytes() {
+        bail!(
+            "--frames {} of {}x{} would need {:.1} GiB to keep ({:.1} GiB available); use fewer --frames or a smaller picture",
+            args.frames,
+            args.width,
+            args.height,
+            stored as f64 / (1u64 << 30) as f64,
+            shrad::limits::available_bytes() as f64 / (1u64 << 30) as f64
+        );
     }
     let choice = args.solver.choice().map_err(|e| file.attribute(e))?;
     let reference_options = args.solver.reference().map_err(|e| file.attribute(e))?;

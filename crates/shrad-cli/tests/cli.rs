@@ -248,3 +248,214 @@ fn animate_writes_frames_gif_and_stats() {
     assert!(!rows[0][7].is_empty() && rows[1][7].is_empty() && !rows[2][7].is_empty());
     assert!(dir.join("frame_0003.png").exists() && dir.join("animation.gif").exists());
 }
+
+/// `scenes/moving_box.toml` at 600 patches with `solver` as its `[settings.solver]`.
+fn scene_with_settings(dir: &Path, name: &str, solver: &str) -> PathBuf {
+    let text = std::fs::read_to_string(repo().join("scenes/moving_box.toml")).unwrap();
+    assert!(text.contains("patch_size = 20.0\n"));
+    let text = text.replace(
+        "patch_size = 20.0\n",
+        &format!("patches = 600\n\n[settings.solver]\n{solver}\n"),
+    );
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Render `scene` small and quietly; the patch CSV (radiosity of every patch), or the
+/// failed run's output.
+fn patch_csv(scene: &Path, extra: &[&str]) -> Result<String, Output> {
+    let dir = scene.parent().unwrap();
+    let stem = scene.file_stem().unwrap().to_string_lossy();
+    let csv = dir.join(format!("{stem}-{}.csv", extra.join("_")));
+    let png = dir.join(format!("{stem}.png"));
+    let mut args = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "-q",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--spp",
+        "1",
+        "-o",
+        png.to_str().unwrap(),
+        "--export-patches",
+        csv.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let o = shrad(&args);
+    if !o.status.success() {
+        return Err(o);
+    }
+    Ok(std::fs::read_to_string(&csv).unwrap())
+}
+
+#[test]
+fn scene_file_solver_settings_apply_and_the_command_line_wins() {
+    let dir = temp_dir("settings");
+    // Kebab, snake and the example scene's old name (`method` for --solver) all work.
+    let file = scene_with_settings(
+        &dir,
+        "file.toml",
+        "method = \"dispersive\"\ncube_res = 8\nbands = 2\nper-frame = 1",
+    );
+    let plain = scene_with_settings(&dir, "plain.toml", "");
+    let from_file = patch_csv(&file, &[]).unwrap();
+    let from_flags = patch_csv(
+        &plain,
+        &["--solver", "dispersive", "--cube-res", "8", "--bands", "2"],
+    )
+    .unwrap();
+    assert_eq!(from_file, from_flags, "the file's settings are not applied");
+    let other_bands = patch_csv(&plain, &["--solver", "dispersive", "--cube-res", "8"]).unwrap();
+    assert_ne!(from_file, other_bands, "--bands does not change the result");
+    // A value the file gets wrong is overridden by the command line, so never checked.
+    let bad = scene_with_settings(
+        &dir,
+        "bad.toml",
+        "solver = \"dispersive\"\ncube-res = 8\nbands = 9",
+    );
+    assert_eq!(patch_csv(&bad, &["--bands", "2"]).unwrap(), from_file);
+}
+
+#[test]
+fn scene_file_solver_settings_errors_name_the_file_and_key() {
+    let dir = temp_dir("settings-bad");
+    let cases = [
+        (
+            "cube-rez = 8",
+            "[settings.solver] cube-rez: unknown setting (did you mean cube-res?)",
+        ),
+        ("wibble = 1", "[settings.solver] wibble: unknown setting"),
+        (
+            "cube-res = \"big\"",
+            "[settings.solver] cube-res = big: invalid value",
+        ),
+        (
+            "solver = \"magic\"",
+            "[settings.solver] solver = magic: invalid value",
+        ),
+        (
+            "solver = \"dispersive\"\nbands = 9",
+            "[settings.solver] bands = 9: --bands must be between 1 and 8",
+        ),
+        (
+            "cube-res = [8, 8]",
+            "[settings.solver] cube-res: must be a string",
+        ),
+    ];
+    for (i, (settings, needle)) in cases.into_iter().enumerate() {
+        let name = format!("case{i}.toml");
+        let scene = scene_with_settings(&dir, &name, settings);
+        let o = patch_csv(&scene, &[]).expect_err(settings);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{settings}: {stderr}");
+        assert!(
+            stderr.contains(&name),
+            "{settings}: no file name in {stderr}"
+        );
+        assert!(
+            stderr.contains(needle),
+            "{settings}: expected '{needle}' in {stderr}"
+        );
+        assert!(!stderr.contains("panicked"), "{stderr}");
+    }
+    // `info` checks the keys too.
+    let scene = dir.join("case0.toml");
+    let o = shrad(&["info", scene.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("cube-rez"));
+}
+
+/// A successful run with `--quiet` writes nothing to stderr: no bars, no informational
+/// lines.
+fn quiet_run(args: &[&str]) {
+    let o = shrad(args);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{args:?}: {stderr}");
+    assert!(stderr.is_empty(), "{args:?} printed: {stderr}");
+}
+
+#[test]
+fn quiet_is_quiet_on_every_command() {
+    let dir = temp_dir("quiet");
+    let png = dir.join("c.png");
+    let small = ["--width", "16", "--height", "16", "--spp", "1"];
+    let mut render = vec!["render", "cornell", "--quiet", "--patches", "300"];
+    render.extend(small);
+    render.extend(["-o", png.to_str().unwrap()]);
+    quiet_run(&render);
+    let mut dispersive = render.clone();
+    dispersive.extend(["--solver", "dispersive", "--cube-res", "8", "--compare"]);
+    quiet_run(&dispersive);
+    quiet_run(&["info", "cornell", "-q", "--patches", "300"]);
+    let moving = repo().join("scenes/moving_box.toml");
+    let anim = dir.join("anim");
+    let mut animate = vec![
+        "animate",
+        moving.to_str().unwrap(),
+        "-q",
+        "--patches",
+        "300",
+        "--frames",
+        "2",
+        "--solver",
+        "dispersive",
+        "--cube-res",
+        "8",
+        "-o",
+        anim.to_str().unwrap(),
+    ];
+    animate.extend(small);
+    quiet_run(&animate);
+    let bench = dir.join("bench");
+    quiet_run(&[
+        "bench",
+        "--quiet",
+        "--quick",
+        "--solvers",
+        "dispersive",
+        "--patches",
+        "800",
+        "--rays-per-patch",
+        "8",
+        "--out",
+        bench.to_str().unwrap(),
+    ]);
+    assert!(bench.join("results.json").exists());
+    // Without --quiet a solve says which visibility backend it uses.
+    let loud: Vec<&str> = render.iter().copied().filter(|a| *a != "--quiet").collect();
+    let o = shrad(&loud);
+    assert!(o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("visibility: "));
+}
+
+#[test]
+fn option_values_that_would_abort_are_errors() {
+    let cornell = Path::new("cornell");
+    fails_cleanly(cornell, &["--patch-size", "-5"], "--patch-size");
+    fails_cleanly(cornell, &["--patch-size", "0"], "--patch-size");
+    fails_cleanly(cornell, &["--patch-size", "1e-7"], "--patch-size");
+    fails_cleanly(
+        cornell,
+        &["--solver", "dispersive", "--cube-res", "0"],
+        "--cube-res",
+    );
+    fails_cleanly(
+        cornell,
+        &["--solver", "grid", "--cube-res", "0"],
+        "--cube-res",
+    );
+    fails_cleanly(cornell, &["--solver", "grid", "--bands", "9"], "--bands");
+    fails_cleanly(cornell, &["--exposure", "-1"], "--exposure");
+    fails_cleanly(
+        cornell,
+        &["--width", "16384", "--height", "16384", "--spp", "4096"],
+        "--width",
+    );
+    let o = shrad(&["info", "cornell", "--patch-size", "1e-7"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--patch-size"));
+}
