@@ -1379,28 +1379,27 @@ impl Walk<'_> {
             } else {
                 base_name.clone()
             };
-            let who = format!(
-                "meshes[{}].primitives[{}] ({node_label})",
-                mesh.index(),
-                prim.index()
-            );
+            let who = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
+            let inst = format!(" ({node_label})");
             let mode = prim.mode();
             if !matches!(
                 mode,
                 Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
             ) {
                 self.scene.warnings.push(format!(
-                    "{who}: {mode:?} primitive skipped (only triangles are used)"
+                    "{who}{inst}: {mode:?} primitive skipped (only triangles are used)"
                 ));
                 continue;
             }
             let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
-                return Err(bad(format!("{who}: primitive has no POSITION attribute")));
+                return Err(bad(format!(
+                    "{who}{inst}: primitive has no POSITION attribute"
+                )));
             };
             if pos_acc.count() == 0 || prim.indices().is_some_and(|a| a.count() == 0) {
                 self.scene
                     .warnings
-                    .push(format!("{who}: empty primitive skipped"));
+                    .push(format!("{who}{inst}: empty primitive skipped"));
                 continue;
             }
             let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.0.as_slice()));
@@ -1408,14 +1407,14 @@ impl Walk<'_> {
                 .read_positions()
                 .ok_or_else(|| {
                     bad(format!(
-                        "{who}: POSITION accessor cannot be read (outside its buffer?)"
+                        "{who}.attributes.POSITION{inst}: cannot be read (an accessor without bufferView is all zeros)"
                     ))
                 })?
                 .map(Vec3::from)
                 .collect();
             if positions.len() != pos_acc.count() {
                 return Err(bad(format!(
-                    "{who}: POSITION accessor has {} of {} elements (outside its buffer?)",
+                    "{who}.attributes.POSITION{inst}: has {} of {} elements",
                     positions.len(),
                     pos_acc.count()
                 )));
@@ -1426,13 +1425,15 @@ impl Walk<'_> {
                         .read_indices()
                         .ok_or_else(|| {
                             bad(format!(
-                                "{who}: index accessor cannot be read (outside its buffer?)"
+                                "{who}.indices{inst}: cannot be read (an accessor without bufferView is all zeros)"
                             ))
                         })?
                         .into_u32()
                         .collect();
                     if v.len() != acc.count() {
-                        return Err(bad(format!("{who}: index accessor is outside its buffer")));
+                        return Err(bad(format!(
+                            "{who}.indices{inst}: has fewer elements than its count"
+                        )));
                     }
                     v
                 }
@@ -1441,20 +1442,20 @@ impl Walk<'_> {
             let n = positions.len();
             if let Some(k) = indices.iter().position(|&i| i as usize >= n) {
                 return Err(bad(format!(
-                    "{who}.indices: index {} (element {k}) is out of range: POSITION has {n} vertices",
+                    "{who}.indices{inst}: index {} (element {k}) is out of range: POSITION has {n} vertices",
                     indices[k]
                 )));
             }
             if let Some(k) = positions.iter().position(|p| !p.is_finite()) {
                 return Err(bad(format!(
-                    "{who}.attributes.POSITION: vertex {k} is not finite ({})",
+                    "{who}.attributes.POSITION{inst}: vertex {k} is not finite ({})",
                     positions[k]
                 )));
             }
             let triangles = to_triangles(mode, &indices);
             if mode == Mode::Triangles && indices.len() % 3 != 0 {
                 self.scene.warnings.push(format!(
-                    "{who}: {} index(es) beyond the last whole triangle ignored",
+                    "{who}{inst}: {} index(es) beyond the last whole triangle ignored",
                     indices.len() % 3
                 ));
             }
