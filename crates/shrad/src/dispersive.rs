@@ -28,6 +28,7 @@ use shrad_sh::{
 use shrad_vis::Hit;
 
 use crate::direct::direct_irradiance;
+use crate::energy::IncidentMeter;
 use crate::probes::{ProbeCamera, Seen};
 use crate::reference::{form_factor_rows, patch_rays};
 use crate::{NoProgress, World};
@@ -35,6 +36,9 @@ use crate::{NoProgress, World};
 /// Wall-exchange rows refreshed per frame (Step 4): at most this many, so a frame's cost does
 /// not grow with the boundary beyond it (a 1M-patch room takes ~13 frames per full sweep).
 pub const WALL_ROWS_PER_FRAME: usize = 1 << 16;
+
+/// Rays per light patch for the energy meter's measure of what the lights absorb.
+const LIGHT_METER_RAYS: usize = 16;
 
 /// Which objects a frame updates (spec 4.3).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -215,20 +219,7 @@ pub struct Changes {
     pub relit: Vec<usize>,
 }
 
-/// Flux bookkeeping of one frame (W, i.e. radiometric units x area).
-#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
-pub struct EnergyBalance {
-    /// Emitted by lights: `sum M A`.
-    pub emitted: f64,
-    /// Arriving on all patches: `sum E A`.
-    pub received: f64,
-    /// Absorbed: `sum (1 - rho) E A`.
-    pub absorbed: f64,
-    /// Reflected: `sum rho E A`.
-    pub reflected: f64,
-    /// Sent to the boundary by the object emitters this frame.
-    pub object_emitters: f64,
-}
+pub use crate::energy::{Divergence, EnergyBalance};
 
 /// Statistics of one frame (the paper's Table 3 columns and more).
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -255,6 +246,9 @@ pub struct FrameStats {
     pub probes_repaired: usize,
     /// Flux balance.
     pub energy: EnergyBalance,
+    /// Set when the state broke the energy bound or held non-finite values: what diverged
+    /// and what was damped or reset (the published state is the repaired one).
+    pub diverged: Option<Divergence>,
 }
 
 /// Per interior object: probe box, per-patch weights and exit directions (all in the rest
@@ -342,6 +336,11 @@ pub struct Dispersive {
     direct_valid: bool,
     frame: u64,
     round_robin_next: usize,
+    /// Irradiance of the lights that reflect nothing (kept at their emission), for the
+    /// energy meter: what they absorb.
+    light_meter: IncidentMeter,
+    /// What this frame's guards found (moved into `FrameStats::diverged`).
+    step_warnings: Vec<String>,
 }
 
 impl Dispersive {
@@ -446,6 +445,17 @@ impl Dispersive {
             direct_valid: false,
             frame: 0,
             round_robin_next: 0,
+            light_meter: IncidentMeter::new(
+                world,
+                (0..p.len() as u32)
+                    .filter(|&i| {
+                        p.role(i as usize) == Role::Light
+                            && !receives_as_boundary(world, i as usize)
+                    })
+                    .collect(),
+                LIGHT_METER_RAYS,
+            ),
+            step_warnings: Vec::new(),
         }
     }
 
@@ -506,6 +516,26 @@ impl Dispersive {
         self.assemble(world, sweeps);
         stats.assemble_ms = ms(t);
 
+        // The energy meter, and the guard that never publishes a diverged state.
+        if !changes.moved.is_empty() {
+            self.light_meter.retrace(world);
+        }
+        stats.energy = EnergyBalance {
+            object_emitters: stats.energy.object_emitters,
+            ..self.energy(world)
+        };
+        let earlier = (!self.step_warnings.is_empty()).then(|| Divergence {
+            message: std::mem::take(&mut self.step_warnings).join("; "),
+            non_finite: 0,
+        });
+        if let Some(d) = self.guard(world, &stats.energy, earlier) {
+            stats.energy = EnergyBalance {
+                object_emitters: stats.energy.object_emitters,
+                ..self.energy(world)
+            };
+            stats.diverged = Some(d);
+        }
+
         stats.frame_ms = ms(frame_start);
         stats.stalest = self
             .objects
@@ -513,12 +543,93 @@ impl Dispersive {
             .map(|o| o.last_update.map_or(self.frame + 1, |f| self.frame - f))
             .max()
             .unwrap_or(0);
-        stats.energy = EnergyBalance {
-            object_emitters: stats.energy.object_emitters,
-            ..self.energy(world)
-        };
         self.frame += 1;
         stats
+    }
+
+    /// Reset non-finite values and damp a state that breaks the energy bound (spec 2): the
+    /// reflected part of every radiosity, and every irradiance that feeds it, is scaled back
+    /// to the bound. Returns what diverged, with the largest object emitter named, merged
+    /// with `earlier` (what Step 3's own guard found this frame).
+    fn guard(
+        &mut self,
+        world: &World,
+        balance: &EnergyBalance,
+        earlier: Option<Divergence>,
+    ) -> Option<Divergence> {
+        let mut non_finite = 0;
+        for v in [
+            &mut self.radiosity,
+            &mut self.direct,
+            &mut self.probe_irradiance,
+            &mut self.indirect,
+            &mut self.wall,
+        ] {
+            non_finite += crate::energy::reset_non_finite(v);
+        }
+        for ob in &mut self.objects {
+            for (_, e) in &mut ob.to_boundary {
+                if !e.is_finite() {
+                    *e = Vec3::ZERO;
+                    non_finite += 1;
+                }
+            }
+        }
+        let scale = crate::energy::over_bound(balance);
+        if scale.is_none() && non_finite == 0 {
+            return earlier;
+        }
+        let mut message = earlier.map(|d| d.message + "; ").unwrap_or_default();
+        if non_finite > 0 {
+            message += &format!("{non_finite} non-finite value(s) reset to 0");
+        }
+        if let Some(s) = scale {
+            let largest = self
+                .objects
+                .iter()
+                .map(|ob| {
+                    let flux: f64 = ob
+                        .to_boundary
+                        .iter()
+                        .map(|&(j, e)| (e * world.patches.area[j as usize]).element_sum() as f64)
+                        .sum();
+                    (flux / 3.0, ob.object)
+                })
+                .max_by(|a, b| a.0.total_cmp(&b.0));
+            if non_finite > 0 {
+                message += "; ";
+            }
+            message += &format!(
+                "reflected flux {:.4e} exceeds the bound {:.4e} that the lights can sustain",
+                balance.reflected, balance.reflected_bound
+            );
+            if let Some((flux, o)) = largest {
+                message += &format!(
+                    " (largest object emitter: '{}', {flux:.4e} sent to the boundary)",
+                    world.scene.objects[o].name
+                );
+            }
+            message += &format!("; reflected light damped by {s:.3}");
+            let s = s as f32;
+            for v in [
+                &mut self.probe_irradiance,
+                &mut self.indirect,
+                &mut self.wall,
+            ] {
+                v.iter_mut().for_each(|e| *e *= s);
+            }
+            for ob in &mut self.objects {
+                ob.to_boundary.iter_mut().for_each(|(_, e)| *e *= s);
+            }
+            for (i, b) in self.radiosity.iter_mut().enumerate() {
+                let m = world.exitance[i];
+                *b = m + (*b - m) * s;
+            }
+        }
+        Some(Divergence {
+            message,
+            non_finite,
+        })
     }
 
     /// Mark objects near what moved (or every object, when a light changed) as disturbed.
@@ -1076,6 +1187,33 @@ impl Dispersive {
                     sum_by_patch(&mut self.scratch, by_area)
                 }
             };
+            // An object cannot send the boundary more than it reflects: a contribution beyond
+            // that (patches measured in the wrong units, a splat that aliases) is damped to
+            // it, and the frame says so.
+            let reflected: f64 = range
+                .clone()
+                .map(|i| ((self.radiosity[i] - world.exitance[i]) * p.area[i]).element_sum() as f64)
+                .sum::<f64>()
+                / 3.0;
+            let sent: f64 = contribution
+                .iter()
+                .map(|&(j, e)| (e * p.area[j as usize]).element_sum() as f64)
+                .sum::<f64>()
+                / 3.0;
+            let mut contribution = contribution;
+            if !(sent <= reflected * crate::energy::BOUND_TOLERANCE + f64::MIN_POSITIVE) {
+                let s = if sent.is_finite() && sent > 0.0 {
+                    (reflected.max(0.0) / sent) as f32
+                } else {
+                    0.0
+                };
+                contribution.iter_mut().for_each(|(_, e)| *e *= s);
+                let note = format!(
+                    "object '{}' sent {sent:.4e} to the boundary but reflects only {reflected:.4e}: its contribution was damped by {s:.3}",
+                    world.scene.objects[o].name
+                );
+                self.step_warnings.push(note);
+            }
             // Replace the object's previous contribution (paper: "只更新当前物体对它的影响").
             for &(j, e) in &self.objects[k].to_boundary {
                 self.indirect[j as usize] -= e;
@@ -1218,15 +1356,11 @@ impl Dispersive {
         }
     }
 
-    /// Flux balance of the current state.
+    /// Flux balance of the current state, the lights' absorption included.
     fn energy(&self, world: &World) -> EnergyBalance {
         let p = &world.patches;
-        let mut e = EnergyBalance::default();
-        for i in 0..p.len() {
-            let a = p.area[i] as f64;
-            let avg = |v: Vec3| v.element_sum() as f64 / 3.0;
-            e.emitted += avg(world.exitance[i]) * a;
-            let irr = match p.role(i) {
+        let mut irradiance: Vec<Vec3> = (0..p.len())
+            .map(|i| match p.role(i) {
                 Role::Interior => {
                     self.probe_irradiance[i]
                         + if self.options.direct_on_interior {
@@ -1236,12 +1370,12 @@ impl Dispersive {
                         }
                 }
                 _ => self.direct[i] + self.indirect[i] + self.wall[i],
-            };
-            e.received += avg(irr) * a;
-            e.reflected += avg(world.reflectance[i] * irr) * a;
-            e.absorbed += avg((Vec3::ONE - world.reflectance[i]) * irr) * a;
-        }
-        e
+            })
+            .collect();
+        self.light_meter.measure(&self.radiosity, &mut irradiance);
+        crate::energy::balance(world, &irradiance, |i| {
+            p.role(i) != Role::Light || receives_as_boundary(world, i)
+        })
     }
 
     /// Run frames on a static world until every object was updated `passes` times.

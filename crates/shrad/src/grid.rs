@@ -128,7 +128,7 @@ impl Grid {
         let bands = self.options.bands;
         let nc = num_coeffs(bands);
         let p = &world.patches;
-        let next: Vec<Vec3> = (0..p.len())
+        let irradiance: Vec<Vec3> = (0..p.len())
             .into_par_iter()
             .map(|i| {
                 let (ids, w) = self.cell(p.centre[i]);
@@ -136,11 +136,33 @@ impl Grid {
                 let l = ShRgb::lerp8(&probes, &w);
                 let mut lobe = [0f32; 64];
                 cosine_lobe_sh(bands, p.normal[i], &mut lobe[..nc]);
-                let e = l.dot(&lobe[..nc]).max(Vec3::ZERO);
-                world.exitance[i] + world.reflectance[i] * e
+                l.dot(&lobe[..nc]).max(Vec3::ZERO)
             })
             .collect();
-        self.radiosity = next;
+        // The energy meter and its guard: a non-finite or diverged state is repaired before
+        // it is published (spec 2).
+        let mut irradiance = irradiance;
+        let non_finite = crate::energy::reset_non_finite(&mut irradiance);
+        let mut energy = crate::energy::balance(world, &irradiance, |_| true);
+        let mut diverged = (non_finite > 0).then(|| crate::energy::Divergence {
+            message: format!("{non_finite} non-finite irradiance value(s) reset to 0"),
+            non_finite,
+        });
+        if let Some(s) = crate::energy::over_bound(&energy) {
+            irradiance.iter_mut().for_each(|e| *e *= s as f32);
+            let message = format!(
+                "reflected flux {:.4e} exceeds the bound {:.4e} that the lights can sustain; probe light damped by {s:.3}",
+                energy.reflected, energy.reflected_bound
+            );
+            energy = crate::energy::balance(world, &irradiance, |_| true);
+            diverged = Some(crate::energy::Divergence {
+                message: diverged.map_or(message.clone(), |d| d.message + "; " + &message),
+                non_finite,
+            });
+        }
+        self.radiosity = (0..p.len())
+            .map(|i| world.exitance[i] + world.reflectance[i] * irradiance[i])
+            .collect();
         let shade_ms = t.elapsed().as_secs_f64() * 1e3;
         let stats = FrameStats {
             frame: self.frame,
@@ -148,6 +170,8 @@ impl Grid {
             assemble_ms: shade_ms,
             frame_ms: start.elapsed().as_secs_f64() * 1e3,
             probes_invalid: captured.back_fraction.iter().filter(|&&f| f > 0.25).count(),
+            energy,
+            diverged,
             ..Default::default()
         };
         self.frame += 1;

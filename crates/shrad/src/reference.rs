@@ -220,6 +220,10 @@ pub struct ReferenceStats {
     pub form_factor_entries: usize,
     /// Bytes of the form-factor matrix.
     pub form_factor_bytes: usize,
+    /// Flux balance of the solution, over every patch (the emitters' absorption included).
+    pub energy: crate::energy::EnergyBalance,
+    /// Non-finite values reset to 0 (always 0 unless an input was broken).
+    pub non_finite: usize,
 }
 
 /// Solve the radiosity of `world` at its current time.
@@ -231,28 +235,21 @@ pub fn solve(
     let p = &world.patches;
     let n = p.len();
     let mut stats = ReferenceStats::default();
+    // Every patch gets its irradiance, also those that reflect nothing: they take no part in
+    // the iteration, but the energy meter counts what they absorb.
     let all: Vec<u32> = (0..n as u32).collect();
-    let reflective: Vec<u32> = all
-        .iter()
-        .copied()
-        .filter(|&i| world.reflectance[i as usize].max_element() > 0.0)
-        .collect();
 
     // Direct light, noise-free.
     let t = Instant::now();
     progress.begin("direct light", 1);
-    let direct_on: Vec<Vec3> = direct_irradiance(world, &reflective, options.direct_samples);
-    let mut direct = vec![Vec3::ZERO; n];
-    for (&i, e) in reflective.iter().zip(direct_on) {
-        direct[i as usize] = e;
-    }
+    let direct: Vec<Vec3> = direct_irradiance(world, &all, options.direct_samples);
     progress.advance(1);
     progress.end();
     stats.direct_seconds = t.elapsed().as_secs_f64();
 
-    // Form factors of the patches that reflect.
+    // Form factors.
     let t = Instant::now();
-    let ff = form_factors(world, &reflective, options.rays_per_patch, progress);
+    let ff = form_factors(world, &all, options.rays_per_patch, progress);
     stats.form_factor_seconds = t.elapsed().as_secs_f64();
     stats.form_factor_entries = ff.col.len();
     stats.form_factor_bytes = ff.bytes();
@@ -291,6 +288,12 @@ pub fn solve(
     }
     progress.end();
     stats.solve_seconds = t.elapsed().as_secs_f64();
+    stats.non_finite = crate::energy::reset_non_finite(&mut reflected);
+    let irradiance: Vec<Vec3> = (0..n)
+        .into_par_iter()
+        .map(|i| direct[i] + ff.row(i).map(|(j, f)| reflected[j] * f).sum::<Vec3>())
+        .collect();
+    stats.energy = crate::energy::balance(world, &irradiance, |_| true);
     let radiosity = reflected
         .iter()
         .zip(&world.exitance)

@@ -46,9 +46,15 @@ impl Solver {
         match self {
             Solver::Reference(o, b) => {
                 let t = Instant::now();
-                *b = solve(world, o, &NoProgress).0;
+                let (radiosity, stats) = solve(world, o, &NoProgress);
+                *b = radiosity;
                 FrameStats {
                     frame_ms: t.elapsed().as_secs_f64() * 1e3,
+                    energy: stats.energy,
+                    diverged: (stats.non_finite > 0).then(|| crate::energy::Divergence {
+                        message: format!("{} non-finite value(s) reset to 0", stats.non_finite),
+                        non_finite: stats.non_finite,
+                    }),
                     ..Default::default()
                 }
             }

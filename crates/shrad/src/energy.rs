@@ -1,0 +1,218 @@
+//! The energy meter (spec 2 and 4.6) shared by every solver: flux emitted, received,
+//! absorbed and reflected over *all* patches — the lights included, which absorb what falls
+//! on them — and the bound no steady state may exceed.
+//!
+//! With every `rho < 1`, a steady state reflects at most `emitted * max rho / (1 - max rho)`
+//! (the reflected flux `R = sum rho E A <= max rho * sum E A`, and `sum E A` is at most what
+//! leaves the surfaces, `emitted + R`). A solver state beyond that bound is divergence, not
+//! light; see [`Guard`] for what the solvers do about it.
+//!
+//! A solver that does not compute the irradiance of some patches (the dispersive solver's
+//! lights, which it keeps at their emission) measures it with an [`IncidentMeter`]:
+//! cosine-weighted rays from those patches, traced once (again when something moves), whose
+//! mean seen radiosity is the irradiance (`E = pi * mean L` under cosine sampling).
+
+use glam::Vec3;
+use shrad_vis::Hit;
+
+use crate::World;
+
+/// Flux bookkeeping of one state (W, i.e. radiometric units x area; RGB averaged).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct EnergyBalance {
+    /// Emitted by lights: `sum M A`.
+    pub emitted: f64,
+    /// Arriving on all patches, lights included: `sum E A`.
+    pub received: f64,
+    /// Absorbed by all patches, lights included: `sum (1 - rho) E A` (`rho` taken as 0 for
+    /// lights a solver keeps at their emission). In a closed scene this equals `emitted`.
+    pub absorbed: f64,
+    /// Reflected: `sum rho E A`.
+    pub reflected: f64,
+    /// The most a steady state can reflect: `emitted * max rho / (1 - max rho)`.
+    pub reflected_bound: f64,
+    /// Sent to the boundary by the dispersive solver's object emitters this frame.
+    pub object_emitters: f64,
+}
+
+impl EnergyBalance {
+    /// `absorbed / emitted` (1 in a closed scene at steady state; 0 without light).
+    pub fn closure(&self) -> f64 {
+        if self.emitted > 0.0 {
+            self.absorbed / self.emitted
+        } else {
+            0.0
+        }
+    }
+    /// `reflected / reflected_bound` (above 1: the state diverged).
+    pub fn bound_ratio(&self) -> f64 {
+        if self.reflected_bound > 0.0 {
+            self.reflected / self.reflected_bound
+        } else if self.reflected > 0.0 {
+            f64::INFINITY
+        } else {
+            0.0
+        }
+    }
+}
+
+fn avg(v: Vec3) -> f64 {
+    v.element_sum() as f64 / 3.0
+}
+
+/// The bound on reflected flux for the world's current emission (see the module docs).
+pub fn reflected_bound(world: &World) -> f64 {
+    let emitted: f64 = (0..world.patches.len())
+        .map(|i| avg(world.exitance[i]) * world.patches.area[i] as f64)
+        .sum();
+    let max_rho = world
+        .reflectance
+        .iter()
+        .map(|r| r.max_element())
+        .fold(0.0f32, f32::max)
+        .min(0.999_999) as f64;
+    emitted * max_rho / (1.0 - max_rho)
+}
+
+/// The balance of a state with irradiance `irradiance` on every patch. `reflects(i)`: does
+/// patch `i` reflect in this solver (else all that reaches it is absorbed)?
+pub fn balance(
+    world: &World,
+    irradiance: &[Vec3],
+    reflects: impl Fn(usize) -> bool,
+) -> EnergyBalance {
+    let p = &world.patches;
+    let mut e = EnergyBalance {
+        reflected_bound: reflected_bound(world),
+        ..Default::default()
+    };
+    for i in 0..p.len() {
+        let a = p.area[i] as f64;
+        let irr = irradiance[i];
+        e.emitted += avg(world.exitance[i]) * a;
+        e.received += avg(irr) * a;
+        if reflects(i) {
+            e.reflected += avg(world.reflectance[i] * irr) * a;
+            e.absorbed += avg((Vec3::ONE - world.reflectance[i]) * irr) * a;
+        } else {
+            e.absorbed += avg(irr) * a;
+        }
+    }
+    e
+}
+
+/// Irradiance of a few patches measured by cosine-weighted rays (see the module docs).
+#[derive(Clone, Debug, Default)]
+pub struct IncidentMeter {
+    patches: Vec<u32>,
+    rays: usize,
+    /// The patch each ray sees (`u32::MAX`: nothing, or a single-sided back).
+    seen: Vec<u32>,
+}
+
+impl IncidentMeter {
+    /// A meter on `patches` with `rays` rays each, traced now.
+    pub fn new(world: &World, patches: Vec<u32>, rays: usize) -> IncidentMeter {
+        let mut m = IncidentMeter {
+            patches,
+            rays: rays.max(1),
+            seen: Vec::new(),
+        };
+        m.retrace(world);
+        m
+    }
+
+    /// Trace the rays again (something moved).
+    pub fn retrace(&mut self, world: &World) {
+        let n = self.patches.len() * self.rays;
+        let mut origins = vec![Vec3::ZERO; n];
+        let mut dirs = vec![Vec3::ZERO; n];
+        for (k, &i) in self.patches.iter().enumerate() {
+            let r = k * self.rays..(k + 1) * self.rays;
+            crate::reference::patch_rays(world, i as usize, &mut origins[r.clone()], &mut dirs[r]);
+        }
+        let mut hits = vec![Hit::MISS; n];
+        world.vis.closest(&origins, &dirs, 0.0, &[], &mut hits);
+        self.seen = hits
+            .iter()
+            .map(|h| world.seen_patch(h).map_or(u32::MAX, |j| j as u32))
+            .collect();
+    }
+
+    /// Write the measured irradiance of the metered patches into `irradiance`.
+    pub fn measure(&self, radiosity: &[Vec3], irradiance: &mut [Vec3]) {
+        for (k, &i) in self.patches.iter().enumerate() {
+            let seen = &self.seen[k * self.rays..(k + 1) * self.rays];
+            let sum: Vec3 = seen
+                .iter()
+                .filter(|&&j| j != u32::MAX)
+                .map(|&j| radiosity[j as usize])
+                .sum();
+            irradiance[i as usize] = sum / self.rays as f32;
+        }
+    }
+}
+
+/// What a solver does when its state breaks the energy bound or holds a non-finite value:
+/// the state is not published as it is; the offending part is damped or reset and the
+/// frame's statistics say what diverged.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Divergence {
+    /// What diverged and what was done, for a person.
+    pub message: String,
+    /// Non-finite values replaced by 0 this frame.
+    pub non_finite: usize,
+}
+
+/// Tolerance on the bound: approximate solvers may overshoot the exact steady state a little
+/// (SH ringing, splat aliasing); a state 5 % beyond the bound is divergence.
+pub const BOUND_TOLERANCE: f64 = 1.05;
+
+/// Replace every non-finite component of `values` by 0; returns how many values had one.
+pub fn reset_non_finite(values: &mut [Vec3]) -> usize {
+    let mut n = 0;
+    for v in values {
+        if !v.is_finite() {
+            *v = Vec3::select(v.is_finite_mask(), *v, Vec3::ZERO);
+            n += 1;
+        }
+    }
+    n
+}
+
+/// Checks a state against the bound: `Some(scale)` by which the reflected part must be
+/// multiplied to come back within it, or `None` when it is within.
+pub fn over_bound(balance: &EnergyBalance) -> Option<f64> {
+    let limit = balance.reflected_bound * BOUND_TOLERANCE;
+    if !balance.reflected.is_finite() {
+        return Some(0.0);
+    }
+    (balance.reflected > limit && balance.reflected > 0.0)
+        .then(|| balance.reflected_bound / balance.reflected)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bound_and_closure() {
+        let b = EnergyBalance {
+            emitted: 10.0,
+            absorbed: 9.9,
+            reflected: 50.0,
+            reflected_bound: 40.0,
+            ..Default::default()
+        };
+        assert!((b.closure() - 0.99).abs() < 1e-12);
+        assert!((over_bound(&b).unwrap() - 0.8).abs() < 1e-12);
+        let ok = EnergyBalance {
+            reflected: 41.0,
+            ..b
+        };
+        assert_eq!(over_bound(&ok), None);
+        let mut v = vec![Vec3::ONE, Vec3::new(f32::NAN, 1.0, f32::INFINITY)];
+        assert_eq!(reset_non_finite(&mut v), 1);
+        assert_eq!(v[1], Vec3::new(0.0, 1.0, 0.0));
+    }
+}
