@@ -611,7 +611,11 @@ impl Dispersive {
             }
             message += &format!("; reflected light damped by {s:.3}");
             let s = s as f32;
+            // Direct light too (it may be what overshoots, on patches measured wrongly); it
+            // is recomputed next frame rather than damped again on top of this.
+            self.direct_valid = false;
             for v in [
+                &mut self.direct,
                 &mut self.probe_irradiance,
                 &mut self.indirect,
                 &mut self.wall,
