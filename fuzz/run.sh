@@ -26,6 +26,8 @@ for t in "${targets[@]}"; do
     -max_total_time="$secs" -max_len=65536 -rss_limit_mb=2048 -timeout=10 \
     -jobs=1 -workers=1 -print_final_stats=1 ${FUZZ_ARGS:-} >"logs/$t.log" 2>&1
   rc=$?
+  # With -jobs=1 libFuzzer runs one worker whose output also lands in fuzz-0.log.
+  mv -f fuzz-0.log "logs/$t.job0.log" 2>/dev/null
   execs=$(grep -oE '(Done [0-9]+ runs|stat::number_of_executed_units: *[0-9]+)' "logs/$t.log" \
     | grep -oE '[0-9]+' | tail -1)
   corpus=$(ls "corpus/$t" | wc -l)
