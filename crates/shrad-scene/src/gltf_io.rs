@@ -54,8 +54,28 @@ fn read_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, Vec<PartNames>), Scen
     let value: Value =
         serde_json::from_slice(json_bytes).map_err(|e| bad(format!("invalid glTF: JSON: {e}")))?;
     check_json(&value, blob.map(<[u8]>::len), &mut warnings).map_err(bad)?;
+    // Animations and skins are not read (motion comes from the scene file); they are left
+    // out of what the gltf crate sees, which would refuse some valid ones (an animation
+    // channel without a target node, as the specification allows).
+    let mut for_crate = value.clone();
+    if let Some(root) = for_crate.as_object_mut() {
+        if root
+            .remove("animations")
+            .is_some_and(|a| a.as_array().is_some_and(|a| !a.is_empty()))
+        {
+            warnings.push(
+                "glTF animations ignored (shrad animates objects from its scene file)".into(),
+            );
+        }
+        root.remove("skins");
+        if let Some(Value::Array(nodes)) = root.get_mut("nodes") {
+            for n in nodes.iter_mut().filter_map(Value::as_object_mut) {
+                n.remove("skin");
+            }
+        }
+    }
     let root: gltf::json::Root =
-        serde_json::from_value(value.clone()).map_err(|e| bad(format!("invalid glTF: {e}")))?;
+        serde_json::from_value(for_crate).map_err(|e| bad(format!("invalid glTF: {e}")))?;
     let doc = gltf::Document::from_json(root).map_err(|e| bad(format!("invalid glTF: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = load_buffers(path, base, &doc, blob.map(<[u8]>::to_vec))?;
@@ -735,10 +755,11 @@ impl JsonCheck<'_> {
             }
             let offset = uint(a, "byteOffset", &at)?;
             match self.reference(a, "bufferView", &at, "bufferViews")? {
-                None if offset.is_some() => {
-                    return Err(format!(
-                        "{at}.byteOffset: must not be given without a bufferView"
-                    ))
+                None if offset.is_some_and(|o| o != 0) => {
+                    // The specification forbids it; harmless, and some exporters write it.
+                    self.warnings.push(format!(
+                        "{at}.byteOffset: ignored (the accessor has no bufferView)"
+                    ));
                 }
                 None => {}
                 Some(v) => {
