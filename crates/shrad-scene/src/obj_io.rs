@@ -6,6 +6,7 @@
 //! object, one material per object with `Kd` and `Ke`.
 
 use std::cell::RefCell;
+use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
@@ -28,9 +29,10 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
     })?;
     let dir = path.parent().unwrap_or(Path::new("."));
     let problems = RefCell::new(Vec::<MtlProblem>::new());
+    let seen_libs = RefCell::new(HashMap::<PathBuf, Result<(), tobj::LoadError>>::new());
     let loaded = std::panic::catch_unwind(AssertUnwindSafe(|| {
         tobj::load_obj_buf(&mut std::io::BufReader::new(file), &opts, |mtl| {
-            load_mtl(dir, mtl, &problems)
+            load_mtl_once(dir, mtl, &problems, &seen_libs)
         })
     }))
     .map_err(|_| SceneError::invalid(path, "malformed OBJ or MTL (the reader gave up on it)"))?;
@@ -71,7 +73,7 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
             Vec::new()
         }
     };
-    let mut seen = std::collections::HashMap::<String, usize>::new();
+    let mut seen = HashMap::<String, usize>::new();
     for (mi, model) in models.iter().enumerate() {
         let m = &model.mesh;
         if m.indices.is_empty() {
@@ -139,6 +141,27 @@ enum MtlProblem {
     Missing(String),
     /// The library is malformed: an error naming it.
     Invalid(PathBuf, String),
+}
+
+/// [`load_mtl`], but a library named again (`mtllib` repeated, or another spelling of the
+/// same file) is not read again: it adds nothing (tobj would append a second copy of every
+/// material), and re-reading it made a small OBJ with thousands of `mtllib` lines cost time
+/// and memory quadratic in its size (found by fuzzing: 65 KB took > 30 s and ~1 GB).
+fn load_mtl_once(
+    dir: &Path,
+    name: &Path,
+    problems: &RefCell<Vec<MtlProblem>>,
+    seen: &RefCell<HashMap<PathBuf, Result<(), tobj::LoadError>>>,
+) -> tobj::MTLLoadResult {
+    let joined = dir.join(name);
+    let key = std::fs::canonicalize(&joined).unwrap_or(joined);
+    if let Some(first) = seen.borrow().get(&key) {
+        return first.map(|()| Default::default());
+    }
+    let r = load_mtl(dir, name, problems);
+    seen.borrow_mut()
+        .insert(key, r.as_ref().map(|_| ()).map_err(|e| *e));
+    r
 }
 
 /// Load one MTL library named by the OBJ. Colour lines with a single value (`Kd 0.5`, which

@@ -139,3 +139,29 @@ fn hand_written_seeds_load() {
         assert!(!scene.objects.is_empty(), "seed {target}/{name}: no objects");
     }
 }
+
+/// A library named again (`mtllib` repeated, or spelt `./m.mtl`) is read once and gives the
+/// same materials as naming it once (fuzzing found thousands of repeats costing quadratic
+/// time and memory: `fuzz/regressions/obj/repeated-mtllib`).
+#[test]
+fn repeated_mtllib_is_read_once_with_the_same_materials() {
+    let dir = std::env::temp_dir().join(format!("shrad-fuzz-mtllib-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("m.mtl"),
+        "newmtl a\nKd 0.25 0.5 0.75\nKe 1 2 3\nnewmtl b\nKd 0.1\n",
+    )
+    .unwrap();
+    let mut obj = "mtllib m.mtl\n".repeat(5000);
+    obj += "mtllib ./m.mtl\nmtllib missing.mtl\n";
+    obj += "o t\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\nusemtl b\nf 1 2 3\n";
+    std::fs::write(dir.join("s.obj"), obj).unwrap();
+    let scene = load(&dir.join("s.obj"), &LoadOptions::default());
+    let _ = std::fs::remove_dir_all(&dir);
+    let scene = scene.unwrap();
+    assert_eq!(scene.objects.len(), 2);
+    let (a, b) = (&scene.objects[0].material, &scene.objects[1].material);
+    assert_eq!(a.reflectance, glam::Vec3::new(0.25, 0.5, 0.75));
+    assert_eq!(a.emitted_radiance, glam::Vec3::new(1.0, 2.0, 3.0));
+    assert_eq!(b.reflectance, glam::Vec3::splat(0.1));
+}
