@@ -1117,3 +1117,37 @@ fn mutations_never_panic() {
     }
     assert!(n > 300, "{n} mutations");
 }
+
+fn khronos(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/khronos")
+        .join(name)
+}
+
+/// Small Khronos sample models (see tests/data/khronos/README.md).
+#[test]
+fn khronos_samples() {
+    // Box: a node hierarchy with matrices, a byteStride-less shared vertex view.
+    let s = load_no_panic(&khronos("Box.gltf")).unwrap();
+    assert_eq!(s.objects.len(), 1);
+    assert_eq!(s.objects[0].mesh.triangles.len(), 12);
+    assert!(s.objects[0]
+        .material
+        .reflectance
+        .abs_diff_eq(Vec3::new(0.8, 0.0, 0.0), 1e-6));
+    let (lo, hi) = s.bounds().unwrap();
+    assert!(lo.abs_diff_eq(Vec3::splat(-0.5), 1e-6) && hi.abs_diff_eq(Vec3::splat(0.5), 1e-6));
+    // The same box, Draco-compressed: refused for the required extension.
+    refused_file(
+        &khronos("Box-Draco.gltf"),
+        &["extensionsRequired[0]", "'KHR_draco_mesh_compression'"],
+    );
+    // A sparse accessor moving vertices 8, 10 and 12 up.
+    let s = load_no_panic(&khronos("SimpleSparseAccessor.gltf")).unwrap();
+    let o = &s.objects[0];
+    assert_eq!(o.mesh.triangles.len(), 12);
+    assert_eq!(o.mesh.positions[8], Vec3::new(1.0, 2.0, 0.0));
+    assert_eq!(o.mesh.positions[10], Vec3::new(3.0, 3.0, 0.0));
+    assert_eq!(o.mesh.positions[12], Vec3::new(5.0, 4.0, 0.0));
+    assert_eq!(o.mesh.positions[9], Vec3::new(2.0, 1.0, 0.0));
+}
