@@ -97,7 +97,7 @@ struct SceneArgs {
     /// Visibility backend.
     #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
     backend: BackendArg,
-    /// No progress bars.
+    /// No progress bars and no informational lines (errors and warnings still print).
     #[arg(long, short)]
     quiet: bool,
 }
