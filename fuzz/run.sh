@@ -21,10 +21,12 @@ for t in "${targets[@]}"; do
   mkdir -p "corpus/$t" "artifacts/$t"
   before=$(ls "artifacts/$t" | wc -l)
   echo "== $t: ${secs}s" >&2
+  dict=dicts/$t.dict
+  [ "$t" = glb ] && dict=dicts/gltf.dict
   # shellcheck disable=SC2086
   nice -n 10 cargo +nightly fuzz run --debug-assertions "$t" "corpus/$t" "seeds/$t" -- \
     -max_total_time="$secs" -max_len=65536 -rss_limit_mb=2048 -timeout=10 \
-    -jobs=1 -workers=1 -print_final_stats=1 ${FUZZ_ARGS:-} >"logs/$t.log" 2>&1
+    -jobs=1 -workers=1 -print_final_stats=1 -dict="$dict" ${FUZZ_ARGS:-} >"logs/$t.log" 2>&1
   rc=$?
   # With -jobs=1 libFuzzer runs one worker whose output also lands in fuzz-0.log.
   mv -f fuzz-0.log "logs/$t.job0.log" 2>/dev/null
