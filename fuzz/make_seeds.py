@@ -82,17 +82,48 @@ def tri_doc(mode=None, indexed=True, extras=None, emissive=False, scene=True):
     return doc
 
 
+def png(w, h, rgb):
+    """A tiny 8-bit RGB PNG of one colour."""
+    import zlib
+    def chunk(t, d):
+        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
+    raw = b"".join(b"\0" + bytes(rgb) * w for _ in range(h))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+
+
+def textured(doc, in_buffer):
+    """`doc` with a 2 x 2 PNG base colour texture, as a data URI or in buffer view 2."""
+    doc = json.loads(json.dumps(doc))
+    img = png(2, 2, (200, 100, 50))
+    if in_buffer:
+        data = from_data_uri(doc)
+        off = len(data)
+        data += img + b"\0" * (-len(img) % 4)
+        doc["buffers"][0] = {"byteLength": len(data),
+                             "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode()}
+        doc["bufferViews"].append({"buffer": 0, "byteOffset": off, "byteLength": len(img)})
+        doc["images"] = [{"bufferView": 2, "mimeType": "image/png"}]
+    else:
+        doc["images"] = [{"uri": "data:image/png;base64," + base64.b64encode(img).decode()}]
+    doc["textures"] = [{"source": 0}]
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {"index": 0}
+    return doc
+
+
 # glTF (JSON text)
 cornell = json.loads(read("cornell.gltf"))
 put("gltf", "cornell.gltf", json.dumps(cornell, separators=(",", ":")))
 put("gltf", "tri.gltf", json.dumps(tri_doc()))
 put("gltf", "strip.gltf", json.dumps(tri_doc(mode=5, extras={"shrad_role": "light", "shrad_patch_size": 0.5}, emissive=True)))
 put("gltf", "fan_noindex_noscene.gltf", json.dumps(tri_doc(mode=6, indexed=False, scene=False)))
+put("gltf", "texture.gltf", json.dumps(textured(tri_doc(), False)))
 put("gltf", "minimal.gltf", '{"asset":{"version":"2.0"}}')
 
 # GLB (binary)
 put("glb", "cornell.glb", glb(cornell, from_data_uri(cornell)))
-for name, doc in [("tri.glb", tri_doc()), ("strip.glb", tri_doc(mode=5, emissive=True))]:
+for name, doc in [("tri.glb", tri_doc()), ("strip.glb", tri_doc(mode=5, emissive=True)),
+                  ("texture.glb", textured(tri_doc(), True))]:
     put("glb", name, glb(doc, from_data_uri(doc)))
 
 # OBJ + MTL: obj text, NUL, mtl text; the library is named m.mtl

@@ -116,7 +116,9 @@ fn hand_written_seeds_load() {
         ("gltf", "tri.gltf"),
         ("gltf", "strip.gltf"),
         ("gltf", "cornell.gltf"),
+        ("gltf", "texture.gltf"),
         ("glb", "tri.glb"),
+        ("glb", "texture.glb"),
         ("glb", "cornell.glb"),
         ("obj", "tri"),
         ("obj", "cornell"),
@@ -137,6 +139,13 @@ fn hand_written_seeds_load() {
         let _ = std::fs::remove_dir_all(&dir);
         let scene = r.unwrap_or_else(|e| panic!("seed {target}/{name}: {e}"));
         assert!(!scene.objects.is_empty(), "seed {target}/{name}: no objects");
+        if name.starts_with("texture") {
+            assert!(
+                scene.warnings.iter().any(|w| w.contains("texture")),
+                "seed {target}/{name}: texture not read: {:?}",
+                scene.warnings
+            );
+        }
     }
 }
 
