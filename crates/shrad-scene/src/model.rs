@@ -359,11 +359,27 @@ impl Scene {
             .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
     }
 
-    /// The scene's camera, or one that frames the scene.
+    /// The scene's camera, or one that frames the scene. When a boundary object encloses
+    /// the scene (a room), the camera stands inside it, near the -Z wall, looking in: from
+    /// outside it would see only the room's outer side.
     pub fn camera_or_default(&self) -> Camera {
         self.camera.unwrap_or_else(|| {
             let (lo, hi) = self.bounds().unwrap_or((Vec3::splat(-1.0), Vec3::ONE));
-            Camera::framing(lo, hi)
+            let ext = hi - lo;
+            let encloses = self.objects.iter().any(|o| {
+                o.role == Some(Role::Boundary)
+                    && o.world_bounds().is_some_and(|(a, b)| {
+                        (a - lo).max_element() <= 1e-3 * ext.max_element()
+                            && (hi - b).max_element() <= 1e-3 * ext.max_element()
+                    })
+            });
+            if encloses {
+                let centre = 0.5 * (lo + hi);
+                let eye = Vec3::new(centre.x, lo.y + 0.55 * ext.y, lo.z + 0.03 * ext.z);
+                Camera::look_at(eye, centre, 60f32.to_radians())
+            } else {
+                Camera::framing(lo, hi)
+            }
         })
     }
 

@@ -341,6 +341,11 @@ pub struct Dispersive {
     light_meter: IncidentMeter,
     /// What this frame's guards found (moved into `FrameStats::diverged`).
     step_warnings: Vec<String>,
+    /// Per patch: the side of a double-sided boundary surface that faces away from the
+    /// scene's centre. A probe that sees it is outside the enclosure, like one that sees a
+    /// single-sided back face (Blender exports every material double-sided by default, so
+    /// without this a probe buried in the floor sees the floor's dark underside as valid).
+    outer_side: Vec<bool>,
 }
 
 impl Dispersive {
@@ -456,6 +461,7 @@ impl Dispersive {
                 LIGHT_METER_RAYS,
             ),
             step_warnings: Vec::new(),
+            outer_side: outer_sides(world),
         }
     }
 
@@ -1098,6 +1104,10 @@ impl Dispersive {
         let Some(j) = world.seen_patch(h) else {
             return Seen::BackFace;
         };
+        if self.outer_side[j] {
+            // The outside of a double-sided enclosure: the probe is outside the scene.
+            return Seen::BackFace;
+        }
         let b = if self.options.direct_on_interior {
             // Direct light is added apart; the probe carries reflected light only.
             self.radiosity[j] - world.exitance[j]
@@ -1205,7 +1215,8 @@ impl Dispersive {
                 .sum::<f64>()
                 / 3.0;
             let mut contribution = contribution;
-            if !(sent <= reflected * crate::energy::BOUND_TOLERANCE + f64::MIN_POSITIVE) {
+            let within = sent <= reflected * crate::energy::BOUND_TOLERANCE + f64::MIN_POSITIVE;
+            if !within {
                 let s = if sent.is_finite() && sent > 0.0 {
                     (reflected.max(0.0) / sent) as f32
                 } else {
@@ -1435,6 +1446,20 @@ pub fn splat_to_boundary(
 /// boundary's patches, and those of lights that also reflect (a lamp panel, an emissive
 /// card: the paper's lights only emit, but a reflective emitter near a wall otherwise
 /// loses the light it bounces back).
+/// See `Dispersive::outer_side`.
+fn outer_sides(world: &World) -> Vec<bool> {
+    let p = &world.patches;
+    let (lo, hi) = world.scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ZERO));
+    let centre = 0.5 * (lo + hi);
+    (0..p.len())
+        .map(|i| {
+            p.role(i) == Role::Boundary
+                && p.twin[i] != crate::patches::NO_PATCH
+                && p.normal[i].dot(centre - p.centre[i]) < 0.0
+        })
+        .collect()
+}
+
 fn receives_as_boundary(world: &World, i: usize) -> bool {
     match world.patches.role(i) {
         Role::Boundary => true,

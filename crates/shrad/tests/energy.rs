@@ -115,14 +115,14 @@ fn random_room(seed: u64) -> Scene {
             0.5 * scale.y + 0.001,
             rng.range(-0.3, 0.3) * size.z,
         );
-        let turn = Quat::from_rotation_y(rng.range(0.0, 6.28));
+        let turn = Quat::from_rotation_y(rng.range(0.0, std::f32::consts::TAU));
         let mut mesh = cuboid(false);
         let mut node = Affine3A::from_scale_rotation_translation(scale, turn, at);
         if rng.next() < 0.5 {
             let mirror = Affine3A::from_scale(Vec3::new(1.0, 1.0, -1.0));
             mesh = mesh.transformed(mirror);
             mesh.triangles.iter_mut().for_each(|t| t.swap(1, 2));
-            node = node * mirror;
+            node *= mirror;
         }
         let mut o = Object::new(format!("box{b}"), mesh, Material::diffuse(rho(&mut rng)));
         o.role = Some(Role::Interior);
