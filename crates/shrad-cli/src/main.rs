@@ -656,6 +656,13 @@ fn cmd_render(args: RenderArgs, scene: Scene, file: &settings::FileSettings) -> 
                     stats.form_factor_bytes as f64 / (1 << 20) as f64,
                     stats.solve_seconds
                 );
+                print_energy(&stats.energy);
+            }
+            if stats.non_finite > 0 {
+                eprintln!(
+                    "warning: reference: {} non-finite value(s) reset to 0",
+                    stats.non_finite
+                );
             }
             b
         }
@@ -665,16 +672,29 @@ fn cmd_render(args: RenderArgs, scene: Scene, file: &settings::FileSettings) -> 
             progress.begin("frames", frames as u64);
             let mut last = None;
             let changes = Changes::default();
-            for _ in 0..frames {
-                last = Some(solver.step(&world, &changes));
+            let mut diverged = Vec::new();
+            for f in 0..frames {
+                let stats = solver.step(&world, &changes);
+                if let Some(d) = &stats.diverged {
+                    diverged.push((f, d.message.clone()));
+                }
+                last = Some(stats);
                 progress.advance(1);
             }
             progress.end();
+            if let Some((f, message)) = diverged.first() {
+                // Always said, even with --quiet: the published state was repaired.
+                eprintln!(
+                    "warning: the solver diverged in {} of {frames} frames (first in frame {f}: {message})",
+                    diverged.len()
+                );
+            }
             if let (false, Some(s)) = (quiet, last) {
                 eprintln!(
                     "{frames} frames; last frame {:.2} ms (direct {:.2}, objects/probes {:.2}, to boundary {:.2}, assemble {:.2}), invalid probes {}, repaired {}",
                     s.frame_ms, s.direct_ms, s.objects_ms, s.to_boundary_ms, s.assemble_ms, s.probes_invalid, s.probes_repaired
                 );
+                print_energy(&s.energy);
             }
             solver.radiosity().to_vec()
         }
@@ -879,6 +899,9 @@ fn cmd_animate(args: AnimateArgs, scene: Scene, file: &settings::FileSettings) -
         let time = f as f32 / args.fps;
         let (moved, relit) = world.set_time(time);
         let stats = solver.step(&world, &Changes { moved, relit });
+        if let Some(d) = &stats.diverged {
+            eprintln!("warning: frame {f}: the solver diverged: {}", d.message);
+        }
         let error = (args.error_every > 0 && f % args.error_every == 0).then(|| {
             let (reference, _) =
                 shrad::reference::solve(&world, &reference_options, &shrad::NoProgress);
@@ -992,4 +1015,18 @@ fn cmd_animate(args: AnimateArgs, scene: Scene, file: &settings::FileSettings) -
         );
     }
     Ok(())
+}
+
+/// The energy meter's line (spec 2): what the lights emit, what all patches absorb (lights
+/// included), and the reflected flux against the most a steady state can reflect.
+fn print_energy(e: &shrad::energy::EnergyBalance) {
+    eprintln!(
+        "energy: emitted {:.4e}, absorbed {:.4e} ({:.1} % of emitted; 100 % in a closed scene at rest), reflected {:.4e} ({:.0} % of the bound {:.4e})",
+        e.emitted,
+        e.absorbed,
+        100.0 * e.closure(),
+        e.reflected,
+        100.0 * e.bound_ratio(),
+        e.reflected_bound
+    );
 }
