@@ -57,7 +57,14 @@ fn read_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, Vec<PartNames>), Scen
     // Animations and skins are not read (motion comes from the scene file); they are left
     // out of what the gltf crate sees, which would refuse some valid ones (an animation
     // channel without a target node, as the specification allows).
-    let mut for_crate = value.clone();
+    // What the reader needs of the raw JSON later (small: no buffer data), so the document
+    // itself (base64 buffers can be large) moves to the gltf crate uncopied.
+    let kept = json!({
+        "accessors": value["accessors"].clone(),
+        "bufferViews": value["bufferViews"].clone(),
+        "textures": value["textures"].clone(),
+    });
+    let mut for_crate = value;
     if let Some(root) = for_crate.as_object_mut() {
         if root
             .remove("animations")
@@ -79,12 +86,12 @@ fn read_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, Vec<PartNames>), Scen
     let doc = gltf::Document::from_json(root).map_err(|e| bad(format!("invalid glTF: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = load_buffers(path, base, &doc, blob.map(<[u8]>::to_vec))?;
-    check_sparse_indices(&value, &buffers).map_err(bad)?;
+    check_sparse_indices(&kept, &buffers).map_err(bad)?;
     let mut cx = Walk {
         path,
         base,
         doc: &doc,
-        json: &value,
+        json: &kept,
         buffers: &buffers,
         scene: Scene {
             source: path.display().to_string(),
@@ -1282,7 +1289,7 @@ struct Walk<'a> {
     path: &'a Path,
     base: &'a Path,
     doc: &'a gltf::Document,
-    /// The raw JSON (checked by [`check_json`]).
+    /// The accessors, bufferViews and textures of the raw JSON (checked by [`check_json`]).
     json: &'a Value,
     buffers: &'a [gltf::buffer::Data],
     scene: Scene,
