@@ -1606,19 +1606,66 @@ impl Walk<'_> {
         } else {
             return Err("image has neither uri nor bufferView".into());
         };
-        let img = image::load_from_memory(&bytes)
-            .map_err(|e| e.to_string())?
-            .to_rgb32f();
-        let n = (img.width() as usize * img.height() as usize).max(1);
-        let sum = img.pixels().fold(Vec3::ZERO, |acc, p| {
-            acc + Vec3::new(
-                srgb_to_linear(p[0]),
-                srgb_to_linear(p[1]),
-                srgb_to_linear(p[2]),
-            )
-        });
-        Ok(sum / n as f32)
+        // A small file can decode huge (a 16000 x 16000 1-bit PNG is 31 KB): bound the
+        // decoded size, and average in the decoded format without a floating-point copy.
+        let mut reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
+            .with_guessed_format()
+            .map_err(|e| e.to_string())?;
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(MAX_TEXTURE_SIZE);
+        limits.max_image_height = Some(MAX_TEXTURE_SIZE);
+        limits.max_alloc = Some(256 << 20);
+        reader.limits(limits);
+        let img = reader.decode().map_err(|e| e.to_string())?;
+        use image::DynamicImage as D;
+        let lut: Vec<f32> = (0..=255u8)
+            .map(|c| srgb_to_linear(f32::from(c) / 255.0))
+            .collect();
+        let u8s = |raw: &[u8], ch: usize| mean(raw, ch, |c| lut[c as usize]);
+        let u16s =
+            |raw: &[u16], ch: usize| mean(raw, ch, |c| srgb_to_linear(f32::from(c) / 65535.0));
+        let avg = match &img {
+            D::ImageLuma8(i) => u8s(i.as_raw(), 1),
+            D::ImageLumaA8(i) => u8s(i.as_raw(), 2),
+            D::ImageRgb8(i) => u8s(i.as_raw(), 3),
+            D::ImageRgba8(i) => u8s(i.as_raw(), 4),
+            D::ImageLuma16(i) => u16s(i.as_raw(), 1),
+            D::ImageLumaA16(i) => u16s(i.as_raw(), 2),
+            D::ImageRgb16(i) => u16s(i.as_raw(), 3),
+            D::ImageRgba16(i) => u16s(i.as_raw(), 4),
+            D::ImageRgb32F(i) => mean(i.as_raw(), 3, srgb_to_linear),
+            D::ImageRgba32F(i) => mean(i.as_raw(), 4, srgb_to_linear),
+            other => mean(other.to_rgb32f().as_raw(), 3, srgb_to_linear),
+        };
+        Ok(avg)
     }
+}
+
+/// Largest texture width or height decoded (larger ones: the factor alone, with a warning).
+const MAX_TEXTURE_SIZE: u32 = 8192;
+
+/// Mean linear colour of interleaved samples with `channels` per pixel (1 or 2: grey, alpha
+/// ignored; 3 or 4: RGB, alpha ignored), each sample made linear by `linear`.
+fn mean<T: Copy>(raw: &[T], channels: usize, linear: impl Fn(T) -> f32) -> Vec3 {
+    let mut sum = [0f64; 3];
+    let mut n = 0usize;
+    for px in raw.chunks_exact(channels) {
+        if channels < 3 {
+            let g = f64::from(linear(px[0]));
+            sum.iter_mut().for_each(|s| *s += g);
+        } else {
+            for k in 0..3 {
+                sum[k] += f64::from(linear(px[k]));
+            }
+        }
+        n += 1;
+    }
+    let n = n.max(1) as f64;
+    Vec3::new(
+        (sum[0] / n) as f32,
+        (sum[1] / n) as f32,
+        (sum[2] / n) as f32,
+    )
 }
 
 fn srgb_to_linear(c: f32) -> f32 {

@@ -1151,3 +1151,53 @@ fn khronos_samples() {
     assert_eq!(o.mesh.positions[12], Vec3::new(5.0, 4.0, 0.0));
     assert_eq!(o.mesh.positions[9], Vec3::new(2.0, 1.0, 0.0));
 }
+
+/// A texture larger than the decode limit: the factor alone, with a warning (a small file
+/// can decode huge); a grey 16-bit texture is averaged like an 8-bit one.
+#[test]
+fn texture_limits_and_formats() {
+    let dir = temp_dir("texture");
+    let png = |img: image::DynamicImage| {
+        let mut bytes = Vec::new();
+        img.write_to(
+            &mut std::io::Cursor::new(&mut bytes),
+            image::ImageFormat::Png,
+        )
+        .unwrap();
+        format!("data:image/png;base64,{}", b64(&bytes))
+    };
+    let with_image = |uri: String| {
+        quad_with(|v| {
+            v["images"] = json!([{"uri": uri}]);
+            v["textures"] = json!([{"source": 0}]);
+            v["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": 0});
+        })
+    };
+    let wide = image::DynamicImage::ImageLuma8(image::GrayImage::new(9000, 1));
+    let p = write_json(&dir, "wide.gltf", &with_image(png(wide)));
+    let s = load_no_panic(&p).unwrap();
+    assert_eq!(s.objects[0].material.reflectance, Vec3::splat(0.5));
+    assert!(
+        s.warnings.iter().any(|w| w.contains("cannot be loaded")),
+        "{:?}",
+        s.warnings
+    );
+    // Half white, half black, in 16-bit grey: linear mean 0.5, times the factor 0.5.
+    let grey = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(2, 2, |x, _| {
+        image::Luma([if x == 0 { 65535 } else { 0 }])
+    });
+    let p = write_json(
+        &dir,
+        "grey16.gltf",
+        &with_image(png(image::DynamicImage::ImageLuma16(grey))),
+    );
+    let s = load_no_panic(&p).unwrap();
+    assert!(
+        s.objects[0]
+            .material
+            .reflectance
+            .abs_diff_eq(Vec3::splat(0.25), 1e-6),
+        "{}",
+        s.objects[0].material.reflectance
+    );
+}
