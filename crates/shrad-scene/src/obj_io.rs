@@ -97,6 +97,7 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
                         .map_or(Material::default().reflectance, Vec3::from),
                     emitted_radiance: mat.emissive.map_or(Vec3::ZERO, Vec3::from),
                     double_sided: false,
+                    ..Material::default()
                 },
                 None => Material::default(),
             },
@@ -129,6 +130,7 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
             Mesh {
                 positions,
                 triangles,
+                ..Mesh::default()
             },
             material,
         ));
