@@ -636,14 +636,15 @@ fn required_extensions_shrad_lacks_are_errors() {
             ],
         );
     }
-    // Only used: a warning naming the extension.
+    // Only used: the file loads; an extension shrad ignores gives a warning naming it
+    // (KHR_texture_transform loads either way: ignored or implemented).
     let root = quad_with(|v| {
         v["extensionsUsed"] = json!(["KHR_materials_unlit", "KHR_texture_transform", "EXT_other"]);
         v["materials"][0]["extensions"] = json!({"KHR_materials_unlit": {}});
     });
     let p = write_json(&dir, "used.gltf", &root);
     let s = load_no_panic(&p).unwrap();
-    for ext in ["KHR_materials_unlit", "KHR_texture_transform", "EXT_other"] {
+    for ext in ["KHR_materials_unlit", "EXT_other"] {
         assert!(
             s.warnings.iter().any(|w| w.contains(ext)),
             "{ext}: {:?}",
@@ -789,6 +790,7 @@ fn quad_mesh() -> Mesh {
     Mesh {
         positions: QUAD.iter().map(|&p| Vec3::from(p)).collect(),
         triangles: vec![[0, 1, 2], [0, 2, 3]],
+        ..Default::default()
     }
 }
 
@@ -983,6 +985,26 @@ fn mirrored_node_keeps_its_winding() {
     // The front still faces +Y in world space (the quad lies in the mirror's plane of
     // symmetry's normal direction, so only x changes sign).
     for n in world_normals(o) {
+        assert!(n.abs_diff_eq(Vec3::Y, 1e-6), "world normal {n}");
+    }
+
+    // Two mirrors in a hierarchy (as in Khronos NegativeScaleTest: a parent scaled
+    // (-1, -1, -1) with a rotation, a child scaled (-1, -1, -1)): they cancel; the winding is
+    // still the file's.
+    let nested = quad_with(|v| {
+        v["nodes"] = json!([
+            {"name": "parent", "rotation": [0.0, 0.0, -1.0, 0.0], "scale": [-1.0, -1.0, -1.0],
+             "translation": [1.0, -3.5, 0.0], "children": [1]},
+            {"name": "child", "mesh": 0, "rotation": [0.0, 0.0, -1.0, 0.0],
+             "scale": [-1.0, -1.0, -1.0], "translation": [2.0, 0.0, 0.0]}
+        ]);
+    });
+    let p = write_json(&dir, "nested.gltf", &nested);
+    let n = load_no_panic(&p).unwrap();
+    let c = &n.objects[0];
+    assert_eq!(c.mesh.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+    assert!(c.world_from_object.matrix3.determinant() > 0.0);
+    for n in world_normals(c) {
         assert!(n.abs_diff_eq(Vec3::Y, 1e-6), "world normal {n}");
     }
 
