@@ -33,7 +33,18 @@ fn emitters(world: &World) -> Vec<Emitter> {
         if r.is_empty() {
             continue;
         }
-        let radiance = world.exitance[r.start] / std::f32::consts::PI;
+        // An emissive texture makes the exitance vary over the object: its area average.
+        let exitance = if world.emission_texture.is_empty() {
+            world.exitance[r.start]
+        } else {
+            let area: f32 = r.clone().map(|p| world.patches.area_local[p]).sum();
+            let flux: Vec3 = r
+                .clone()
+                .map(|p| world.exitance[p] * world.patches.area_local[p])
+                .sum();
+            flux / area.max(f32::MIN_POSITIVE)
+        };
+        let radiance = exitance / std::f32::consts::PI;
         if radiance.max_element() <= 0.0 {
             continue;
         }
@@ -77,6 +88,14 @@ fn emitters(world: &World) -> Vec<Emitter> {
 /// triangle clipped to the half-space above `x`'s tangent plane, then Lambert's formula
 /// `E = 1/2 * sum_k theta_k (n . gamma_k)`.
 pub fn polygon_irradiance(x: Vec3, n: Vec3, tri: &[Vec3; 3]) -> f32 {
+    // A triangle in the receiver's own plane subtends no projected solid angle: without this
+    // the clip below keeps it whole and a double-sided planar light lit itself with pi L.
+    // (Tolerance: float noise of the coordinates and of the distances involved.)
+    let reach = tri.iter().map(|v| (*v - x).length()).fold(0.0, f32::max);
+    let tolerance = 1e-6 * (reach + x.abs().max_element());
+    if tri.iter().all(|v| n.dot(*v - x) <= tolerance) {
+        return 0.0;
+    }
     // Clip against n . (v - x) >= 0 (Sutherland-Hodgman, at most 4 vertices out).
     let mut poly = [Vec3::ZERO; 4];
     let mut len = 0;
@@ -255,6 +274,20 @@ mod tests {
         let e = polygon_irradiance(Vec3::ZERO, Vec3::Z, &t1)
             + polygon_irradiance(Vec3::ZERO, Vec3::Z, &t2);
         assert!((e - 4.0 * s * s).abs() < 1e-3 * 4.0 * s * s, "{e}");
+        // In the receiver's own plane (a planar light seen from itself): nothing.
+        let flat = [
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
+        assert_eq!(
+            polygon_irradiance(Vec3::new(0.1, 0.0, 0.0), Vec3::Z, &flat),
+            0.0
+        );
+        assert_eq!(
+            polygon_irradiance(Vec3::new(0.1, 0.0, 0.0), -Vec3::Z, &flat),
+            0.0
+        );
         // Below the horizon: nothing.
         let t3 = [
             Vec3::new(-1.0, -1.0, -1.0),

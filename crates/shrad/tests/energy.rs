@@ -89,11 +89,13 @@ fn random_room(seed: u64) -> Scene {
                 Vec3::new(-0.5, 0.0, 0.5),
             ],
             triangles: vec![[0, 1, 2], [0, 2, 3]],
+            ..Default::default()
         },
         Material {
             reflectance: Vec3::ZERO,
             emitted_radiance: Vec3::splat(rng.range(1.0, 20.0)),
             double_sided: false,
+            ..Default::default()
         },
     );
     light.role = Some(Role::Light);

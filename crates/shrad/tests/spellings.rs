@@ -59,6 +59,7 @@ fn parts() -> Vec<(&'static str, Role, Mesh, Affine3A, Material)> {
             Vec3::new(-0.5, 0.0, 0.5),
         ],
         triangles: vec![[0, 1, 2], [0, 2, 3]],
+        ..Default::default()
     };
     vec![
         (
@@ -85,6 +86,7 @@ fn parts() -> Vec<(&'static str, Role, Mesh, Affine3A, Material)> {
                 reflectance: Vec3::ZERO,
                 emitted_radiance: Vec3::splat(8.0),
                 double_sided: false,
+                ..Default::default()
             },
         ),
         (
