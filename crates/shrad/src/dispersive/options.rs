@@ -1,0 +1,171 @@
+//! The dispersive solver's settings: [`DispersiveOptions`] with its two presets, the paper as
+//! written ([`DispersiveOptions::paper`], Wang, Liu & Wu 2007, sections 2.3.1–2.3.5) and
+//! shrad's default ([`DispersiveOptions::improved`]), and the enums that pick a variant of a
+//! step: [`Schedule`] (paper 2.3.3 Step 1, object selection), [`ProbeRepair`] (probes of
+//! paper 2.3.3 Step 2) and [`ToBoundary`] (paper 2.3.4). Every departure from the paper is
+//! one field, measured in `docs/results.md`.
+
+/// Which objects a frame updates (spec 4.3).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Schedule {
+    /// Interior objects in order, `per_frame` a frame (paper: 1).
+    RoundRobin {
+        /// Objects per frame.
+        per_frame: usize,
+    },
+    /// Highest priority first: staleness times a weight that grows when the object or a
+    /// neighbour moved or a light changed; no object waits more than `max_staleness` frames.
+    Priority {
+        /// Objects per frame.
+        per_frame: usize,
+        /// Staleness bound in frames.
+        max_staleness: usize,
+    },
+    /// As many objects (by priority) as fit in `ms` milliseconds; at least one.
+    Budget {
+        /// Per-frame time budget for Steps 2 and 3.
+        ms: f32,
+        /// Staleness bound in frames.
+        max_staleness: usize,
+    },
+    /// Every object every frame: the same algorithm without dispersal.
+    Full,
+}
+
+/// How a buried probe (one that sees mostly back faces) is handled (spec 4.6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProbeRepair {
+    /// Keep it (the paper).
+    None,
+    /// Drop it and renormalise the trilinear weights of the others.
+    Drop,
+    /// Move it along the box diagonal towards the centre until it is valid (else drop it).
+    MoveInward,
+}
+
+/// How an object's reflected light reaches the boundary (Step 3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ToBoundary {
+    /// Render a cube map of ids at the object's centre and splat each texel's flux on the
+    /// boundary patch it sees (the paper).
+    Splat,
+    /// Evaluate the SH intensity towards every boundary patch, with one shadow ray each:
+    /// the same point emitter without the cube map's aliasing.
+    Gather,
+    /// Gather while the boundary has fewer patches than twice a cube map's texels (and at
+    /// least up to 32k patches), else splat: the cost of Step 3 then stays bounded however
+    /// large the scene grows.
+    Auto,
+}
+
+/// Settings of the dispersive solver. See [`DispersiveOptions::paper`] and
+/// [`DispersiveOptions::improved`] (the default).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DispersiveOptions {
+    /// SH bands (paper: 4 = 16 coefficients).
+    pub bands: usize,
+    /// Cube-map face resolution of probes (paper: 128). The probes carry 16 SH
+    /// coefficients of smooth, reflected light: 32 measured the same as 64 and 128 once
+    /// direct light on interior objects is computed apart (docs/results.md).
+    pub cube_res: usize,
+    /// Cube-map face resolution of the Step 3 splat (paper: the probes' 128). The splat
+    /// lands texels on boundary patches, so it needs more texels than a probe: at 32 an
+    /// unsmoothed splat aliases (77k room: 8.2 % against 5.4 % at 64; docs/results.md §4).
+    pub emitter_res: usize,
+    /// Probe box margin as a fraction of the box diagonal (0: the paper's exact box).
+    pub probe_margin: f32,
+    /// The scheduler.
+    pub schedule: Schedule,
+    /// Back-face fraction above which a probe is invalid (DDGI: 0.25).
+    pub invalid_back_fraction: f32,
+    /// What to do with invalid probes.
+    pub repair: ProbeRepair,
+    /// Carry boundary-to-boundary light (precomputed sparse form factors among the static
+    /// boundary patches, one Jacobi sweep per frame).
+    pub wall_exchange: bool,
+    /// Form-factor rays per boundary patch for the wall exchange.
+    pub wall_rays: u32,
+    /// Capture probes with the object's own geometry transparent (else its texels are 0).
+    pub see_through_self: bool,
+    /// Direct light on interior patches computed like the boundary's; probes then record only
+    /// reflected light.
+    pub direct_on_interior: bool,
+    /// Shadow rays per (patch, emitter) for direct light.
+    pub direct_samples: u32,
+    /// Step 3 method.
+    pub to_boundary: ToBoundary,
+    /// Rays per interior patch that detect faces in contact with other surfaces (0: off,
+    /// the paper). See `Dispersive::contact_openness`.
+    pub contact_rays: u32,
+    /// Step 3 with one SH emitter per face direction of the object (its patches grouped by
+    /// the dominant axis of their rest-frame normal, each emitter at its group's centroid,
+    /// lobes along the normals) instead of one at the centre: the floor beside a box is lit
+    /// by the box's near face, not by a point in its middle.
+    pub emitter_per_face: bool,
+    /// Rays per interior patch for a precomputed transfer vector with self-visibility (the
+    /// precomputed radiance transfer the paper cites): irradiance is the probe SH dotted
+    /// with `T_i = ∫ V_self(w) max(0, n.w) Y(w) dw`, so a concave object shadows itself
+    /// although its probes see through it, plus the light of the object's own patches seen
+    /// in the blocked directions (self form factors). 0: the plain clamped-cosine lobe.
+    pub self_shadow_rays: u32,
+    /// Spread each boundary patch's splatted flux over the patch and its edge neighbours
+    /// (patches sharing a smooth-shading vertex, so never across a crease), keeping the
+    /// flux: the splat's texels and the patches are about the same size, so a patch gets
+    /// 0, 1 or 2 texels and the raw splat is noisy (the paper's texel pattern).
+    pub splat_smoothing: bool,
+}
+
+impl DispersiveOptions {
+    /// The paper as written: exact box, no repair, no wall exchange, own texels black,
+    /// direct light on interior objects through the probes, cube-map splat, K = 1.
+    pub const fn paper() -> Self {
+        DispersiveOptions {
+            bands: 4,
+            cube_res: 128,
+            emitter_res: 128,
+            probe_margin: 0.0,
+            schedule: Schedule::RoundRobin { per_frame: 1 },
+            invalid_back_fraction: 0.25,
+            repair: ProbeRepair::None,
+            wall_exchange: false,
+            wall_rays: 64,
+            see_through_self: false,
+            direct_on_interior: false,
+            direct_samples: 16,
+            to_boundary: ToBoundary::Splat,
+            contact_rays: 0,
+            emitter_per_face: false,
+            self_shadow_rays: 0,
+            splat_smoothing: false,
+        }
+    }
+
+    /// shrad's default: every improvement of spec 4.6 that measured better (docs/results.md).
+    pub const fn improved() -> Self {
+        DispersiveOptions {
+            cube_res: 32,
+            emitter_res: 64,
+            probe_margin: 0.01,
+            schedule: Schedule::Priority {
+                per_frame: 1,
+                max_staleness: 16,
+            },
+            repair: ProbeRepair::MoveInward,
+            wall_exchange: true,
+            see_through_self: true,
+            direct_on_interior: true,
+            to_boundary: ToBoundary::Auto,
+            contact_rays: 8,
+            emitter_per_face: true,
+            self_shadow_rays: 64,
+            splat_smoothing: true,
+            ..Self::paper()
+        }
+    }
+}
+
+impl Default for DispersiveOptions {
+    fn default() -> Self {
+        Self::improved()
+    }
+}

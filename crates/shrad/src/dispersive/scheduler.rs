@@ -1,0 +1,281 @@
+//! The scheduler: which interior objects a frame updates (paper 2.3.3 Step 1, "场景物体选择":
+//! the paper numbers the interior objects and takes one per frame in turn; spec 4.3).
+//!
+//! Four policies ([`Schedule`]): the paper's round robin, `per_frame` objects at a time; a
+//! priority order, staleness × a weight that grows when the object or a neighbour moved or a
+//! light changed, with a hard staleness bound (an object that waited `max_staleness` frames
+//! goes first whatever the weights); as many objects by priority as fit a time budget (at
+//! least one, so the scene always progresses); every object every frame. It reads only what
+//! it keeps per object ([`Freshness`]), so its order is tested without a world.
+
+use super::{Batch, Schedule};
+
+/// What the scheduler knows of one interior object.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Freshness {
+    /// Frame of the last update (None: never).
+    last_update: Option<u64>,
+    /// Something near it changed since its last update (1: nothing; 2: a neighbour moved or
+    /// a light changed; 4: it moved).
+    disturbed: f32,
+    /// Measured ms of its last update.
+    cost_ms: f64,
+}
+
+/// The scheduler's state: the policy, each object's [`Freshness`] and the round robin's
+/// next object.
+pub(super) struct Scheduler {
+    schedule: Schedule,
+    objects: Vec<Freshness>,
+    round_robin_next: usize,
+}
+
+impl Scheduler {
+    /// A scheduler over `n` interior objects, none of them ever updated.
+    pub(super) fn new(schedule: Schedule, n: usize) -> Scheduler {
+        Scheduler {
+            schedule,
+            objects: vec![
+                Freshness {
+                    last_update: None,
+                    disturbed: 1.0,
+                    cost_ms: 0.0,
+                };
+                n
+            ],
+            round_robin_next: 0,
+        }
+    }
+
+    /// Raise object `k`'s disturbance to at least `level`.
+    pub(super) fn disturb(&mut self, k: usize, level: f32) {
+        let d = &mut self.objects[k].disturbed;
+        *d = d.max(level);
+    }
+
+    /// Object `k` was updated in `frame` at a cost of `cost_ms`.
+    pub(super) fn updated(&mut self, k: usize, frame: u64, cost_ms: f64) {
+        self.objects[k] = Freshness {
+            last_update: Some(frame),
+            disturbed: 1.0,
+            cost_ms,
+        };
+    }
+
+    /// Frames since the stalest object was updated, at `frame` (`frame + 1` for one never
+    /// updated; 0 without objects).
+    pub(super) fn stalest(&self, frame: u64) -> u64 {
+        self.objects
+            .iter()
+            .map(|o| o.last_update.map_or(frame + 1, |f| frame - f))
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// Frames in which the scheduler updates every object once on a static scene.
+    pub(super) fn frames_per_pass(&self) -> usize {
+        let n = self.objects.len().max(1);
+        match self.schedule {
+            Schedule::Full => 1,
+            Schedule::RoundRobin { per_frame } | Schedule::Priority { per_frame, .. } => {
+                n.div_ceil(per_frame.max(1))
+            }
+            Schedule::Budget { .. } => n,
+        }
+    }
+
+    /// The objects `frame` updates (spec 4.3).
+    pub(super) fn schedule(&mut self, frame: u64) -> Batch {
+        let n = self.objects.len();
+        if n == 0 {
+            return Batch(Vec::new());
+        }
+        match self.schedule {
+            Schedule::Full => Batch((0..n).collect()),
+            Schedule::RoundRobin { per_frame } => {
+                let k = per_frame.clamp(1, n);
+                let picked = (0..k).map(|j| (self.round_robin_next + j) % n).collect();
+                self.round_robin_next = (self.round_robin_next + k) % n;
+                Batch(picked)
+            }
+            Schedule::Priority {
+                per_frame,
+                max_staleness,
+            } => {
+                let k = per_frame.clamp(1, n);
+                Batch(
+                    self.by_priority(frame, max_staleness)
+                        .into_iter()
+                        .take(k)
+                        .collect(),
+                )
+            }
+            Schedule::Budget { ms, max_staleness } => {
+                let order = self.by_priority(frame, max_staleness);
+                let mut spent = 0.0;
+                let mut picked = Vec::new();
+                for o in order {
+                    let cost = self.objects[o].cost_ms.max(0.01);
+                    if !picked.is_empty() && spent + cost > ms as f64 {
+                        break;
+                    }
+                    spent += cost;
+                    picked.push(o);
+                }
+                Batch(picked)
+            }
+        }
+    }
+
+    /// Objects in decreasing priority: over-stale objects first, then staleness x weight;
+    /// ties in index order.
+    fn by_priority(&self, frame: u64, max_staleness: usize) -> Vec<usize> {
+        let staleness = |o: &Freshness| o.last_update.map_or(u64::MAX / 4, |f| frame - f) as f64;
+        let mut order: Vec<(usize, f64)> = self
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| {
+                let s = staleness(o);
+                let forced = if s >= max_staleness as f64 { 1e12 } else { 0.0 };
+                (i, forced + (s + 1.0) * o.disturbed as f64)
+            })
+            .collect();
+        order.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+        order.into_iter().map(|(i, _)| i).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Run `frames` frames, each updating what it picked at `cost(k)` ms; the batches.
+    fn run(s: &mut Scheduler, frames: u64, cost: impl Fn(usize) -> f64) -> Vec<Vec<usize>> {
+        (0..frames)
+            .map(|frame| {
+                let batch = s.schedule(frame);
+                for &k in &batch.0 {
+                    s.updated(k, frame, cost(k));
+                }
+                batch.0
+            })
+            .collect()
+    }
+
+    #[test]
+    fn round_robin_takes_objects_in_turn() {
+        let mut s = Scheduler::new(Schedule::RoundRobin { per_frame: 2 }, 5);
+        assert_eq!(
+            run(&mut s, 4, |_| 1.0),
+            [vec![0, 1], vec![2, 3], vec![4, 0], vec![1, 2]]
+        );
+        assert_eq!(s.frames_per_pass(), 3);
+        // More per frame than objects: each object once.
+        let mut s = Scheduler::new(Schedule::RoundRobin { per_frame: 9 }, 3);
+        assert_eq!(s.schedule(0).0, [0, 1, 2]);
+    }
+
+    #[test]
+    fn full_updates_every_object_and_none_is_empty() {
+        let mut s = Scheduler::new(Schedule::Full, 4);
+        assert_eq!(s.schedule(0).0, [0, 1, 2, 3]);
+        assert_eq!(s.frames_per_pass(), 1);
+        let mut none = Scheduler::new(Schedule::Full, 0);
+        assert!(none.schedule(0).0.is_empty());
+        assert_eq!(none.stalest(7), 0);
+    }
+
+    /// On a static scene the priority order is a round robin: the stalest object first,
+    /// ties by index.
+    #[test]
+    fn priority_on_a_static_scene_visits_every_object_in_turn() {
+        let mut s = Scheduler::new(
+            Schedule::Priority {
+                per_frame: 1,
+                max_staleness: 100,
+            },
+            3,
+        );
+        let order: Vec<usize> = run(&mut s, 6, |_| 1.0).concat();
+        assert_eq!(order, [0, 1, 2, 0, 1, 2]);
+        assert_eq!(s.stalest(6), 3);
+    }
+
+    /// A disturbed object jumps the queue, but no object waits beyond the staleness bound.
+    #[test]
+    fn priority_prefers_disturbed_objects_within_the_staleness_bound() {
+        let max_staleness = 4;
+        let mut s = Scheduler::new(
+            Schedule::Priority {
+                per_frame: 1,
+                max_staleness,
+            },
+            3,
+        );
+        run(&mut s, 3, |_| 1.0);
+        let mut last = [0u64, 1, 2];
+        for frame in 3..40 {
+            // Object 0 moves every frame: weight 4 against the others' 1.
+            s.disturb(0, 4.0);
+            let batch = s.schedule(frame);
+            assert_eq!(batch.0.len(), 1);
+            let k = batch.0[0];
+            s.updated(k, frame, 1.0);
+            last[k] = frame;
+            for (o, &f) in last.iter().enumerate() {
+                assert!(
+                    frame - f <= max_staleness as u64,
+                    "frame {frame}: object {o} last updated in frame {f}"
+                );
+            }
+        }
+        // The mover gets most of the frames, the others still theirs.
+        let mut s2 = Scheduler::new(
+            Schedule::Priority {
+                per_frame: 1,
+                max_staleness,
+            },
+            3,
+        );
+        run(&mut s2, 3, |_| 1.0);
+        let mut count = [0; 3];
+        for frame in 3..43 {
+            s2.disturb(0, 4.0);
+            let k = s2.schedule(frame).0[0];
+            s2.updated(k, frame, 1.0);
+            count[k] += 1;
+        }
+        assert!(count[0] > count[1] && count[0] > count[2], "{count:?}");
+        assert!(count[1] > 0 && count[2] > 0, "{count:?}");
+    }
+
+    /// A budget takes objects by priority while their last costs fit, and at least one.
+    #[test]
+    fn budget_takes_what_fits_and_at_least_one() {
+        let cost = |k: usize| [3.0, 4.0, 5.0, 100.0][k];
+        let mut s = Scheduler::new(
+            Schedule::Budget {
+                ms: 8.0,
+                max_staleness: 1000,
+            },
+            4,
+        );
+        // Costs unknown (0, counted as 0.01 ms): the first frame takes everything.
+        assert_eq!(run(&mut s, 1, cost), [vec![0, 1, 2, 3]]);
+        // Now all equally stale: by index while the sum fits 8 ms (3 + 4; + 5 would not).
+        assert_eq!(s.schedule(1).0, [0, 1]);
+        // An object dearer than the whole budget still goes when it is first.
+        let mut s = Scheduler::new(
+            Schedule::Budget {
+                ms: 8.0,
+                max_staleness: 1000,
+            },
+            4,
+        );
+        run(&mut s, 1, cost);
+        s.disturb(3, 4.0);
+        assert_eq!(s.schedule(1).0, [3]);
+        assert_eq!(s.frames_per_pass(), 4);
+    }
+}

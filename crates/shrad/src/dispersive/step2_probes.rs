@@ -1,0 +1,335 @@
+//! Step 2 of the frame (paper 2.3.3, "计算选定的场景内部物体的光照"): light each object the
+//! scheduler picked from the 8 probes at the corners of its box. Capture a cube map at each
+//! probe (2.3.3 Step 2), project it to SH (Step 3), interpolate the SH trilinearly to each
+//! patch with the weights precomputed in 2.3.1, and dot with the patch's clamped-cosine lobe
+//! (Step 4).
+//!
+//! Beyond the paper, each switchable (docs/results.md): probes that see mostly back faces
+//! are invalid and dropped or moved inward (`ProbeRepair`); the object may be transparent to
+//! its own probes (`see_through_self`); faces resting on another surface are darkened by
+//! their *contact openness*; and a concave object shadows itself through a transfer vector
+//! with self-visibility plus its self form factors ([`self_transfer`], precomputed with the
+//! object at rest, the precomputed radiance transfer the paper cites).
+
+use std::time::Instant;
+
+use glam::{Affine3A, Vec3};
+use rayon::prelude::*;
+use shrad_scene::Role;
+use shrad_sh::{cosine_lobe_sh, eval_basis, num_coeffs, ShRgb, MAX_COEFFS};
+use shrad_vis::Hit;
+
+use super::{ms, Batch, Dispersive, FrameStats, ProbeRepair};
+use crate::probes::Seen;
+use crate::World;
+
+impl Dispersive {
+    /// Step 2 (paper 2.3.3): light each object of the batch from its 8 corner probes.
+    pub(super) fn light_selected_objects(
+        &mut self,
+        world: &World,
+        batch: Batch,
+        stats: &mut FrameStats,
+    ) -> Vec<usize> {
+        let p = &world.patches;
+        let bands = self.options.bands;
+        let nc = num_coeffs(bands);
+        for &k in &batch.0 {
+            let t = Instant::now();
+            let ob = &self.objects[k];
+            let o = ob.object;
+            let m = p.world_from_local[o];
+            let (probes, scale) = self.capture_corner_probes(world, k, m, stats);
+            self.objects[k].probe_scale = scale;
+            let range = p.range(o);
+            let ob = &self.objects[k];
+            let with_transfer = !ob.transfer.is_empty();
+            // With transfer vectors (object frame) the probes are rotated into the object's
+            // frame once: rotation is linear, so this equals rotating every patch's
+            // interpolated SH.
+            let probes: Vec<Option<ShRgb>> = if with_transfer {
+                let (_, rotation, _) = m.to_scale_rotation_translation();
+                let to_local = shrad_sh::ShRotation::from_quat(bands, rotation.inverse());
+                probes
+                    .iter()
+                    .map(|sh| {
+                        sh.as_ref().map(|sh| {
+                            let mut local = ShRgb::zeros(bands);
+                            to_local.rotate_rgb(sh, &mut local);
+                            local
+                        })
+                    })
+                    .collect()
+            } else {
+                probes
+            };
+            let e: Vec<Vec3> = range
+                .clone()
+                .into_par_iter()
+                .map(|i| {
+                    let k = i - range.start;
+                    let w = ob.weights[k];
+                    // Interpolate the probes to the patch (paper 2.3.3, trilinear weights,
+                    // renormalised over the valid probes).
+                    let mut l = [Vec3::ZERO; MAX_COEFFS];
+                    let mut sum_w = 0.0;
+                    for (sh, &wc) in probes.iter().zip(&w) {
+                        if let Some(sh) = sh {
+                            for (a, &b) in l[..nc].iter_mut().zip(sh.coeffs()) {
+                                *a += b * wc;
+                            }
+                            sum_w += wc;
+                        }
+                    }
+                    if sum_w <= 0.0 {
+                        return Vec3::ZERO;
+                    }
+                    // Dot with the patch's transfer vector (object frame), or with the
+                    // clamped-cosine lobe of its world normal.
+                    let mut lobe = [0f32; MAX_COEFFS];
+                    let weights: &[f32] = if with_transfer {
+                        &ob.transfer[k * nc..(k + 1) * nc]
+                    } else {
+                        cosine_lobe_sh(bands, p.normal[i], &mut lobe[..nc]);
+                        &lobe[..nc]
+                    };
+                    let dot: Vec3 = l[..nc].iter().zip(weights).map(|(a, &b)| *a * b).sum();
+                    // The object's own light in the directions it blocks (self form factors).
+                    let own: Vec3 = if with_transfer {
+                        ob.self_view(k)
+                            .iter()
+                            .map(|&(q, f)| {
+                                let q = range.start + q as usize;
+                                (self.radiosity[q] - world.exitance[q]) * f
+                            })
+                            .sum()
+                    } else {
+                        Vec3::ZERO
+                    };
+                    (dot / sum_w).max(Vec3::ZERO) + own
+                })
+                .collect();
+            if self.objects[k].openness.len() != range.len() {
+                self.objects[k].openness = if self.options.contact_rays > 0 {
+                    self.contact_openness(world, k)
+                } else {
+                    vec![1.0; range.len()]
+                };
+            }
+            let openness = &self.objects[k].openness;
+            for ((i, e), &v) in range.clone().zip(e).zip(openness) {
+                let e = e * v;
+                self.probe_irradiance[i] = e;
+                let direct = if self.options.direct_on_interior {
+                    self.direct[i]
+                } else {
+                    Vec3::ZERO
+                };
+                self.radiosity[i] = world.exitance[i] + world.reflectance[i] * (e + direct);
+            }
+            self.scheduler.updated(k, self.frame, ms(t));
+            stats.objects_updated.push(o);
+        }
+        batch.0
+    }
+
+    /// Per patch of object `k`, the (cosine-weighted) fraction of its hemisphere that is not
+    /// closed off right in front of it: rays start just *inside* the surface (the object
+    /// itself transparent) and look for anything within 2 % of the object's box diagonal.
+    /// A face resting on the floor gets 0 — the probes, a box-size apart, cannot see that
+    /// contact and would light it with the floor's radiance.
+    fn contact_openness(&self, world: &World, k: usize) -> Vec<f32> {
+        let p = &world.patches;
+        let ob = &self.objects[k];
+        let o = ob.object;
+        let m = p.world_from_local[o];
+        let reach = 0.02 * m.transform_vector3(ob.hi - ob.lo).length();
+        let rays = self.options.contact_rays as usize;
+        let range = p.range(o);
+        let mut origins = vec![Vec3::ZERO; range.len() * rays];
+        let mut dirs = vec![Vec3::ZERO; range.len() * rays];
+        origins
+            .par_chunks_mut(rays)
+            .zip(dirs.par_chunks_mut(rays))
+            .enumerate()
+            .for_each(|(k, (org, dir))| {
+                let i = range.start + k;
+                let n = p.normal[i];
+                let shift = (crate::sampling::unit(crate::sampling::hash(i as u32)), 0.5);
+                for j in 0..rays {
+                    let (u, v) = crate::sampling::hammersley(j as u32, rays as u32, shift);
+                    org[j] = p.centre[i] - n * world.eps;
+                    dir[j] = crate::sampling::square_to_cosine_hemisphere(u, v, n);
+                }
+            });
+        let mut hits = vec![Hit::MISS; origins.len()];
+        world
+            .vis
+            .closest(&origins, &dirs, 0.0, &[o as u32], &mut hits);
+        hits.chunks(rays)
+            .map(|h| {
+                h.iter().filter(|h| !(h.is_hit() && h.t <= reach)).count() as f32 / rays as f32
+            })
+            .collect()
+    }
+
+    /// Capture the 8 probes of object `k`; `None` for a probe dropped as invalid.
+    fn capture_corner_probes(
+        &self,
+        world: &World,
+        k: usize,
+        m: Affine3A,
+        stats: &mut FrameStats,
+    ) -> (Vec<Option<ShRgb>>, [f32; 8]) {
+        let ob = &self.objects[k];
+        let o = ob.object as u32;
+        let exclude: Vec<u32> = if self.options.see_through_self {
+            vec![o]
+        } else {
+            vec![]
+        };
+        let points: Vec<Vec3> = (0..8)
+            .map(|c| m.transform_point3(ob.probe_local(c)))
+            .collect();
+        let shade = |h: &Hit| self.shade_probe_texel(world, h, o);
+        let captured = self.camera.capture(world, &points, &exclude, shade);
+        let limit = self.options.invalid_back_fraction;
+        let mut out: Vec<Option<ShRgb>> = captured.sh.into_iter().map(Some).collect();
+        let mut scale = ob.probe_scale;
+        for c in 0..8 {
+            if captured.back_fraction[c] <= limit {
+                continue;
+            }
+            stats.probes_invalid += 1;
+            match self.options.repair {
+                ProbeRepair::None => {}
+                ProbeRepair::Drop => out[c] = None,
+                ProbeRepair::MoveInward => {
+                    out[c] = None;
+                    let centre = ob.centre_local();
+                    for s in [0.8f32, 0.6, 0.4, 0.2]
+                        .into_iter()
+                        .filter(|&s| s < scale[c])
+                    {
+                        let q = m.transform_point3(centre + (ob.corner_local(c) - centre) * s);
+                        let again = self.camera.capture(world, &[q], &exclude, shade);
+                        if again.back_fraction[0] <= limit {
+                            out[c] = again.sh.into_iter().next();
+                            scale[c] = s;
+                            stats.probes_repaired += 1;
+                            break;
+                        }
+                    }
+                }
+            }
+        }
+        (out, scale)
+    }
+
+    /// Radiance a probe texel of object `o` sees (paper 2.3.3: its own texels are 0).
+    fn shade_probe_texel(&self, world: &World, h: &Hit, o: u32) -> Seen {
+        if !h.is_hit() {
+            return Seen::Radiance(Vec3::ZERO);
+        }
+        if h.object == o {
+            // Only reached when the object is not transparent: the paper's black self.
+            return Seen::Radiance(Vec3::ZERO);
+        }
+        let Some(j) = world.seen_patch(h) else {
+            return Seen::BackFace;
+        };
+        if self.outer_side[j] {
+            // The outside of a double-sided enclosure: the probe is outside the scene.
+            return Seen::BackFace;
+        }
+        let b = if self.options.direct_on_interior {
+            // Direct light is added apart; the probe carries reflected light only.
+            self.radiosity[j] - world.exitance[j]
+        } else {
+            self.radiosity[j]
+        };
+        Seen::Radiance(b * std::f32::consts::FRAC_1_PI)
+    }
+}
+
+/// See `Dispersive::outer_side`.
+pub(super) fn outer_sides(world: &World) -> Vec<bool> {
+    let p = &world.patches;
+    let (lo, hi) = world.scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ZERO));
+    let centre = 0.5 * (lo + hi);
+    (0..p.len())
+        .map(|i| {
+            p.role(i) == Role::Boundary
+                && p.twin[i] != crate::patches::NO_PATCH
+                && p.normal[i].dot(centre - p.centre[i]) < 0.0
+        })
+        .collect()
+}
+
+/// Transfer vectors with self-visibility of object `o`'s patches, in the object frame:
+/// `T_i = (pi / M) sum_j V_self(w_j) Y(w_j)` over `M` cosine-distributed directions (the
+/// pdf `cos / pi` turns the cosine-weighted integral into this mean). Rays are cast in the
+/// world at rest with every other object transparent, so only the object itself occludes.
+pub(super) fn self_transfer(
+    world: &World,
+    o: usize,
+    bands: usize,
+    rays: u32,
+) -> (Vec<f32>, Vec<Vec<(u32, f32)>>) {
+    if rays == 0 {
+        return (Vec::new(), Vec::new());
+    }
+    let p = &world.patches;
+    let nc = num_coeffs(bands);
+    let rays = rays as usize;
+    let others: Vec<u32> = (0..p.object_role.len() as u32)
+        .filter(|&x| x as usize != o)
+        .collect();
+    let m = p.world_from_local[o];
+    let range = p.range(o);
+    let mut origins = vec![Vec3::ZERO; range.len() * rays];
+    let mut dirs_world = vec![Vec3::ZERO; range.len() * rays];
+    let mut dirs_local = vec![Vec3::ZERO; range.len() * rays];
+    for (k, i) in range.clone().enumerate() {
+        let shift = (
+            crate::sampling::unit(crate::sampling::hash(i as u32 ^ 0x5eed)),
+            0.25,
+        );
+        for j in 0..rays {
+            let (u, v) = crate::sampling::hammersley(j as u32, rays as u32, shift);
+            let local = crate::sampling::square_to_cosine_hemisphere(u, v, p.normal_local[i]);
+            dirs_local[k * rays + j] = local;
+            dirs_world[k * rays + j] = m.transform_vector3(local).normalize_or_zero();
+            origins[k * rays + j] = p.centre[i] + p.normal[i] * world.eps;
+        }
+    }
+    let mut hits = vec![Hit::MISS; origins.len()];
+    world
+        .vis
+        .closest(&origins, &dirs_world, 0.0, &others, &mut hits);
+    let mut transfer = vec![0f32; range.len() * nc];
+    let mut basis = [0f32; 64];
+    let w = std::f32::consts::PI / rays as f32;
+    let mut self_view = vec![Vec::new(); range.len()];
+    for (k, t) in transfer.chunks_mut(nc).enumerate() {
+        for j in 0..rays {
+            let h = &hits[k * rays + j];
+            if h.is_hit() {
+                if let Some(q) = world.seen_patch(h) {
+                    let row: &mut Vec<(u32, f32)> = &mut self_view[k];
+                    let q = (q - range.start) as u32;
+                    match row.iter_mut().find(|e| e.0 == q) {
+                        Some(e) => e.1 += 1.0 / rays as f32,
+                        None => row.push((q, 1.0 / rays as f32)),
+                    }
+                }
+                continue;
+            }
+            eval_basis(bands, dirs_local[k * rays + j], &mut basis[..nc]);
+            for c in 0..nc {
+                t[c] += w * basis[c];
+            }
+        }
+    }
+    (transfer, self_view)
+}

@@ -1,0 +1,396 @@
+//! Step 3 of the frame (paper 2.3.4, "计算所选择的物体对边界的间接光照"): each object lit in
+//! Step 2 sends its reflected light to the boundary as an SH emitter, replacing its previous
+//! contribution (the paper: only the current object's share of each boundary patch is
+//! updated). Each patch adds its reflected flux to the emitter's SH along its exit direction
+//! (2.3.4 Step 1, halfway between "from the centre" and the normal); the emitter then lights
+//! the boundary either by the paper's cube map, each texel's flux splatted on the patch it
+//! sees (2.3.4 Step 2, [`splat_to_boundary`]), or by a gather, the SH intensity evaluated
+//! towards every boundary patch with one shadow ray each (2.3.4 Step 3 updates the boundary
+//! only).
+//!
+//! Beyond the paper: one emitter per face direction ([`emitter_groups`]), splat smoothing
+//! over edge neighbours ([`Neighbours`]), and a guard that damps an object that would send
+//! more than it reflects.
+
+use glam::Vec3;
+use rayon::prelude::*;
+use shrad_sh::{cosine_lobe, eval_basis, num_coeffs, ShRgb};
+use shrad_vis::Hit;
+
+use super::{receives_as_boundary, Dispersive, ToBoundary};
+use crate::probes::ProbeCamera;
+use crate::World;
+
+impl Dispersive {
+    /// Step 3 (paper 2.3.4): each lit object sends its reflected light to the boundary as one
+    /// SH emitter at its centre, replacing its previous contribution. Returns the flux sent.
+    pub(super) fn objects_to_boundary(&mut self, world: &World, lit: Vec<usize>) -> f64 {
+        let p = &world.patches;
+        let bands = self.options.bands;
+        let nc = num_coeffs(bands);
+        let mut flux_sent = 0.0;
+        for k in lit {
+            let ob = &self.objects[k];
+            let o = ob.object;
+            let m = p.world_from_local[o];
+            let range = p.range(o);
+            let method = match self.options.to_boundary {
+                // Gather while it costs about what a splat does (up to 2 x 6R^2 boundary
+                // patches, and at least up to 32k: a coarse splat aliases), splat beyond, so
+                // that the cost of Step 3 stays bounded however large the boundary grows.
+                ToBoundary::Auto
+                    if self.boundary_patches.len()
+                        > (2 * self.emitter_camera.texels()).max(1 << 15) =>
+                {
+                    ToBoundary::Splat
+                }
+                ToBoundary::Auto => ToBoundary::Gather,
+                m => m,
+            };
+            // Pieces (boundary patch, value), several per patch: irradiance from a gather,
+            // flux from a splat.
+            let mut pieces: Vec<(u32, Vec3)> = Vec::new();
+            for (centre_local, members) in &ob.emitters {
+                let centre = m.transform_point3(*centre_local);
+                // Outgoing intensity in SH: sum_i (rho_i E_i) A_i / pi * A_l Y_k(d_i).
+                let mut intensity = vec![Vec3::ZERO; nc];
+                let mut basis = [0f32; 64];
+                for &k in members {
+                    let i = range.start + k as usize;
+                    let reflected = self.radiosity[i] - world.exitance[i];
+                    let local = if self.options.emitter_per_face {
+                        p.normal_local[i]
+                    } else {
+                        ob.exit_local[k as usize]
+                    };
+                    let d = m.transform_vector3(local).normalize_or_zero();
+                    eval_basis(bands, d, &mut basis[..nc]);
+                    let scale = reflected * p.area[i] * std::f32::consts::FRAC_1_PI;
+                    for c in 0..nc {
+                        intensity[c] += scale * (cosine_lobe(shrad_sh::band_of(c)) * basis[c]);
+                    }
+                }
+                let intensity = ShRgb::from_coeffs(intensity);
+                pieces.extend(match method {
+                    ToBoundary::Splat | ToBoundary::Auto => {
+                        self.splat(world, o, centre, &intensity)
+                    }
+                    ToBoundary::Gather => {
+                        let soften = if self.options.emitter_per_face {
+                            members
+                                .iter()
+                                .map(|&k| p.area[range.start + k as usize])
+                                .sum::<f32>()
+                                * std::f32::consts::FRAC_1_PI
+                        } else {
+                            0.0
+                        };
+                        self.gather(world, o, centre, &intensity, soften)
+                    }
+                });
+            }
+            let contribution = match method {
+                ToBoundary::Gather => sum_by_patch(&mut self.scratch, pieces),
+                _ if self.options.splat_smoothing => {
+                    // Each patch's flux spread over its neighbourhood in proportion to area.
+                    let flux = sum_by_patch(&mut self.scratch, pieces);
+                    let near = &self.neighbours;
+                    let spread = flux.iter().flat_map(|&(k, f)| {
+                        let w = f * near.inv_area[k as usize];
+                        near.of(k as usize).iter().map(move |&i| (i, w))
+                    });
+                    sum_by_patch(&mut self.scratch, spread)
+                }
+                _ => {
+                    let by_area = pieces.into_iter().map(|(j, f)| (j, f / p.area[j as usize]));
+                    sum_by_patch(&mut self.scratch, by_area)
+                }
+            };
+            // An object cannot send the boundary more than it reflects: a contribution beyond
+            // that (patches measured in the wrong units, a splat that aliases) is damped to
+            // it, and the frame says so.
+            let reflected: f64 = range
+                .clone()
+                .map(|i| ((self.radiosity[i] - world.exitance[i]) * p.area[i]).element_sum() as f64)
+                .sum::<f64>()
+                / 3.0;
+            let sent: f64 = contribution
+                .iter()
+                .map(|&(j, e)| (e * p.area[j as usize]).element_sum() as f64)
+                .sum::<f64>()
+                / 3.0;
+            let mut contribution = contribution;
+            let within = sent <= reflected * crate::energy::BOUND_TOLERANCE + f64::MIN_POSITIVE;
+            if !within {
+                let s = if sent.is_finite() && sent > 0.0 {
+                    (reflected.max(0.0) / sent) as f32
+                } else {
+                    0.0
+                };
+                contribution.iter_mut().for_each(|(_, e)| *e *= s);
+                let note = format!(
+                    "object '{}' sent {sent:.4e} to the boundary but reflects only {reflected:.4e}: its contribution was damped by {s:.3}",
+                    world.scene.objects[o].name
+                );
+                self.step_warnings.push(note);
+            }
+            // Replace the object's previous contribution (paper: "只更新当前物体对它的影响").
+            for &(j, e) in &self.objects[k].to_boundary {
+                self.indirect[j as usize] -= e;
+            }
+            for &(j, e) in &contribution {
+                self.indirect[j as usize] += e;
+                flux_sent += (e * p.area[j as usize]).element_sum() as f64 / 3.0;
+            }
+            self.objects[k].to_boundary = contribution;
+        }
+        flux_sent
+    }
+
+    /// The paper's Step 3 from one emitter: see [`splat_to_boundary`].
+    fn splat(&self, world: &World, o: usize, centre: Vec3, intensity: &ShRgb) -> Vec<(u32, Vec3)> {
+        splat_to_boundary(world, &self.emitter_camera, o as u32, centre, intensity)
+    }
+
+    /// Point-emitter gather: `E_j = I(w_j) cos_j / r^2`, one shadow ray per boundary patch
+    /// the emitter sends light to.
+    ///
+    /// `soften` (an area / pi) regularises `1 / r^2` near an extended emitter, as for a disc:
+    /// `cos / (r^2 + soften)` (on a disc's axis this is exact).
+    fn gather(
+        &self,
+        world: &World,
+        o: usize,
+        centre: Vec3,
+        intensity: &ShRgb,
+        soften: f32,
+    ) -> Vec<(u32, Vec3)> {
+        let p = &world.patches;
+        // Unoccluded irradiance with the softened and the plain 1 / r^2; the softened one is
+        // rescaled to the plain one's total flux, so softening moves light but neither adds
+        // nor loses any. Patches facing away or behind the emitter's lobe get no ray.
+        let lit: Vec<(u32, Vec3, f32, f32)> = self
+            .boundary_patches
+            .par_iter()
+            .filter_map(|&j| {
+                let d = centre - p.centre[j as usize];
+                let r2 = d.length_squared().max(1e-12);
+                let towards_object = d / r2.sqrt();
+                let cos = p.normal[j as usize].dot(towards_object);
+                if cos <= 0.0 {
+                    return None;
+                }
+                let e = intensity.eval(-towards_object).max(Vec3::ZERO) * cos;
+                let a = p.area[j as usize];
+                (e.max_element() > 0.0).then_some((
+                    j,
+                    e / (r2 + soften),
+                    a * e.element_sum() / r2,
+                    a * e.element_sum() / (r2 + soften),
+                ))
+            })
+            .collect();
+        let from: Vec<Vec3> = lit
+            .iter()
+            .map(|&(j, ..)| p.centre[j as usize] + p.normal[j as usize] * world.eps)
+            .collect();
+        let to = vec![centre; lit.len()];
+        let mut blocked = vec![false; lit.len()];
+        world
+            .vis
+            .occluded(&from, &to, world.eps, &[o as u32], &mut blocked);
+        let (plain, softened) = lit
+            .iter()
+            .zip(&blocked)
+            .filter(|(_, &b)| !b)
+            .fold((0f64, 0f64), |(x, y), (e, _)| {
+                (x + e.2 as f64, y + e.3 as f64)
+            });
+        let scale = if softened > 0.0 {
+            (plain / softened) as f32
+        } else {
+            1.0
+        };
+        lit.into_iter()
+            .zip(blocked)
+            .filter(|(_, b)| !b)
+            .map(|((j, e, _, _), _)| (j, e * scale))
+            .collect()
+    }
+}
+
+/// The paper's Step 3 (2.3.4) from one SH emitter: a cube map of `camera` at `centre` (object
+/// `own` transparent), each texel's flux (intensity times solid angle) onto the boundary
+/// patch it sees. Returns one (patch, flux) piece per texel that lands on the boundary; the
+/// rest of the flux leaves through the scene's openings or lands on other objects.
+pub fn splat_to_boundary(
+    world: &World,
+    camera: &ProbeCamera,
+    own: u32,
+    centre: Vec3,
+    intensity: &ShRgb,
+) -> Vec<(u32, Vec3)> {
+    let (cube, projector) = (&camera.cube, &camera.projector);
+    // Only texels the emitter sends light into are traced: a face emitter's lobe is zero
+    // over the half of the sphere behind it. (Flux through a texel: the intensity times the
+    // texel's solid angle, read off the projector's table without evaluating Y_k.)
+    let flux: Vec<(usize, Vec3)> = (0..cube.directions.len())
+        .into_par_iter()
+        .filter_map(|t| {
+            let f = projector.texel_value(intensity, t).max(Vec3::ZERO);
+            (f.max_element() > 0.0).then_some((t, f))
+        })
+        .collect();
+    let dirs: Vec<Vec3> = flux.iter().map(|&(t, _)| cube.directions[t]).collect();
+    let mut hits = vec![Hit::MISS; dirs.len()];
+    // Still in texel order, so the capture's ray packets stay coherent.
+    world.vis.capture(&[centre], &dirs, 0.0, &[own], &mut hits);
+    hits.iter()
+        .zip(&flux)
+        .filter_map(|(h, &(_, f))| {
+            let j = world.seen_patch(h)?;
+            receives_as_boundary(world, j).then_some((j as u32, f))
+        })
+        .collect()
+}
+
+/// Boundary patches around each boundary patch: those sharing one of its smooth-shading
+/// vertices (corners welded by position within the crease angle), itself first. Compressed
+/// rows over all patches; non-boundary patches have none.
+#[derive(Default)]
+pub(super) struct Neighbours {
+    start: Vec<u32>,
+    list: Vec<u32>,
+    /// 1 / the summed area of each patch's neighbourhood.
+    inv_area: Vec<f32>,
+}
+
+impl Neighbours {
+    pub(super) fn of_boundary(world: &World) -> Neighbours {
+        let p = &world.patches;
+        let boundary = |i: usize| receives_as_boundary(world, i);
+        // Patches at each shading vertex, as compressed rows (no allocation per vertex:
+        // a 1M-patch scene has about as many vertices).
+        let corners = |i: usize| {
+            let mut v = p.corner_vertex[i];
+            v.sort_unstable();
+            (0..4)
+                .filter(move |&k| k == 0 || v[k - 1] != v[k])
+                .map(move |k| v[k])
+        };
+        let mut vertex_start = vec![0u32; p.shading_vertex_count + 1];
+        for i in (0..p.len()).filter(|&i| boundary(i)) {
+            for c in corners(i) {
+                vertex_start[c as usize + 1] += 1;
+            }
+        }
+        for v in 0..p.shading_vertex_count {
+            vertex_start[v + 1] += vertex_start[v];
+        }
+        let mut fill = vertex_start.clone();
+        let mut vertex_patches = vec![0u32; *vertex_start.last().unwrap_or(&0) as usize];
+        for i in (0..p.len()).filter(|&i| boundary(i)) {
+            for c in corners(i) {
+                vertex_patches[fill[c as usize] as usize] = i as u32;
+                fill[c as usize] += 1;
+            }
+        }
+        let at_vertex = |c: u32| {
+            &vertex_patches
+                [vertex_start[c as usize] as usize..vertex_start[c as usize + 1] as usize]
+        };
+        let mut start = Vec::with_capacity(p.len() + 1);
+        let mut list = Vec::new();
+        start.push(0);
+        let mut near = Vec::new();
+        for i in 0..p.len() {
+            if boundary(i) {
+                near.clear();
+                for &c in &p.corner_vertex[i] {
+                    near.extend(at_vertex(c).iter().filter(|&&k| k as usize != i));
+                }
+                near.sort_unstable();
+                near.dedup();
+                list.push(i as u32);
+                list.extend_from_slice(&near);
+            }
+            start.push(list.len() as u32);
+        }
+        let mut n = Neighbours {
+            start,
+            list,
+            inv_area: Vec::new(),
+        };
+        n.inv_area = (0..p.len())
+            .map(|i| {
+                let a: f32 = n.of(i).iter().map(|&k| p.area[k as usize]).sum();
+                if a > 0.0 {
+                    1.0 / a
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        n
+    }
+
+    fn of(&self, i: usize) -> &[u32] {
+        match (self.start.get(i), self.start.get(i + 1)) {
+            (Some(&a), Some(&b)) => &self.list[a as usize..b as usize],
+            _ => &[],
+        }
+    }
+}
+
+/// Sum irradiance pieces per patch: one entry per patch, in order of first appearance.
+/// `scratch` (one value per patch, all zero) is left all zero.
+fn sum_by_patch(
+    scratch: &mut [Vec3],
+    pieces: impl IntoIterator<Item = (u32, Vec3)>,
+) -> Vec<(u32, Vec3)> {
+    let mut touched: Vec<u32> = Vec::new();
+    for (j, e) in pieces {
+        let s = &mut scratch[j as usize];
+        if *s == Vec3::ZERO {
+            touched.push(j);
+        }
+        *s += e;
+    }
+    // A patch whose pieces cancelled to exactly zero would be listed twice: drop repeats.
+    touched
+        .into_iter()
+        .filter_map(|j| {
+            let e = std::mem::take(&mut scratch[j as usize]);
+            (e != Vec3::ZERO).then_some((j, e))
+        })
+        .collect()
+}
+
+/// The Step 3 emitters of object `o`: one at the box centre with every patch (the paper), or
+/// one per dominant normal axis (±x, ±y, ±z of the rest frame) at the area-weighted
+/// centroid of its patches.
+pub(super) fn emitter_groups(
+    p: &crate::Patches,
+    o: usize,
+    box_centre: Vec3,
+    per_face: bool,
+) -> Vec<(Vec3, Vec<u32>)> {
+    let range = p.range(o);
+    if !per_face {
+        return vec![(box_centre, (0..range.len() as u32).collect())];
+    }
+    let mut groups: Vec<(Vec3, f32, Vec<u32>)> = vec![(Vec3::ZERO, 0.0, Vec::new()); 6];
+    for (k, i) in range.enumerate() {
+        let n = p.normal_local[i];
+        let axis = n.abs().max_position();
+        let g = 2 * axis + usize::from(n[axis] < 0.0);
+        groups[g].0 += p.centre_local[i] * p.area[i];
+        groups[g].1 += p.area[i];
+        groups[g].2.push(k as u32);
+    }
+    groups
+        .into_iter()
+        .filter(|g| g.1 > 0.0)
+        .map(|(sum, area, members)| (sum / area, members))
+        .collect()
+}

@@ -1,0 +1,283 @@
+//! Step 4 of the frame (paper 2.3.5, "绘制"): each boundary patch's radiosity is its own
+//! exitance plus what it reflects of the light it received, `B = M + ρ (E_direct + Σ_o E_o +
+//! E_walls)`. The wall term is beyond the paper: boundary-to-boundary light through sparse
+//! precomputed form factors among the boundary patches, one Jacobi sweep per frame over a
+//! moving window of rows, with the rows re-traced where a mover passed.
+//!
+//! Then the frame's energy meter (`crate::energy`: emitted, absorbed, reflected against the
+//! bound the lights can sustain) and the guard that never publishes a diverged state.
+
+use glam::Vec3;
+use rayon::prelude::*;
+use shrad_scene::Role;
+
+use super::step1_direct::{ray_meets_box, sphere};
+use super::{receives_as_boundary, Changes, Dispersive, Divergence, EnergyBalance, FrameStats};
+use crate::reference::{form_factor_rows, patch_rays};
+use crate::{NoProgress, World};
+
+/// Wall-exchange rows refreshed per frame (Step 4): at most this many, so a frame's cost does
+/// not grow with the boundary beyond it (a 1M-patch room takes ~13 frames per full sweep).
+pub const WALL_ROWS_PER_FRAME: usize = 1 << 16;
+
+/// Rays per light patch for the energy meter's measure of what the lights absorb.
+pub(super) const LIGHT_METER_RAYS: usize = 16;
+
+impl Dispersive {
+    /// The energy meter, and the guard that never publishes a diverged state: fills
+    /// `stats.energy` (keeping the Step 3 flux already in it) and `stats.diverged`.
+    pub(super) fn meter_and_guard(
+        &mut self,
+        world: &World,
+        changes: &Changes,
+        stats: &mut FrameStats,
+    ) {
+        if !changes.moved.is_empty() {
+            self.light_meter.retrace(world);
+        }
+        stats.energy = EnergyBalance {
+            object_emitters: stats.energy.object_emitters,
+            ..self.energy(world)
+        };
+        let earlier = (!self.step_warnings.is_empty()).then(|| Divergence {
+            message: std::mem::take(&mut self.step_warnings).join("; "),
+            non_finite: 0,
+        });
+        if let Some(d) = self.guard(world, &stats.energy, earlier) {
+            stats.energy = EnergyBalance {
+                object_emitters: stats.energy.object_emitters,
+                ..self.energy(world)
+            };
+            stats.diverged = Some(d);
+        }
+    }
+
+    /// Mark the wall-exchange rows whose rays pass through a box an object swept, and
+    /// re-trace the stalest dirty rows, at most an eighth of the boundary per frame (the
+    /// dispersive idea applied to the walls: the cost of a frame stays bounded).
+    pub(super) fn refresh_wall_rows(&mut self, world: &World, swept: &[(Vec3, Vec3)]) {
+        let Some(rows) = &mut self.wall_rows else {
+            return;
+        };
+        let p = &world.patches;
+        let rays = self.options.wall_rays.max(1) as usize;
+        if !swept.is_empty() {
+            let boundary = &self.boundary_patches;
+            let newly: Vec<usize> = (0..boundary.len())
+                .into_par_iter()
+                .filter(|&k| !self.wall_dirty[k])
+                .filter(|&k| {
+                    let i = boundary[k] as usize;
+                    let (c, n) = (p.centre[i], p.normal[i]);
+                    // A box wholly behind the patch cannot meet its rays.
+                    let in_front = swept.iter().any(|&(lo, hi)| {
+                        let (bc, br) = sphere((lo, hi));
+                        n.dot(bc - c) > -br
+                    });
+                    if !in_front {
+                        return false;
+                    }
+                    let mut o = vec![Vec3::ZERO; rays];
+                    let mut d = vec![Vec3::ZERO; rays];
+                    patch_rays(world, i, &mut o, &mut d);
+                    o.iter()
+                        .zip(&d)
+                        .any(|(o, d)| swept.iter().any(|&(lo, hi)| ray_meets_box(*o, *d, lo, hi)))
+                })
+                .collect();
+            for k in newly {
+                self.wall_dirty[k] = true;
+            }
+        }
+        let budget = self.boundary_patches.len().div_ceil(8).max(1);
+        let dirty: Vec<usize> = (0..self.boundary_patches.len())
+            .filter(|&k| self.wall_dirty[k])
+            .take(budget)
+            .collect();
+        if dirty.is_empty() {
+            return;
+        }
+        let ids: Vec<u32> = dirty.iter().map(|&k| self.boundary_patches[k]).collect();
+        let fresh = form_factor_rows(
+            world,
+            &ids,
+            rays as u32,
+            &[],
+            |j| receives_as_boundary(world, j),
+            &NoProgress,
+        );
+        for (k, row) in dirty.into_iter().zip(fresh) {
+            rows[k] = row;
+            self.wall_dirty[k] = false;
+        }
+    }
+
+    /// Step 4 (paper 2.3.5): boundary radiosity from direct, object and wall light.
+    ///
+    /// The boundary's own exchange takes one Jacobi sweep per frame over at most
+    /// [`WALL_ROWS_PER_FRAME`] rows (a window that moves round the boundary, so the cost of a
+    /// frame stays bounded on large scenes: the dispersive idea applied to the walls), or
+    /// `sweeps` full sweeps when the light changed (the walls then converge in that frame).
+    pub(super) fn assemble(&mut self, world: &World, sweeps: usize) {
+        let p = &world.patches;
+        let n = self.boundary_patches.len();
+        for _ in 0..sweeps.max(1) {
+            if let Some(rows) = &self.wall_rows {
+                let window = if sweeps > 1 {
+                    n
+                } else {
+                    n.min(WALL_ROWS_PER_FRAME)
+                };
+                let start = self.wall_cursor % n.max(1);
+                let ks: Vec<usize> = (0..window).map(|k| (start + k) % n).collect();
+                self.wall_cursor = (start + window) % n.max(1);
+                // Reflected light of every patch first: one random read per row entry.
+                let reflected: Vec<Vec3> = self
+                    .radiosity
+                    .par_iter()
+                    .zip(&world.exitance)
+                    .map(|(b, e)| *b - *e)
+                    .collect();
+                let wall: Vec<Vec3> = ks
+                    .par_iter()
+                    .map(|&k| {
+                        rows[k]
+                            .iter()
+                            .map(|&(j, f)| reflected[j as usize] * f)
+                            .sum()
+                    })
+                    .collect();
+                for (&k, w) in ks.iter().zip(wall) {
+                    self.wall[self.boundary_patches[k] as usize] = w;
+                }
+            }
+            for &j in &self.boundary_patches {
+                let j = j as usize;
+                self.radiosity[j] = world.exitance[j]
+                    + world.reflectance[j] * (self.direct[j] + self.indirect[j] + self.wall[j]);
+            }
+            if self.wall_rows.is_none() {
+                break;
+            }
+        }
+        // Lights that reflect nothing are their emission (reflective ones are boundary).
+        for (o, role) in p.object_role.iter().enumerate() {
+            if *role == Role::Light {
+                for i in p.range(o).filter(|&i| !receives_as_boundary(world, i)) {
+                    self.radiosity[i] = world.exitance[i];
+                }
+            }
+        }
+    }
+
+    /// Flux balance of the current state, the lights' absorption included.
+    pub(super) fn energy(&self, world: &World) -> EnergyBalance {
+        let p = &world.patches;
+        let mut irradiance: Vec<Vec3> = (0..p.len())
+            .map(|i| match p.role(i) {
+                Role::Interior => {
+                    self.probe_irradiance[i]
+                        + if self.options.direct_on_interior {
+                            self.direct[i]
+                        } else {
+                            Vec3::ZERO
+                        }
+                }
+                _ => self.direct[i] + self.indirect[i] + self.wall[i],
+            })
+            .collect();
+        self.light_meter.measure(&self.radiosity, &mut irradiance);
+        crate::energy::balance(world, &irradiance, |i| {
+            p.role(i) != Role::Light || receives_as_boundary(world, i)
+        })
+    }
+
+    /// Reset non-finite values and damp a state that breaks the energy bound (spec 2): the
+    /// reflected part of every radiosity, and every irradiance that feeds it, is scaled back
+    /// to the bound. Returns what diverged, with the largest object emitter named, merged
+    /// with `earlier` (what Step 3's own guard found this frame).
+    pub(super) fn guard(
+        &mut self,
+        world: &World,
+        balance: &EnergyBalance,
+        earlier: Option<Divergence>,
+    ) -> Option<Divergence> {
+        let mut non_finite = 0;
+        for v in [
+            &mut self.radiosity,
+            &mut self.direct,
+            &mut self.probe_irradiance,
+            &mut self.indirect,
+            &mut self.wall,
+        ] {
+            non_finite += crate::energy::reset_non_finite(v);
+        }
+        for ob in &mut self.objects {
+            for (_, e) in &mut ob.to_boundary {
+                if !e.is_finite() {
+                    *e = Vec3::ZERO;
+                    non_finite += 1;
+                }
+            }
+        }
+        let scale = crate::energy::over_bound(balance);
+        if scale.is_none() && non_finite == 0 {
+            return earlier;
+        }
+        let mut message = earlier.map(|d| d.message + "; ").unwrap_or_default();
+        if non_finite > 0 {
+            message += &format!("{non_finite} non-finite value(s) reset to 0");
+        }
+        if let Some(s) = scale {
+            let largest = self
+                .objects
+                .iter()
+                .map(|ob| {
+                    let flux: f64 = ob
+                        .to_boundary
+                        .iter()
+                        .map(|&(j, e)| (e * world.patches.area[j as usize]).element_sum() as f64)
+                        .sum();
+                    (flux / 3.0, ob.object)
+                })
+                .max_by(|a, b| a.0.total_cmp(&b.0));
+            if non_finite > 0 {
+                message += "; ";
+            }
+            message += &format!(
+                "reflected flux {:.4e} exceeds the bound {:.4e} that the lights can sustain",
+                balance.reflected, balance.reflected_bound
+            );
+            if let Some((flux, o)) = largest {
+                message += &format!(
+                    " (largest object emitter: '{}', {flux:.4e} sent to the boundary)",
+                    world.scene.objects[o].name
+                );
+            }
+            message += &format!("; reflected light damped by {s:.3}");
+            let s = s as f32;
+            // Direct light too (it may be what overshoots, on patches measured wrongly); it
+            // is recomputed next frame rather than damped again on top of this.
+            self.direct_valid = false;
+            for v in [
+                &mut self.direct,
+                &mut self.probe_irradiance,
+                &mut self.indirect,
+                &mut self.wall,
+            ] {
+                v.iter_mut().for_each(|e| *e *= s);
+            }
+            for ob in &mut self.objects {
+                ob.to_boundary.iter_mut().for_each(|(_, e)| *e *= s);
+            }
+            for (i, b) in self.radiosity.iter_mut().enumerate() {
+                let m = world.exitance[i];
+                *b = m + (*b - m) * s;
+            }
+        }
+        Some(Divergence {
+            message,
+            non_finite,
+        })
+    }
+}
