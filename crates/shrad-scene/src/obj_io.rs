@@ -23,15 +23,17 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
         ignore_points: true,
         ignore_lines: true,
     };
-    let file = std::fs::File::open(path).map_err(|source| SceneError::Io {
+    let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
         path: path.to_path_buf(),
         source,
     })?;
+    check_face_indices(&String::from_utf8_lossy(&bytes))
+        .map_err(|m| SceneError::invalid(path, format!("invalid OBJ: {m}")))?;
     let dir = path.parent().unwrap_or(Path::new("."));
     let problems = RefCell::new(Vec::<MtlProblem>::new());
     let seen_libs = RefCell::new(HashMap::<PathBuf, Result<(), tobj::LoadError>>::new());
     let loaded = std::panic::catch_unwind(AssertUnwindSafe(|| {
-        tobj::load_obj_buf(&mut std::io::BufReader::new(file), &opts, |mtl| {
+        tobj::load_obj_buf(&mut bytes.as_slice(), &opts, |mtl| {
             load_mtl_once(dir, mtl, &problems, &seen_libs)
         })
     }))
@@ -136,6 +138,69 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
         ));
     }
     Ok(scene)
+}
+
+/// Check the face indices before tobj sees them: tobj turns a relative index reaching before
+/// the first element, or a huge one, into a huge `usize` and then overflows on it
+/// (`vt * 2 + 1`, `vn * 3 + 2`; found by fuzzing: `f 1/1/1 2/1/1 3/-11/1` with one `vt`
+/// panics in debug builds). Rejects, naming the line, an index of a kind the file has (tobj
+/// ignores texture and normal indices when there are no `vt` / `vn`) in a face of three or
+/// more vertices (`f` or `l`: tobj goes by the count; points and lines are ignored) that is
+/// relative beyond the elements so far or beyond the file's elements, or a vertex index 0.
+/// A texture or normal index 0 stays allowed: tobj reads it as absent.
+fn check_face_indices(text: &str) -> Result<(), String> {
+    const KINDS: [(&str, &str); 3] = [("v", "vertex"), ("vt", "texture"), ("vn", "normal")];
+    let mut total = [0usize; 3];
+    for line in text.lines() {
+        if let Some(k) = line
+            .split_whitespace()
+            .next()
+            .and_then(|w| KINDS.iter().position(|(key, _)| *key == w))
+        {
+            total[k] += 1;
+        }
+    }
+    let mut so_far = [0usize; 3];
+    for (ln, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let Some(key) = words.next() else { continue };
+        if let Some(k) = KINDS.iter().position(|(w, _)| *w == key) {
+            so_far[k] += 1;
+            continue;
+        }
+        if !matches!(key, "f" | "l") || words.clone().count() < 3 {
+            continue;
+        }
+        for vertex in words {
+            for (k, part) in vertex.split('/').take(3).enumerate() {
+                let Ok(i) = part.parse::<isize>() else {
+                    continue;
+                };
+                if total[k] == 0 {
+                    continue;
+                }
+                let ok = if i < 0 {
+                    i.unsigned_abs() <= so_far[k]
+                } else {
+                    (i >= 1 || k > 0) && i.unsigned_abs() <= total[k]
+                };
+                if !ok {
+                    return Err(format!(
+                        "line {}: face {} index {i} out of bounds ({} in the file{})",
+                        ln + 1,
+                        KINDS[k].1,
+                        total[k],
+                        if i < 0 {
+                            format!(", {} before this line", so_far[k])
+                        } else {
+                            String::new()
+                        }
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 enum MtlProblem {

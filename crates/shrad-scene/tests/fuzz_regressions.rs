@@ -48,7 +48,10 @@ fn files(target: &str, data: &[u8]) -> Vec<(&'static str, Vec<u8>)> {
         "glb" => vec![("s.glb", data.to_vec())],
         "toml" => vec![("s.toml", data.to_vec())],
         "obj" => match data.iter().position(|&b| b == 0) {
-            Some(i) => vec![("s.obj", data[..i].to_vec()), ("m.mtl", data[i + 1..].to_vec())],
+            Some(i) => vec![
+                ("s.obj", data[..i].to_vec()),
+                ("m.mtl", data[i + 1..].to_vec()),
+            ],
             None => vec![("s.obj", data.to_vec())],
         },
         _ => unreachable!(),
@@ -74,7 +77,10 @@ fn replay(target: &str) {
         let path = dir.join(files[0].0);
         let before = PANICS.with(Cell::get);
         for drop_degenerate in [false, true] {
-            let opts = LoadOptions { drop_degenerate };
+            let opts = LoadOptions {
+                drop_degenerate,
+                ..Default::default()
+            };
             let r = std::panic::catch_unwind(|| load(&path, &opts).map(|_| ()));
             if r.is_err() {
                 failures.push(format!("{}: load panicked", input.display()));
@@ -138,7 +144,10 @@ fn hand_written_seeds_load() {
         let r = load(&dir.join(files[0].0), &LoadOptions::default());
         let _ = std::fs::remove_dir_all(&dir);
         let scene = r.unwrap_or_else(|e| panic!("seed {target}/{name}: {e}"));
-        assert!(!scene.objects.is_empty(), "seed {target}/{name}: no objects");
+        assert!(
+            !scene.objects.is_empty(),
+            "seed {target}/{name}: no objects"
+        );
         if name.starts_with("texture") {
             assert!(
                 scene.warnings.iter().any(|w| w.contains("texture")),
@@ -173,4 +182,39 @@ fn repeated_mtllib_is_read_once_with_the_same_materials() {
     assert_eq!(a.reflectance, glam::Vec3::new(0.25, 0.5, 0.75));
     assert_eq!(a.emitted_radiance, glam::Vec3::new(1.0, 2.0, 3.0));
     assert_eq!(b.reflectance, glam::Vec3::splat(0.1));
+}
+
+/// Face indices that tobj would overflow on (fuzz finding: a relative texture index before
+/// the first `vt`) are errors naming the line; a texture index 0 still reads as absent.
+#[test]
+fn obj_face_indices_out_of_bounds_name_the_line() {
+    let dir = std::env::temp_dir().join(format!("shrad-fuzz-faceidx-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n";
+    let load_face = |name: &str, face: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, format!("{head}{face}\n")).unwrap();
+        load(&p, &LoadOptions::default()).map(|s| s.objects.len())
+    };
+    for (name, face) in [
+        ("rel_vt.obj", "f 1/1/1 2/1/1 3/-2/1"),
+        ("huge_vn.obj", "f 1/1/1 2/1/9223372036854775807 3/1/1"),
+        ("rel_vn_line.obj", "l 1/1/-2 2/1/1 3/1/1"),
+        ("zero_v.obj", "f 0 2 3"),
+        ("far_v.obj", "f 1 2 4"),
+        ("rel_v.obj", "f -4 -2 -1"),
+    ] {
+        let msg = load_face(name, face).unwrap_err().to_string();
+        assert!(
+            msg.contains(name) && msg.contains("line 6") && msg.contains("out of bounds"),
+            "{face}: {msg}"
+        );
+    }
+    assert_eq!(load_face("ok.obj", "f -3/-1/-1 2/1/1 3/0/0").unwrap(), 1);
+    // Two vertices are a line, ignored with its indices: the file has no triangle.
+    let msg = load_face("two.obj", "f 1/9/-7 2/9/9")
+        .unwrap_err()
+        .to_string();
+    assert!(msg.contains("no objects"), "{msg}");
+    let _ = std::fs::remove_dir_all(&dir);
 }
