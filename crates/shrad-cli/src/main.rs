@@ -50,9 +50,10 @@ struct AnimateArgs {
     scene: SceneArgs,
     #[command(flatten)]
     solver: SolverArgs,
-    /// Number of frames.
-    #[arg(long, default_value_t = 120)]
-    frames: usize,
+    /// Number of frames [default: all of the scene's animation (duration x fps + 1), or 120
+    /// for a scene that does not move].
+    #[arg(long)]
+    frames: Option<usize>,
     /// Frames per second of scene time (frame f shows time f / fps).
     #[arg(long, default_value_t = 30.0, allow_negative_numbers = true)]
     fps: f32,
@@ -78,6 +79,9 @@ struct AnimateArgs {
     /// Exposure scale [default: auto from the middle frame, the same for every frame].
     #[arg(long, allow_negative_numbers = true)]
     exposure: Option<f32>,
+    /// Also write each frame's linear radiance as OpenEXR (DIR/frame_NNNN.exr).
+    #[arg(long)]
+    hdr: bool,
 }
 
 /// Options shared by every command that loads a scene.
@@ -94,6 +98,10 @@ struct SceneArgs {
     /// Skip zero-area triangles (with a warning) instead of rejecting the file.
     #[arg(long)]
     drop_degenerate: bool,
+    /// glTF: play only this animation, by name or index [default: every animation of the
+    /// file at once, on one timeline].
+    #[arg(long, value_name = "NAME|INDEX")]
+    animation: Option<String>,
     /// Visibility backend.
     #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
     backend: BackendArg,
@@ -415,6 +423,10 @@ struct RenderArgs {
     /// Also solve the reference and print the error of spec section 8 (dispersive / grid).
     #[arg(long)]
     compare: bool,
+    /// Scene time in seconds: animated objects and lights are posed at this time, and every
+    /// solver solves that pose.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    time: f32,
     /// Output PNG [default: SCENE-NAME.png].
     #[arg(short, long)]
     output: Option<PathBuf>,
@@ -522,6 +534,7 @@ fn load_scene(args: &SceneArgs) -> Result<Scene> {
         Path::new(&args.scene),
         &LoadOptions {
             drop_degenerate: args.drop_degenerate,
+            animation: args.animation.clone(),
         },
     )?;
     for w in &scene.warnings {
@@ -636,10 +649,28 @@ fn cmd_render(args: RenderArgs, scene: Scene, file: &settings::FileSettings) -> 
     }
     shrad::limits::check_image(args.width, args.height, args.spp)
         .context("--width, --height, --spp")?;
+    if !args.time.is_finite() {
+        bail!(
+            "--time must be a finite number of seconds, got {}",
+            args.time
+        );
+    }
     let choice = args.solver.choice().map_err(|e| file.attribute(e))?;
     let quiet = args.scene.quiet;
     let progress = progress_for(quiet);
-    let world = build_world(scene, &args.scene, quiet)?;
+    let mut world = build_world(scene, &args.scene, quiet)?;
+    if args.time != 0.0 {
+        // Before any solver exists: each converges at this pose.
+        let (moved, relit) = world.set_time(args.time);
+        if !quiet {
+            eprintln!(
+                "time {} s: {} object(s) moved, {} light(s) changed",
+                args.time,
+                moved.len(),
+                relit.len()
+            );
+        }
+    }
     let t = Instant::now();
     let radiosity = match choice {
         SolverChoice::Reference(options) => {
@@ -805,6 +836,29 @@ fn cmd_info(args: InfoArgs, scene: Scene) -> Result<()> {
     if scene.duration() > 0.0 {
         println!("animation: {:.2} s", scene.duration());
     }
+    if !scene.animations.is_empty() {
+        let playing = scene.animations.iter().filter(|a| a.playing).count();
+        println!(
+            "glTF animations: {} ({playing} playing; --animation NAME|INDEX plays one)",
+            scene.animations.len()
+        );
+        for a in &scene.animations {
+            println!(
+                "  {:<3} {:<24} {:>3} channel(s){} {:.3} .. {:.3} s{}",
+                a.index,
+                a.name,
+                a.channels,
+                if a.ignored > 0 {
+                    format!(" (+{} ignored)", a.ignored)
+                } else {
+                    String::new()
+                },
+                a.start,
+                a.end,
+                if a.playing { "" } else { "  (not playing)" }
+            );
+        }
+    }
     // The same memory check as a solve: a tiny --patch-size is an error, not an abort.
     let plan = shrad::Patches::plan(&scene, sizing);
     shrad::limits::check_patches(&scene.source, plan)?;
@@ -838,10 +892,19 @@ fn cmd_info(args: InfoArgs, scene: Scene) -> Result<()> {
 
 fn cmd_animate(args: AnimateArgs, scene: Scene, file: &settings::FileSettings) -> Result<()> {
     use std::fmt::Write as _;
-    if args.frames == 0 || args.frames > 100_000 {
-        bail!("--frames must be between 1 and 100000, got {}", args.frames);
-    }
     check_positive("--fps", args.fps)?;
+    // The whole animation by default: frame f shows f / fps, the last one its end.
+    let frames = args.frames.unwrap_or_else(|| {
+        let d = scene.duration();
+        if d > 0.0 {
+            ((f64::from(d) * f64::from(args.fps) - 1e-3).ceil() as usize + 1).min(100_000)
+        } else {
+            120
+        }
+    });
+    if frames == 0 || frames > 100_000 {
+        bail!("--frames must be between 1 and 100000, got {frames}");
+    }
     if args.width == 0
         || args.height == 0
         || args.width > 8192
@@ -856,13 +919,13 @@ fn cmd_animate(args: AnimateArgs, scene: Scene, file: &settings::FileSettings) -
     shrad::limits::check_image(args.width, args.height, args.spp)
         .context("--width, --height, --spp")?;
     // Every frame is kept (linear, then 8-bit for the GIF) until the exposure is known.
-    let stored = (args.frames as u64)
+    let stored = (frames as u64)
         .saturating_mul(args.width as u64 * args.height as u64)
         .saturating_mul(12 + 3);
     if stored > shrad::limits::available_bytes() {
         bail!(
             "--frames {} of {}x{} would need {:.1} GiB to keep ({:.1} GiB available); use fewer --frames or a smaller picture",
-            args.frames,
+            frames,
             args.width,
             args.height,
             stored as f64 / (1u64 << 30) as f64,
@@ -893,9 +956,10 @@ fn cmd_animate(args: AnimateArgs, scene: Scene, file: &settings::FileSettings) -
         "frame,objects_updated,direct_ms,objects_ms,to_boundary_ms,assemble_ms,frame_ms,error\n",
     );
     let mut extra = String::from("frame,time,stalest,probes_invalid,probes_repaired,emitted,received,absorbed,reflected,object_emitters,error_boundary,error_interior\n");
-    let mut images = Vec::with_capacity(args.frames);
-    progress.begin("animating", args.frames as u64);
-    for f in 0..args.frames {
+    let mut images = Vec::with_capacity(frames);
+    progress.begin("animating", frames as u64);
+    let started = Instant::now();
+    for f in 0..frames {
         let time = f as f32 / args.fps;
         let (moved, relit) = world.set_time(time);
         let stats = solver.step(&world, &Changes { moved, relit });
@@ -946,6 +1010,7 @@ fn cmd_animate(args: AnimateArgs, scene: Scene, file: &settings::FileSettings) -
         progress.advance(1);
     }
     progress.end();
+    let solve_seconds = started.elapsed().as_secs_f64();
     // One exposure for every frame, so brightness changes are the light's, not the camera's.
     let scale = args
         .exposure
@@ -957,6 +1022,9 @@ fn cmd_animate(args: AnimateArgs, scene: Scene, file: &settings::FileSettings) -
             &args.output.join(format!("frame_{f:04}.png")),
             Tonemap::Exposure(Some(scale)),
         )?;
+        if args.hdr {
+            write_exr(image, &args.output.join(format!("frame_{f:04}.exr")))?;
+        }
         gif_frames.push(shrad::image_io::to_rgb8(
             image,
             Tonemap::Exposure(Some(scale)),
@@ -1009,8 +1077,10 @@ fn cmd_animate(args: AnimateArgs, scene: Scene, file: &settings::FileSettings) -
             }
         }
         eprintln!(
-            "wrote {} frames, animation.gif and stats.csv to {}",
-            args.frames,
+            "wrote {frames} frames ({:.3} s of scene time, {:.1} ms per frame solved and drawn), animation.gif{} and stats.csv to {}",
+            (frames - 1) as f32 / args.fps,
+            1e3 * solve_seconds / frames as f64,
+            if args.hdr { ", frame_NNNN.exr" } else { "" },
             args.output.display()
         );
     }

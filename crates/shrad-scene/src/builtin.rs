@@ -26,10 +26,7 @@ pub fn builtin(name: &str) -> Result<Scene, SceneError> {
 
 /// A planar quad `p0, p1, p2, p3` (counter-clockwise from the front) as two triangles.
 pub(crate) fn quad(p: [Vec3; 4]) -> Mesh {
-    Mesh {
-        positions: p.to_vec(),
-        triangles: vec![[0, 1, 2], [0, 2, 3]],
-    }
+    Mesh::new(p.to_vec(), vec![[0, 1, 2], [0, 2, 3]])
 }
 
 /// An axis-aligned box of half extents `half` centred at the origin; faces point outward
@@ -99,10 +96,7 @@ pub(crate) fn sphere_mesh(r: f32, segments: u32) -> Mesh {
             triangles.push([a, c, b]);
         }
     }
-    Mesh {
-        positions,
-        triangles,
-    }
+    Mesh::new(positions, triangles)
 }
 
 fn object(name: &str, mesh: Mesh, material: Material, role: Role) -> Object {
@@ -153,19 +147,19 @@ pub fn cornell_box() -> Scene {
         object(
             "floor",
             quad([v(0., 0., 0.), v(0., 0., d), v(w, 0., d), v(w, 0., 0.)]),
-            white,
+            white.clone(),
             Role::Boundary,
         ),
         object(
             "ceiling",
             quad([v(0., h, 0.), v(w, h, 0.), v(w, h, d), v(0., h, d)]),
-            white,
+            white.clone(),
             Role::Boundary,
         ),
         object(
             "back",
             quad([v(0., 0., d), v(0., h, d), v(w, h, d), v(w, 0., d)]),
-            white,
+            white.clone(),
             Role::Boundary,
         ),
         object(
@@ -199,13 +193,13 @@ pub fn cornell_box() -> Scene {
         [[290., 114.], [130., 65.], [82., 225.], [240., 272.]],
         165.0,
     );
-    let mut short = object("short_block", short_mesh, white, Role::Interior);
+    let mut short = object("short_block", short_mesh, white.clone(), Role::Interior);
     short.world_from_object = short_xf;
     let (tall_mesh, tall_xf) = cornell_block(
         [[472., 406.], [423., 247.], [265., 296.], [314., 456.]],
         330.0,
     );
-    let mut tall = object("tall_block", tall_mesh, white, Role::Interior);
+    let mut tall = object("tall_block", tall_mesh, white.clone(), Role::Interior);
     tall.world_from_object = tall_xf;
     objects.push(short);
     objects.push(tall);
@@ -223,6 +217,7 @@ pub fn cornell_box() -> Scene {
         }),
         settings: Default::default(),
         warnings: Vec::new(),
+        animations: Vec::new(),
     }
 }
 
@@ -361,6 +356,7 @@ pub fn room(params: &RoomParams) -> Scene {
         )),
         settings: Default::default(),
         warnings: Vec::new(),
+        animations: Vec::new(),
     };
     scene.settings.patches = Some(params.patches);
     if let Some(big) = params.big_object_patches {

@@ -10,7 +10,10 @@ use glam::{Affine3A, Mat4, Vec3};
 use gltf::mesh::Mode;
 use serde_json::{json, Value};
 
-use crate::{base64, Camera, Material, Mesh, Object, Role, Scene, SceneError};
+use crate::{
+    base64, Camera, Filter, Material, Mesh, Object, Role, Scene, SceneError, Texture, TextureImage,
+    UvTransform, Wrap,
+};
 
 /// The names an imported object came from, for the scene file's `node` / `mesh` filters.
 #[derive(Clone, Debug, Default)]
@@ -25,14 +28,17 @@ pub(crate) struct PartNames {
 const MAX_DEPTH: usize = 512;
 
 /// Read a glTF or GLB file into a scene (no role inference, no validation).
-pub(crate) fn read(path: &Path) -> Result<(Scene, Vec<PartNames>), SceneError> {
+pub(crate) fn read(
+    path: &Path,
+    animation: Option<&str>,
+) -> Result<(Scene, Vec<PartNames>), SceneError> {
     let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
         path: path.to_path_buf(),
         source,
     })?;
     // Every reference, length and enum is checked on the raw JSON before the gltf crate sees
     // it, so nothing below should panic; this guard is a last resort only.
-    match std::panic::catch_unwind(|| read_bytes(path, &bytes)) {
+    match std::panic::catch_unwind(|| read_bytes(path, &bytes, animation)) {
         Ok(r) => r,
         Err(_) => Err(SceneError::invalid(
             path,
@@ -41,7 +47,11 @@ pub(crate) fn read(path: &Path) -> Result<(Scene, Vec<PartNames>), SceneError> {
     }
 }
 
-fn read_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, Vec<PartNames>), SceneError> {
+fn read_bytes(
+    path: &Path,
+    bytes: &[u8],
+    animation: Option<&str>,
+) -> Result<(Scene, Vec<PartNames>), SceneError> {
     let bad = |m: String| SceneError::invalid(path, m);
     let mut warnings = Vec::new();
     let (json_bytes, blob) = if bytes.starts_with(b"glTF") {
@@ -54,9 +64,9 @@ fn read_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, Vec<PartNames>), Scen
     let value: Value =
         serde_json::from_slice(json_bytes).map_err(|e| bad(format!("invalid glTF: JSON: {e}")))?;
     check_json(&value, blob.map(<[u8]>::len), &mut warnings).map_err(bad)?;
-    // Animations and skins are not read (motion comes from the scene file); they are left
-    // out of what the gltf crate sees, which would refuse some valid ones (an animation
-    // channel without a target node, as the specification allows).
+    // Animations are read by `gltf_anim` and skins are not read; both are left out of what
+    // the gltf crate sees, which would refuse some valid ones (an animation channel without
+    // a target node, as the specification allows).
     // What the reader needs of the raw JSON later (small: no buffer data), so the document
     // itself (base64 buffers can be large) moves to the gltf crate uncopied.
     let kept = json!({
@@ -65,16 +75,19 @@ fn read_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, Vec<PartNames>), Scen
         "textures": value["textures"].clone(),
     });
     let mut for_crate = value;
+    let mut raw_animations = Vec::new();
     if let Some(root) = for_crate.as_object_mut() {
+        if let Some(Value::Array(a)) = root.remove("animations") {
+            raw_animations = a;
+        }
         if root
-            .remove("animations")
-            .is_some_and(|a| a.as_array().is_some_and(|a| !a.is_empty()))
+            .remove("skins")
+            .is_some_and(|s| s.as_array().is_some_and(|s| !s.is_empty()))
         {
             warnings.push(
-                "glTF animations ignored (shrad animates objects from its scene file)".into(),
+                "glTF skins ignored: skinned meshes stay in their bind pose (joints still move as nodes)".into(),
             );
         }
-        root.remove("skins");
         if let Some(Value::Array(nodes)) = root.get_mut("nodes") {
             for n in nodes.iter_mut().filter_map(Value::as_object_mut) {
                 n.remove("skin");
@@ -87,6 +100,9 @@ fn read_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, Vec<PartNames>), Scen
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = load_buffers(path, base, &doc, blob.map(<[u8]>::to_vec))?;
     check_sparse_indices(&kept, &buffers).map_err(bad)?;
+    let animations =
+        crate::gltf_anim::read(&raw_animations, &doc, &buffers, animation, &mut warnings)
+            .map_err(bad)?;
     let mut cx = Walk {
         path,
         base,
@@ -96,8 +112,10 @@ fn read_bytes(path: &Path, bytes: &[u8]) -> Result<(Scene, Vec<PartNames>), Scen
         scene: Scene {
             source: path.display().to_string(),
             warnings,
+            animations: animations.info,
             ..Default::default()
         },
+        graph: animations.graph,
         names: Vec::new(),
         textures: std::collections::HashMap::new(),
         materials: std::collections::HashMap::new(),
@@ -293,16 +311,14 @@ fn percent_decode(s: &str) -> String {
 // some malformed files; after these checks it has nothing left to trip on.
 
 /// Extensions shrad implements: the only ones a file may require.
-const IMPLEMENTED_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
+const IMPLEMENTED_EXTENSIONS: &[&str] =
+    &["KHR_materials_emissive_strength", "KHR_texture_transform"];
 
 /// What shrad loses when it ignores an extension the file only uses (the specification
 /// says a file must then still load without it).
 fn ignored_extension_note(name: &str) -> &'static str {
     match name {
         "KHR_materials_unlit" => "unlit materials are read as diffuse reflectors",
-        "KHR_texture_transform" => {
-            "texture transforms are ignored (base colour textures are averaged)"
-        }
         "KHR_lights_punctual" => "punctual lights are ignored: only emissive surfaces emit",
         "KHR_draco_mesh_compression" | "EXT_meshopt_compression" => {
             "the uncompressed fallback data is read"
@@ -510,6 +526,19 @@ impl JsonCheck<'_> {
             let here = join(at, key);
             self.required(info, "index", &here, "textures")?;
             uint(info, "texCoord", &here)?;
+            if let Some(x) = info
+                .get("extensions")
+                .and_then(|e| e.get("KHR_texture_transform"))
+            {
+                let here = format!("{here}.extensions.KHR_texture_transform");
+                if !x.is_object() {
+                    return Err(format!("{here}: must be an object"));
+                }
+                numbers(x, "offset", &here, 2)?;
+                numbers(x, "scale", &here, 2)?;
+                number(x, "rotation", &here)?;
+                uint(x, "texCoord", &here)?;
+            }
         }
         Ok(())
     }
@@ -923,6 +952,26 @@ impl JsonCheck<'_> {
                         "{attrs_at}.POSITION: accessor {pos} has no min and max (the specification requires them)"
                     ));
                 }
+                for (name, a, _) in &counts {
+                    let info = &accessors[*a];
+                    let (ty, c, norm) = (info.ty.as_str(), info.component_type, info.normalized);
+                    let ok = if name.starts_with("TEXCOORD_") {
+                        ty == "VEC2" && (c == 5126 || (norm && matches!(c, 5121 | 5123)))
+                    } else if name.starts_with("COLOR_") {
+                        matches!(ty, "VEC3" | "VEC4")
+                            && (c == 5126 || (norm && matches!(c, 5121 | 5123)))
+                    } else {
+                        true
+                    };
+                    if !ok {
+                        return Err(format!(
+                            "{attrs_at}.{name}: accessor {a} is {}, but {} must be {} FLOAT or normalized UNSIGNED_BYTE / UNSIGNED_SHORT",
+                            info.describe(),
+                            if name.starts_with("COLOR_") { "colours" } else { "texture coordinates" },
+                            if name.starts_with("COLOR_") { "VEC3 / VEC4" } else { "VEC2" },
+                        ));
+                    }
+                }
                 if let Some((name, a, c)) = counts.iter().find(|c| c.2 != n) {
                     return Err(format!(
                         "{attrs_at}.{name}: accessor {a} has {c} elements but POSITION has {n} (all attributes of a primitive have the same count)"
@@ -1286,6 +1335,8 @@ fn check_sparse_indices(root: &Value, buffers: &[gltf::buffer::Data]) -> Result<
 }
 
 struct Walk<'a> {
+    /// The node hierarchy with the animations that play (None: nothing moves).
+    graph: Option<std::sync::Arc<crate::NodeGraph>>,
     path: &'a Path,
     base: &'a Path,
     doc: &'a gltf::Document,
@@ -1294,8 +1345,8 @@ struct Walk<'a> {
     buffers: &'a [gltf::buffer::Data],
     scene: Scene,
     names: Vec<PartNames>,
-    /// Average linear colour of each image (None: could not be loaded).
-    textures: std::collections::HashMap<usize, Option<Vec3>>,
+    /// Each image decoded once (None: could not be loaded), shared by the materials.
+    textures: std::collections::HashMap<usize, Option<std::sync::Arc<TextureImage>>>,
     /// Each material once converted (None: the default material).
     materials: std::collections::HashMap<Option<usize>, Material>,
 }
@@ -1330,6 +1381,20 @@ fn extras_of(raw: &gltf::json::Extras, what: &str) -> Result<(Option<Role>, Opti
 }
 
 impl Walk<'_> {
+    /// Give `object`, instanced by node `node`, its node animation if the node or an
+    /// ancestor is animated; its rest transform becomes its pose at time 0.
+    fn animate(&self, object: &mut Object, node: usize) {
+        if let Some(graph) = self.graph.as_ref().filter(|g| g.moves(node)) {
+            let anim = crate::NodeAnimation {
+                graph: graph.clone(),
+                node,
+                outer: Affine3A::IDENTITY,
+            };
+            object.world_from_object = anim.world_from_object_at(0.0);
+            object.node_animation = Some(anim);
+        }
+    }
+
     fn node(&mut self, node: gltf::Node, parent: Mat4, depth: usize) -> Result<(), SceneError> {
         if depth > MAX_DEPTH {
             return Err(SceneError::invalid(
@@ -1487,16 +1552,13 @@ impl Walk<'_> {
                     indices.len() % 3
                 ));
             }
-            let material = self.material(&prim.material());
-            let mut object = Object::new(
-                name,
-                Mesh {
-                    positions,
-                    triangles,
-                },
-                material,
-            );
+            let mut material = self.material(&prim.material());
+            let mut shape = Mesh::new(positions, triangles);
+            self.attributes(&reader, &mut shape, &mut material, &format!("{who}{inst}"))
+                .map_err(bad)?;
+            let mut object = Object::new(name, shape, material);
             object.world_from_object = world_from_object;
+            self.animate(&mut object, node.index());
             object.role = node_role.or(mesh_role);
             object.patch_size = node_patch.or(mesh_patch);
             self.scene.objects.push(object);
@@ -1508,12 +1570,96 @@ impl Walk<'_> {
         Ok(())
     }
 
+    /// The texture coordinates the material's textures read and `COLOR_0` (normalized
+    /// integers or floats, RGB or RGBA; alpha dropped, floats clamped to [0, 1]). A texture
+    /// whose `TEXCOORD_n` the primitive lacks is averaged to one colour, with a warning.
+    fn attributes<'a, 's, F>(
+        &mut self,
+        reader: &gltf::mesh::Reader<'a, 's, F>,
+        mesh: &mut Mesh,
+        material: &mut Material,
+        who: &str,
+    ) -> Result<(), String>
+    where
+        F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
+    {
+        let n = mesh.positions.len();
+        let mut sets = 0;
+        for (what, slot) in [
+            ("base colour", &mut material.base_color_texture),
+            ("emissive", &mut material.emissive_texture),
+        ] {
+            let Some(t) = slot else { continue };
+            let k = t.tex_coord;
+            let uvs: Option<Vec<glam::Vec2>> = reader
+                .read_tex_coords(k)
+                .map(|r| r.into_f32().map(glam::Vec2::from).collect());
+            match uvs {
+                Some(uvs) if uvs.len() == n && uvs.iter().all(|p| p.is_finite()) => {
+                    let k = k as usize;
+                    if mesh.uvs.len() <= k {
+                        mesh.uvs.resize(k + 1, vec![glam::Vec2::ZERO; n]);
+                    }
+                    mesh.uvs[k] = uvs;
+                    sets = sets.max(k + 1);
+                }
+                got => {
+                    let why = match got {
+                        None => "is missing or cannot be read",
+                        Some(u) if u.len() != n => "has too few elements",
+                        Some(_) => "has a non-finite value",
+                    };
+                    let mean = t.image.mean();
+                    self.scene.warnings.push(format!(
+                        "{who}: {what} texture averaged to one colour (TEXCOORD_{k} {why})"
+                    ));
+                    if what == "base colour" {
+                        material.reflectance *= mean;
+                    } else {
+                        material.emitted_radiance *= mean;
+                    }
+                    *slot = None;
+                }
+            }
+        }
+        mesh.uvs.truncate(sets);
+        if let Some(colors) = reader.read_colors(0) {
+            let colors: Vec<Vec3> = colors.into_rgb_f32().map(Vec3::from).collect();
+            if colors.len() != n {
+                return Err(format!(
+                    "{who}.attributes.COLOR_0: has fewer elements than POSITION"
+                ));
+            }
+            if let Some(k) = colors.iter().position(|c| !c.is_finite()) {
+                return Err(format!(
+                    "{who}.attributes.COLOR_0: colour {k} is not finite"
+                ));
+            }
+            if colors
+                .iter()
+                .any(|c| c.min_element() < 0.0 || c.max_element() > 1.0)
+            {
+                self.scene.warnings.push(format!(
+                    "{who}.attributes.COLOR_0: colours outside [0, 1] clamped"
+                ));
+            }
+            mesh.colors = colors
+                .into_iter()
+                .map(|c| c.clamp(Vec3::ZERO, Vec3::ONE))
+                .collect();
+            if mesh.colors.iter().all(|&c| c == Vec3::ONE) {
+                mesh.colors.clear();
+            }
+        }
+        Ok(())
+    }
+
     /// The shrad material of a glTF material (converted once per material). A reflectance
     /// of exactly 1 (allowed by glTF, but it does not conserve energy) becomes 0.999 with a
     /// warning; factors outside [0, 1] were refused by [`check_json`].
     fn material(&mut self, m: &gltf::Material) -> Material {
         if let Some(done) = self.materials.get(&m.index()) {
-            return *done;
+            return done.clone();
         }
         let who = match (m.index(), m.name()) {
             (Some(i), Some(n)) => format!("materials[{i}] '{n}'"),
@@ -1523,44 +1669,9 @@ impl Walk<'_> {
         let pbr = m.pbr_metallic_roughness();
         let f = pbr.base_color_factor();
         let mut reflectance = Vec3::new(f[0], f[1], f[2]);
-        if let Some(info) = pbr.base_color_texture() {
-            let texture = info.texture().index();
-            // The texture's source, from the raw JSON: the gltf crate's `source()` panics when
-            // an extension (not read by shrad) provides the image instead.
-            let source = self.json["textures"][texture]["source"]
-                .as_u64()
-                .map(|i| i as usize);
-            let avg = match source {
-                None => {
-                    self.scene.warnings.push(format!(
-                        "{who}: base colour texture {texture} has no image shrad can read; using the factor alone"
-                    ));
-                    None
-                }
-                Some(image) => match self.textures.get(&image) {
-                    Some(a) => *a,
-                    None => {
-                        let a = match self.texture_average(image) {
-                            Ok(a) => Some(a),
-                            Err(e) => {
-                                self.scene.warnings.push(format!(
-                                    "{who}: base colour image {image} cannot be loaded ({e}); using the factor alone"
-                                ));
-                                None
-                            }
-                        };
-                        self.textures.insert(image, a);
-                        a
-                    }
-                },
-            };
-            if let Some(avg) = avg {
-                reflectance *= avg;
-                self.scene
-                    .warnings
-                    .push(format!("{who}: base colour texture averaged to one colour"));
-            }
-        }
+        let base_color_texture = pbr
+            .base_color_texture()
+            .and_then(|info| self.texture(&who, "base colour", &info));
         if reflectance.max_element() >= 1.0 {
             let clamped = reflectance.min(Vec3::splat(0.999));
             self.scene.warnings.push(format!(
@@ -1570,17 +1681,90 @@ impl Walk<'_> {
         }
         let e = m.emissive_factor();
         let strength = m.emissive_strength().unwrap_or(1.0);
+        let emissive_texture = m
+            .emissive_texture()
+            .and_then(|info| self.texture(&who, "emissive", &info));
         let material = Material {
             reflectance,
             emitted_radiance: Vec3::from(e) * strength,
             double_sided: m.double_sided(),
+            base_color_texture,
+            emissive_texture,
         };
-        self.materials.insert(m.index(), material);
+        self.materials.insert(m.index(), material.clone());
         material
     }
 
-    /// Mean linear RGB of image `index` (sRGB-decoded).
-    fn texture_average(&self, index: usize) -> Result<Vec3, String> {
+    /// The texture of a material's texture info: its image decoded once (shared by every
+    /// material that uses it), its sampler and `KHR_texture_transform`. `None` (with a
+    /// warning) when the image cannot be loaded.
+    fn texture(&mut self, who: &str, what: &str, info: &gltf::texture::Info) -> Option<Texture> {
+        let texture = info.texture().index();
+        // The texture's source, from the raw JSON: the gltf crate's `source()` panics when
+        // an extension (not read by shrad) provides the image instead.
+        let Some(image) = self.json["textures"][texture]["source"]
+            .as_u64()
+            .map(|i| i as usize)
+        else {
+            self.scene.warnings.push(format!(
+                "{who}: {what} texture {texture} has no image shrad can read; using the factor alone"
+            ));
+            return None;
+        };
+        let decoded = match self.textures.get(&image) {
+            Some(d) => d.clone(),
+            None => {
+                let d = match self.texture_image(image) {
+                    Ok(d) => Some(std::sync::Arc::new(d)),
+                    Err(e) => {
+                        let name = self.image_label(image);
+                        self.scene.warnings.push(format!(
+                            "{who}: {what} {name} cannot be loaded ({e}); using the factor alone"
+                        ));
+                        None
+                    }
+                };
+                self.textures.insert(image, d.clone());
+                d
+            }
+        }?;
+        let sampler = info.texture().sampler();
+        let wrap = |w: gltf::texture::WrappingMode| match w {
+            gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+            gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+            gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+        };
+        let mut t = Texture::new(decoded);
+        t.tex_coord = info.tex_coord();
+        t.wrap_s = wrap(sampler.wrap_s());
+        t.wrap_t = wrap(sampler.wrap_t());
+        if sampler.mag_filter() == Some(gltf::texture::MagFilter::Nearest) {
+            t.filter = Filter::Nearest;
+        }
+        if let Some(x) = info.texture_transform() {
+            t.transform = UvTransform {
+                offset: x.offset().into(),
+                rotation: x.rotation(),
+                scale: x.scale().into(),
+            };
+            if let Some(k) = x.tex_coord() {
+                t.tex_coord = k;
+            }
+        }
+        Some(t)
+    }
+
+    /// `image N 'name'` (or its URI) for messages.
+    fn image_label(&self, index: usize) -> String {
+        let json = self.doc.as_json().images.get(index);
+        match json.and_then(|j| j.name.clone().or_else(|| j.uri.clone())) {
+            Some(n) if !n.starts_with("data:") => format!("image {index} '{n}'"),
+            _ => format!("image {index}"),
+        }
+    }
+
+    /// Image `index`, decoded to 8-bit sRGB RGB (see [`TextureImage`]).
+    fn texture_image(&self, index: usize) -> Result<TextureImage, String> {
         let json = self
             .doc
             .as_json()
@@ -1606,73 +1790,7 @@ impl Walk<'_> {
         } else {
             return Err("image has neither uri nor bufferView".into());
         };
-        // A small file can decode huge (a 16000 x 16000 1-bit PNG is 31 KB): bound the
-        // decoded size, and average in the decoded format without a floating-point copy.
-        let mut reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
-            .with_guessed_format()
-            .map_err(|e| e.to_string())?;
-        let mut limits = image::Limits::default();
-        limits.max_image_width = Some(MAX_TEXTURE_SIZE);
-        limits.max_image_height = Some(MAX_TEXTURE_SIZE);
-        limits.max_alloc = Some(256 << 20);
-        reader.limits(limits);
-        let img = reader.decode().map_err(|e| e.to_string())?;
-        use image::DynamicImage as D;
-        let lut: Vec<f32> = (0..=255u8)
-            .map(|c| srgb_to_linear(f32::from(c) / 255.0))
-            .collect();
-        let u8s = |raw: &[u8], ch: usize| mean(raw, ch, |c| lut[c as usize]);
-        let u16s =
-            |raw: &[u16], ch: usize| mean(raw, ch, |c| srgb_to_linear(f32::from(c) / 65535.0));
-        let avg = match &img {
-            D::ImageLuma8(i) => u8s(i.as_raw(), 1),
-            D::ImageLumaA8(i) => u8s(i.as_raw(), 2),
-            D::ImageRgb8(i) => u8s(i.as_raw(), 3),
-            D::ImageRgba8(i) => u8s(i.as_raw(), 4),
-            D::ImageLuma16(i) => u16s(i.as_raw(), 1),
-            D::ImageLumaA16(i) => u16s(i.as_raw(), 2),
-            D::ImageRgb16(i) => u16s(i.as_raw(), 3),
-            D::ImageRgba16(i) => u16s(i.as_raw(), 4),
-            D::ImageRgb32F(i) => mean(i.as_raw(), 3, srgb_to_linear),
-            D::ImageRgba32F(i) => mean(i.as_raw(), 4, srgb_to_linear),
-            other => mean(other.to_rgb32f().as_raw(), 3, srgb_to_linear),
-        };
-        Ok(avg)
-    }
-}
-
-/// Largest texture width or height decoded (larger ones: the factor alone, with a warning).
-const MAX_TEXTURE_SIZE: u32 = 8192;
-
-/// Mean linear colour of interleaved samples with `channels` per pixel (1 or 2: grey, alpha
-/// ignored; 3 or 4: RGB, alpha ignored), each sample made linear by `linear`.
-fn mean<T: Copy>(raw: &[T], channels: usize, linear: impl Fn(T) -> f32) -> Vec3 {
-    let mut sum = [0f64; 3];
-    let mut n = 0usize;
-    for px in raw.chunks_exact(channels) {
-        if channels < 3 {
-            let g = f64::from(linear(px[0]));
-            sum.iter_mut().for_each(|s| *s += g);
-        } else {
-            for k in 0..3 {
-                sum[k] += f64::from(linear(px[k]));
-            }
-        }
-        n += 1;
-    }
-    let n = n.max(1) as f64;
-    Vec3::new(
-        (sum[0] / n) as f32,
-        (sum[1] / n) as f32,
-        (sum[2] / n) as f32,
-    )
-}
-
-fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
+        TextureImage::decode(&bytes, self.image_label(index))
     }
 }
 

@@ -8,17 +8,24 @@
 mod base64;
 mod builtin;
 mod error;
+mod gltf_anim;
 mod gltf_io;
 mod load;
 mod model;
+mod node_anim;
 mod obj_io;
 mod roles;
 mod scene_file;
+mod texture;
 
 pub use builtin::{builtin, builtin_names, cornell_box, room, RoomParams};
 pub use error::SceneError;
 pub use gltf_io::write_gltf;
 pub use load::{load, LoadOptions};
 pub use model::*;
+pub use node_anim::{
+    AnimationInfo, GraphNode, Interpolation, NodeAnimation, NodeGraph, NodeRest, Track, TrackValue,
+};
 pub use obj_io::write_obj;
 pub use roles::infer_roles;
+pub use texture::{srgb_to_linear, Filter, Texture, TextureImage, UvTransform, Wrap};

@@ -7,10 +7,13 @@ use crate::gltf_io::PartNames;
 use crate::{builtin, builtin_names, infer_roles, Scene, SceneError};
 
 /// Options of [`load`].
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LoadOptions {
     /// Drop zero-area triangles with a warning instead of failing.
     pub drop_degenerate: bool,
+    /// Play only this glTF animation (its name, else its index); `None`: every animation of
+    /// the file at once on one timeline. An unknown one is an error listing those there are.
+    pub animation: Option<String>,
 }
 
 /// Read a scene: `.gltf` / `.glb` (glTF 2.0), `.obj` (+ MTL), `.toml` (shrad scene file, see
@@ -38,7 +41,14 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
         finish(&mut scene, &source, opts)?;
         return Ok(scene);
     }
-    let mut scene = read_any(path)?.0;
+    let animation = opts.animation.as_deref();
+    if animation.is_some() && format_of(path)? != Format::Gltf {
+        return Err(SceneError::invalid(
+            path,
+            "an animation can be selected in a glTF file only (in a scene file: `animation = ...` on the mesh object)",
+        ));
+    }
+    let mut scene = read_any(path, animation)?.0;
     finish(&mut scene, path, opts)?;
     Ok(scene)
 }
@@ -89,9 +99,12 @@ pub(crate) fn format_of(path: &Path) -> Result<Format, SceneError> {
 
 /// Read a file of any format without inference or validation; also returns, per object,
 /// the node and mesh names it came from (for the scene file's filters).
-pub(crate) fn read_any(path: &Path) -> Result<(Scene, Vec<PartNames>), SceneError> {
+pub(crate) fn read_any(
+    path: &Path,
+    animation: Option<&str>,
+) -> Result<(Scene, Vec<PartNames>), SceneError> {
     match format_of(path)? {
-        Format::Gltf => crate::gltf_io::read(path),
+        Format::Gltf => crate::gltf_io::read(path, animation),
         Format::Obj => {
             let scene = crate::obj_io::read(path)?;
             let names = scene

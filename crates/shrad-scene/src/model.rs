@@ -2,11 +2,11 @@
 //! reflectance `rho` in [0,1), emitted radiance `L_e` of the front side (exitance
 //! `M = pi * L_e`), counter-clockwise triangles seen from the front.
 
-use glam::{Affine3A, Quat, Vec3};
+use glam::{Affine3A, Quat, Vec2, Vec3};
 use std::f32::consts::PI;
 use std::path::Path;
 
-use crate::SceneError;
+use crate::{SceneError, Texture};
 
 /// What an object does in the dispersive method (paper 2.1, spec section 3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
@@ -37,15 +37,23 @@ impl std::fmt::Display for Role {
     }
 }
 
-/// A Lambertian material.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A Lambertian material. With textures (and vertex colours) the reflectance is a field
+/// `rho(x) = reflectance * base_color_texture(uv(x)) * colour(x)` and the emitted radiance
+/// `L_e(x) = emitted_radiance * emissive_texture(uv(x))` (spec section 2, "Textures").
+#[derive(Clone, Debug, PartialEq)]
 pub struct Material {
-    /// Diffuse reflectance `rho` (linear RGB, each in [0,1)).
+    /// Diffuse reflectance `rho` (linear RGB, each in [0,1)): the factor the base-colour
+    /// texture and the vertex colours multiply.
     pub reflectance: Vec3,
-    /// Emitted radiance `L_e` of the front side (linear RGB, W/(m^2 sr)).
+    /// Emitted radiance `L_e` of the front side (linear RGB, W/(m^2 sr)); the emissive
+    /// texture multiplies it.
     pub emitted_radiance: Vec3,
     /// Reflects (and emits) on both sides.
     pub double_sided: bool,
+    /// Base-colour texture (sRGB-decoded), read through the mesh's `uvs[tex_coord]`.
+    pub base_color_texture: Option<Texture>,
+    /// Emissive texture (sRGB-decoded), read through the mesh's `uvs[tex_coord]`.
+    pub emissive_texture: Option<Texture>,
 }
 
 impl Material {
@@ -55,7 +63,13 @@ impl Material {
             reflectance,
             emitted_radiance: Vec3::ZERO,
             double_sided: false,
+            base_color_texture: None,
+            emissive_texture: None,
         }
+    }
+    /// Is the reflectance a field (a base-colour texture)?
+    pub fn is_textured(&self) -> bool {
+        self.base_color_texture.is_some() || self.emissive_texture.is_some()
     }
     /// Emitted exitance `M = pi * L_e` (W/m^2).
     pub fn exitance(&self) -> Vec3 {
@@ -80,6 +94,12 @@ pub struct Mesh {
     pub positions: Vec<Vec3>,
     /// Counter-clockwise (seen from the front) vertex index triples.
     pub triangles: Vec<[u32; 3]>,
+    /// Texture-coordinate sets (glTF `TEXCOORD_n` is `uvs[n]`), each one per vertex;
+    /// `(0, 0)` is the image's top-left corner, `v` grows downwards (glTF's convention).
+    pub uvs: Vec<Vec<Vec2>>,
+    /// Vertex colours (glTF `COLOR_0`, linear RGB in [0, 1], alpha dropped): empty, or one
+    /// per vertex. They multiply the material's reflectance.
+    pub colors: Vec<Vec3>,
 }
 
 impl Mesh {
@@ -103,9 +123,34 @@ impl Mesh {
             .map(|t| self.triangle_area(t))
             .sum()
     }
-    /// Append another mesh.
+    /// A mesh of positions and triangles only.
+    pub fn new(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Mesh {
+        Mesh {
+            positions,
+            triangles,
+            ..Default::default()
+        }
+    }
+    /// Append another mesh (texture coordinates a side lacks are 0, colours 1).
     pub fn append(&mut self, other: &Mesh) {
         let base = self.positions.len() as u32;
+        let (n, m) = (self.positions.len(), other.positions.len());
+        let sets = self.uvs.len().max(other.uvs.len());
+        self.uvs.resize(sets, vec![Vec2::ZERO; n]);
+        for (k, set) in self.uvs.iter_mut().enumerate() {
+            match other.uvs.get(k) {
+                Some(o) => set.extend_from_slice(o),
+                None => set.resize(n + m, Vec2::ZERO),
+            }
+        }
+        if !self.colors.is_empty() || !other.colors.is_empty() {
+            self.colors.resize(n, Vec3::ONE);
+            if other.colors.is_empty() {
+                self.colors.resize(n + m, Vec3::ONE);
+            } else {
+                self.colors.extend_from_slice(&other.colors);
+            }
+        }
         self.positions.extend_from_slice(&other.positions);
         self.triangles
             .extend(other.triangles.iter().map(|t| t.map(|i| i + base)));
@@ -119,6 +164,8 @@ impl Mesh {
                 .map(|&p| m.transform_point3(p))
                 .collect(),
             triangles: self.triangles.clone(),
+            uvs: self.uvs.clone(),
+            colors: self.colors.clone(),
         }
     }
 }
@@ -221,6 +268,8 @@ pub struct Object {
     pub world_from_object: Affine3A,
     /// Optional rigid animation and emission keys.
     pub animation: Option<Animation>,
+    /// Motion imported from an animated glTF node (the scene file's keys go on top).
+    pub node_animation: Option<crate::NodeAnimation>,
     /// Patch size for this object only (overrides the scene's), in scene units.
     pub patch_size: Option<f32>,
 }
@@ -235,6 +284,7 @@ impl Object {
             role: None,
             world_from_object: Affine3A::IDENTITY,
             animation: None,
+            node_animation: None,
             patch_size: None,
         }
     }
@@ -249,11 +299,16 @@ impl Object {
         self.mesh.transformed(self.world_from_object).bounds()
     }
 
-    /// The object's world transform at time `t`: the animation's rotation about the
-    /// centre of the rest world box, then its translation, on top of the rest transform.
+    /// The object's world transform at time `t`: the glTF node animation's transform at
+    /// `t` (else the rest transform), then the scene-file animation's rotation about the
+    /// centre of the rest world box and its translation on top.
     pub fn world_from_object_at(&self, t: f32) -> Affine3A {
-        let Some(anim) = &self.animation else {
-            return self.world_from_object;
+        let base = self
+            .node_animation
+            .as_ref()
+            .map_or(self.world_from_object, |n| n.world_from_object_at(t));
+        let Some(anim) = self.animation.as_ref().filter(|a| !a.keys.is_empty()) else {
+            return base;
         };
         let (translation, rotation) = anim.motion_at(t);
         let centre = self
@@ -262,12 +317,12 @@ impl Object {
         Affine3A::from_translation(translation + centre)
             * Affine3A::from_quat(rotation)
             * Affine3A::from_translation(-centre)
-            * self.world_from_object
+            * base
     }
 
     /// The material at time `t` (emission keys applied).
     pub fn material_at(&self, t: f32) -> Material {
-        let mut m = self.material;
+        let mut m = self.material.clone();
         if let Some(e) = self.animation.as_ref().and_then(|a| a.emission_at(t)) {
             m.emitted_radiance = e;
         }
@@ -276,9 +331,21 @@ impl Object {
 
     /// Does anything about this object change over time?
     pub fn is_animated(&self) -> bool {
-        self.animation
+        self.node_animation.is_some()
+            || self
+                .animation
+                .as_ref()
+                .is_some_and(|a| a.keys.len() > 1 || a.emission.len() > 1)
+    }
+
+    /// Time of the last key of either animation (0 for a static object).
+    pub fn duration(&self) -> f32 {
+        let a = self.animation.as_ref().map_or(0.0, Animation::duration);
+        let n = self
+            .node_animation
             .as_ref()
-            .is_some_and(|a| a.keys.len() > 1 || a.emission.len() > 1)
+            .map_or(0.0, crate::NodeAnimation::duration);
+        a.max(n)
     }
 }
 
@@ -331,7 +398,7 @@ pub struct SceneSettings {
     pub patch_size: Option<f32>,
     /// Target total patch count (alternative to `patch_size`).
     pub patches: Option<usize>,
-    /// Other solver settings as written (key = value), applied by the solver crates.
+    /// Other solver settings as written (key = value), applied by the CLI as its solver options of the same names (the command line wins; an unknown key is an error naming the file).
     pub solver: std::collections::BTreeMap<String, String>,
 }
 
@@ -348,6 +415,8 @@ pub struct Scene {
     pub settings: SceneSettings,
     /// Non-fatal problems found while loading (printed by the CLI).
     pub warnings: Vec<String>,
+    /// The glTF animations of the file (listed by `shrad info`; empty for other inputs).
+    pub animations: Vec<crate::AnimationInfo>,
 }
 
 impl Scene {
@@ -387,8 +456,7 @@ impl Scene {
     pub fn duration(&self) -> f32 {
         self.objects
             .iter()
-            .filter_map(|o| o.animation.as_ref())
-            .map(Animation::duration)
+            .map(Object::duration)
             .fold(0.0, f32::max)
     }
 
@@ -442,6 +510,58 @@ impl Scene {
                     path,
                     format!("{who}: transform is not finite or is singular"),
                 ));
+            }
+            if let Some(k) = o
+                .mesh
+                .uvs
+                .iter()
+                .position(|s| s.len() != o.mesh.positions.len())
+            {
+                return Err(SceneError::invalid(
+                    path,
+                    format!(
+                        "{who}: texture coordinate set {k} has {} entries for {n} vertices",
+                        o.mesh.uvs[k].len()
+                    ),
+                ));
+            }
+            let colors = o.mesh.colors.len();
+            if colors != 0 && colors != o.mesh.positions.len() {
+                return Err(SceneError::invalid(
+                    path,
+                    format!("{who}: {colors} vertex colours for {n} vertices"),
+                ));
+            }
+            if let Some(i) = o
+                .mesh
+                .colors
+                .iter()
+                .position(|c| !c.is_finite() || c.min_element() < 0.0 || c.max_element() > 1.0)
+            {
+                return Err(SceneError::invalid(
+                    path,
+                    format!(
+                        "{who}: vertex colour {i} ({}) must be in [0, 1]",
+                        o.mesh.colors[i]
+                    ),
+                ));
+            }
+            for (what, t) in [
+                ("base colour", &o.material.base_color_texture),
+                ("emissive", &o.material.emissive_texture),
+            ] {
+                if let Some(t) = t {
+                    if t.tex_coord as usize >= o.mesh.uvs.len() {
+                        return Err(SceneError::invalid(
+                            path,
+                            format!(
+                                "{who}: the {what} texture reads TEXCOORD_{} but the mesh has {} texture coordinate set(s)",
+                                t.tex_coord,
+                                o.mesh.uvs.len()
+                            ),
+                        ));
+                    }
+                }
             }
             let r = o.material.reflectance;
             if !r.is_finite() || r.min_element() < 0.0 || r.max_element() >= 1.0 {

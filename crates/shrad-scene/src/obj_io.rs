@@ -11,9 +11,9 @@ use std::fmt::Write as _;
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
-use crate::{Material, Mesh, Object, Scene, SceneError};
+use crate::{Material, Mesh, Object, Scene, SceneError, Texture, TextureImage};
 
 /// Read an OBJ file (and the MTL files it names) into a scene, no role inference or validation.
 pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
@@ -75,6 +75,45 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
             Vec::new()
         }
     };
+    // `map_Kd` paths are relative to the MTL file that names them (tobj does not say which
+    // one: the first library directory holding the file wins). Each image decoded once.
+    let lib_dirs: Vec<PathBuf> = seen_libs
+        .into_inner()
+        .into_keys()
+        .filter_map(|k| k.parent().map(Path::to_path_buf))
+        .chain([dir.to_path_buf()])
+        .collect();
+    let mut images: HashMap<String, Option<std::sync::Arc<TextureImage>>> = HashMap::new();
+    let mut diffuse_map = |name: &str, warnings: &mut Vec<String>| {
+        // Options (`-s 1 1 1 -o ...`) come before the file name.
+        let file = if name.trim_start().starts_with('-') {
+            name.split_whitespace().last().unwrap_or(name)
+        } else {
+            name.trim()
+        };
+        images
+            .entry(file.to_string())
+            .or_insert_with(|| {
+                let found = lib_dirs.iter().map(|d| d.join(file)).find(|p| p.is_file());
+                let r = match &found {
+                    None => Err("file not found".to_string()),
+                    Some(p) => std::fs::read(p)
+                        .map_err(|e| e.to_string())
+                        .and_then(|b| TextureImage::decode(&b, file.to_string())),
+                };
+                match r {
+                    Ok(img) => Some(std::sync::Arc::new(img)),
+                    Err(e) => {
+                        warnings.push(format!(
+                            "{}: map_Kd '{file}' cannot be loaded ({e}); using Kd alone",
+                            path.display()
+                        ));
+                        None
+                    }
+                }
+            })
+            .clone()
+    };
     let mut seen = HashMap::<String, usize>::new();
     for (mi, model) in models.iter().enumerate() {
         let m = &model.mesh;
@@ -99,7 +138,12 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
                         .map_or(Material::default().reflectance, Vec3::from),
                     emitted_radiance: mat.emissive.map_or(Vec3::ZERO, Vec3::from),
                     double_sided: false,
-                    ..Material::default()
+                    base_color_texture: mat
+                        .diffuse_texture
+                        .as_deref()
+                        .and_then(|t| diffuse_map(t, &mut scene.warnings))
+                        .map(Texture::new),
+                    emissive_texture: None,
                 },
                 None => Material::default(),
             },
@@ -127,15 +171,26 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
             format!("{base}.{count}")
         };
         *count += 1;
-        scene.objects.push(Object::new(
-            name,
-            Mesh {
-                positions,
-                triangles,
-                ..Mesh::default()
-            },
-            material,
-        ));
+        let mut mesh = Mesh::new(positions, triangles);
+        let mut material = material;
+        if let Some(t) = &material.base_color_texture {
+            if m.texcoords.len() == 2 * mesh.positions.len() {
+                // OBJ's v grows upwards from the image's bottom; glTF's (shrad's) downwards.
+                mesh.uvs = vec![m
+                    .texcoords
+                    .chunks_exact(2)
+                    .map(|c| Vec2::new(c[0], 1.0 - c[1]))
+                    .collect()];
+            } else {
+                scene.warnings.push(format!(
+                    "{}: object '{name}' has no texture coordinates: map_Kd averaged to one colour",
+                    path.display()
+                ));
+                material.reflectance *= t.image.mean();
+                material.base_color_texture = None;
+            }
+        }
+        scene.objects.push(Object::new(name, mesh, material));
     }
     Ok(scene)
 }
@@ -292,7 +347,8 @@ fn clean_name(s: &str) -> String {
 /// Write the scene as OBJ with an MTL file beside it (same name, `.mtl`): world-space
 /// vertices at rest, one `o` per object, one material per object with `Kd` (reflectance) and
 /// `Ke` (emitted radiance). Roles, double-sidedness, animation and the camera are not
-/// written (OBJ has no place for them; roles are inferred again on load).
+/// written (OBJ has no place for them; roles are inferred again on load); neither are
+/// textures, texture coordinates and vertex colours: `Kd` is the material's factor alone.
 pub fn write_obj(scene: &Scene, obj_path: &Path) -> Result<(), SceneError> {
     let mtl_path = obj_path.with_extension("mtl");
     let mtl_name = mtl_path

@@ -82,6 +82,7 @@ struct ObjectDef {
     file: Option<String>,
     node: Option<String>,
     mesh: Option<String>,
+    animation: Option<String>,
     // material
     reflectance: Option<[f32; 3]>,
     emission: Option<[f32; 3]>,
@@ -257,7 +258,7 @@ fn object(
     warnings: &mut Vec<String>,
 ) -> Result<Vec<Object>, String> {
     // Keys that belong to another shape are mistakes, not silently ignored.
-    let given: [(&str, bool, &[Shape]); 8] = [
+    let given: [(&str, bool, &[Shape]); 9] = [
         ("corners", o.corners.is_some(), &[Shape::Quad]),
         ("size", o.size.is_some(), &[Shape::Box]),
         ("inward", o.inward.is_some(), &[Shape::Box]),
@@ -266,6 +267,7 @@ fn object(
         ("file", o.file.is_some(), &[Shape::Mesh]),
         ("node", o.node.is_some(), &[Shape::Mesh]),
         ("mesh", o.mesh.is_some(), &[Shape::Mesh]),
+        ("animation", o.animation.is_some(), &[Shape::Mesh]),
     ];
     for (key, present, shapes) in given {
         if present && !shapes.contains(&o.shape) {
@@ -306,6 +308,8 @@ fn object(
         reflectance: reflectance.unwrap_or(Material::default().reflectance),
         emitted_radiance: emission.unwrap_or(Vec3::ZERO),
         double_sided: o.double_sided.unwrap_or(false),
+        base_color_texture: None,
+        emissive_texture: None,
     };
     if emission.is_none() {
         if let Some(e) = animation
@@ -368,14 +372,20 @@ fn object(
                     "'{file}': scene files nested too deeply (include cycle?)"
                 ));
             }
-            let (sub, names) =
-                if crate::load::format_of(&file_path).ok() == Some(crate::load::Format::Toml) {
-                    let sub = read_nested(&file_path, depth + 1).map_err(|e| e.to_string())?;
-                    let n = sub.objects.len();
-                    (sub, vec![Default::default(); n])
-                } else {
-                    crate::load::read_any(&file_path).map_err(|e| e.to_string())?
-                };
+            let format = crate::load::format_of(&file_path).ok();
+            if o.animation.is_some() && format != Some(crate::load::Format::Gltf) {
+                return Err(format!(
+                    "'animation' selects a glTF animation, and '{file}' is not a glTF file"
+                ));
+            }
+            let (sub, names) = if format == Some(crate::load::Format::Toml) {
+                let sub = read_nested(&file_path, depth + 1).map_err(|e| e.to_string())?;
+                let n = sub.objects.len();
+                (sub, vec![Default::default(); n])
+            } else {
+                crate::load::read_any(&file_path, o.animation.as_deref())
+                    .map_err(|e| e.to_string())?
+            };
             for w in &sub.warnings {
                 warnings.push(format!("{}: {w}", file_path.display()));
             }
@@ -419,12 +429,32 @@ fn object(
                                 .max(part.material.emitted_radiance),
                         ),
                         double_sided: o.double_sided.unwrap_or(part.material.double_sided),
+                        // A reflectance (emission) given here replaces the file's field:
+                        // its texture (and vertex colours) go.
+                        base_color_texture: part
+                            .material
+                            .base_color_texture
+                            .filter(|_| reflectance.is_none()),
+                        emissive_texture: part
+                            .material
+                            .emissive_texture
+                            .filter(|_| emission.is_none()),
                     };
-                    let mut obj = make(part.mesh, m);
+                    let mut mesh = part.mesh;
+                    if reflectance.is_some() {
+                        mesh.colors.clear();
+                    }
+                    let mut obj = make(mesh, m);
                     if !single {
                         obj.name = format!("{name}/{}", part.name);
                     }
                     obj.world_from_object = rest * part.world_from_object;
+                    // The file's node animation stays, under the object's rest transform;
+                    // the scene file's keys go on top of both (Object::world_from_object_at).
+                    obj.node_animation = part.node_animation.map(|mut n| {
+                        n.outer = rest * n.outer;
+                        n
+                    });
                     obj.role = o.role.or(part.role);
                     obj.patch_size = o.patch_size.or(part.patch_size);
                     if obj.animation.is_none() {

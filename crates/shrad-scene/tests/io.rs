@@ -206,6 +206,7 @@ fn one_box_gltf() -> Value {
             Vec3::new(0.0, 0.0, 3.0),
         ],
         triangles: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+        ..Default::default()
     };
     s.objects.push(Object::new("tet", mesh, light));
     let dir = temp_dir("one_box");
@@ -365,7 +366,7 @@ fn gltf_texture_is_averaged_and_emission_strength_applies() {
     let path = dir.join("tex.gltf");
     std::fs::write(&path, serde_json::to_string(&root).unwrap()).unwrap();
     let s = load(&path, &opts()).unwrap();
-    let mat = s.objects[0].material;
+    let mat = s.objects[0].material.clone();
     assert!(
         mat.reflectance.abs_diff_eq(Vec3::new(0.4, 0.3, 0.2), 1e-3),
         "{}",
@@ -741,6 +742,7 @@ fn tri_scene(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Scene {
         Mesh {
             positions,
             triangles,
+            ..Default::default()
         },
         light,
     ));
@@ -800,6 +802,7 @@ fn zero_area_triangle_is_an_error_or_dropped() {
         &p,
         &LoadOptions {
             drop_degenerate: true,
+            ..Default::default()
         },
     )
     .unwrap();
@@ -820,6 +823,7 @@ fn zero_area_triangle_is_an_error_or_dropped() {
         &p,
         &LoadOptions {
             drop_degenerate: true,
+            ..Default::default()
         },
     )
     .unwrap();

@@ -28,6 +28,7 @@ pub mod reference;
 pub mod render;
 pub mod sampling;
 pub mod solver;
+pub mod surface;
 mod world;
 
 pub use patches::{PatchSizing, Patches};

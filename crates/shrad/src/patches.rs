@@ -23,11 +23,89 @@
 
 use std::ops::Range;
 
-use glam::{Affine3A, Mat3, Vec3};
-use shrad_scene::{Mesh, Role, Scene};
+use glam::{Affine3A, Mat3, Vec2, Vec3};
+use shrad_scene::{Mesh, Object, Role, Scene};
 
 /// Marks "no patch".
 pub const NO_PATCH: u32 = u32::MAX;
+
+/// The surface attributes at a patch corner, interpolated from the source triangle's
+/// vertices: what a textured or vertex-coloured material is sampled with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CornerAttr {
+    /// Texture coordinates: `[0]` the set the base-colour texture reads, `[1]` the set the
+    /// emissive texture reads.
+    pub uv: [Vec2; 2],
+    /// Vertex colour (1 without `COLOR_0`).
+    pub color: Vec3,
+}
+
+impl Default for CornerAttr {
+    fn default() -> Self {
+        CornerAttr {
+            uv: [Vec2::ZERO; 2],
+            color: Vec3::ONE,
+        }
+    }
+}
+
+impl CornerAttr {
+    /// `sum w_k a_k`.
+    pub fn combine<const N: usize>(terms: [(f32, CornerAttr); N]) -> CornerAttr {
+        let mut r = CornerAttr {
+            uv: [Vec2::ZERO; 2],
+            color: Vec3::ZERO,
+        };
+        for (w, a) in terms {
+            r.uv[0] += w * a.uv[0];
+            r.uv[1] += w * a.uv[1];
+            r.color += w * a.color;
+        }
+        r
+    }
+    /// The attributes at `(s, t)` of a parallelogram with these corners (bilinear; affine
+    /// when the corners are, as [`pair_parallelograms`] makes sure).
+    pub fn bilinear(c: &[CornerAttr; 4], s: f32, t: f32) -> CornerAttr {
+        CornerAttr::combine([
+            ((1.0 - s) * (1.0 - t), c[0]),
+            (s * (1.0 - t), c[1]),
+            (s * t, c[2]),
+            ((1.0 - s) * t, c[3]),
+        ])
+    }
+    /// The attributes at barycentric `(u, v)` of a triangle `c0, c1, c2`.
+    pub fn barycentric(c: &[CornerAttr; 4], u: f32, v: f32) -> CornerAttr {
+        CornerAttr::combine([(1.0 - u - v, c[0]), (u, c[1]), (v, c[2])])
+    }
+    fn close(&self, o: &CornerAttr) -> bool {
+        let uv =
+            |a: Vec2, b: Vec2| (a - b).abs().max_element() <= 1e-5 * (1.0 + a.abs().max_element());
+        uv(self.uv[0], o.uv[0])
+            && uv(self.uv[1], o.uv[1])
+            && (self.color - o.color).abs().max_element() <= 1e-4
+    }
+}
+
+/// Does object `o` need per-corner attributes (a texture or vertex colours)?
+fn needs_attributes(o: &Object) -> bool {
+    o.material.is_textured() || !o.mesh.colors.is_empty()
+}
+
+/// The attributes of vertex `i` of a local-frame shape (see [`shaped_objects`]).
+fn vertex_attr(mesh: &Mesh, i: u32) -> CornerAttr {
+    let i = i as usize;
+    let uv = |k: usize| {
+        mesh.uvs
+            .get(k)
+            .and_then(|s| s.get(i))
+            .copied()
+            .unwrap_or(Vec2::ZERO)
+    };
+    CornerAttr {
+        uv: [uv(0), uv(1)],
+        color: mesh.colors.get(i).copied().unwrap_or(Vec3::ONE),
+    }
+}
 
 /// What [`Patches::build`] will make, known before it is made.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -102,6 +180,11 @@ pub struct Patches {
     pub shapes: Vec<Mesh>,
     /// Patch mesh of each object, for visibility.
     pub meshes: Vec<ObjectMesh>,
+    /// Per-corner surface attributes of the patches of objects that need them (textured or
+    /// vertex-coloured); see [`Patches::corner_attrs`].
+    pub corner_attr: Vec<[CornerAttr; 4]>,
+    /// Where object `o`'s patches start in `corner_attr` (`u32::MAX`: it has none).
+    pub attr_offset: Vec<u32>,
     /// The patch size used (the scene's default; objects may override).
     pub patch_size: f32,
 }
@@ -118,6 +201,17 @@ impl Patches {
     /// Role of patch `p`.
     pub fn role(&self, p: usize) -> Role {
         self.object_role[self.object[p] as usize]
+    }
+    /// The corner attributes of patch `p` (in corner order; a triangle repeats its last),
+    /// or `None` for an untextured object without vertex colours.
+    pub fn corner_attrs(&self, p: usize) -> Option<&[CornerAttr; 4]> {
+        let o = self.object[p] as usize;
+        let off = *self.attr_offset.get(o)?;
+        if off == u32::MAX {
+            return None;
+        }
+        self.corner_attr
+            .get(off as usize + p - self.object_ranges[o].start as usize)
     }
     /// Patches of object `o` as a `usize` range.
     pub fn range(&self, o: usize) -> Range<usize> {
@@ -169,24 +263,34 @@ impl Patches {
             patches.meshes.push(mesh);
             let oh = object.patch_size.unwrap_or(h);
             welder.next_object(&shape);
+            let with_attrs = needs_attributes(object);
+            patches.attr_offset.push(if with_attrs {
+                patches.corner_attr.len() as u32
+            } else {
+                u32::MAX
+            });
             for cell in subdivide(&shape, oh) {
+                if with_attrs {
+                    patches.corner_attr.push(cell.attrs);
+                }
                 patches.push_cell(oi as u32, cell, &mut welder, false);
                 if object.material.double_sided {
                     let me = patches.len() as u32 - 1;
-                    let flipped = Cell {
-                        corners: if cell.is_quad {
-                            [
-                                cell.corners[0],
-                                cell.corners[3],
-                                cell.corners[2],
-                                cell.corners[1],
-                            ]
+                    fn flip<T: Copy>(c: [T; 4], quad: bool) -> [T; 4] {
+                        if quad {
+                            [c[0], c[3], c[2], c[1]]
                         } else {
-                            let [a, b, c, _] = cell.corners;
-                            [a, c, b, b]
-                        },
+                            [c[0], c[2], c[1], c[1]]
+                        }
+                    }
+                    let flipped = Cell {
+                        corners: flip(cell.corners, cell.is_quad),
+                        attrs: flip(cell.attrs, cell.is_quad),
                         is_quad: cell.is_quad,
                     };
+                    if with_attrs {
+                        patches.corner_attr.push(flipped.attrs);
+                    }
                     patches.push_cell(oi as u32, flipped, &mut welder, true);
                     let twin = patches.len() as u32 - 1;
                     patches.twin[me as usize] = twin;
@@ -350,11 +454,31 @@ fn is_rigid(m: Mat3) -> bool {
     e.to_cols_array().iter().all(|x| x.abs() < 1e-5)
 }
 
-/// `mesh` with `local_from_object` applied; a mirroring shape reverses the winding so that
-/// the local cross products point to the front (glTF: front = object-frame CCW side).
-fn shape_mesh(mesh: &Mesh, local_from_object: Mat3) -> Mesh {
+/// `object`'s mesh with `local_from_object` applied; a mirroring shape reverses the winding
+/// so that the local cross products point to the front (glTF: front = object-frame CCW
+/// side). Its attributes are only those the patches carry: `uvs[0]` the set the base-colour
+/// texture reads, `uvs[1]` the emissive one's, and the vertex colours.
+fn shape_mesh(object: &Object, local_from_object: Mat3) -> Mesh {
+    let mesh = &object.mesh;
     let mirror = local_from_object.determinant() < 0.0;
+    let material = &object.material;
+    let set = |t: &Option<shrad_scene::Texture>| {
+        t.as_ref()
+            .and_then(|t| mesh.uvs.get(t.tex_coord as usize))
+            .cloned()
+            .unwrap_or_else(|| vec![Vec2::ZERO; mesh.positions.len()])
+    };
+    let uvs = if material.is_textured() {
+        vec![
+            set(&material.base_color_texture),
+            set(&material.emissive_texture),
+        ]
+    } else {
+        Vec::new()
+    };
     Mesh {
+        uvs,
+        colors: mesh.colors.clone(),
         positions: mesh
             .positions
             .iter()
@@ -372,6 +496,7 @@ fn shape_mesh(mesh: &Mesh, local_from_object: Mat3) -> Mesh {
 #[derive(Clone, Copy, Debug)]
 struct Cell {
     corners: [Vec3; 4],
+    attrs: [CornerAttr; 4],
     is_quad: bool,
 }
 
@@ -425,7 +550,7 @@ fn subdivide(mesh: &Mesh, h: f32) -> Vec<Cell> {
     let mut cells = Vec::new();
     for face in pair_parallelograms(mesh) {
         match face {
-            Face::Quad(c) => {
+            Face::Quad(c, ca) => {
                 let (e1, e2) = (c[1] - c[0], c[3] - c[0]);
                 let nu = cells_along(e1.length(), h);
                 let nv = cells_along(e2.length(), h);
@@ -434,8 +559,17 @@ fn subdivide(mesh: &Mesh, h: f32) -> Vec<Cell> {
                         let at = |a: usize, b: usize| {
                             c[0] + e1 * (a as f32 / nu as f32) + e2 * (b as f32 / nv as f32)
                         };
+                        let attr = |a: usize, b: usize| {
+                            CornerAttr::bilinear(&ca, a as f32 / nu as f32, b as f32 / nv as f32)
+                        };
                         cells.push(Cell {
                             corners: [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)],
+                            attrs: [
+                                attr(i, j),
+                                attr(i + 1, j),
+                                attr(i + 1, j + 1),
+                                attr(i, j + 1),
+                            ],
                             is_quad: true,
                         });
                     }
@@ -448,10 +582,16 @@ fn subdivide(mesh: &Mesh, h: f32) -> Vec<Cell> {
                 let at = |i: usize, j: usize| {
                     a + (b - a) * (i as f32 / n as f32) + (c - a) * (j as f32 / n as f32)
                 };
+                let ta = t.map(|i| vertex_attr(mesh, i));
+                let ta = [ta[0], ta[1], ta[2], ta[2]];
+                let attr = |i: usize, j: usize| {
+                    CornerAttr::barycentric(&ta, i as f32 / n as f32, j as f32 / n as f32)
+                };
                 for j in 0..n {
                     for i in 0..n - j {
                         cells.push(Cell {
                             corners: [at(i, j), at(i + 1, j), at(i, j + 1), at(i, j + 1)],
+                            attrs: [attr(i, j), attr(i + 1, j), attr(i, j + 1), attr(i, j + 1)],
                             is_quad: false,
                         });
                         if i + j + 1 < n {
@@ -461,6 +601,12 @@ fn subdivide(mesh: &Mesh, h: f32) -> Vec<Cell> {
                                     at(i + 1, j + 1),
                                     at(i, j + 1),
                                     at(i, j + 1),
+                                ],
+                                attrs: [
+                                    attr(i + 1, j),
+                                    attr(i + 1, j + 1),
+                                    attr(i, j + 1),
+                                    attr(i, j + 1),
                                 ],
                                 is_quad: false,
                             });
@@ -482,13 +628,14 @@ fn cells_along(length: f32, h: f32) -> usize {
 }
 
 enum Face {
-    /// Parallelogram corners, counter-clockwise.
-    Quad([Vec3; 4]),
+    /// Parallelogram corners, counter-clockwise, and their attributes.
+    Quad([Vec3; 4], [CornerAttr; 4]),
     Triangle([u32; 3]),
 }
 
 /// Pair triangles that share their longest edge and together form a planar parallelogram
-/// (the usual export of a quad); the rest stay triangles. Deterministic: triangle order.
+/// (the usual export of a quad) over which the attributes (texture coordinates, colours)
+/// are affine and continuous; the rest stay triangles. Deterministic: triangle order.
 fn pair_parallelograms(mesh: &Mesh) -> Vec<Face> {
     use std::collections::HashMap;
     let p = |i: u32| mesh.positions[i as usize];
@@ -537,15 +684,16 @@ fn pair_parallelograms(mesh: &Mesh) -> Vec<Face> {
                 e,
                 longest_edge(&mesh.triangles[other]),
                 &p,
+                &|i| vertex_attr(mesh, i),
             ) {
                 paired = Some((other, q));
                 break;
             }
         }
         match paired {
-            Some((other, q)) => {
+            Some((other, (q, a))) => {
                 used[other] = true;
-                faces.push(Face::Quad(q));
+                faces.push(Face::Quad(q, a));
             }
             None => faces.push(Face::Triangle(*t)),
         }
@@ -561,7 +709,8 @@ fn parallelogram(
     e: usize,
     f: usize,
     p: &impl Fn(u32) -> Vec3,
-) -> Option<[Vec3; 4]> {
+    attr: &impl Fn(u32) -> CornerAttr,
+) -> Option<([Vec3; 4], [CornerAttr; 4])> {
     let (a, b, c) = (p(t[e]), p(t[(e + 1) % 3]), p(t[(e + 2) % 3]));
     let (ua, ub, d) = (p(u[f]), p(u[(f + 1) % 3]), p(u[(f + 2) % 3]));
     let scale = (b - a).length();
@@ -580,8 +729,15 @@ fn parallelogram(
     if n1.normalize_or_zero().dot(n2.normalize_or_zero()) < 0.9999 {
         return None;
     }
+    // The attributes: the same on both sides of the shared edge, and affine over the whole.
+    let (aa, ab, ac) = (attr(t[e]), attr(t[(e + 1) % 3]), attr(t[(e + 2) % 3]));
+    let (ua, ub, ad) = (attr(u[f]), attr(u[(f + 1) % 3]), attr(u[(f + 2) % 3]));
+    let sum = |x: CornerAttr, y: CornerAttr| CornerAttr::combine([(1.0, x), (1.0, y)]);
+    if !(ua.close(&ab) && ub.close(&aa) && sum(ac, ad).close(&sum(aa, ab))) {
+        return None;
+    }
     // Corners counter-clockwise: a, d, b, c (t = a,b,c is ccw; d lies across edge ab).
-    Some([a, d, b, c])
+    Some(([a, d, b, c], [aa, ad, ab, ac]))
 }
 
 /// Patch size that gives about `n` patches, by bisection on the count (cheap: no geometry).
@@ -618,7 +774,7 @@ fn shaped_objects(scene: &Scene) -> Vec<ShapedObject> {
             (
                 world_from_local,
                 local_from_object,
-                shape_mesh(&o.mesh, local_from_object),
+                shape_mesh(o, local_from_object),
             )
         })
         .collect()
@@ -645,7 +801,7 @@ fn count_faces(mesh: &Mesh, faces: &[Face], h: f32) -> usize {
     faces
         .iter()
         .map(|f| match f {
-            Face::Quad(c) => cells_along((c[1] - c[0]).length(), h)
+            Face::Quad(c, _) => cells_along((c[1] - c[0]).length(), h)
                 .saturating_mul(cells_along((c[3] - c[0]).length(), h)),
             Face::Triangle(t) => {
                 let [a, b, c] = t.map(p);

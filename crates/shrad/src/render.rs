@@ -1,8 +1,11 @@
 //! Pictures of a radiosity solution: one primary ray per sample through a pinhole camera;
-//! the surface seen shows its outgoing radiance `B / pi` (emitters `L_e` when they do not
-//! reflect), flat per patch or smooth (bilinear / barycentric from welded patch corners,
-//! area-weighted: Gouraud shading as radiosity systems have always drawn). The back of a
-//! single-sided surface is culled: the camera sees what lies behind it.
+//! the surface seen shows its outgoing radiance `(rho(x) E(x) + M(x)) / pi` (spec section 2,
+//! "Textures"): the irradiance `E_i = (B_i - M_i) / rho_i` of the patches (0 where
+//! `rho_i = 0`), flat per patch or smooth (bilinear / barycentric from welded patch corners,
+//! area-weighted: Gouraud shading as radiosity systems have always drawn), times the albedo
+//! of the texel seen there, plus the emission there. Without textures and vertex colours
+//! `rho(x) = rho_i` and this is the patch's `B_i` (interpolated). The back of a single-sided
+//! surface is culled: the camera sees what lies behind it.
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -58,7 +61,8 @@ pub struct Image {
     pub emitter: Vec<bool>,
 }
 
-/// Radiosity at each shading vertex: area-weighted mean of the patches that share it.
+/// A per-patch value (radiosity, irradiance) at each shading vertex: the area-weighted mean
+/// of the patches that share it.
 pub fn vertex_radiosity(world: &World, radiosity: &[Vec3]) -> Vec<Vec3> {
     let p = &world.patches;
     let mut sum = vec![Vec3::ZERO; p.shading_vertex_count];
@@ -73,6 +77,19 @@ pub fn vertex_radiosity(world: &World, radiosity: &[Vec3]) -> Vec<Vec3> {
     sum.iter()
         .zip(&weight)
         .map(|(s, w)| if *w > 0.0 { *s / *w } else { Vec3::ZERO })
+        .collect()
+}
+
+/// Irradiance of each patch, `E_i = (B_i - M_i) / rho_i` per channel (0 where `rho_i = 0`).
+pub fn patch_irradiance(world: &World, radiosity: &[Vec3]) -> Vec<Vec3> {
+    radiosity
+        .iter()
+        .zip(&world.exitance)
+        .zip(&world.reflectance)
+        .map(|((b, m), rho)| {
+            let e = *b - *m;
+            Vec3::select(rho.cmpgt(Vec3::ZERO), e / *rho, Vec3::ZERO)
+        })
         .collect()
 }
 
@@ -143,8 +160,9 @@ pub fn render(
             hits[k] = h;
         }
     }
+    let irradiance = patch_irradiance(world, radiosity);
     let vertex = match options.shading {
-        Shading::Smooth => vertex_radiosity(world, radiosity),
+        Shading::Smooth => vertex_radiosity(world, &irradiance),
         Shading::Flat => Vec::new(),
     };
     let p = &world.patches;
@@ -161,32 +179,53 @@ pub fn render(
                 if world.exitance[i].max_element() > 0.0 {
                     emitter = true;
                 }
-                let b = match options.shading {
-                    Shading::Flat => radiosity[i],
+                let attrs = p.corner_attrs(i);
+                let (s, t) = if options.shading == Shading::Flat && attrs.is_none() {
+                    (0.0, 0.0)
+                } else {
+                    let y = origins[k] + dirs[k] * hits[k].t;
+                    let c = p.world_corners(i);
+                    if p.is_quad[i] {
+                        parallelogram_coords(y, c[0], c[1] - c[0], c[3] - c[0])
+                    } else {
+                        let (u, v) = parallelogram_coords(y, c[0], c[1] - c[0], c[2] - c[0]);
+                        let sum = (u + v).max(1.0);
+                        (u / sum, v / sum)
+                    }
+                };
+                let e = match options.shading {
+                    Shading::Flat => irradiance[i],
                     Shading::Smooth => {
-                        let y = origins[k] + dirs[k] * hits[k].t;
-                        let c = p.world_corners(i);
-                        let cv = p.corner_vertex[i];
+                        let cv = p.corner_vertex[i].map(|v| vertex[v as usize]);
                         if p.is_quad[i] {
-                            let (u, v) = parallelogram_coords(y, c[0], c[1] - c[0], c[3] - c[0]);
-                            let (a, b, cc, d) = (
-                                vertex[cv[0] as usize],
-                                vertex[cv[1] as usize],
-                                vertex[cv[2] as usize],
-                                vertex[cv[3] as usize],
-                            );
-                            (a * (1.0 - u) + b * u) * (1.0 - v) + (d * (1.0 - u) + cc * u) * v
+                            (cv[0] * (1.0 - s) + cv[1] * s) * (1.0 - t)
+                                + (cv[3] * (1.0 - s) + cv[2] * s) * t
                         } else {
-                            let (u, v) = parallelogram_coords(y, c[0], c[1] - c[0], c[2] - c[0]);
-                            let (u, v) = (u.clamp(0.0, 1.0), v.clamp(0.0, 1.0));
-                            let s = (u + v).max(1.0);
-                            let (u, v) = (u / s, v / s);
-                            vertex[cv[0] as usize] * (1.0 - u - v)
-                                + vertex[cv[1] as usize] * u
-                                + vertex[cv[2] as usize] * v
+                            cv[0] * (1.0 - s - t) + cv[1] * s + cv[2] * t
                         }
                     }
                 };
+                let (rho, m) = match attrs {
+                    None => (world.reflectance[i], world.exitance[i]),
+                    Some(c) => {
+                        let material = &world.scene.objects[p.object[i] as usize].material;
+                        let a = crate::surface::attr_at(c, p.is_quad[i], s, t);
+                        let rho = crate::surface::albedo(material, &a);
+                        let m = match world.emission_texture.get(i) {
+                            Some(avg) if material.emissive_texture.is_some() => {
+                                let per = Vec3::select(
+                                    avg.cmpgt(Vec3::ZERO),
+                                    world.exitance[i] / *avg,
+                                    Vec3::ZERO,
+                                );
+                                per * crate::surface::emission_scale(material, &a)
+                            }
+                            _ => world.exitance[i],
+                        };
+                        (rho, m)
+                    }
+                };
+                let b = rho * e + m;
                 sum += b;
             }
             (sum / (spp as f32 * std::f32::consts::PI), emitter)

@@ -16,8 +16,12 @@ pub struct World {
     pub patches: Patches,
     /// Visibility over the patches' triangles (payload = patch id).
     pub vis: Box<dyn Visibility>,
-    /// Reflectance of each patch.
+    /// Reflectance of each patch: the area average of the material's reflectance field
+    /// over the patch (textures and vertex colours, [`crate::surface`]).
     pub reflectance: Vec<Vec3>,
+    /// Area average of the emissive texture over each patch (the exitance is the
+    /// material's times this); empty when no material has an emissive texture.
+    pub emission_texture: Vec<Vec3>,
     /// Emitted exitance `M` of each patch at the current time.
     pub exitance: Vec<Vec3>,
     /// Current time (seconds).
@@ -52,13 +56,7 @@ impl World {
             .collect();
         let vis = shrad_vis::build(backend, &meshes, &patches.world_from_local)
             .map_err(|e| Error::Invalid(e.to_string()))?;
-        let reflectance = (0..patches.len())
-            .map(|p| {
-                scene.objects[patches.object[p] as usize]
-                    .material
-                    .reflectance
-            })
-            .collect();
+        let (reflectance, emission_texture) = crate::surface::patch_fields(&scene, &patches);
         let (lo, hi) = scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
         let mut world = World {
             eps: 1e-4 * (hi - lo).length().max(f32::MIN_POSITIVE),
@@ -67,6 +65,7 @@ impl World {
             patches,
             vis,
             reflectance,
+            emission_texture,
             time: f32::NAN,
         };
         world.set_time(0.0);
@@ -80,7 +79,7 @@ impl World {
         let mut moved = Vec::new();
         let mut relit = Vec::new();
         for (o, object) in self.scene.objects.iter().enumerate() {
-            if !first && object.animation.is_none() {
+            if !first && object.animation.is_none() && object.node_animation.is_none() {
                 continue;
             }
             let world_from_object = object.world_from_object_at(t);
@@ -97,8 +96,12 @@ impl World {
             }
             let m = object.material_at(t).exitance();
             let r = self.patches.range(o);
-            if first || self.exitance[r.start] != m {
-                self.exitance[r].fill(m);
+            // Per patch: an emissive texture scales the material's exitance.
+            let tex = |p: usize| self.emission_texture.get(p).copied().unwrap_or(Vec3::ONE);
+            if first || self.exitance[r.start] != m * tex(r.start) {
+                for p in r {
+                    self.exitance[p] = m * tex(p);
+                }
                 relit.push(o);
             }
         }
@@ -121,6 +124,63 @@ impl World {
         }
         let twin = self.patches.twin[hit.id as usize];
         (twin != NO_PATCH).then_some(twin as usize)
+    }
+
+    /// Put object `o` at `world_from_object` (any affine map: a scale re-measures its areas),
+    /// whatever its animation says, until the next [`World::set_time`]. Returns whether it
+    /// moved.
+    pub fn move_object(
+        &mut self,
+        o: usize,
+        world_from_object: glam::Affine3A,
+    ) -> Result<bool, Error> {
+        let name = self.object_label(o)?;
+        let m = world_from_object;
+        if !(m.matrix3.is_finite() && m.translation.is_finite())
+            || m.matrix3.determinant().abs() < 1e-12
+        {
+            return Err(Error::Invalid(format!(
+                "{name}: transform {m:?} is not finite or is singular"
+            )));
+        }
+        let xf = self.patches.local_transform_for(o, m);
+        if xf == self.patches.world_from_local[o] {
+            return Ok(false);
+        }
+        self.patches.set_transform(o, xf);
+        self.vis.set_transform(o, xf);
+        self.vis.commit();
+        Ok(true)
+    }
+
+    /// Set object `o`'s emitted radiance `L_e` (linear RGB, W/(m^2 sr); exitance `pi L_e`)
+    /// until the next [`World::set_time`]. Returns whether it changed.
+    pub fn set_emission(&mut self, o: usize, emitted_radiance: Vec3) -> Result<bool, Error> {
+        let name = self.object_label(o)?;
+        if !emitted_radiance.is_finite() || emitted_radiance.min_element() < 0.0 {
+            return Err(Error::Invalid(format!(
+                "{name}: emitted radiance {emitted_radiance} must be finite and >= 0"
+            )));
+        }
+        let m = emitted_radiance * std::f32::consts::PI;
+        let r = self.patches.range(o);
+        if self.exitance[r.clone()].iter().all(|e| *e == m) {
+            return Ok(false);
+        }
+        self.exitance[r].fill(m);
+        Ok(true)
+    }
+
+    /// "object 3 'name'", or an error naming the valid range.
+    fn object_label(&self, o: usize) -> Result<String, Error> {
+        match self.scene.objects.get(o) {
+            Some(object) => Ok(format!("object {o} '{}'", object.name)),
+            None => Err(Error::Invalid(format!(
+                "no object {o}: the scene has {} (0..{})",
+                self.scene.objects.len(),
+                self.scene.objects.len()
+            ))),
+        }
     }
 
     /// Does any object emit at the current time?

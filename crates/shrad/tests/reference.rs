@@ -8,10 +8,7 @@ use shrad::vis::Backend;
 use shrad::{NoProgress, PatchSizing, World};
 
 fn quad(p: [Vec3; 4]) -> Mesh {
-    Mesh {
-        positions: p.to_vec(),
-        triangles: vec![[0, 1, 2], [0, 2, 3]],
-    }
+    Mesh::new(p.to_vec(), vec![[0, 1, 2], [0, 2, 3]])
 }
 
 fn scene_of(meshes: Vec<Mesh>, material: Material) -> Scene {
@@ -21,7 +18,7 @@ fn scene_of(meshes: Vec<Mesh>, material: Material) -> Scene {
             .into_iter()
             .enumerate()
             .map(|(i, m)| {
-                let mut o = Object::new(format!("o{i}"), m, material);
+                let mut o = Object::new(format!("o{i}"), m, material.clone());
                 o.role = Some(Role::Boundary);
                 o
             })

@@ -1,0 +1,336 @@
+//! Textures (spec section 2, "Textures"): a decoded image shared between materials, and how
+//! a material samples it (texture-coordinate set, wrap modes, filter, `KHR_texture_transform`).
+//!
+//! **Memory.** An image is decoded once at load and kept as 8-bit sRGB RGB, 3 bytes a texel;
+//! a sample is made linear through a 256-entry table (exactly the sRGB decode of each 8-bit
+//! value, so nothing is lost for the 8-bit PNG and JPEG files glTF uses). A 4096 x 4096
+//! texture costs 48 MiB (f32 linear RGB would be 192 MiB, RGB f16 96 MiB). 16-bit PNGs are
+//! quantised to 8 bits (an error below 0.2 % of the sRGB value). Alpha is dropped (shrad
+//! ignores base-colour alpha). Materials that use the same image hold the same
+//! [`std::sync::Arc`].
+
+use std::sync::{Arc, OnceLock};
+
+use glam::{Vec2, Vec3};
+
+/// A decoded image: 8-bit sRGB RGB texels, row-major from the top-left texel (glTF's UV
+/// origin).
+#[derive(Clone, PartialEq)]
+pub struct TextureImage {
+    /// Where it came from (the glTF image index and name or URI, the MTL map path).
+    pub name: String,
+    width: u32,
+    height: u32,
+    /// `r, g, b` bytes of each texel.
+    texels: Vec<u8>,
+}
+
+impl std::fmt::Debug for TextureImage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "TextureImage({} {}x{})",
+            self.name, self.width, self.height
+        )
+    }
+}
+
+/// The sRGB decode of every 8-bit value.
+fn srgb_lut() -> &'static [f32; 256] {
+    static LUT: OnceLock<[f32; 256]> = OnceLock::new();
+    LUT.get_or_init(|| std::array::from_fn(|i| srgb_to_linear(i as f32 / 255.0)))
+}
+
+/// The sRGB transfer function, decoded (`c` in [0, 1]).
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Largest texture width or height decoded (larger ones are refused when loading).
+pub const MAX_TEXTURE_SIZE: u32 = 8192;
+
+impl TextureImage {
+    /// An image of `width x height` sRGB texels, `r, g, b` bytes each (row-major from the
+    /// top-left); `None` when the sizes do not match or the image is empty.
+    pub fn from_srgb8(
+        name: impl Into<String>,
+        width: u32,
+        height: u32,
+        texels: Vec<u8>,
+    ) -> Option<TextureImage> {
+        (width > 0 && height > 0 && texels.len() as u64 == 3 * u64::from(width) * u64::from(height))
+            .then(|| TextureImage {
+                name: name.into(),
+                width,
+                height,
+                texels,
+            })
+    }
+    /// Decode a PNG or JPEG file's bytes (sRGB) as `name`. A small file can decode huge (a
+    /// 16000 x 16000 1-bit PNG is 31 KB): the size the header declares is checked before
+    /// anything is allocated, at most [`MAX_TEXTURE_SIZE`] a side and 256 MiB decoded.
+    pub fn decode(bytes: &[u8], name: String) -> Result<TextureImage, String> {
+        let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| e.to_string())?;
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(MAX_TEXTURE_SIZE);
+        limits.max_image_height = Some(MAX_TEXTURE_SIZE);
+        limits.max_alloc = Some(256 << 20);
+        reader.limits(limits);
+        let img = reader.decode().map_err(|e| e.to_string())?;
+        let (w, h) = (img.width(), img.height());
+        let rgb = img.into_rgb8().into_raw();
+        TextureImage::from_srgb8(name, w, h, rgb).ok_or_else(|| "the image is empty".to_string())
+    }
+    /// Width in texels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+    /// Height in texels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+    /// Bytes held by the texels.
+    pub fn bytes(&self) -> usize {
+        self.texels.len()
+    }
+    /// Linear RGB of texel `(x, y)` (in range).
+    #[inline]
+    pub fn texel(&self, x: u32, y: u32) -> Vec3 {
+        let lut = srgb_lut();
+        let i = 3 * (y as usize * self.width as usize + x as usize);
+        let t = &self.texels[i..i + 3];
+        Vec3::new(lut[t[0] as usize], lut[t[1] as usize], lut[t[2] as usize])
+    }
+    /// Mean linear RGB over every texel.
+    pub fn mean(&self) -> Vec3 {
+        let lut = srgb_lut();
+        let mut sum = [0f64; 3];
+        for t in self.texels.chunks_exact(3) {
+            for k in 0..3 {
+                sum[k] += f64::from(lut[t[k] as usize]);
+            }
+        }
+        let n = (self.texels.len() / 3).max(1) as f64;
+        Vec3::new(
+            (sum[0] / n) as f32,
+            (sum[1] / n) as f32,
+            (sum[2] / n) as f32,
+        )
+    }
+}
+
+/// How texture coordinates outside [0, 1] are mapped (glTF sampler `wrapS` / `wrapT`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Wrap {
+    /// The image tiles (glTF's default, 10497).
+    #[default]
+    Repeat,
+    /// The edge texels extend (33071).
+    ClampToEdge,
+    /// The image tiles, every other copy mirrored (33648).
+    MirroredRepeat,
+}
+
+impl Wrap {
+    /// Texel index `i` wrapped into `0..n`.
+    #[inline]
+    fn index(self, i: i64, n: u32) -> u32 {
+        let n = i64::from(n);
+        (match self {
+            Wrap::Repeat => i.rem_euclid(n),
+            Wrap::ClampToEdge => i.clamp(0, n - 1),
+            Wrap::MirroredRepeat => {
+                let m = i.rem_euclid(2 * n);
+                if m >= n {
+                    2 * n - 1 - m
+                } else {
+                    m
+                }
+            }
+        }) as u32
+    }
+}
+
+/// Texel filter (glTF sampler `magFilter`; minification is handled by averaging over the
+/// footprint, see the `shrad` crate).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Filter {
+    /// The nearest texel (9728).
+    Nearest,
+    /// Bilinear between the four nearest texels (9729, the default).
+    #[default]
+    Linear,
+}
+
+/// `KHR_texture_transform`: `uv' = T(offset) R(rotation) S(scale) uv`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvTransform {
+    /// Offset (in UV units).
+    pub offset: Vec2,
+    /// Rotation in radians (the UVs turn counter-clockwise, the image clockwise).
+    pub rotation: f32,
+    /// Scale.
+    pub scale: Vec2,
+}
+
+impl Default for UvTransform {
+    fn default() -> Self {
+        UvTransform {
+            offset: Vec2::ZERO,
+            rotation: 0.0,
+            scale: Vec2::ONE,
+        }
+    }
+}
+
+impl UvTransform {
+    /// The transformed coordinates, as the extension's matrix
+    /// `[[c, s, ox], [-s, c, oy]] * diag(sx, sy, 1)` gives them.
+    #[inline]
+    pub fn apply(&self, uv: Vec2) -> Vec2 {
+        let s = uv * self.scale;
+        let (sin, cos) = self.rotation.sin_cos();
+        Vec2::new(cos * s.x + sin * s.y, -sin * s.x + cos * s.y) + self.offset
+    }
+}
+
+/// A material's use of an image.
+#[derive(Clone, Debug)]
+pub struct Texture {
+    /// The decoded image, shared by every material that uses it.
+    pub image: Arc<TextureImage>,
+    /// The texture-coordinate set (`TEXCOORD_n`) it reads (after the transform's override).
+    pub tex_coord: u32,
+    /// Wrap mode along U.
+    pub wrap_s: Wrap,
+    /// Wrap mode along V.
+    pub wrap_t: Wrap,
+    /// Magnification filter.
+    pub filter: Filter,
+    /// `KHR_texture_transform` (identity when absent).
+    pub transform: UvTransform,
+}
+
+impl PartialEq for Texture {
+    fn eq(&self, other: &Self) -> bool {
+        (Arc::ptr_eq(&self.image, &other.image) || self.image == other.image)
+            && self.tex_coord == other.tex_coord
+            && self.wrap_s == other.wrap_s
+            && self.wrap_t == other.wrap_t
+            && self.filter == other.filter
+            && self.transform == other.transform
+    }
+}
+
+impl Texture {
+    /// A texture that reads `image` through set 0 with glTF's default sampler.
+    pub fn new(image: Arc<TextureImage>) -> Texture {
+        Texture {
+            image,
+            tex_coord: 0,
+            wrap_s: Wrap::Repeat,
+            wrap_t: Wrap::Repeat,
+            filter: Filter::Linear,
+            transform: UvTransform::default(),
+        }
+    }
+
+    /// Texel-space coordinates of texture coordinates `uv` (transform applied).
+    #[inline]
+    pub fn texel_coords(&self, uv: Vec2) -> Vec2 {
+        let t = self.transform.apply(uv);
+        Vec2::new(
+            t.x * self.image.width as f32,
+            t.y * self.image.height as f32,
+        )
+    }
+
+    /// Linear RGB at texture coordinates `uv` (transform, wrap and filter applied). Never
+    /// panics: a non-finite coordinate reads some texel of the image.
+    #[inline]
+    pub fn sample(&self, uv: Vec2) -> Vec3 {
+        let img = &*self.image;
+        let p = self.texel_coords(uv);
+        // Far outside any sensible range a coordinate keeps no sub-texel precision anyway.
+        let p = p.clamp(Vec2::splat(-1e12), Vec2::splat(1e12));
+        match self.filter {
+            Filter::Nearest => {
+                let x = self.wrap_s.index(p.x.floor() as i64, img.width);
+                let y = self.wrap_t.index(p.y.floor() as i64, img.height);
+                img.texel(x, y)
+            }
+            Filter::Linear => {
+                let q = p - Vec2::splat(0.5);
+                let (fx, fy) = (q.x.floor(), q.y.floor());
+                let (tx, ty) = (q.x - fx, q.y - fy);
+                let (ix, iy) = (fx as i64, fy as i64);
+                let x0 = self.wrap_s.index(ix, img.width);
+                let x1 = self.wrap_s.index(ix + 1, img.width);
+                let y0 = self.wrap_t.index(iy, img.height);
+                let y1 = self.wrap_t.index(iy + 1, img.height);
+                let top = img.texel(x0, y0).lerp(img.texel(x1, y0), tx);
+                let bottom = img.texel(x0, y1).lerp(img.texel(x1, y1), tx);
+                top.lerp(bottom, ty)
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn checker() -> Arc<TextureImage> {
+        // 2 x 2: black, white / white, black.
+        let (k, w) = ([0u8; 3], [255u8; 3]);
+        let texels = [k, w, w, k].concat();
+        Arc::new(TextureImage::from_srgb8("checker", 2, 2, texels).unwrap())
+    }
+
+    #[test]
+    fn wrap_modes_map_indices() {
+        assert_eq!(Wrap::Repeat.index(-1, 4), 3);
+        assert_eq!(Wrap::Repeat.index(9, 4), 1);
+        assert_eq!(Wrap::ClampToEdge.index(-5, 4), 0);
+        assert_eq!(Wrap::ClampToEdge.index(9, 4), 3);
+        assert_eq!(Wrap::MirroredRepeat.index(4, 4), 3);
+        assert_eq!(Wrap::MirroredRepeat.index(-1, 4), 0);
+        assert_eq!(Wrap::MirroredRepeat.index(8, 4), 0);
+    }
+
+    #[test]
+    fn nearest_samples_texels_and_transform_moves_them() {
+        let mut t = Texture::new(checker());
+        t.filter = Filter::Nearest;
+        assert_eq!(t.sample(Vec2::new(0.25, 0.25)), Vec3::ZERO);
+        assert_eq!(t.sample(Vec2::new(0.75, 0.25)), Vec3::ONE);
+        // REPEAT: u = 1.25 is u = 0.25 again.
+        assert_eq!(t.sample(Vec2::new(1.25, 0.25)), Vec3::ZERO);
+        // An offset of half the image swaps the squares.
+        t.transform.offset = Vec2::new(0.5, 0.0);
+        assert_eq!(t.sample(Vec2::new(0.25, 0.25)), Vec3::ONE);
+        // A quarter turn: (u, v) -> (v, -u).
+        t.transform = UvTransform {
+            rotation: std::f32::consts::FRAC_PI_2,
+            ..Default::default()
+        };
+        let p = t.transform.apply(Vec2::new(1.0, 0.0));
+        assert!(p.abs_diff_eq(Vec2::new(0.0, -1.0), 1e-6), "{p}");
+        assert!(t.sample(Vec2::new(f32::NAN, f32::INFINITY)).is_finite());
+    }
+
+    #[test]
+    fn bilinear_interpolates_between_texel_centres() {
+        let t = Texture::new(checker());
+        // Half-way between a black and a white texel centre.
+        let mid = t.sample(Vec2::new(0.5, 0.25));
+        assert!((mid.x - 0.5).abs() < 1e-6, "{mid}");
+        assert!((checker().mean().x - 0.5).abs() < 1e-6);
+    }
+}
