@@ -39,6 +39,7 @@ pub fn load_files(files: &[(&str, &[u8])], stale: &[&str]) {
             &path,
             &LoadOptions {
                 drop_degenerate: true,
+                ..Default::default()
             },
         );
     }
