@@ -459,3 +459,127 @@ fn option_values_that_would_abort_are_errors() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--patch-size"));
 }
+
+/// The Blender-exported animated room (validation/blender_animation.py).
+fn blender_room() -> PathBuf {
+    repo().join("crates/shrad-scene/tests/data/blender/animated_room.glb")
+}
+
+/// Area-weighted centre of object `name`'s patches in a `--export-patches` CSV.
+fn patch_centre(csv: &Path, name: &str) -> [f64; 3] {
+    let text = std::fs::read_to_string(csv).unwrap();
+    let (mut sum, mut area) = ([0.0; 3], 0.0);
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        if f[0] != name {
+            continue;
+        }
+        let a: f64 = f[8].parse().unwrap();
+        for k in 0..3 {
+            sum[k] += a * f[2 + k].parse::<f64>().unwrap();
+        }
+        area += a;
+    }
+    assert!(area > 0.0, "no patches of {name} in {}", csv.display());
+    sum.map(|s| s / area)
+}
+
+#[test]
+fn render_time_poses_the_gltf_animation() {
+    let dir = temp_dir("render-time");
+    let room = blender_room();
+    let mut centres = Vec::new();
+    for t in ["0", "0.958333", "1.958333"] {
+        let csv = dir.join(format!("patches_{t}.csv"));
+        let o = shrad(&[
+            "render",
+            room.to_str().unwrap(),
+            "-q",
+            "--patches",
+            "400",
+            "--frames",
+            "1",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--spp",
+            "1",
+            "--time",
+            t,
+            "--export-patches",
+            csv.to_str().unwrap(),
+            "-o",
+            dir.join("out.png").to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        centres.push(patch_centre(&csv, "mover"));
+    }
+    // Blender's mover (a cube centred on its origin) at frames 1, 24 and 48, in glTF axes
+    // (x, z, -y): location keys (-1.2, -1, 0.25), (0, 0.6, 0.25), (1.1, 1.2, 0.6).
+    let want = [[-1.2, 0.25, 1.0], [0.0, 0.25, -0.6], [1.1, 0.6, -1.2]];
+    for (c, w) in centres.iter().zip(want) {
+        let d = (0..3).map(|k| (c[k] - w[k]).powi(2)).sum::<f64>().sqrt();
+        assert!(d < 1e-3, "mover centre {c:?}, Blender has {w:?}");
+    }
+}
+
+#[test]
+fn info_lists_gltf_animations_and_animate_plays_all_of_it() {
+    let room = blender_room();
+    let o = shrad(&["info", room.to_str().unwrap(), "--patches", "300"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.contains("glTF animations: 2 (2 playing"), "{out}");
+    assert!(
+        out.contains("moverAction") && out.contains("pulserAction"),
+        "{out}"
+    );
+    assert!(out.contains("0.000 .. 1.958 s"), "{out}");
+    let o = shrad(&[
+        "info",
+        room.to_str().unwrap(),
+        "--animation",
+        "pulserAction",
+    ]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("(1 playing") && out.contains("(not playing)"),
+        "{out}"
+    );
+    let o = shrad(&["info", room.to_str().unwrap(), "--animation", "walk"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        err.contains("animated_room.glb")
+            && err.contains("'walk'")
+            && err.contains("0 'moverAction'"),
+        "{err}"
+    );
+    // No --frames: the whole 1.958 s at 4 fps is frames 0..=8 (t = 0 .. 2.0, the last pose
+    // held); --hdr writes an EXR beside each PNG.
+    let dir = temp_dir("animate-gltf");
+    let o = shrad(&[
+        "animate",
+        room.to_str().unwrap(),
+        "-q",
+        "--patches",
+        "300",
+        "--fps",
+        "4",
+        "--warmup",
+        "0",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--hdr",
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stats = std::fs::read_to_string(dir.join("stats.csv")).unwrap();
+    assert_eq!(stats.lines().count(), 1 + 9, "{stats}");
+    assert!(dir.join("frame_0008.png").exists() && dir.join("frame_0008.exr").exists());
+    assert!(!dir.join("frame_0009.png").exists());
+}

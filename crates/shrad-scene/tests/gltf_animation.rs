@@ -1,0 +1,551 @@
+//! glTF node animation import (issue 10): LINEAR, STEP and CUBICSPLINE channels checked
+//! against hand-computed poses, children moving with their animated parent, one animation
+//! selected by name or index, and malformed animation data refused with the JSON path.
+//! The fixtures are written as Blender's exporter writes them: one animation per animated
+//! object, translation / rotation / scale channels, one shared time range.
+
+use std::path::{Path, PathBuf};
+
+use glam::{Affine3A, Quat, Vec3};
+use serde_json::{json, Value};
+use shrad_scene::{load, LoadOptions, Scene, SceneError};
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("shrad-gltf-anim-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn b64(data: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for c in data.chunks(3) {
+        let b = [c[0], *c.get(1).unwrap_or(&0), *c.get(2).unwrap_or(&0)];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for k in 0..4 {
+            out.push(if k <= c.len() {
+                A[(n >> (18 - 6 * k) & 63) as usize] as char
+            } else {
+                '='
+            });
+        }
+    }
+    out
+}
+
+/// Accessors over one buffer, built up as a test needs them.
+#[derive(Default)]
+struct Bin {
+    bytes: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+}
+
+impl Bin {
+    /// An accessor of `ty` ("SCALAR", "VEC3", "VEC4") over `data`; returns its index.
+    fn floats(&mut self, ty: &str, data: &[f32]) -> usize {
+        let dims = match ty {
+            "SCALAR" => 1,
+            "VEC3" => 3,
+            _ => 4,
+        };
+        let offset = self.bytes.len();
+        for x in data {
+            self.bytes.extend_from_slice(&x.to_le_bytes());
+        }
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": 4 * data.len()}));
+        let mut a = json!({"bufferView": self.views.len() - 1, "componentType": 5126,
+                           "count": data.len() / dims, "type": ty});
+        if dims == 1 && data.iter().all(|x| x.is_finite()) {
+            let lo = data.iter().copied().fold(f32::INFINITY, f32::min);
+            let hi = data.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+            a["min"] = json!([lo]);
+            a["max"] = json!([hi]);
+        }
+        self.accessors.push(a);
+        self.accessors.len() - 1
+    }
+
+    /// A normalized SHORT VEC4 accessor (quantised rotations, as glTF allows).
+    fn shorts(&mut self, data: &[i16]) -> usize {
+        let offset = self.bytes.len();
+        for x in data {
+            self.bytes.extend_from_slice(&x.to_le_bytes());
+        }
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": 2 * data.len()}));
+        self.accessors.push(
+            json!({"bufferView": self.views.len() - 1, "componentType": 5122,
+                                   "normalized": true, "count": data.len() / 4, "type": "VEC4"}),
+        );
+        self.accessors.len() - 1
+    }
+
+    fn indices(&mut self, data: &[u16]) -> usize {
+        let offset = self.bytes.len();
+        for x in data {
+            self.bytes.extend_from_slice(&x.to_le_bytes());
+        }
+        while self.bytes.len() % 4 != 0 {
+            self.bytes.push(0);
+        }
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": 2 * data.len()}));
+        self.accessors.push(
+            json!({"bufferView": self.views.len() - 1, "componentType": 5123,
+                                   "count": data.len(), "type": "SCALAR"}),
+        );
+        self.accessors.len() - 1
+    }
+}
+
+fn flat(v: &[[f32; 3]]) -> Vec<f32> {
+    v.iter().flatten().copied().collect()
+}
+
+fn quat_z(deg: f32) -> [f32; 4] {
+    Quat::from_rotation_z(deg.to_radians()).to_array()
+}
+
+/// A unit square in the node's XY plane (facing +Z) and a light panel; nodes:
+/// 0 "Mover" (animation "MoverAction": translation LINEAR 0 -> (2,0,0) -> (2,2,0) at
+/// t = 0, 1, 2, rotation LINEAR 0 -> 90 deg about Z over 0..2), its child 1 "Child" at
+/// (1, 0, 0) in the Mover's frame, 2 "Scaler" at (5, 0, 0) (animation "ScalerAction":
+/// scale STEP 1 -> 2 at t = 1, translation CUBICSPLINE from (5,0,0) to (5,4,0) over 0..2
+/// with out-tangent (0,1,0) and in-tangent (0,3,0)), 3 "Lamp" (static).
+fn fixture() -> (Value, Bin) {
+    let mut b = Bin::default();
+    let pos = b.floats(
+        "VEC3",
+        &flat(&[[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]),
+    );
+    b.accessors[pos]["min"] = json!([0.0, 0.0, 0.0]);
+    b.accessors[pos]["max"] = json!([1.0, 1.0, 0.0]);
+    let idx = b.indices(&[0, 1, 2, 0, 2, 3]);
+    let t3 = b.floats("SCALAR", &[0.0, 1.0, 2.0]);
+    let mover_t = b.floats("VEC3", &flat(&[[0., 0., 0.], [2., 0., 0.], [2., 2., 0.]]));
+    let t2 = b.floats("SCALAR", &[0.0, 2.0]);
+    let mover_r = b.floats("VEC4", &[quat_z(0.0), quat_z(90.0)].concat());
+    let step_t = b.floats("SCALAR", &[0.0, 1.0]);
+    let scaler_s = b.floats("VEC3", &flat(&[[1., 1., 1.], [2., 2., 2.]]));
+    let cubic_t = b.floats("SCALAR", &[0.0, 2.0]);
+    // in-tangent, value, out-tangent per key; the unused outer tangents are odd on purpose.
+    let scaler_t = b.floats(
+        "VEC3",
+        &flat(&[
+            [9., 9., 9.],
+            [5., 0., 0.],
+            [0., 1., 0.],
+            [0., 3., 0.],
+            [5., 4., 0.],
+            [-9., 9., -9.],
+        ]),
+    );
+    let v = json!({
+        "asset": {"version": "2.0", "generator": "Khronos glTF Blender I/O (test fixture)"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 2, 3]}],
+        "nodes": [
+            {"name": "Mover", "mesh": 0, "children": [1]},
+            {"name": "Child", "mesh": 0, "translation": [1.0, 0.0, 0.0]},
+            {"name": "Scaler", "mesh": 0, "translation": [5.0, 0.0, 0.0]},
+            {"name": "Lamp", "mesh": 1, "translation": [0.0, 0.0, 5.0]}
+        ],
+        "meshes": [
+            {"name": "Square", "primitives": [{"attributes": {"POSITION": pos}, "indices": idx}]},
+            {"name": "Panel", "primitives": [{"attributes": {"POSITION": pos}, "indices": idx, "material": 0}]}
+        ],
+        "materials": [{"name": "light", "emissiveFactor": [1.0, 1.0, 1.0]}],
+        "animations": [
+            {"name": "MoverAction",
+             "channels": [
+                {"sampler": 0, "target": {"node": 0, "path": "translation"}},
+                {"sampler": 1, "target": {"node": 0, "path": "rotation"}}
+             ],
+             "samplers": [
+                {"input": t3, "output": mover_t, "interpolation": "LINEAR"},
+                {"input": t2, "output": mover_r}
+             ]},
+            {"name": "ScalerAction",
+             "channels": [
+                {"sampler": 0, "target": {"node": 2, "path": "scale"}},
+                {"sampler": 1, "target": {"node": 2, "path": "translation"}}
+             ],
+             "samplers": [
+                {"input": step_t, "output": scaler_s, "interpolation": "STEP"},
+                {"input": cubic_t, "output": scaler_t, "interpolation": "CUBICSPLINE"}
+             ]}
+        ]
+    });
+    (v, b)
+}
+
+/// The glTF JSON with the buffer of `b` embedded.
+fn finish(mut v: Value, b: &Bin) -> Value {
+    v["accessors"] = json!(b.accessors);
+    v["bufferViews"] = json!(b.views);
+    v["buffers"] = json!([{"byteLength": b.bytes.len(),
+        "uri": format!("data:application/octet-stream;base64,{}", b64(&b.bytes))}]);
+    v
+}
+
+fn write(dir: &Path, name: &str, v: &Value) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, serde_json::to_string_pretty(v).unwrap()).unwrap();
+    p
+}
+
+fn load_fixture(name: &str, animation: Option<&str>) -> Result<Scene, SceneError> {
+    let dir = temp_dir(name);
+    let (v, b) = fixture();
+    let p = write(&dir, "anim.gltf", &finish(v, &b));
+    load(
+        &p,
+        &LoadOptions {
+            animation: animation.map(str::to_string),
+            ..Default::default()
+        },
+    )
+}
+
+fn object<'s>(s: &'s Scene, name: &str) -> &'s shrad_scene::Object {
+    s.objects.iter().find(|o| o.name == name).unwrap()
+}
+
+fn assert_near(a: Affine3A, b: Affine3A, what: &str) {
+    let d = (a.matrix3 - b.matrix3)
+        .to_cols_array()
+        .iter()
+        .fold(0f32, |m, x| m.max(x.abs()))
+        .max((a.translation - b.translation).abs().max_element());
+    assert!(
+        d < 1e-5,
+        "{what}: got {a:?}, expected {b:?} (max difference {d})"
+    );
+}
+
+fn trs(t: Vec3, deg_z: f32, s: f32) -> Affine3A {
+    Affine3A::from_scale_rotation_translation(
+        Vec3::splat(s),
+        Quat::from_rotation_z(deg_z.to_radians()),
+        t,
+    )
+}
+
+#[test]
+fn linear_translation_and_slerp_rotation_with_a_child() {
+    let s = load_fixture("linear", None).unwrap();
+    assert!(
+        s.warnings.iter().all(|w| !w.contains("animation")),
+        "{:?}",
+        s.warnings
+    );
+    let mover = object(&s, "Mover");
+    let child = object(&s, "Child");
+    assert!(mover.is_animated() && child.is_animated());
+    assert!(!object(&s, "Lamp").is_animated());
+    assert_eq!(s.duration(), 2.0);
+    // t = 0.5: translation (1, 0, 0), rotation a quarter of 90 deg.
+    for (t, pos, deg) in [
+        (0.0, Vec3::ZERO, 0.0),
+        (0.5, Vec3::new(1.0, 0.0, 0.0), 22.5),
+        (1.0, Vec3::new(2.0, 0.0, 0.0), 45.0),
+        (1.5, Vec3::new(2.0, 1.0, 0.0), 67.5),
+        (2.0, Vec3::new(2.0, 2.0, 0.0), 90.0),
+        (7.0, Vec3::new(2.0, 2.0, 0.0), 90.0),
+        (-1.0, Vec3::ZERO, 0.0),
+    ] {
+        let m = trs(pos, deg, 1.0);
+        assert_near(mover.world_from_object_at(t), m, &format!("Mover at {t}"));
+        // The child sits 1 along the Mover's own (turned) X axis.
+        let c = m * Affine3A::from_translation(Vec3::X);
+        assert_near(child.world_from_object_at(t), c, &format!("Child at {t}"));
+    }
+    let c = child.world_from_object_at(0.5).translation;
+    let a = 22.5f32.to_radians();
+    assert!((Vec3::from(c) - Vec3::new(1.0 + a.cos(), a.sin(), 0.0)).length() < 1e-5);
+    // The rest transform is the pose at time 0.
+    assert_near(
+        mover.world_from_object,
+        mover.world_from_object_at(0.0),
+        "rest",
+    );
+}
+
+#[test]
+fn step_scale_and_cubic_spline_translation() {
+    let s = load_fixture("step-cubic", None).unwrap();
+    let o = object(&s, "Scaler");
+    // STEP: scale 1 until t = 1, then 2.
+    assert_eq!(o.world_from_object_at(0.99).matrix3.x_axis.x, 1.0);
+    assert_eq!(o.world_from_object_at(1.0).matrix3.x_axis.x, 2.0);
+    assert_eq!(o.world_from_object_at(1.5).matrix3.x_axis.x, 2.0);
+    // CUBICSPLINE, td = 2, s = 0.5: h00 = h01 = 0.5, h10 = 0.125, h11 = -0.125:
+    // y = 0.5 * 0 + 2 * 0.125 * 1 + 0.5 * 4 - 2 * 0.125 * 3 = 1.5.
+    let p = Vec3::from(o.world_from_object_at(1.0).translation);
+    assert!((p - Vec3::new(5.0, 1.5, 0.0)).length() < 1e-5, "{p}");
+    // s = 0.25 (t = 0.5): h00 = 0.84375, h10 = 0.140625, h01 = 0.15625, h11 = -0.046875:
+    // y = 2 * 0.140625 * 1 + 0.15625 * 4 - 2 * 0.046875 * 3 = 0.625.
+    let p = Vec3::from(o.world_from_object_at(0.5).translation);
+    assert!((p - Vec3::new(5.0, 0.625, 0.0)).length() < 1e-5, "{p}");
+    // The ends are the key values (not the odd outer tangents).
+    let p = Vec3::from(o.world_from_object_at(2.0).translation);
+    assert!((p - Vec3::new(5.0, 4.0, 0.0)).length() < 1e-6, "{p}");
+    let p = Vec3::from(o.world_from_object_at(0.0).translation);
+    assert!((p - Vec3::new(5.0, 0.0, 0.0)).length() < 1e-6, "{p}");
+}
+
+#[test]
+fn one_animation_by_name_or_index() {
+    let s = load_fixture("select-name", Some("ScalerAction")).unwrap();
+    assert!(!object(&s, "Mover").is_animated());
+    assert!(!object(&s, "Child").is_animated());
+    assert!(object(&s, "Scaler").is_animated());
+    assert_eq!(s.animations.len(), 2);
+    assert!(!s.animations[0].playing && s.animations[1].playing);
+    assert_eq!(s.animations[1].name, "ScalerAction");
+    assert_eq!(s.animations[1].channels, 2);
+    assert_eq!((s.animations[1].start, s.animations[1].end), (0.0, 2.0));
+    let s = load_fixture("select-index", Some("0")).unwrap();
+    assert!(object(&s, "Mover").is_animated());
+    assert!(!object(&s, "Scaler").is_animated());
+    let e = load_fixture("select-unknown", Some("Nope"))
+        .unwrap_err()
+        .to_string();
+    for w in ["anim.gltf", "Nope", "0 'MoverAction'", "1 'ScalerAction'"] {
+        assert!(e.contains(w), "does not say {w}: {e}");
+    }
+    let e = load_fixture("select-range", Some("2"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("available"), "{e}");
+}
+
+#[test]
+fn scene_file_keys_compose_on_top_of_the_gltf_animation() {
+    let dir = temp_dir("toml");
+    let (v, b) = fixture();
+    write(&dir, "anim.gltf", &finish(v, &b));
+    std::fs::write(
+        dir.join("scene.toml"),
+        r#"
+[[object]]
+name = "mover"
+shape = "mesh"
+file = "anim.gltf"
+node = "Mover"
+position = [0, 0, 10]
+
+[[object.key]]
+time = 0.0
+translation = [0, 0, 0]
+
+[[object.key]]
+time = 4.0
+translation = [0, 0, 4]
+
+[[object]]
+name = "lamp"
+shape = "mesh"
+file = "anim.gltf"
+node = "Lamp"
+"#,
+    )
+    .unwrap();
+    let s = load(&dir.join("scene.toml"), &LoadOptions::default()).unwrap();
+    let o = object(&s, "mover");
+    assert_eq!(s.duration(), 4.0);
+    // glTF pose at t = 1 (translation (2,0,0), 45 deg), under the rest position (0,0,10),
+    // then the scene file's key translation (0,0,1) at t = 1 on top.
+    let want =
+        Affine3A::from_translation(Vec3::new(0.0, 0.0, 11.0)) * trs(Vec3::X * 2.0, 45.0, 1.0);
+    assert_near(o.world_from_object_at(1.0), want, "mover at 1");
+    // After the glTF's 2 s its last pose holds; the keys go on to 4 s.
+    let want = Affine3A::from_translation(Vec3::new(0.0, 0.0, 13.0))
+        * trs(Vec3::new(2.0, 2.0, 0.0), 90.0, 1.0);
+    assert_near(o.world_from_object_at(3.0), want, "mover at 3");
+    // A selected animation in the scene file.
+    std::fs::write(
+        dir.join("one.toml"),
+        "[[object]]\nshape = \"mesh\"\nfile = \"anim.gltf\"\nanimation = \"ScalerAction\"\n",
+    )
+    .unwrap();
+    let s = load(&dir.join("one.toml"), &LoadOptions::default()).unwrap();
+    assert!(s.objects.iter().filter(|o| o.is_animated()).count() == 1);
+    std::fs::write(
+        dir.join("bad.toml"),
+        "[[object]]\nshape = \"mesh\"\nfile = \"anim.gltf\"\nanimation = \"Nope\"\n",
+    )
+    .unwrap();
+    let e = load(&dir.join("bad.toml"), &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("Nope") && e.contains("MoverAction"), "{e}");
+}
+
+#[test]
+fn morph_weights_and_pointer_channels_are_ignored_with_a_warning() {
+    let dir = temp_dir("weights");
+    let (mut v, mut b) = fixture();
+    let t = b.floats("SCALAR", &[0.0, 1.0]);
+    let w = b.floats("SCALAR", &[0.0, 1.0]);
+    v["animations"].as_array_mut().unwrap().push(json!({
+        "name": "Shape",
+        "channels": [
+            {"sampler": 0, "target": {"node": 0, "path": "weights"}},
+            {"sampler": 0, "target": {"path": "pointer",
+              "extensions": {"KHR_animation_pointer": {"pointer": "/materials/0/emissiveFactor"}}}}
+        ],
+        "samplers": [{"input": t, "output": w}]
+    }));
+    let p = write(&dir, "w.gltf", &finish(v, &b));
+    let s = load(&p, &LoadOptions::default()).unwrap();
+    let said = |x: &str| s.warnings.iter().any(|w| w.contains(x));
+    assert!(
+        said("animation 'Shape' channel 0 targets morph weights: ignored"),
+        "{:?}",
+        s.warnings
+    );
+    assert!(
+        said("channel 1") && said("KHR_animation_pointer"),
+        "{:?}",
+        s.warnings
+    );
+    assert!(
+        said("animation 'Shape' has no playable channel"),
+        "{:?}",
+        s.warnings
+    );
+    assert_eq!(s.animations[2].ignored, 2);
+    // The other animations still play.
+    assert!(object(&s, "Mover").is_animated());
+}
+
+#[test]
+fn quantised_rotation_keys() {
+    let dir = temp_dir("quantised");
+    let (mut v, mut b) = fixture();
+    // 0 and 90 deg about Z as normalized SHORTs: (0, 0, 0, 32767), (0, 0, 23170, 23170).
+    let r = b.shorts(&[0, 0, 0, 32767, 0, 0, 23170, 23170]);
+    v["animations"][0]["samplers"][1]["output"] = json!(r);
+    let p = write(&dir, "q.gltf", &finish(v, &b));
+    let s = load(&p, &LoadOptions::default()).unwrap();
+    let m = object(&s, "Mover").world_from_object_at(1.0);
+    assert_near(m, trs(Vec3::X * 2.0, 45.0, 1.0), "Mover at 1");
+}
+
+/// The fixture with `edit` applied (before the buffer is embedded), expected refused with
+/// every one of `faults` in the message.
+fn refused(name: &str, edit: impl FnOnce(&mut Value, &mut Bin), faults: &[&str]) {
+    let dir = temp_dir(name);
+    let (mut v, mut b) = fixture();
+    edit(&mut v, &mut b);
+    let p = write(&dir, &format!("{name}.gltf"), &finish(v, &b));
+    let e = match load(&p, &LoadOptions::default()) {
+        Ok(_) => panic!("{name}: loaded"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains(&format!("{name}.gltf")), "{e}");
+    assert!(
+        !e.contains("gave up"),
+        "{name}: the panic guard answered: {e}"
+    );
+    for f in faults {
+        assert!(e.contains(f), "{name}: does not say '{f}': {e}");
+    }
+}
+
+#[test]
+fn malformed_animation_data_is_refused() {
+    refused(
+        "not-increasing",
+        |v, b| {
+            let t = b.floats("SCALAR", &[0.0, 1.0, 1.0]);
+            v["animations"][0]["samplers"][0]["input"] = json!(t);
+        },
+        &[
+            "animations[0].samplers[0].input",
+            "strictly increasing",
+            "key 2",
+        ],
+    );
+    refused(
+        "nan-time",
+        |v, b| {
+            let t = b.floats("SCALAR", &[0.0, f32::NAN, 2.0]);
+            v["animations"][0]["samplers"][0]["input"] = json!(t);
+        },
+        &["animations[0].samplers[0].input", "not finite"],
+    );
+    refused(
+        "vec3-times",
+        |v, b| {
+            let t = b.floats("VEC3", &[0.0, 1.0, 2.0]);
+            v["animations"][0]["samplers"][0]["input"] = json!(t);
+        },
+        &["animations[0].samplers[0].input", "SCALAR FLOAT"],
+    );
+    refused(
+        "count",
+        |v, b| {
+            let o = b.floats("VEC3", &flat(&[[0., 0., 0.], [1., 0., 0.]]));
+            v["animations"][0]["samplers"][0]["output"] = json!(o);
+        },
+        &["animations[0].samplers[0].output", "2 values", "3 keys"],
+    );
+    refused(
+        "cubic-count",
+        |v, _| v["animations"][1]["samplers"][0]["interpolation"] = json!("CUBICSPLINE"),
+        &["animations[1].samplers[0].output", "CUBICSPLINE", "need 6"],
+    );
+    refused(
+        "cubic-one-key",
+        |v, b| {
+            let t = b.floats("SCALAR", &[0.0]);
+            let o = b.floats("VEC3", &[0.0; 9]);
+            v["animations"][1]["samplers"][1]["input"] = json!(t);
+            v["animations"][1]["samplers"][1]["output"] = json!(o);
+        },
+        &["animations[1].samplers[1]", "at least 2 keys"],
+    );
+    refused(
+        "interpolation",
+        |v, _| v["animations"][0]["samplers"][0]["interpolation"] = json!("QUADRATIC"),
+        &["animations[0].samplers[0].interpolation", "QUADRATIC"],
+    );
+    refused(
+        "rotation-vec3",
+        |v, _| v["animations"][0]["channels"][1]["sampler"] = json!(0),
+        &["animations[0].samplers[0].output", "rotation", "VEC4"],
+    );
+    refused(
+        "no-sampler",
+        |v, _| v["animations"][0]["channels"][0]["sampler"] = json!(7),
+        &["animations[0].channels[0].sampler", "7"],
+    );
+    refused(
+        "no-node",
+        |v, _| v["animations"][1]["channels"][1]["target"]["node"] = json!(42),
+        &["animations[1].channels[1].target.node", "42"],
+    );
+    refused(
+        "no-path",
+        |v, _| {
+            v["animations"][0]["channels"][0]["target"]
+                .as_object_mut()
+                .unwrap()
+                .remove("path");
+        },
+        &["animations[0].channels[0].target.path", "missing"],
+    );
+    refused(
+        "zero-quaternion",
+        |v, b| {
+            let o = b.floats("VEC4", &[0.0; 8]);
+            v["animations"][0]["samplers"][1]["output"] = json!(o);
+        },
+        &["animations[0].samplers[1].output", "zero quaternion"],
+    );
+}
