@@ -359,8 +359,8 @@ fn object(
                 return Err(format!("radius {r} must be positive"));
             }
             let segments = o.segments.unwrap_or(32);
-            if !(3..=4096).contains(&segments) {
-                return Err(format!("segments {segments} must be in 3..=4096"));
+            if !(3..=512).contains(&segments) {
+                return Err(format!("segments {segments} must be in 3..=512 (512 segments make 131,000 triangles; patches subdivide further)"));
             }
             Ok(vec![make(sphere_mesh(r, segments), material)])
         }
