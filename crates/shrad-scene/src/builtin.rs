@@ -25,13 +25,13 @@ pub fn builtin(name: &str) -> Result<Scene, SceneError> {
 }
 
 /// A planar quad `p0, p1, p2, p3` (counter-clockwise from the front) as two triangles.
-pub(crate) fn quad(p: [Vec3; 4]) -> Mesh {
+pub fn quad(p: [Vec3; 4]) -> Mesh {
     Mesh::new(p.to_vec(), vec![[0, 1, 2], [0, 2, 3]])
 }
 
 /// An axis-aligned box of half extents `half` centred at the origin; faces point outward
 /// (or inward when `inward`).
-pub(crate) fn box_mesh(half: Vec3, inward: bool) -> Mesh {
+pub fn box_mesh(half: Vec3, inward: bool) -> Mesh {
     let mut mesh = Mesh::default();
     // Each face: normal axis, sign; corners counter-clockwise seen from outside.
     for axis in 0..3 {

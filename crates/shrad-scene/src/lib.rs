@@ -18,7 +18,7 @@ mod roles;
 mod scene_file;
 mod texture;
 
-pub use builtin::{builtin, builtin_names, cornell_box, room, RoomParams};
+pub use builtin::{box_mesh, builtin, builtin_names, cornell_box, quad, room, RoomParams};
 pub use error::SceneError;
 pub use gltf_io::write_gltf;
 pub use load::{load, LoadOptions};

@@ -26,31 +26,7 @@ impl Rng {
 }
 
 fn cuboid(inward: bool) -> Mesh {
-    let mut mesh = Mesh::default();
-    for axis in 0..3 {
-        for sign in [-1.0f32, 1.0] {
-            let n = Vec3::from_array(std::array::from_fn(|i| if i == axis { sign } else { 0.0 }));
-            let u = Vec3::from_array(std::array::from_fn(|i| {
-                if i == (axis + 1) % 3 {
-                    1.0
-                } else {
-                    0.0
-                }
-            }));
-            let v = n.cross(u);
-            let base = mesh.positions.len() as u32;
-            mesh.positions
-                .extend([n - u - v, n + u - v, n + u + v, n - u + v].map(|p| 0.5 * p));
-            let (t1, t2) = if inward {
-                ([0, 2, 1], [0, 3, 2])
-            } else {
-                ([0, 1, 2], [0, 2, 3])
-            };
-            mesh.triangles.push(t1.map(|i| i + base));
-            mesh.triangles.push(t2.map(|i| i + base));
-        }
-    }
-    mesh
+    shrad::scene::box_mesh(Vec3::splat(0.5), inward)
 }
 
 /// A random closed room: walls of random colour up to 0.95, a ceiling light, 2-4 boxes of

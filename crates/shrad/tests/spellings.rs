@@ -18,32 +18,7 @@ use shrad::{NoProgress, PatchSizing, World};
 
 /// A box of size `size` centred at the origin, faces outward (or inward).
 fn cuboid(size: Vec3, inward: bool) -> Mesh {
-    let h = 0.5 * size;
-    let mut mesh = Mesh::default();
-    for axis in 0..3 {
-        for sign in [-1.0f32, 1.0] {
-            let n = Vec3::from_array(std::array::from_fn(|i| if i == axis { sign } else { 0.0 }));
-            let u = Vec3::from_array(std::array::from_fn(|i| {
-                if i == (axis + 1) % 3 {
-                    1.0
-                } else {
-                    0.0
-                }
-            }));
-            let v = n.cross(u);
-            let c = [n - u - v, n + u - v, n + u + v, n - u + v].map(|p| p * h);
-            let base = mesh.positions.len() as u32;
-            mesh.positions.extend_from_slice(&c);
-            let (t1, t2) = if inward {
-                ([0, 2, 1], [0, 3, 2])
-            } else {
-                ([0, 1, 2], [0, 2, 3])
-            };
-            mesh.triangles.push(t1.map(|i| i + base));
-            mesh.triangles.push(t2.map(|i| i + base));
-        }
-    }
-    mesh
+    shrad::scene::box_mesh(0.5 * size, inward)
 }
 
 /// The scene's parts: (name, role, mesh as the file instances it, node transform, material).
