@@ -446,3 +446,52 @@ fn obj_map_kd_loads() {
         .reflectance
         .abs_diff_eq(Vec3::splat(0.8), 1e-6));
 }
+
+fn base64(bytes: &[u8]) -> String {
+    const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut s = String::new();
+    for c in bytes.chunks(3) {
+        let n = (u32::from(c[0]) << 16)
+            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
+            | u32::from(*c.get(2).unwrap_or(&0));
+        for k in 0..4 {
+            if k <= c.len() {
+                s.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
+            } else {
+                s.push('=');
+            }
+        }
+    }
+    s
+}
+
+#[test]
+fn jpeg_in_a_data_uri_loads() {
+    let dir = temp_dir("jpeg");
+    // A flat grey JPEG (JPEG is lossy: a uniform image survives it).
+    let img = image::RgbImage::from_pixel(16, 16, image::Rgb([128, 128, 128]));
+    let mut bytes = Vec::new();
+    image::DynamicImage::ImageRgb8(img)
+        .write_to(
+            &mut std::io::Cursor::new(&mut bytes),
+            image::ImageFormat::Jpeg,
+        )
+        .unwrap();
+    let uri = format!("data:image/jpeg;base64,{}", base64(&bytes));
+    let path = floor_gltf(&dir, "floor", 1.0, None, |r| {
+        textured(r, json!({}), json!({"index": 0}));
+        r["images"] = json!([{ "uri": uri }]);
+    });
+    let scene = shrad::scene::load(&path, &LoadOptions::default()).unwrap();
+    let t = scene.objects[0].material.base_color_texture.as_ref();
+    assert!(t.is_some(), "{:?}", scene.warnings);
+    let world = World::new(scene, PatchSizing::Size(0.5), Backend::Auto).unwrap();
+    let want = 0.8 * srgb_to_linear(128.0 / 255.0);
+    for p in world.patches.range(0) {
+        assert!(
+            (world.reflectance[p].x - want).abs() < 0.01,
+            "{}",
+            world.reflectance[p]
+        );
+    }
+}
