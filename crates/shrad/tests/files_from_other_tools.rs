@@ -101,13 +101,16 @@ fn blender_room_dispersive_is_close_to_the_reference() {
         .all(|b| b.is_finite() && b.min_element() >= 0.0));
 }
 
-/// Every model of the corpus (the Khronos fixtures, Blender's room, and the files of
+/// Every model of the corpus (the Khronos fixtures, Blender's room, trimesh's scene, and the files of
 /// `$SHRAD_EXTRA_MODELS`, a folder, when set) either is refused with a message or loads with
 /// patch areas that sum to the world area of each transformed input mesh.
 #[test]
 fn corpus_areas_match_the_transformed_meshes() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut files: Vec<std::path::PathBuf> = vec![root.join("tests/data/blender_room.glb")];
+    let mut files: Vec<std::path::PathBuf> = vec![
+        root.join("tests/data/blender_room.glb"),
+        root.join("tests/data/trimesh_scene.glb"),
+    ];
     let mut dirs = vec![root.join("../shrad-scene/tests/data/khronos")];
     if let Some(extra) = std::env::var_os("SHRAD_EXTRA_MODELS") {
         dirs.push(extra.into());
@@ -156,5 +159,36 @@ fn corpus_areas_match_the_transformed_meshes() {
             worst
         );
         assert!(worst < 1e-4, "{}: area differs by {worst}", path.display());
+    }
+}
+
+/// trimesh's scene: each object's area is what trimesh measures, and every box, the
+/// mirrored one included, faces out while the room faces in.
+#[test]
+fn trimesh_scene_areas_and_facing() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/trimesh_scene.glb");
+    let scene = shrad::scene::load(&path, &Default::default()).unwrap();
+    let world = World::new(scene, PatchSizing::Size(0.1), Backend::Auto).unwrap();
+    let p = &world.patches;
+    for (name, area) in [("room", 94.0), ("box0", 0.54), ("box1", 7.0), ("box2", 1.6)] {
+        let o = world
+            .scene
+            .objects
+            .iter()
+            .position(|o| o.name == name)
+            .unwrap();
+        let ours: f64 = p.range(o).map(|i| p.area[i] as f64).sum();
+        assert!(
+            (ours - area).abs() < 1e-4 * area,
+            "{name}: {ours} vs trimesh's {area}"
+        );
+        let (lo, hi) = world.scene.objects[o].world_bounds().unwrap();
+        let centre = 0.5 * (lo + hi);
+        let outward = p
+            .range(o)
+            .filter(|&i| p.normal[i].dot(p.centre[i] - centre) > 0.0)
+            .count();
+        let want = if name == "room" { 0 } else { p.range(o).len() };
+        assert_eq!(outward, want, "{name}");
     }
 }
