@@ -7,7 +7,7 @@
 //! sub-triangles' centroids), `k` 64 times the patch's longest edge in texels (a texel edge
 //! crossing the patch is placed to 1/64 of a texel; a patch inside one texel needs few), at most
 //! [`MAX_K`] (and less when the scene has very many textured patches, so that setting up
-//! stays around 2^26 texture samples). Everything is linear RGB. Pictures sample the same
+//! stays around 2^24 texture samples). Everything is linear RGB. Pictures sample the same
 //! fields at the pixel's point ([`albedo_at`]).
 
 use glam::{Vec2, Vec3};
@@ -119,7 +119,7 @@ fn grid_side(texels: f32, cap: usize) -> usize {
 /// scene has one; else 1 on patches without).
 pub fn patch_fields(scene: &Scene, patches: &Patches) -> (Vec<Vec3>, Vec<Vec3>) {
     let with_attrs = patches.corner_attr.len().max(1);
-    let cap = (((1usize << 26) / with_attrs) as f64).sqrt() as usize;
+    let cap = (((1usize << 24) / with_attrs) as f64).sqrt() as usize;
     let cap = cap.clamp(2, MAX_K);
     let emissive = scene
         .objects
