@@ -495,3 +495,38 @@ fn jpeg_in_a_data_uri_loads() {
         );
     }
 }
+
+#[test]
+fn normalized_byte_rgba_colours_multiply_the_factor() {
+    let dir = temp_dir("colour-u8");
+    // COLOR_0 as normalized UNSIGNED_BYTE VEC4 (alpha dropped), in a second buffer.
+    let bytes: Vec<u8> = [[255u8, 51, 0, 7]; 4].concat();
+    let path = floor_gltf(&dir, "floor", 1.0, None, |r| {
+        r["buffers"].as_array_mut().unwrap().push(json!({
+            "uri": format!("data:application/octet-stream;base64,{}", base64(&bytes)),
+            "byteLength": 16
+        }));
+        r["bufferViews"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!({"buffer": 1, "byteLength": 16}));
+        r["accessors"].as_array_mut().unwrap().push(json!({
+            "bufferView": 4, "componentType": 5121, "normalized": true, "count": 4, "type": "VEC4"
+        }));
+        r["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = json!(4);
+    });
+    let world = load_world(&path, 0.5);
+    for p in world.patches.range(0) {
+        assert!(
+            world.reflectance[p].abs_diff_eq(Vec3::new(0.8, 0.16, 0.0), 1e-5),
+            "{}",
+            world.reflectance[p]
+        );
+    }
+    // Not normalized: refused, naming the accessor.
+    let path = floor_gltf(&dir, "bad", 1.0, None, |r| {
+        r["accessors"][1]["componentType"] = json!(5121);
+    });
+    let e = shrad::scene::load(&path, &LoadOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("TEXCOORD_0"), "{e}");
+}
