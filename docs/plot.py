@@ -33,6 +33,19 @@ def moving(folder):
     fig.savefig(f"{folder}/moving_error.png", dpi=110)
 
 
+def blender(folder):
+    r = [x for x in rows(f"{folder}/blender_animation_stats.csv") if x["error"]]
+    fig, ax = plt.subplots(figsize=(7, 3.2))
+    ax.plot([int(x["frame"]) for x in r], [100 * float(x["error"]) for x in r], label="dispersive default, K = 1")
+    ax.set_xlabel("frame (shrad animate at its default 30 fps; the animation lasts 1.96 s)")
+    ax.set_ylabel("error vs reference (%)")
+    ax.set_title("Room animated in Blender, exported by Blender: per-frame error (spec 8)")
+    ax.set_ylim(bottom=0)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(f"{folder}/blender_animation_error.png", dpi=110)
+
+
 def timing(folder):
     keys = ("direct_ms", "objects_ms", "to_boundary_ms", "assemble_ms", "frame_ms")
     with open(f"{folder}/timing_room75k.md", "w") as f:
@@ -53,4 +66,4 @@ def timing(folder):
 
 
 if __name__ == "__main__":
-    {"moving": moving, "timing": timing}[sys.argv[1]](sys.argv[2])
+    {"moving": moving, "blender": blender, "timing": timing}[sys.argv[1]](sys.argv[2])
