@@ -936,7 +936,7 @@ fn cmd_animate(args: AnimateArgs, scene: Scene, file: &settings::FileSettings) -
     let reference_options = args.solver.reference().map_err(|e| file.attribute(e))?;
     let quiet = args.scene.quiet;
     let progress = progress_for(quiet);
-    let mut world = build_world(scene, &args.scene, quiet)?;
+    let world = build_world(scene, &args.scene, quiet)?;
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("{}: cannot create directory", args.output.display()))?;
     let camera = world.scene.camera_or_default();
@@ -946,12 +946,15 @@ fn cmd_animate(args: AnimateArgs, scene: Scene, file: &settings::FileSettings) -
         spp: args.spp,
         shading: Shading::Smooth,
     };
-    let mut solver = Solver::new(&world, choice);
-    let warmup = args.warmup * solver.frames_to_converge(1);
-    for _ in 0..warmup {
-        let _ = solver.step(&world, &Changes::default());
-    }
+    // The engine plays the animation: it poses the scene at each frame's time and tells the
+    // solver what moved.
     let names: Vec<String> = world.scene.objects.iter().map(|o| o.name.clone()).collect();
+    let mut engine = shrad::engine::Engine::from_world(world, choice);
+    engine.set_reference_options(reference_options);
+    let warmup = args.warmup * engine.frames_to_converge(1);
+    for _ in 0..warmup {
+        let _ = engine.step();
+    }
     let mut csv = String::from(
         "frame,objects_updated,direct_ms,objects_ms,to_boundary_ms,assemble_ms,frame_ms,error\n",
     );
@@ -961,16 +964,12 @@ fn cmd_animate(args: AnimateArgs, scene: Scene, file: &settings::FileSettings) -
     let started = Instant::now();
     for f in 0..frames {
         let time = f as f32 / args.fps;
-        let (moved, relit) = world.set_time(time);
-        let stats = solver.step(&world, &Changes { moved, relit });
+        engine.set_time(time)?;
+        let stats = engine.step();
         if let Some(d) = &stats.diverged {
             eprintln!("warning: frame {f}: the solver diverged: {}", d.message);
         }
-        let error = (args.error_every > 0 && f % args.error_every == 0).then(|| {
-            let (reference, _) =
-                shrad::reference::solve(&world, &reference_options, &shrad::NoProgress);
-            shrad::metrics::relative_error(&world.patches, solver.radiosity(), &reference)
-        });
+        let error = (args.error_every > 0 && f % args.error_every == 0).then(|| engine.error());
         let updated: Vec<&str> = stats
             .objects_updated
             .iter()
@@ -1006,7 +1005,7 @@ fn cmd_animate(args: AnimateArgs, scene: Scene, file: &settings::FileSettings) -
             fmt_err(error.map(|e| e.boundary)),
             fmt_err(error.map(|e| e.interior))
         );
-        images.push(render(&world, solver.radiosity(), &camera, &options));
+        images.push(engine.render(Some(&camera), &options)?);
         progress.advance(1);
     }
     progress.end();

@@ -188,7 +188,12 @@ impl Engine {
         stats
     }
 
-    /// Frames until a static scene has converged (every object updated `passes` times).
+    /// Frames a static scene needs to converge: every object updated `passes` times.
+    pub fn frames_to_converge(&self, passes: usize) -> usize {
+        self.solver.frames_to_converge(passes)
+    }
+
+    /// Run the frames a static scene needs to converge (every object updated `passes` times).
     pub fn converge(&mut self, passes: usize) -> Vec<FrameStats> {
         let frames = self.solver.frames_to_converge(passes);
         (0..frames).map(|_| self.step()).collect()
