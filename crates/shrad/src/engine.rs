@@ -175,6 +175,47 @@ impl Engine {
         }
     }
 
+    /// Change the dispersive solver's schedule live (no precomputation); an error for the
+    /// other solvers, which have none.
+    pub fn set_schedule(&mut self, schedule: crate::dispersive::Schedule) -> Result<(), Error> {
+        match &mut self.solver {
+            Solver::Dispersive(d) => {
+                d.set_schedule(schedule)?;
+                self.choice = SolverChoice::Dispersive(*d.options());
+                Ok(())
+            }
+            _ => Err(Error::Invalid(
+                "only the dispersive solver has a schedule".to_string(),
+            )),
+        }
+    }
+
+    /// One frame that updates as many objects as fit in `budget_ms` (by priority, at least
+    /// one; paper 2.1's time slicing). The grid and the reference have no such choice: they
+    /// step a whole frame.
+    pub fn step_within(&mut self, budget_ms: f32) -> Result<FrameStats, Error> {
+        use crate::dispersive::Schedule;
+        let Solver::Dispersive(d) = &mut self.solver else {
+            return Ok(self.step());
+        };
+        let before = d.schedule();
+        let max_staleness = match before {
+            Schedule::Priority { max_staleness, .. } | Schedule::Budget { max_staleness, .. } => {
+                max_staleness
+            }
+            _ => 16,
+        };
+        d.set_schedule(Schedule::Budget {
+            ms: budget_ms,
+            max_staleness,
+        })?;
+        let stats = self.step();
+        if let Solver::Dispersive(d) = &mut self.solver {
+            d.set_schedule(before)?;
+        }
+        Ok(stats)
+    }
+
     /// Settings of the reference that [`Engine::error`] solves (fast by default).
     pub fn set_reference_options(&mut self, options: ReferenceOptions) {
         self.reference_options = options;
@@ -269,5 +310,38 @@ mod tests {
         assert!(e.set_time(f32::INFINITY).is_err());
         e.step();
         assert!(e.radiosity().iter().all(|b| b.is_finite()));
+        use crate::dispersive::Schedule;
+        assert!(e
+            .set_schedule(Schedule::Budget {
+                ms: f32::NAN,
+                max_staleness: 4
+            })
+            .is_err());
+    }
+
+    #[test]
+    fn schedule_and_budget_change_live() {
+        use crate::dispersive::Schedule;
+        let mut e = Engine::new(
+            shrad_scene::room(&shrad_scene::RoomParams {
+                objects: 4,
+                patches: 1500,
+                big_object_patches: None,
+            }),
+            PatchSizing::Count(1500),
+            Backend::Auto,
+            SolverChoice::Dispersive(Default::default()),
+        )
+        .unwrap();
+        assert_eq!(e.step().objects_updated.len(), 1);
+        e.set_schedule(Schedule::RoundRobin { per_frame: 3 })
+            .unwrap();
+        assert_eq!(e.step().objects_updated.len(), 3);
+        e.set_schedule(Schedule::Full).unwrap();
+        assert_eq!(e.step().objects_updated.len(), 4);
+        // A budget of a millionth of a millisecond still updates one object, and the
+        // schedule in force comes back afterwards.
+        assert_eq!(e.step_within(1e-6).unwrap().objects_updated.len(), 1);
+        assert_eq!(e.step().objects_updated.len(), 4);
     }
 }

@@ -184,6 +184,38 @@ impl Dispersive {
         &self.options
     }
 
+    /// Change the schedule live (objects per frame, staleness bound, budget): it needs no
+    /// precomputation, and every object keeps what the scheduler knows of it. A
+    /// `per_frame` of 0 is taken as 1; a budget must be finite and positive.
+    pub fn set_schedule(&mut self, schedule: Schedule) -> Result<(), crate::Error> {
+        let schedule = match schedule {
+            Schedule::RoundRobin { per_frame } => Schedule::RoundRobin {
+                per_frame: per_frame.max(1),
+            },
+            Schedule::Priority {
+                per_frame,
+                max_staleness,
+            } => Schedule::Priority {
+                per_frame: per_frame.max(1),
+                max_staleness,
+            },
+            Schedule::Budget { ms, .. } if !(ms.is_finite() && ms > 0.0) => {
+                return Err(crate::Error::Invalid(format!(
+                    "schedule budget {ms} ms must be a positive number"
+                )))
+            }
+            s => s,
+        };
+        self.options.schedule = schedule;
+        self.scheduler.set_schedule(schedule);
+        Ok(())
+    }
+
+    /// The schedule in use.
+    pub fn schedule(&self) -> Schedule {
+        self.scheduler.schedule_in_use()
+    }
+
     /// Number of interior objects.
     pub fn interior_objects(&self) -> usize {
         self.objects.len()

@@ -47,6 +47,16 @@ impl Scheduler {
         }
     }
 
+    /// Switch the schedule; every object keeps its staleness and disturbance.
+    pub(super) fn set_schedule(&mut self, schedule: Schedule) {
+        self.schedule = schedule;
+    }
+
+    /// The schedule in use.
+    pub(super) fn schedule_in_use(&self) -> Schedule {
+        self.schedule
+    }
+
     /// Raise object `k`'s disturbance to at least `level`.
     pub(super) fn disturb(&mut self, k: usize, level: f32) {
         let d = &mut self.objects[k].disturbed;
