@@ -12,12 +12,12 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use clap::{ArgMatches, Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
-use shrad::dispersive::{Changes, DispersiveOptions, ProbeRepair, Schedule, ToBoundary};
+use shrad::dispersive::{DispersiveOptions, ProbeRepair, Schedule, ToBoundary};
 use shrad::grid::GridOptions;
 use shrad::image_io::{write_exr, write_png, Tonemap};
 use shrad::reference::ReferenceOptions;
 use shrad::render::{render, RenderOptions, Shading};
-use shrad::solver::{Solver, SolverChoice};
+use shrad::solver::SolverChoice;
 use shrad::{PatchSizing, Progress, World};
 use shrad_scene::{LoadOptions, Scene};
 
@@ -698,14 +698,13 @@ fn cmd_render(args: RenderArgs, scene: Scene, file: &settings::FileSettings) -> 
             b
         }
         _ => {
-            let mut solver = Solver::new(&world, choice);
-            let frames = args.frames.unwrap_or_else(|| solver.frames_to_converge(8));
+            let mut engine = shrad::engine::Engine::from_world(world, choice);
+            let frames = args.frames.unwrap_or_else(|| engine.frames_to_converge(8));
             progress.begin("frames", frames as u64);
             let mut last = None;
-            let changes = Changes::default();
             let mut diverged = Vec::new();
             for f in 0..frames {
-                let stats = solver.step(&world, &changes);
+                let stats = engine.step();
                 if let Some(d) = &stats.diverged {
                     diverged.push((f, d.message.clone()));
                 }
@@ -727,7 +726,9 @@ fn cmd_render(args: RenderArgs, scene: Scene, file: &settings::FileSettings) -> 
                 );
                 print_energy(&s.energy);
             }
-            solver.radiosity().to_vec()
+            let radiosity = engine.radiosity().to_vec();
+            world = engine.into_world();
+            radiosity
         }
     };
     if args.compare && args.solver.solver != SolverArg::Reference {

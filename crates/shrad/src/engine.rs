@@ -89,6 +89,11 @@ impl Engine {
         &self.world
     }
 
+    /// The world back, with every change made through the engine.
+    pub fn into_world(self) -> World {
+        self.world
+    }
+
     /// The solver's settings.
     pub fn solver_choice(&self) -> SolverChoice {
         self.choice
