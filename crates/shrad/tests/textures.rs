@@ -447,24 +447,6 @@ fn obj_map_kd_loads() {
         .abs_diff_eq(Vec3::splat(0.8), 1e-6));
 }
 
-fn base64(bytes: &[u8]) -> String {
-    const A: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut s = String::new();
-    for c in bytes.chunks(3) {
-        let n = (u32::from(c[0]) << 16)
-            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-            | u32::from(*c.get(2).unwrap_or(&0));
-        for k in 0..4 {
-            if k <= c.len() {
-                s.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                s.push('=');
-            }
-        }
-    }
-    s
-}
-
 #[test]
 fn jpeg_in_a_data_uri_loads() {
     let dir = temp_dir("jpeg");
@@ -477,7 +459,7 @@ fn jpeg_in_a_data_uri_loads() {
             image::ImageFormat::Jpeg,
         )
         .unwrap();
-    let uri = format!("data:image/jpeg;base64,{}", base64(&bytes));
+    let uri = format!("data:image/jpeg;base64,{}", base64::encode(&bytes));
     let path = floor_gltf(&dir, "floor", 1.0, None, |r| {
         textured(r, json!({}), json!({"index": 0}));
         r["images"] = json!([{ "uri": uri }]);
@@ -503,7 +485,7 @@ fn normalized_byte_rgba_colours_multiply_the_factor() {
     let bytes: Vec<u8> = [[255u8, 51, 0, 7]; 4].concat();
     let path = floor_gltf(&dir, "floor", 1.0, None, |r| {
         r["buffers"].as_array_mut().unwrap().push(json!({
-            "uri": format!("data:application/octet-stream;base64,{}", base64(&bytes)),
+            "uri": format!("data:application/octet-stream;base64,{}", base64::encode(&bytes)),
             "byteLength": 16
         }));
         r["bufferViews"]
