@@ -1,0 +1,86 @@
+//! The indexed triangle mesh of an object, in its own (rest) frame.
+
+use glam::{Affine3A, Vec2, Vec3};
+
+/// An indexed triangle mesh in the object's own (rest) frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Counter-clockwise (seen from the front) vertex index triples.
+    pub triangles: Vec<[u32; 3]>,
+    /// Texture-coordinate sets (glTF `TEXCOORD_n` is `uvs[n]`), each one per vertex;
+    /// `(0, 0)` is the image's top-left corner, `v` grows downwards (glTF's convention).
+    pub uvs: Vec<Vec<Vec2>>,
+    /// Vertex colours (glTF `COLOR_0`, linear RGB in [0, 1], alpha dropped): empty, or one
+    /// per vertex. They multiply the material's reflectance.
+    pub colors: Vec<Vec3>,
+}
+
+impl Mesh {
+    /// Axis-aligned bounding box `(min, max)`; `None` for an empty mesh.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let first = *self.positions.first()?;
+        Some(
+            self.positions
+                .iter()
+                .fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p))),
+        )
+    }
+    /// Area of triangle `t`.
+    pub fn triangle_area(&self, t: usize) -> f32 {
+        let [a, b, c] = self.triangles[t].map(|i| self.positions[i as usize]);
+        0.5 * (b - a).cross(c - a).length()
+    }
+    /// Total surface area.
+    pub fn area(&self) -> f32 {
+        (0..self.triangles.len())
+            .map(|t| self.triangle_area(t))
+            .sum()
+    }
+    /// A mesh of positions and triangles only.
+    pub fn new(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Mesh {
+        Mesh {
+            positions,
+            triangles,
+            ..Default::default()
+        }
+    }
+    /// Append another mesh (texture coordinates a side lacks are 0, colours 1).
+    pub fn append(&mut self, other: &Mesh) {
+        let base = self.positions.len() as u32;
+        let (n, m) = (self.positions.len(), other.positions.len());
+        let sets = self.uvs.len().max(other.uvs.len());
+        self.uvs.resize(sets, vec![Vec2::ZERO; n]);
+        for (k, set) in self.uvs.iter_mut().enumerate() {
+            match other.uvs.get(k) {
+                Some(o) => set.extend_from_slice(o),
+                None => set.resize(n + m, Vec2::ZERO),
+            }
+        }
+        if !self.colors.is_empty() || !other.colors.is_empty() {
+            self.colors.resize(n, Vec3::ONE);
+            if other.colors.is_empty() {
+                self.colors.resize(n + m, Vec3::ONE);
+            } else {
+                self.colors.extend_from_slice(&other.colors);
+            }
+        }
+        self.positions.extend_from_slice(&other.positions);
+        self.triangles
+            .extend(other.triangles.iter().map(|t| t.map(|i| i + base)));
+    }
+    /// The same mesh with every vertex transformed.
+    pub fn transformed(&self, m: Affine3A) -> Mesh {
+        Mesh {
+            positions: self
+                .positions
+                .iter()
+                .map(|&p| m.transform_point3(p))
+                .collect(),
+            triangles: self.triangles.clone(),
+            uvs: self.uvs.clone(),
+            colors: self.colors.clone(),
+        }
+    }
+}

@@ -1,0 +1,20 @@
+//! Plain-data scene model. Conventions (spec section 2): linear RGB, Lambertian surfaces,
+//! reflectance `rho` in [0,1), emitted radiance `L_e` of the front side (exitance
+//! `M = pi * L_e`), counter-clockwise triangles seen from the front.
+//!
+//! One file an idea: [`Role`] and [`Object`] (`object.rs`), [`Material`], [`Mesh`], the
+//! keyframed [`Animation`], [`Camera`] and [`Scene`] (`scene.rs`), and the checks every
+//! solver relies on ([`Scene::validate`], `validate.rs`).
+
+mod animation;
+mod material;
+mod mesh;
+mod object;
+mod scene;
+mod validate;
+
+pub use animation::{Animation, EmissionKey, Keyframe};
+pub use material::Material;
+pub use mesh::Mesh;
+pub use object::{Object, Role};
+pub use scene::{Camera, Scene, SceneSettings};

@@ -1,0 +1,129 @@
+//! A whole scene: its objects, camera and settings.
+
+use glam::{Affine3A, Vec3};
+
+use crate::{Object, Role};
+
+/// A pinhole camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Camera looks down its -Z axis with +Y up (glTF convention).
+    pub world_from_camera: Affine3A,
+    /// Vertical field of view in radians.
+    pub yfov: f32,
+    /// Width / height; `None`: take the image's.
+    pub aspect_ratio: Option<f32>,
+}
+
+impl Camera {
+    /// A camera at `eye` looking at `target`, with +Y up.
+    pub fn look_at(eye: Vec3, target: Vec3, yfov: f32) -> Self {
+        let forward = (target - eye).normalize();
+        let up = if forward.y.abs() > 0.999 {
+            Vec3::Z
+        } else {
+            Vec3::Y
+        };
+        let right = forward.cross(up).normalize();
+        let true_up = right.cross(forward);
+        let rot = glam::Mat3::from_cols(right, true_up, -forward);
+        Camera {
+            world_from_camera: Affine3A::from_mat3_translation(rot, eye),
+            yfov,
+            aspect_ratio: None,
+        }
+    }
+
+    /// A camera that frames the box `(lo, hi)` from the front (-Z side looking +Z... the side
+    /// towards +Z is the back), for scenes that have none.
+    pub fn framing(lo: Vec3, hi: Vec3) -> Self {
+        let centre = 0.5 * (lo + hi);
+        let ext = hi - lo;
+        let yfov = 40f32.to_radians();
+        let radius = 0.5 * ext.x.max(ext.y);
+        let dist = radius / (0.5 * yfov).tan() + 0.5 * ext.z;
+        Camera::look_at(centre - Vec3::Z * dist * 1.05, centre, yfov)
+    }
+}
+
+/// Solver settings a scene file may carry; the command line overrides them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SceneSettings {
+    /// Patch edge length `h` (scene units).
+    pub patch_size: Option<f32>,
+    /// Target total patch count (alternative to `patch_size`).
+    pub patches: Option<usize>,
+    /// Other solver settings as written (key = value), applied by the CLI as its solver options of the same names (the command line wins; an unknown key is an error naming the file).
+    pub solver: std::collections::BTreeMap<String, String>,
+}
+
+/// A whole scene.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Scene {
+    /// Where it came from (file path or `builtin:NAME`), for messages.
+    pub source: String,
+    /// The objects.
+    pub objects: Vec<Object>,
+    /// The scene's camera, if it has one.
+    pub camera: Option<Camera>,
+    /// Settings from the scene file.
+    pub settings: SceneSettings,
+    /// Non-fatal problems found while loading (printed by the CLI).
+    pub warnings: Vec<String>,
+    /// The glTF animations of the file (listed by `shrad info`; empty for other inputs).
+    pub animations: Vec<crate::AnimationInfo>,
+}
+
+impl Scene {
+    /// World bounding box of every object at rest.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        self.objects
+            .iter()
+            .filter_map(|o| o.world_bounds())
+            .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
+    }
+
+    /// The scene's camera, or one that frames the scene. When a boundary object encloses
+    /// the scene (a room), the camera stands inside it, near the -Z wall, looking in: from
+    /// outside it would see only the room's outer side.
+    pub fn camera_or_default(&self) -> Camera {
+        self.camera.unwrap_or_else(|| {
+            let (lo, hi) = self.bounds().unwrap_or((Vec3::splat(-1.0), Vec3::ONE));
+            let ext = hi - lo;
+            let encloses = self.objects.iter().any(|o| {
+                o.role == Some(Role::Boundary)
+                    && o.world_bounds().is_some_and(|(a, b)| {
+                        (a - lo).max_element() <= 1e-3 * ext.max_element()
+                            && (hi - b).max_element() <= 1e-3 * ext.max_element()
+                    })
+            });
+            if encloses {
+                let centre = 0.5 * (lo + hi);
+                let eye = Vec3::new(centre.x, lo.y + 0.55 * ext.y, lo.z + 0.03 * ext.z);
+                Camera::look_at(eye, centre, 60f32.to_radians())
+            } else {
+                Camera::framing(lo, hi)
+            }
+        })
+    }
+
+    /// Length of the longest animation (0 for a static scene).
+    pub fn duration(&self) -> f32 {
+        self.objects
+            .iter()
+            .map(Object::duration)
+            .fold(0.0, f32::max)
+    }
+
+    /// Is there any emitter?
+    pub fn has_emitter(&self) -> bool {
+        self.objects.iter().any(|o| {
+            o.material.is_emissive()
+                || o.animation.as_ref().is_some_and(|a| {
+                    a.emission
+                        .iter()
+                        .any(|k| k.emitted_radiance.max_element() > 0.0)
+                })
+        })
+    }
+}
