@@ -50,7 +50,7 @@ pub struct Rebuilt {
 /// can run it on a thread of its own.
 pub struct Engine {
     world: World,
-    solver: Solver,
+    pub(crate) solver: Solver,
     choice: SolverChoice,
     pending: Changes,
     reference_options: ReferenceOptions,
@@ -65,23 +65,21 @@ impl Engine {
         backend: Backend,
         choice: SolverChoice,
     ) -> Result<Engine, Error> {
-        Ok(Engine::from_world(
-            World::new(scene, sizing, backend)?,
-            choice,
-        ))
+        choice.validate()?;
+        Engine::from_world(World::new(scene, sizing, backend)?, choice)
     }
 
-    /// An engine over an already patched world.
-    pub fn from_world(world: World, choice: SolverChoice) -> Engine {
-        let solver = Solver::new(&world, choice);
-        Engine {
+    /// An engine over an already patched world; `choice` is validated first.
+    pub fn from_world(world: World, choice: SolverChoice) -> Result<Engine, Error> {
+        let solver = Solver::new(&world, choice)?;
+        Ok(Engine {
             world,
             solver,
             choice,
             pending: Changes::default(),
             reference_options: ReferenceOptions::fast(),
             frames: 0,
-        }
+        })
     }
 
     /// The world as it is now (scene, patches, visibility, materials).
@@ -168,16 +166,43 @@ impl Engine {
 
     /// Switch the solver or change its settings. Its precomputation runs again (probe
     /// boxes, transfer vectors, wall form factors...), and the state starts from the lights'
-    /// emission; the result says what that cost.
-    pub fn set_solver(&mut self, choice: SolverChoice) -> Rebuilt {
+    /// emission; the result says what that cost. Invalid settings are an error, and the
+    /// solver in use stays.
+    pub fn set_solver(&mut self, choice: SolverChoice) -> Result<Rebuilt, Error> {
         let t = Instant::now();
-        self.solver = Solver::new(&self.world, choice);
+        self.solver = Solver::new(&self.world, choice)?;
         self.choice = choice;
         self.frames = 0;
         self.pending = Changes::default();
-        Rebuilt {
+        Ok(Rebuilt {
             precompute_ms: t.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    /// Change one setting of the solver in use by name (`set_option("cube_res", "64")`; keys
+    /// in [`crate::settings`], listed by [`SolverChoice::keys`]). A key whose
+    /// [`rebuilds`](crate::settings::KeySpec::rebuilds) is set runs the precomputation again
+    /// and returns what that cost; the others (the dispersive schedule, every reference
+    /// setting) apply from the next frame and return `None`. A bad key or value is an error
+    /// and changes nothing.
+    pub fn set_option(&mut self, key: &str, value: &str) -> Result<Option<Rebuilt>, Error> {
+        let mut next = self.choice;
+        let spec = next.set(key, value)?;
+        if spec.rebuilds {
+            return self.set_solver(next).map(Some);
         }
+        match (&mut self.solver, next) {
+            (Solver::Dispersive(d), SolverChoice::Dispersive(o)) => d.set_schedule(o.schedule)?,
+            (Solver::Reference(o, _), SolverChoice::Reference(n)) => *o = n,
+            _ => return self.set_solver(next).map(Some),
+        }
+        self.choice = next;
+        Ok(None)
+    }
+
+    /// The value of setting `key` of the solver in use, as text.
+    pub fn option(&self, key: &str) -> Result<String, Error> {
+        self.choice.get(key)
     }
 
     /// Change the dispersive solver's schedule live (no precomputation); an error for the
@@ -348,5 +373,37 @@ mod tests {
         // schedule in force comes back afterwards.
         assert_eq!(e.step_within(1e-6).unwrap().objects_updated.len(), 1);
         assert_eq!(e.step().objects_updated.len(), 4);
+    }
+
+    #[test]
+    fn options_change_by_name_and_rebuild_only_when_needed() {
+        let mut e = Engine::new(
+            shrad_scene::cornell_box(),
+            PatchSizing::Count(500),
+            Backend::Auto,
+            SolverChoice::preset("dispersive", "default").unwrap(),
+        )
+        .unwrap();
+        assert_eq!(e.set_option("per_frame", "2").unwrap(), None);
+        assert_eq!(e.option("per_frame").unwrap(), "2");
+        assert_eq!(e.step().objects_updated.len(), 2);
+        assert!(e.set_option("cube_res", "16").unwrap().is_some());
+        assert_eq!(e.frames(), 0, "a rebuild starts the solver again");
+        let before = e.solver_choice();
+        let err = e.set_option("bands", "9").unwrap_err().to_string();
+        assert!(err.contains("bands") && err.contains("1..=8"), "{err}");
+        assert_eq!(e.solver_choice(), before);
+        // Settings built by hand are checked too: an error, not a panic in shrad-sh.
+        let bad = SolverChoice::Dispersive(crate::dispersive::DispersiveOptions {
+            bands: 9,
+            ..Default::default()
+        });
+        assert!(e.set_solver(bad).is_err());
+        assert_eq!(e.solver_choice(), before);
+        e.set_solver(SolverChoice::preset("reference", "fast").unwrap())
+            .unwrap();
+        assert_eq!(e.set_option("rays_per_patch", "16").unwrap(), None);
+        assert_eq!(e.option("rays_per_patch").unwrap(), "16");
+        assert!(e.set_option("cube_res", "16").is_err());
     }
 }

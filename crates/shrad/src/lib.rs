@@ -13,7 +13,6 @@
 //!
 //! See `ARCHITECTURE.md` at the repository root for the layers and the data flow of a frame.
 
-pub mod bench;
 pub mod direct;
 pub mod dispersive;
 pub mod energy;
@@ -28,6 +27,7 @@ pub mod progress;
 pub mod reference;
 pub mod render;
 pub mod sampling;
+pub mod settings;
 pub mod solver;
 pub mod surface;
 mod world;

@@ -10,7 +10,8 @@ use crate::grid::{Grid, GridOptions};
 use crate::reference::{solve, ReferenceOptions};
 use crate::{NoProgress, World};
 
-/// Which solver, with its settings.
+/// Which solver, with its settings. By name: [`SolverChoice::preset`], [`SolverChoice::set`]
+/// and the key tables of [`crate::settings`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SolverChoice {
     /// Converged radiosity every frame (ground truth, slow).
@@ -32,13 +33,15 @@ pub enum Solver {
 }
 
 impl Solver {
-    /// Precompute for `world`.
-    pub fn new(world: &World, choice: SolverChoice) -> Solver {
-        match choice {
+    /// Precompute for `world`; settings out of range are an error
+    /// ([`SolverChoice::validate`]).
+    pub fn new(world: &World, choice: SolverChoice) -> Result<Solver, crate::Error> {
+        choice.validate()?;
+        Ok(match choice {
             SolverChoice::Reference(o) => Solver::Reference(o, world.exitance.clone()),
             SolverChoice::Dispersive(o) => Solver::Dispersive(Box::new(Dispersive::new(world, o))),
             SolverChoice::Grid(o) => Solver::Grid(Box::new(Grid::new(world, o))),
-        }
+        })
     }
 
     /// One frame at the world's current time.
