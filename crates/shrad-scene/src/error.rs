@@ -28,6 +28,9 @@ pub enum SceneError {
         /// The built-in names, for the message.
         builtins: String,
     },
+    /// An output file could not be written (nothing was left behind).
+    #[error(transparent)]
+    Write(#[from] crate::WriteError),
 }
 
 impl SceneError {

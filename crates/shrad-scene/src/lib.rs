@@ -5,10 +5,8 @@
 //! one [`Material`], a [`Role`] and an optional rigid [`Animation`]. Everything here is plain
 //! data; patches, visibility and the solvers live in the crates above this one.
 
-mod base64;
 mod builtin;
 mod error;
-mod gltf_anim;
 mod gltf_io;
 mod load;
 mod model;
@@ -17,6 +15,7 @@ mod obj_io;
 mod roles;
 mod scene_file;
 mod texture;
+mod write_atomic;
 
 pub use builtin::{box_mesh, builtin, builtin_names, cornell_box, quad, room, RoomParams};
 pub use error::SceneError;
@@ -29,3 +28,4 @@ pub use node_anim::{
 pub use obj_io::write_obj;
 pub use roles::infer_roles;
 pub use texture::{srgb_to_linear, Filter, Texture, TextureImage, UvTransform, Wrap};
+pub use write_atomic::{write_atomic, WriteError};

@@ -390,6 +390,12 @@ pub fn write_obj(scene: &Scene, obj_path: &Path) -> Result<(), SceneError> {
         }
         base += o.mesh.positions.len();
     }
-    crate::gltf_io::write_atomic(&mtl_path, mtl.as_bytes())?;
-    crate::gltf_io::write_atomic(obj_path, obj.as_bytes())
+    let write = |path: &Path, text: &str| {
+        crate::write_atomic(path, |tmp| {
+            std::fs::write(tmp, text).map_err(|e| e.to_string())
+        })
+    };
+    write(&mtl_path, &mtl)?;
+    write(obj_path, &obj)?;
+    Ok(())
 }

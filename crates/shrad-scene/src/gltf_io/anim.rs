@@ -1,6 +1,6 @@
 //! glTF animations: the node hierarchy and the translation / rotation / scale channels of
 //! the animations that play, read into a [`NodeGraph`]. The raw JSON of `animations` was
-//! checked for references by the reader (`gltf_io::check_json`); the rest is checked here,
+//! checked for references by the reader (`validate::check_json`); the rest is checked here,
 //! where the accessor data is at hand: sampler interpolation, accessor types, key counts,
 //! key times finite and strictly increasing, values finite. Morph-target weights, skins and
 //! `KHR_animation_pointer` channels are ignored with a warning.

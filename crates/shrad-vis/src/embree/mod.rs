@@ -3,7 +3,7 @@
 //! `unsafe` is allowed in this module only: calling a C library and handing it raw buffers
 //! cannot be done without it. Every call's preconditions are local: the handles are owned by
 //! [`EmbreeVis`] and released in its `Drop`; ray structures mirror the C layouts of
-//! `rtcore_ray.h` / `rtcore_common.h` of Embree 3.13 (checked by the size asserts below).
+//! `rtcore_ray.h` / `rtcore_common.h` of Embree 3.13 (checked by the size asserts in `ffi`).
 //!
 //! Layout: one scene per object (one triangle geometry, built once with high quality) and
 //! a top scene of instances (instance geomID = object index, `RTC_SCENE_FLAG_DYNAMIC`).
@@ -17,6 +17,9 @@
 //! rejects hits whose `instID` is in the exclude list. The mask halves the cost of a probe capture taken
 //! right next to its own (excluded) object: the filter path pays for every candidate hit
 //! on the object before rejecting it.
+//!
+//! Files: `ffi` (the C declarations), `context` (ray masks and the exclude filter), here
+//! (the handles, building, moving and the queries).
 #![allow(unsafe_code)]
 
 use std::ffi::c_void;
@@ -27,303 +30,11 @@ use rayon::prelude::*;
 
 use crate::{segment, tri_infos, Hit, MeshRef, TriInfo, VisError, Visibility, Xform, CHUNK};
 
-mod ffi {
-    use std::ffi::{c_char, c_void};
+mod context;
+mod ffi;
 
-    pub type RTCDevice = *mut c_void;
-    pub type RTCScene = *mut c_void;
-    pub type RTCGeometry = *mut c_void;
-
-    pub const RTC_INVALID_GEOMETRY_ID: u32 = u32::MAX;
-
-    pub const RTC_GEOMETRY_TYPE_TRIANGLE: u32 = 0;
-    pub const RTC_GEOMETRY_TYPE_INSTANCE: u32 = 121;
-    pub const RTC_BUFFER_TYPE_INDEX: u32 = 0;
-    pub const RTC_BUFFER_TYPE_VERTEX: u32 = 1;
-    pub const RTC_FORMAT_UINT3: u32 = 0x5003;
-    pub const RTC_FORMAT_FLOAT3: u32 = 0x9003;
-    pub const RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR: u32 = 0x9234;
-    pub const RTC_BUILD_QUALITY_LOW: u32 = 0;
-    pub const RTC_BUILD_QUALITY_HIGH: u32 = 2;
-    pub const RTC_SCENE_FLAG_DYNAMIC: u32 = 1 << 0;
-    pub const RTC_SCENE_FLAG_ROBUST: u32 = 1 << 2;
-    pub const RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION: u32 = 1 << 3;
-    pub const RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT: u32 = 0;
-    pub const RTC_INTERSECT_CONTEXT_FLAG_COHERENT: u32 = 1;
-    pub const RTC_DEVICE_PROPERTY_RAY_MASK_SUPPORTED: u32 = 64;
-
-    /// `RTC_MAX_INSTANCE_LEVEL_COUNT` of the Debian build (rtcore_config.h).
-    pub const MAX_INST: usize = 1;
-
-    #[repr(C)]
-    pub struct RTCFilterFunctionNArguments {
-        pub valid: *mut i32,
-        pub geometry_user_ptr: *mut c_void,
-        pub context: *const RTCIntersectContext,
-        pub ray: *mut c_void,
-        pub hit: *mut c_void,
-        pub n: u32,
-    }
-
-    pub type RTCFilterFunctionN =
-        Option<unsafe extern "C" fn(args: *const RTCFilterFunctionNArguments)>;
-
-    /// `RTC_MAX_INSTANCE_LEVEL_COUNT == 1` (no instStackSize), `RTC_MIN_WIDTH == 0`.
-    #[repr(C)]
-    pub struct RTCIntersectContext {
-        pub flags: u32,
-        pub filter: RTCFilterFunctionN,
-        pub inst_id: [u32; MAX_INST],
-    }
-
-    #[repr(C, align(16))]
-    #[derive(Clone, Copy)]
-    pub struct RTCRay {
-        pub org_x: f32,
-        pub org_y: f32,
-        pub org_z: f32,
-        pub tnear: f32,
-        pub dir_x: f32,
-        pub dir_y: f32,
-        pub dir_z: f32,
-        pub time: f32,
-        pub tfar: f32,
-        pub mask: u32,
-        pub id: u32,
-        pub flags: u32,
-    }
-
-    #[repr(C, align(16))]
-    #[derive(Clone, Copy)]
-    pub struct RTCHit {
-        pub ng_x: f32,
-        pub ng_y: f32,
-        pub ng_z: f32,
-        pub u: f32,
-        pub v: f32,
-        pub prim_id: u32,
-        pub geom_id: u32,
-        pub inst_id: [u32; MAX_INST],
-    }
-
-    #[repr(C)]
-    #[derive(Clone, Copy)]
-    pub struct RTCRayHit {
-        pub ray: RTCRay,
-        pub hit: RTCHit,
-    }
-
-    #[repr(C, align(64))]
-    #[derive(Clone, Copy)]
-    pub struct RTCRay16 {
-        pub org_x: [f32; 16],
-        pub org_y: [f32; 16],
-        pub org_z: [f32; 16],
-        pub tnear: [f32; 16],
-        pub dir_x: [f32; 16],
-        pub dir_y: [f32; 16],
-        pub dir_z: [f32; 16],
-        pub time: [f32; 16],
-        pub tfar: [f32; 16],
-        pub mask: [u32; 16],
-        pub id: [u32; 16],
-        pub flags: [u32; 16],
-    }
-
-    #[repr(C, align(64))]
-    #[derive(Clone, Copy)]
-    pub struct RTCHit16 {
-        pub ng_x: [f32; 16],
-        pub ng_y: [f32; 16],
-        pub ng_z: [f32; 16],
-        pub u: [f32; 16],
-        pub v: [f32; 16],
-        pub prim_id: [u32; 16],
-        pub geom_id: [u32; 16],
-        pub inst_id: [[u32; 16]; MAX_INST],
-    }
-
-    #[repr(C)]
-    #[derive(Clone, Copy)]
-    pub struct RTCRayHit16 {
-        pub ray: RTCRay16,
-        pub hit: RTCHit16,
-    }
-
-    /// The `valid` mask of the 16-wide calls (-1 active, 0 inactive), 64-byte aligned.
-    #[repr(C, align(64))]
-    pub struct Valid16(pub [i32; 16]);
-
-    const _: () = {
-        assert!(size_of::<RTCRay>() == 48);
-        assert!(size_of::<RTCHit>() == 32);
-        assert!(size_of::<RTCRayHit>() == 80);
-        assert!(size_of::<RTCRay16>() == 768);
-        assert!(size_of::<RTCHit16>() == 512);
-        assert!(size_of::<RTCRayHit16>() == 1280);
-        assert!(align_of::<RTCRayHit16>() == 64);
-        assert!(size_of::<RTCIntersectContext>() == 24);
-    };
-
-    #[link(name = "embree3")]
-    extern "C" {
-        pub fn rtcNewDevice(config: *const c_char) -> RTCDevice;
-        pub fn rtcReleaseDevice(device: RTCDevice);
-        pub fn rtcGetDeviceError(device: RTCDevice) -> u32;
-        pub fn rtcGetDeviceProperty(device: RTCDevice, prop: u32) -> isize;
-        pub fn rtcSetGeometryMask(geometry: RTCGeometry, mask: u32);
-        pub fn rtcNewScene(device: RTCDevice) -> RTCScene;
-        pub fn rtcReleaseScene(scene: RTCScene);
-        pub fn rtcSetSceneFlags(scene: RTCScene, flags: u32);
-        pub fn rtcSetSceneBuildQuality(scene: RTCScene, quality: u32);
-        pub fn rtcAttachGeometryByID(scene: RTCScene, geometry: RTCGeometry, geom_id: u32);
-        pub fn rtcCommitScene(scene: RTCScene);
-        pub fn rtcNewGeometry(device: RTCDevice, ty: u32) -> RTCGeometry;
-        pub fn rtcReleaseGeometry(geometry: RTCGeometry);
-        pub fn rtcCommitGeometry(geometry: RTCGeometry);
-        pub fn rtcSetGeometryBuildQuality(geometry: RTCGeometry, quality: u32);
-        pub fn rtcSetNewGeometryBuffer(
-            geometry: RTCGeometry,
-            ty: u32,
-            slot: u32,
-            format: u32,
-            byte_stride: usize,
-            item_count: usize,
-        ) -> *mut c_void;
-        pub fn rtcSetGeometryInstancedScene(geometry: RTCGeometry, scene: RTCScene);
-        pub fn rtcSetGeometryTransform(
-            geometry: RTCGeometry,
-            time_step: u32,
-            format: u32,
-            xfm: *const c_void,
-        );
-        pub fn rtcIntersect1(
-            scene: RTCScene,
-            context: *mut RTCIntersectContext,
-            rayhit: *mut RTCRayHit,
-        );
-        pub fn rtcIntersect16(
-            valid: *const i32,
-            scene: RTCScene,
-            context: *mut RTCIntersectContext,
-            rayhit: *mut RTCRayHit16,
-        );
-        pub fn rtcOccluded1(scene: RTCScene, context: *mut RTCIntersectContext, ray: *mut RTCRay);
-    }
-}
-
+use context::{ExcludeContext, MaskBits};
 use ffi::*;
-
-/// The intersect context with the exclude list behind it, so that the filter can find it
-/// (Embree passes our context pointer through unchanged; `ctx` must be the first field),
-/// and the ray mask that goes with it.
-#[repr(C)]
-struct ExcludeContext {
-    ctx: RTCIntersectContext,
-    exclude: *const u32,
-    exclude_len: usize,
-    /// Mask of every ray of this query: all bits, or the excluded instances' bits cleared.
-    ray_mask: u32,
-}
-
-/// Which of the 32 ray-mask bits each instance has, and the instances of each bit.
-struct MaskBits {
-    bit: Vec<u8>,
-    members: Vec<Vec<u32>>,
-}
-
-impl MaskBits {
-    /// A bit each up to 32 objects; beyond, the first 31 objects flagged `often_excluded`
-    /// get one each and every other object shares bit 31.
-    fn new(often_excluded: &[bool]) -> MaskBits {
-        let n = often_excluded.len();
-        let mut bit = vec![31u8; n];
-        if n <= 32 {
-            bit.iter_mut().enumerate().for_each(|(o, b)| *b = o as u8);
-        } else {
-            let flagged = (0..n).filter(|&o| often_excluded[o]);
-            for (b, o) in flagged.take(31).enumerate() {
-                bit[o] = b as u8;
-            }
-        }
-        let mut members = vec![Vec::new(); 32];
-        for (o, &b) in bit.iter().enumerate() {
-            members[b as usize].push(o as u32);
-        }
-        MaskBits { bit, members }
-    }
-
-    fn mask(&self, o: usize) -> u32 {
-        1 << self.bit[o]
-    }
-
-    /// The ray mask that excludes `exclude` exactly, if there is one: every object sharing
-    /// a bit with an excluded object must be excluded too.
-    fn excluding(&self, exclude: &[u32]) -> Option<u32> {
-        let exact = exclude.iter().all(|&e| {
-            self.bit
-                .get(e as usize)
-                .is_some_and(|&b| self.members[b as usize].iter().all(|o| exclude.contains(o)))
-        });
-        exact.then(|| {
-            exclude
-                .iter()
-                .fold(u32::MAX, |m, &e| m & !self.mask(e as usize))
-        })
-    }
-}
-
-impl ExcludeContext {
-    /// `bits`: the instances' mask bits, `None` when the library does not test ray masks.
-    fn new(flags: u32, exclude: &[u32], bits: Option<&MaskBits>) -> ExcludeContext {
-        let by_mask = if exclude.is_empty() {
-            None
-        } else {
-            bits.and_then(|b| b.excluding(exclude))
-        };
-        let ray_mask = by_mask.unwrap_or(u32::MAX);
-        let by_mask = by_mask.is_some();
-        // rtcInitIntersectContext is an inline function in the header: replicated here.
-        ExcludeContext {
-            ctx: RTCIntersectContext {
-                flags,
-                filter: if exclude.is_empty() || by_mask {
-                    None
-                } else {
-                    Some(exclude_filter)
-                },
-                inst_id: [RTC_INVALID_GEOMETRY_ID; MAX_INST],
-            },
-            exclude: exclude.as_ptr(),
-            exclude_len: exclude.len(),
-            ray_mask,
-        }
-    }
-
-    fn as_ptr(&mut self) -> *mut RTCIntersectContext {
-        &mut self.ctx
-    }
-}
-
-/// Context filter: reject candidate hits on excluded instances.
-unsafe extern "C" fn exclude_filter(args: *const RTCFilterFunctionNArguments) {
-    // SAFETY: Embree passes valid arguments; `context` is the `ctx` field of the
-    // `ExcludeContext` we passed (repr(C), first field), alive for the whole call; the hit is
-    // in RTCHitN layout: Ng_x, Ng_y, Ng_z, u, v, primID, geomID, instID[0], N lanes each.
-    unsafe {
-        let args = &*args;
-        let ctx = &*(args.context as *const ExcludeContext);
-        let exclude = std::slice::from_raw_parts(ctx.exclude, ctx.exclude_len);
-        let n = args.n as usize;
-        let inst = (args.hit as *const u32).add(7 * n);
-        for i in 0..n {
-            let v = args.valid.add(i);
-            if *v != 0 && exclude.contains(&*inst.add(i)) {
-                *v = 0;
-            }
-        }
-    }
-}
 
 /// Owned Embree handles. Embree scenes are thread-safe for queries after commit; all
 /// mutation goes through `&mut EmbreeVis`.
@@ -715,27 +426,5 @@ impl Visibility for EmbreeVis {
                     *b = ray.tfar == f32::NEG_INFINITY;
                 }
             });
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::MaskBits;
-
-    #[test]
-    fn mask_bits_exclude_exactly_or_not_at_all() {
-        // Up to 32 objects: a bit each, any exclusion is exact.
-        let few = MaskBits::new(&[false; 20]);
-        assert_eq!(few.excluding(&[3]), Some(!(1 << 3)));
-        assert_eq!(few.excluding(&[3, 7]), Some(!(1 << 3 | 1 << 7)));
-        // 40 objects, 3 flagged: it has bit 0 alone; the others share bit 31.
-        let mut flags = [false; 40];
-        flags[3] = true;
-        let many = MaskBits::new(&flags);
-        assert_eq!(many.excluding(&[3]), Some(!1));
-        assert_eq!(many.excluding(&[35]), None);
-        assert_eq!(many.excluding(&[3, 35]), None);
-        // Out of range: no mask (the filter then ignores it).
-        assert_eq!(few.excluding(&[99]), None);
     }
 }

@@ -1,0 +1,104 @@
+//! The bytes behind each buffer and image URI: the GLB's BIN chunk, a base64 data URI, or a
+//! file beside the glTF.
+//!
+//! The decoding is the crates' (base64, with the gltf crate's alphabet; urlencoding, which the
+//! gltf crate percent-decodes with), but not the loop around it: `gltf::import_buffers` (gltf
+//! 1.4.1, `import.rs`) unwraps the percent-decoding of a relative URI, so a URI such as
+//! `a%FF.bin` panics; its I/O errors name no file; and it pads every buffer with zeros to a
+//! multiple of 4 before comparing it with `byteLength`, so a buffer up to 3 bytes short
+//! passes.
+
+use std::path::{Path, PathBuf};
+
+use crate::SceneError;
+
+/// Standard base64, as the gltf crate decodes data URIs, but like shrad's reader has always
+/// been: the unused low bits of the last symbol are not checked.
+const BASE64: base64::Config = base64::STANDARD.decode_allow_trailing_bits(true);
+
+/// The data of every buffer of `doc`: buffer 0 of a GLB from its BIN chunk `blob`, the others
+/// from their URIs (relative to `base`). Each must hold at least its `byteLength` bytes.
+pub(super) fn load_buffers(
+    path: &Path,
+    base: &Path,
+    doc: &gltf::Document,
+    mut blob: Option<Vec<u8>>,
+) -> Result<Vec<gltf::buffer::Data>, SceneError> {
+    let mut out = Vec::new();
+    for b in doc.buffers() {
+        let i = b.index();
+        let data = match b.source() {
+            gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
+                SceneError::invalid(
+                    path,
+                    format!("buffers[{i}]: has no uri and there is no GLB BIN chunk"),
+                )
+            })?,
+            gltf::buffer::Source::Uri(uri) => read_uri(base, uri)
+                .map_err(|m| SceneError::invalid(path, format!("buffers[{i}].uri: {m}")))?,
+        };
+        if data.len() < b.length() {
+            return Err(SceneError::invalid(
+                path,
+                format!(
+                    "buffers[{i}]: has {} bytes but declares byteLength {} (truncated file?)",
+                    data.len(),
+                    b.length()
+                ),
+            ));
+        }
+        out.push(gltf::buffer::Data(data));
+    }
+    Ok(out)
+}
+
+/// The bytes behind a glTF URI: a base64 data URI or a file relative to `base`.
+pub(super) fn read_uri(base: &Path, uri: &str) -> Result<Vec<u8>, String> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let Some((_, data)) = rest.split_once(";base64,") else {
+            return Err("data URI is not base64 (shrad reads ';base64,' data URIs only)".into());
+        };
+        return base64::decode_config(data, BASE64)
+            .map_err(|e| format!("data URI: invalid base64 ({e})"));
+    }
+    if uri.contains("://") && !uri.starts_with("file://") {
+        return Err(format!("unsupported URI scheme in '{uri}'"));
+    }
+    let file = base.join(relative_path(uri));
+    std::fs::read(&file).map_err(|e| format!("cannot read '{}': {e}", file.display()))
+}
+
+/// The path a relative (or `file://`) URI names: percent-decoded, bytes that are not UTF-8
+/// replaced.
+fn relative_path(uri: &str) -> PathBuf {
+    let raw = uri.strip_prefix("file://").unwrap_or(uri);
+    PathBuf::from(String::from_utf8_lossy(&urlencoding::decode_binary(raw.as_bytes())).as_ref())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uris_are_percent_decoded_leniently() {
+        assert_eq!(relative_path("a%20b%2"), Path::new("a b%2"));
+        assert_eq!(relative_path("%zz%41"), Path::new("%zzA"));
+        assert_eq!(relative_path("file://x%2Fy.bin"), Path::new("x/y.bin"));
+        // Not UTF-8 once decoded: replaced, where the gltf crate's importer panics.
+        assert_eq!(relative_path("a%FF.bin"), Path::new("a\u{FFFD}.bin"));
+    }
+
+    #[test]
+    fn data_uris_are_standard_base64() {
+        let base = Path::new(".");
+        let uri = |b64: &str| format!("data:application/octet-stream;base64,{b64}");
+        assert_eq!(read_uri(base, &uri("TWFu")).unwrap(), b"Man");
+        assert_eq!(read_uri(base, &uri("TWE=")).unwrap(), b"Ma");
+        // The unused bits of the last symbol are not checked ('F' rather than 'E').
+        assert_eq!(read_uri(base, &uri("TWF=")).unwrap(), b"Ma");
+        let e = read_uri(base, &uri("AA*A")).unwrap_err();
+        assert!(e.starts_with("data URI: invalid base64"), "{e}");
+        let e = read_uri(base, "data:application/octet-stream,%00").unwrap_err();
+        assert!(e.starts_with("data URI is not base64"), "{e}");
+    }
+}

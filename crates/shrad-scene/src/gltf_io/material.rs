@@ -1,0 +1,149 @@
+//! Materials and their textures: the base colour and emission factors, the images (from a
+//! buffer view, a data URI or a file, each decoded once) with their samplers and
+//! `KHR_texture_transform`.
+
+use glam::Vec3;
+
+use super::{buffers::read_uri, walk::Walk};
+use crate::{Filter, Material, Texture, TextureImage, UvTransform, Wrap};
+
+impl Walk<'_> {
+    /// The shrad material of a glTF material (converted once per material). A reflectance
+    /// of exactly 1 (allowed by glTF, but it does not conserve energy) becomes 0.999 with a
+    /// warning; factors outside [0, 1] were refused by [`super::validate::check_json`].
+    pub(super) fn material(&mut self, m: &gltf::Material) -> Material {
+        if let Some(done) = self.materials.get(&m.index()) {
+            return done.clone();
+        }
+        let who = match (m.index(), m.name()) {
+            (Some(i), Some(n)) => format!("materials[{i}] '{n}'"),
+            (Some(i), None) => format!("materials[{i}]"),
+            (None, _) => "the default material (a primitive without one)".to_string(),
+        };
+        let pbr = m.pbr_metallic_roughness();
+        let f = pbr.base_color_factor();
+        let mut reflectance = Vec3::new(f[0], f[1], f[2]);
+        let base_color_texture = pbr
+            .base_color_texture()
+            .and_then(|info| self.texture(&who, "base colour", &info));
+        if reflectance.max_element() >= 1.0 {
+            let clamped = reflectance.min(Vec3::splat(0.999));
+            self.scene.warnings.push(format!(
+                "{who}: reflectance {reflectance} clamped to {clamped} (a reflectance of 1 does not conserve energy; it must be < 1)"
+            ));
+            reflectance = clamped;
+        }
+        let e = m.emissive_factor();
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        let emissive_texture = m
+            .emissive_texture()
+            .and_then(|info| self.texture(&who, "emissive", &info));
+        let material = Material {
+            reflectance,
+            emitted_radiance: Vec3::from(e) * strength,
+            double_sided: m.double_sided(),
+            base_color_texture,
+            emissive_texture,
+        };
+        self.materials.insert(m.index(), material.clone());
+        material
+    }
+
+    /// The texture of a material's texture info: its image decoded once (shared by every
+    /// material that uses it), its sampler and `KHR_texture_transform`. `None` (with a
+    /// warning) when the image cannot be loaded.
+    fn texture(&mut self, who: &str, what: &str, info: &gltf::texture::Info) -> Option<Texture> {
+        let texture = info.texture().index();
+        // The texture's source, from the raw JSON: the gltf crate's `source()` panics when
+        // an extension (not read by shrad) provides the image instead.
+        let Some(image) = self.json["textures"][texture]["source"]
+            .as_u64()
+            .map(|i| i as usize)
+        else {
+            self.scene.warnings.push(format!(
+                "{who}: {what} texture {texture} has no image shrad can read; using the factor alone"
+            ));
+            return None;
+        };
+        let decoded = match self.textures.get(&image) {
+            Some(d) => d.clone(),
+            None => {
+                let d = match self.texture_image(image) {
+                    Ok(d) => Some(std::sync::Arc::new(d)),
+                    Err(e) => {
+                        let name = self.image_label(image);
+                        self.scene.warnings.push(format!(
+                            "{who}: {what} {name} cannot be loaded ({e}); using the factor alone"
+                        ));
+                        None
+                    }
+                };
+                self.textures.insert(image, d.clone());
+                d
+            }
+        }?;
+        let sampler = info.texture().sampler();
+        let wrap = |w: gltf::texture::WrappingMode| match w {
+            gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+            gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+            gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+        };
+        let mut t = Texture::new(decoded);
+        t.tex_coord = info.tex_coord();
+        t.wrap_s = wrap(sampler.wrap_s());
+        t.wrap_t = wrap(sampler.wrap_t());
+        if sampler.mag_filter() == Some(gltf::texture::MagFilter::Nearest) {
+            t.filter = Filter::Nearest;
+        }
+        if let Some(x) = info.texture_transform() {
+            t.transform = UvTransform {
+                offset: x.offset().into(),
+                rotation: x.rotation(),
+                scale: x.scale().into(),
+            };
+            if let Some(k) = x.tex_coord() {
+                t.tex_coord = k;
+            }
+        }
+        Some(t)
+    }
+
+    /// `image N 'name'` (or its URI) for messages.
+    fn image_label(&self, index: usize) -> String {
+        let json = self.doc.as_json().images.get(index);
+        match json.and_then(|j| j.name.clone().or_else(|| j.uri.clone())) {
+            Some(n) if !n.starts_with("data:") => format!("image {index} '{n}'"),
+            _ => format!("image {index}"),
+        }
+    }
+
+    /// Image `index`, decoded to 8-bit sRGB RGB (see [`TextureImage`]).
+    fn texture_image(&self, index: usize) -> Result<TextureImage, String> {
+        let json = self
+            .doc
+            .as_json()
+            .images
+            .get(index)
+            .ok_or_else(|| format!("no image {index}"))?;
+        let bytes: Vec<u8> = if let Some(view) = &json.buffer_view {
+            let view = self
+                .doc
+                .views()
+                .nth(view.value())
+                .ok_or("image buffer view out of range")?;
+            let data = self
+                .buffers
+                .get(view.buffer().index())
+                .ok_or("buffer out of range")?;
+            data.0
+                .get(view.offset()..view.offset() + view.length())
+                .ok_or("image buffer view outside its buffer")?
+                .to_vec()
+        } else if let Some(uri) = &json.uri {
+            read_uri(self.base, uri)?
+        } else {
+            return Err("image has neither uri nor bufferView".into());
+        };
+        TextureImage::decode(&bytes, self.image_label(index))
+    }
+}

@@ -1,0 +1,293 @@
+//! One mesh instance: each triangle primitive of a node's mesh becomes an object (positions,
+//! indices, texture coordinates, vertex colours, the shrad extras of the node and mesh).
+
+use glam::{Affine3A, Mat4, Vec3};
+use gltf::mesh::Mode;
+use serde_json::Value;
+
+use super::{walk::Walk, PartNames};
+use crate::{Material, Mesh, Object, Role, SceneError};
+
+/// The `shrad_role` and `shrad_patch_size` of a node's or mesh's extras.
+fn extras_of(raw: &gltf::json::Extras, what: &str) -> Result<(Option<Role>, Option<f32>), String> {
+    let Some(raw) = raw else {
+        return Ok((None, None));
+    };
+    let Ok(v) = serde_json::from_str::<Value>(raw.get()) else {
+        return Ok((None, None));
+    };
+    let role = match v.get("shrad_role") {
+        None | Some(Value::Null) => None,
+        Some(Value::String(s)) => Some(match s.as_str() {
+            "boundary" => Role::Boundary,
+            "interior" => Role::Interior,
+            "light" => Role::Light,
+            other => {
+                return Err(format!(
+                    "{what}: unknown shrad_role '{other}' (expected boundary, interior or light)"
+                ))
+            }
+        }),
+        Some(other) => return Err(format!("{what}: shrad_role must be a string, not {other}")),
+    };
+    let patch = v
+        .get("shrad_patch_size")
+        .and_then(Value::as_f64)
+        .map(|x| x as f32);
+    Ok((role, patch))
+}
+
+impl Walk<'_> {
+    /// The objects of `mesh`, instanced by `node` with the world transform `world`.
+    pub(super) fn mesh(
+        &mut self,
+        node: &gltf::Node,
+        mesh: &gltf::Mesh,
+        world: Mat4,
+        node_label: &str,
+    ) -> Result<(), SceneError> {
+        let (path, buffers) = (self.path, self.buffers);
+        let bad = |m: String| SceneError::invalid(path, m);
+        let (node_role, node_patch) = extras_of(node.extras(), node_label).map_err(bad)?;
+        let (mesh_role, mesh_patch) =
+            extras_of(mesh.extras(), &format!("meshes[{}]", mesh.index())).map_err(bad)?;
+        let base_name = node
+            .name()
+            .or(mesh.name())
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("node{}", node.index()));
+        // A mirroring transform (negative determinant) is kept as it is: the mesh stays
+        // counter-clockwise from the front in its own frame, and the world normal is the
+        // inverse transpose of the local one (glTF 2.0, "Transformations").
+        let world_from_object = Affine3A::from_mat4(world);
+        let n_prims = mesh.primitives().len();
+        for prim in mesh.primitives() {
+            let name = if n_prims > 1 {
+                format!("{base_name}.{}", prim.index())
+            } else {
+                base_name.clone()
+            };
+            let who = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
+            let inst = format!(" ({node_label})");
+            let mode = prim.mode();
+            if !matches!(
+                mode,
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
+                self.scene.warnings.push(format!(
+                    "{who}{inst}: {mode:?} primitive skipped (only triangles are used)"
+                ));
+                continue;
+            }
+            let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
+                return Err(bad(format!(
+                    "{who}{inst}: primitive has no POSITION attribute"
+                )));
+            };
+            if pos_acc.count() == 0 || prim.indices().is_some_and(|a| a.count() == 0) {
+                self.scene
+                    .warnings
+                    .push(format!("{who}{inst}: empty primitive skipped"));
+                continue;
+            }
+            let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.0.as_slice()));
+            let positions: Vec<Vec3> = reader
+                .read_positions()
+                .ok_or_else(|| {
+                    bad(format!(
+                        "{who}.attributes.POSITION{inst}: cannot be read (an accessor without bufferView is all zeros)"
+                    ))
+                })?
+                .map(Vec3::from)
+                .collect();
+            if positions.len() != pos_acc.count() {
+                return Err(bad(format!(
+                    "{who}.attributes.POSITION{inst}: has {} of {} elements",
+                    positions.len(),
+                    pos_acc.count()
+                )));
+            }
+            let indices: Vec<u32> = match prim.indices() {
+                Some(acc) => {
+                    let v: Vec<u32> = reader
+                        .read_indices()
+                        .ok_or_else(|| {
+                            bad(format!(
+                                "{who}.indices{inst}: cannot be read (an accessor without bufferView is all zeros)"
+                            ))
+                        })?
+                        .into_u32()
+                        .collect();
+                    if v.len() != acc.count() {
+                        return Err(bad(format!(
+                            "{who}.indices{inst}: has fewer elements than its count"
+                        )));
+                    }
+                    v
+                }
+                None => (0..positions.len() as u32).collect(),
+            };
+            let n = positions.len();
+            if let Some(k) = indices.iter().position(|&i| i as usize >= n) {
+                return Err(bad(format!(
+                    "{who}.indices{inst}: index {} (element {k}) is out of range: POSITION has {n} vertices",
+                    indices[k]
+                )));
+            }
+            if let Some(k) = positions.iter().position(|p| !p.is_finite()) {
+                return Err(bad(format!(
+                    "{who}.attributes.POSITION{inst}: vertex {k} is not finite ({})",
+                    positions[k]
+                )));
+            }
+            let triangles = to_triangles(mode, &indices);
+            if mode == Mode::Triangles && indices.len() % 3 != 0 {
+                self.scene.warnings.push(format!(
+                    "{who}{inst}: {} index(es) beyond the last whole triangle ignored",
+                    indices.len() % 3
+                ));
+            }
+            let mut material = self.material(&prim.material());
+            let mut shape = Mesh::new(positions, triangles);
+            self.attributes(&reader, &mut shape, &mut material, &format!("{who}{inst}"))
+                .map_err(bad)?;
+            let mut object = Object::new(name, shape, material);
+            object.world_from_object = world_from_object;
+            self.animate(&mut object, node.index());
+            object.role = node_role.or(mesh_role);
+            object.patch_size = node_patch.or(mesh_patch);
+            self.scene.objects.push(object);
+            self.names.push(PartNames {
+                node: node.name().map(str::to_string),
+                mesh: mesh.name().map(str::to_string),
+            });
+        }
+        Ok(())
+    }
+
+    /// The texture coordinates the material's textures read and `COLOR_0` (normalized
+    /// integers or floats, RGB or RGBA; alpha dropped, floats clamped to [0, 1]). A texture
+    /// whose `TEXCOORD_n` the primitive lacks is averaged to one colour, with a warning.
+    fn attributes<'a, 's, F>(
+        &mut self,
+        reader: &gltf::mesh::Reader<'a, 's, F>,
+        mesh: &mut Mesh,
+        material: &mut Material,
+        who: &str,
+    ) -> Result<(), String>
+    where
+        F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
+    {
+        let n = mesh.positions.len();
+        let mut sets = 0;
+        for (what, slot) in [
+            ("base colour", &mut material.base_color_texture),
+            ("emissive", &mut material.emissive_texture),
+        ] {
+            let Some(t) = slot else { continue };
+            let k = t.tex_coord;
+            let uvs: Option<Vec<glam::Vec2>> = reader
+                .read_tex_coords(k)
+                .map(|r| r.into_f32().map(glam::Vec2::from).collect());
+            match uvs {
+                Some(uvs) if uvs.len() == n && uvs.iter().all(|p| p.is_finite()) => {
+                    let k = k as usize;
+                    if mesh.uvs.len() <= k {
+                        mesh.uvs.resize(k + 1, vec![glam::Vec2::ZERO; n]);
+                    }
+                    mesh.uvs[k] = uvs;
+                    sets = sets.max(k + 1);
+                }
+                got => {
+                    let why = match got {
+                        None => "is missing or cannot be read",
+                        Some(u) if u.len() != n => "has too few elements",
+                        Some(_) => "has a non-finite value",
+                    };
+                    let mean = t.image.mean();
+                    self.scene.warnings.push(format!(
+                        "{who}: {what} texture averaged to one colour (TEXCOORD_{k} {why})"
+                    ));
+                    if what == "base colour" {
+                        material.reflectance *= mean;
+                    } else {
+                        material.emitted_radiance *= mean;
+                    }
+                    *slot = None;
+                }
+            }
+        }
+        mesh.uvs.truncate(sets);
+        if let Some(colors) = reader.read_colors(0) {
+            let colors: Vec<Vec3> = colors.into_rgb_f32().map(Vec3::from).collect();
+            if colors.len() != n {
+                return Err(format!(
+                    "{who}.attributes.COLOR_0: has fewer elements than POSITION"
+                ));
+            }
+            if let Some(k) = colors.iter().position(|c| !c.is_finite()) {
+                return Err(format!(
+                    "{who}.attributes.COLOR_0: colour {k} is not finite"
+                ));
+            }
+            if colors
+                .iter()
+                .any(|c| c.min_element() < 0.0 || c.max_element() > 1.0)
+            {
+                self.scene.warnings.push(format!(
+                    "{who}.attributes.COLOR_0: colours outside [0, 1] clamped"
+                ));
+            }
+            mesh.colors = colors
+                .into_iter()
+                .map(|c| c.clamp(Vec3::ZERO, Vec3::ONE))
+                .collect();
+            if mesh.colors.iter().all(|&c| c == Vec3::ONE) {
+                mesh.colors.clear();
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Triangles of a triangle list, strip or fan (front faces counter-clockwise).
+fn to_triangles(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::Triangles => idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        Mode::TriangleStrip => (0..idx.len().saturating_sub(2))
+            .map(|i| {
+                if i % 2 == 0 {
+                    [idx[i], idx[i + 1], idx[i + 2]]
+                } else {
+                    [idx[i + 1], idx[i], idx[i + 2]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (1..idx.len().saturating_sub(1))
+            .map(|i| [idx[0], idx[i], idx[i + 1]])
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strips_and_fans_keep_counter_clockwise_order() {
+        assert_eq!(
+            to_triangles(Mode::TriangleStrip, &[0, 1, 2, 3, 4]),
+            vec![[0, 1, 2], [2, 1, 3], [2, 3, 4]]
+        );
+        assert_eq!(
+            to_triangles(Mode::TriangleFan, &[0, 1, 2, 3]),
+            vec![[0, 1, 2], [0, 2, 3]]
+        );
+        assert_eq!(
+            to_triangles(Mode::Triangles, &[0, 1, 2, 3]),
+            vec![[0, 1, 2]]
+        );
+        assert!(to_triangles(Mode::TriangleStrip, &[0, 1]).is_empty());
+    }
+}
