@@ -32,7 +32,7 @@ use glam::{Affine3A, Vec3};
 use shrad_scene::{Camera, Role, Scene};
 use shrad_vis::Backend;
 
-use crate::dispersive::{Changes, FrameStats};
+use crate::frame::{Changes, FrameStats};
 use crate::metrics::{relative_error, RelativeError};
 use crate::reference::{solve, ReferenceOptions};
 use crate::render::{render, Image, RenderOptions};
@@ -193,7 +193,7 @@ impl Engine {
         }
         match (&mut self.solver, next) {
             (Solver::Dispersive(d), SolverChoice::Dispersive(o)) => d.set_schedule(o.schedule)?,
-            (Solver::Reference(o, _), SolverChoice::Reference(n)) => *o = n,
+            (Solver::Reference(o, ..), SolverChoice::Reference(n)) => *o = n,
             _ => return self.set_solver(next).map(Some),
         }
         self.choice = next;
@@ -405,5 +405,43 @@ mod tests {
         assert_eq!(e.set_option("rays_per_patch", "16").unwrap(), None);
         assert_eq!(e.option("rays_per_patch").unwrap(), "16");
         assert!(e.set_option("cube_res", "16").is_err());
+    }
+
+    #[test]
+    fn every_solver_reports_through_one_frame_interface() {
+        use crate::frame::SolverStats;
+        let mut e = Engine::new(
+            shrad_scene::cornell_box(),
+            PatchSizing::Count(400),
+            Backend::Auto,
+            SolverChoice::preset("dispersive", "default").unwrap(),
+        )
+        .unwrap();
+        for (solver, preset) in [
+            ("dispersive", "paper"),
+            ("grid", "paper4"),
+            ("reference", "fast"),
+        ] {
+            e.set_solver(SolverChoice::preset(solver, preset).unwrap())
+                .unwrap();
+            let s = e.step();
+            assert!(s.rays_cast > 0, "{solver}: {s:?}");
+            assert!(
+                s.frame_ms > 0.0 && s.energy.emitted > 0.0,
+                "{solver}: {s:?}"
+            );
+            match (&s.solver, solver) {
+                (SolverStats::Dispersive(d), "dispersive") => {
+                    assert_eq!(s.objects_updated.len(), 1);
+                    assert!(d.probes_captured >= 8);
+                }
+                (SolverStats::Grid(g), "grid") => assert_eq!(g.probes, 64),
+                (SolverStats::Reference(r), "reference") => {
+                    assert!(r.converged && r.iterations > 0)
+                }
+                (other, _) => panic!("{solver} reported {other:?}"),
+            }
+            assert_eq!(e.step().frame, 1, "{solver} counts its frames");
+        }
     }
 }

@@ -9,7 +9,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_sh::{cosine_lobe_sh, num_coeffs, trilinear_weights, ShRgb};
 
-use crate::dispersive::{Changes, FrameStats};
+use crate::frame::{Changes, FrameStats, GridStats, SolverStats};
 use crate::probes::{ProbeCamera, Seen};
 use crate::World;
 
@@ -113,6 +113,7 @@ impl Grid {
     /// One frame: capture every probe, light every patch.
     pub fn step(&mut self, world: &World, _changes: &Changes) -> FrameStats {
         let start = std::time::Instant::now();
+        let rays_before = world.rays_cast();
         let radiosity = &self.radiosity;
         // Capture and project every probe (nothing left out).
         let captured =
@@ -165,14 +166,19 @@ impl Grid {
             .collect();
         let shade_ms = t.elapsed().as_secs_f64() * 1e3;
         let stats = FrameStats {
-            frame: self.frame,
-            objects_ms: capture_ms,
-            assemble_ms: shade_ms,
             frame_ms: start.elapsed().as_secs_f64() * 1e3,
-            probes_invalid: captured.back_fraction.iter().filter(|&&f| f > 0.25).count(),
             energy,
             diverged,
-            ..Default::default()
+            rays_cast: world.rays_cast() - rays_before,
+            ..FrameStats::new(
+                self.frame,
+                SolverStats::Grid(GridStats {
+                    capture_ms,
+                    shade_ms,
+                    probes: self.probes.len(),
+                    probes_invalid: captured.back_fraction.iter().filter(|&&f| f > 0.25).count(),
+                }),
+            )
         };
         self.frame += 1;
         stats

@@ -17,6 +17,7 @@ pub mod direct;
 pub mod dispersive;
 pub mod energy;
 pub mod engine;
+pub mod frame;
 pub mod grid;
 pub mod image_io;
 pub mod limits;

@@ -226,6 +226,30 @@ pub struct ReferenceStats {
     pub non_finite: usize,
 }
 
+/// One reference frame through the common frame interface: a converged [`solve`] of the
+/// world as it is, its statistics as [`SolverStats::Reference`](crate::frame::SolverStats).
+pub fn frame(
+    world: &World,
+    options: &ReferenceOptions,
+    frame: u64,
+    progress: &dyn Progress,
+) -> (Vec<Vec3>, crate::frame::FrameStats) {
+    let t = Instant::now();
+    let rays_before = world.rays_cast();
+    let (radiosity, stats) = solve(world, options, progress);
+    let out = crate::frame::FrameStats {
+        frame_ms: t.elapsed().as_secs_f64() * 1e3,
+        energy: stats.energy,
+        diverged: (stats.non_finite > 0).then(|| crate::energy::Divergence {
+            message: format!("{} non-finite value(s) reset to 0", stats.non_finite),
+            non_finite: stats.non_finite,
+        }),
+        rays_cast: world.rays_cast() - rays_before,
+        ..crate::frame::FrameStats::new(frame, crate::frame::SolverStats::Reference(stats))
+    };
+    (radiosity, out)
+}
+
 /// Solve the radiosity of `world` at its current time.
 pub fn solve(
     world: &World,

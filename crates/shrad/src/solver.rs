@@ -1,13 +1,12 @@
 //! The three solvers behind one frame interface, so that `render`, `animate` and `bench`
 //! drive them the same way.
 
-use std::time::Instant;
-
 use glam::Vec3;
 
-use crate::dispersive::{Changes, Dispersive, DispersiveOptions, FrameStats};
+use crate::dispersive::{Dispersive, DispersiveOptions};
+use crate::frame::{Changes, FrameStats};
 use crate::grid::{Grid, GridOptions};
-use crate::reference::{solve, ReferenceOptions};
+use crate::reference::ReferenceOptions;
 use crate::{NoProgress, World};
 
 /// Which solver, with its settings. By name: [`SolverChoice::preset`], [`SolverChoice::set`]
@@ -24,8 +23,8 @@ pub enum SolverChoice {
 
 /// A solver's state across frames.
 pub enum Solver {
-    /// See [`SolverChoice::Reference`].
-    Reference(ReferenceOptions, Vec<Vec3>),
+    /// See [`SolverChoice::Reference`]: its settings, the radiosity and the frames solved.
+    Reference(ReferenceOptions, Vec<Vec3>, u64),
     /// See [`SolverChoice::Dispersive`].
     Dispersive(Box<Dispersive>),
     /// See [`SolverChoice::Grid`].
@@ -38,7 +37,7 @@ impl Solver {
     pub fn new(world: &World, choice: SolverChoice) -> Result<Solver, crate::Error> {
         choice.validate()?;
         Ok(match choice {
-            SolverChoice::Reference(o) => Solver::Reference(o, world.exitance.clone()),
+            SolverChoice::Reference(o) => Solver::Reference(o, world.exitance.clone(), 0),
             SolverChoice::Dispersive(o) => Solver::Dispersive(Box::new(Dispersive::new(world, o))),
             SolverChoice::Grid(o) => Solver::Grid(Box::new(Grid::new(world, o))),
         })
@@ -47,19 +46,11 @@ impl Solver {
     /// One frame at the world's current time.
     pub fn step(&mut self, world: &World, changes: &Changes) -> FrameStats {
         match self {
-            Solver::Reference(o, b) => {
-                let t = Instant::now();
-                let (radiosity, stats) = solve(world, o, &NoProgress);
+            Solver::Reference(o, b, frames) => {
+                let (radiosity, stats) = crate::reference::frame(world, o, *frames, &NoProgress);
                 *b = radiosity;
-                FrameStats {
-                    frame_ms: t.elapsed().as_secs_f64() * 1e3,
-                    energy: stats.energy,
-                    diverged: (stats.non_finite > 0).then(|| crate::energy::Divergence {
-                        message: format!("{} non-finite value(s) reset to 0", stats.non_finite),
-                        non_finite: stats.non_finite,
-                    }),
-                    ..Default::default()
-                }
+                *frames += 1;
+                stats
             }
             Solver::Dispersive(d) => d.step(world, changes),
             Solver::Grid(g) => g.step(world, changes),
@@ -78,7 +69,7 @@ impl Solver {
     /// Radiosity of every patch.
     pub fn radiosity(&self) -> &[Vec3] {
         match self {
-            Solver::Reference(_, b) => b,
+            Solver::Reference(_, b, _) => b,
             Solver::Dispersive(d) => d.radiosity(),
             Solver::Grid(g) => g.radiosity(),
         }

@@ -1,7 +1,10 @@
 //! The patched scene at one moment: scene description, patches, visibility, current
 //! materials. All three solvers read it; only [`World::set_time`] changes it.
 
-use glam::Vec3;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+
+use glam::{Affine3A, Vec3};
 use shrad_scene::Scene;
 use shrad_vis::{Backend, Hit, MeshRef, Visibility};
 
@@ -28,6 +31,62 @@ pub struct World {
     pub time: f32,
     /// Ray offset off surfaces (scene units), 1e-4 of the scene's diagonal.
     pub eps: f32,
+    /// Rays `vis` has cast (shared with the counting wrapper around the backend).
+    rays_cast: Arc<AtomicU64>,
+}
+
+/// A visibility backend that counts the rays it is asked to cast: one atomic add per batch,
+/// so the count costs nothing next to the rays.
+struct Counted {
+    inner: Box<dyn Visibility>,
+    rays: Arc<AtomicU64>,
+}
+
+impl Counted {
+    fn add(&self, rays: usize) {
+        self.rays.fetch_add(rays as u64, Ordering::Relaxed);
+    }
+}
+
+impl Visibility for Counted {
+    fn name(&self) -> &'static str {
+        self.inner.name()
+    }
+    fn object_count(&self) -> usize {
+        self.inner.object_count()
+    }
+    fn set_transform(&mut self, object: usize, world_from_object: Affine3A) {
+        self.inner.set_transform(object, world_from_object)
+    }
+    fn commit(&mut self) {
+        self.inner.commit()
+    }
+    fn closest(
+        &self,
+        origins: &[Vec3],
+        directions: &[Vec3],
+        t_min: f32,
+        exclude: &[u32],
+        out: &mut [Hit],
+    ) {
+        self.add(out.len());
+        self.inner.closest(origins, directions, t_min, exclude, out)
+    }
+    fn capture(
+        &self,
+        points: &[Vec3],
+        directions: &[Vec3],
+        t_min: f32,
+        exclude: &[u32],
+        out: &mut [Hit],
+    ) {
+        self.add(out.len());
+        self.inner.capture(points, directions, t_min, exclude, out)
+    }
+    fn occluded(&self, from: &[Vec3], to: &[Vec3], eps: f32, exclude: &[u32], out: &mut [bool]) {
+        self.add(out.len());
+        self.inner.occluded(from, to, eps, exclude, out)
+    }
 }
 
 impl World {
@@ -54,8 +113,13 @@ impl World {
                 often_excluded: *role == shrad_scene::Role::Interior,
             })
             .collect();
-        let vis = shrad_vis::build(backend, &meshes, &patches.world_from_local)
+        let inner = shrad_vis::build(backend, &meshes, &patches.world_from_local)
             .map_err(|e| Error::Invalid(e.to_string()))?;
+        let rays_cast = Arc::new(AtomicU64::new(0));
+        let vis = Box::new(Counted {
+            inner,
+            rays: rays_cast.clone(),
+        });
         let (reflectance, emission_texture) = crate::surface::patch_fields(&scene, &patches);
         let (lo, hi) = scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
         let mut world = World {
@@ -67,9 +131,16 @@ impl World {
             reflectance,
             emission_texture,
             time: f32::NAN,
+            rays_cast,
         };
         world.set_time(0.0);
         Ok(world)
+    }
+
+    /// Rays cast through [`World::vis`] since the world was made (every solver, picture and
+    /// error measurement; a frame's own count is the difference, `FrameStats::rays_cast`).
+    pub fn rays_cast(&self) -> u64 {
+        self.rays_cast.load(Ordering::Relaxed)
     }
 
     /// Move animated objects and update emission to time `t`. Returns the objects whose

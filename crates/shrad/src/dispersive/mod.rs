@@ -28,6 +28,7 @@ use glam::Vec3;
 use shrad_scene::Role;
 
 use crate::energy::IncidentMeter;
+use crate::frame::SolverStats;
 use crate::probes::ProbeCamera;
 use crate::reference::form_factor_rows;
 use crate::{NoProgress, World};
@@ -43,7 +44,7 @@ mod step4_assemble;
 #[cfg(test)]
 mod tests;
 
-pub use frame::{Batch, Changes, Divergence, EnergyBalance, FrameStats};
+pub use frame::{Batch, Changes, DispersiveStats, Divergence, EnergyBalance, FrameStats};
 pub use options::{DispersiveOptions, ProbeRepair, Schedule, ToBoundary};
 pub use step3_to_boundary::splat_to_boundary;
 pub use step4_assemble::WALL_ROWS_PER_FRAME;
@@ -230,10 +231,9 @@ impl Dispersive {
     /// moved or changed emission since the previous frame.
     pub fn step(&mut self, world: &World, changes: &Changes) -> FrameStats {
         let frame_start = Instant::now();
-        let mut stats = FrameStats {
-            frame: self.frame,
-            ..Default::default()
-        };
+        let rays_before = world.rays_cast();
+        let mut stats = FrameStats::new(self.frame, SolverStats::Dispersive(Default::default()));
+        let mut steps = DispersiveStats::default();
         self.note_changes(world, changes);
 
         // Step 1 (2.3.2), and the wall rows a mover passed through.
@@ -241,29 +241,31 @@ impl Dispersive {
         let swept = self.swept_boxes(world, changes);
         self.direct_to_boundary(world, changes, &swept);
         self.refresh_wall_rows(world, &swept);
-        stats.direct_ms = ms(t);
+        steps.direct_ms = ms(t);
 
         // Step 2 (2.3.3) for the objects the scheduler picks.
         let batch = self.scheduler.schedule(self.frame);
         let t = Instant::now();
-        let lit = self.light_selected_objects(world, batch, &mut stats);
-        stats.objects_ms = ms(t);
+        let lit = self.light_selected_objects(world, batch, &mut stats, &mut steps);
+        steps.objects_ms = ms(t);
 
         // Step 3 (2.3.4).
         let t = Instant::now();
         stats.energy.object_emitters = self.objects_to_boundary(world, lit);
-        stats.to_boundary_ms = ms(t);
+        steps.to_boundary_ms = ms(t);
 
         // Step 4 (2.3.5): full wall sweeps when the light changed.
         let t = Instant::now();
         let sweeps = if changes.relit.is_empty() { 1 } else { 8 };
         self.assemble(world, sweeps);
-        stats.assemble_ms = ms(t);
+        steps.assemble_ms = ms(t);
 
         self.meter_and_guard(world, changes, &mut stats);
 
         stats.frame_ms = ms(frame_start);
         stats.stalest = self.scheduler.stalest(self.frame);
+        stats.rays_cast = world.rays_cast() - rays_before;
+        stats.solver = SolverStats::Dispersive(steps);
         self.frame += 1;
         stats
     }

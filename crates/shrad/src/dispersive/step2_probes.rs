@@ -19,7 +19,7 @@ use shrad_scene::Role;
 use shrad_sh::{cosine_lobe_sh, eval_basis, num_coeffs, ShRgb, MAX_COEFFS};
 use shrad_vis::Hit;
 
-use super::{ms, Batch, Dispersive, FrameStats, ProbeRepair};
+use super::{ms, Batch, Dispersive, DispersiveStats, FrameStats, ProbeRepair};
 use crate::probes::Seen;
 use crate::World;
 
@@ -30,6 +30,7 @@ impl Dispersive {
         world: &World,
         batch: Batch,
         stats: &mut FrameStats,
+        steps: &mut DispersiveStats,
     ) -> Vec<usize> {
         let p = &world.patches;
         let bands = self.options.bands;
@@ -39,7 +40,7 @@ impl Dispersive {
             let ob = &self.objects[k];
             let o = ob.object;
             let m = p.world_from_local[o];
-            let (probes, scale) = self.capture_corner_probes(world, k, m, stats);
+            let (probes, scale) = self.capture_corner_probes(world, k, m, steps);
             self.objects[k].probe_scale = scale;
             let range = p.range(o);
             let ob = &self.objects[k];
@@ -179,7 +180,7 @@ impl Dispersive {
         world: &World,
         k: usize,
         m: Affine3A,
-        stats: &mut FrameStats,
+        steps: &mut DispersiveStats,
     ) -> (Vec<Option<ShRgb>>, [f32; 8]) {
         let ob = &self.objects[k];
         let o = ob.object as u32;
@@ -193,6 +194,7 @@ impl Dispersive {
             .collect();
         let shade = |h: &Hit| self.shade_probe_texel(world, h, o);
         let captured = self.camera.capture(world, &points, &exclude, shade);
+        steps.probes_captured += points.len();
         let limit = self.options.invalid_back_fraction;
         let mut out: Vec<Option<ShRgb>> = captured.sh.into_iter().map(Some).collect();
         let mut scale = ob.probe_scale;
@@ -200,7 +202,7 @@ impl Dispersive {
             if captured.back_fraction[c] <= limit {
                 continue;
             }
-            stats.probes_invalid += 1;
+            steps.probes_invalid += 1;
             match self.options.repair {
                 ProbeRepair::None => {}
                 ProbeRepair::Drop => out[c] = None,
@@ -213,10 +215,11 @@ impl Dispersive {
                     {
                         let q = m.transform_point3(centre + (ob.corner_local(c) - centre) * s);
                         let again = self.camera.capture(world, &[q], &exclude, shade);
+                        steps.probes_captured += 1;
                         if again.back_fraction[0] <= limit {
                             out[c] = again.sh.into_iter().next();
                             scale[c] = s;
-                            stats.probes_repaired += 1;
+                            steps.probes_repaired += 1;
                             break;
                         }
                     }
@@ -227,7 +230,7 @@ impl Dispersive {
     }
 
     /// Radiance a probe texel of object `o` sees (paper 2.3.3: its own texels are 0).
-    fn shade_probe_texel(&self, world: &World, h: &Hit, o: u32) -> Seen {
+    pub(super) fn shade_probe_texel(&self, world: &World, h: &Hit, o: u32) -> Seen {
         if !h.is_hit() {
             return Seen::Radiance(Vec3::ZERO);
         }

@@ -144,7 +144,9 @@ fn probes_buried_in_the_floor_are_detected_and_repaired() {
     };
     let mut d = Dispersive::new(&world, options);
     let stats = d.step(&world, &Changes::default());
-    assert_eq!(stats.probes_invalid, 8, "{stats:?}");
+    let steps = stats.dispersive().unwrap();
+    assert_eq!(steps.probes_invalid, 8, "{stats:?}");
+    assert!(steps.probes_captured >= 8, "{stats:?}");
     let mut d = Dispersive::new(
         &world,
         DispersiveOptions {
@@ -153,7 +155,10 @@ fn probes_buried_in_the_floor_are_detected_and_repaired() {
         },
     );
     let stats = d.step(&world, &Changes::default());
-    assert_eq!((stats.probes_invalid, stats.probes_repaired), (8, 8));
+    let steps = stats.dispersive().unwrap();
+    assert_eq!((steps.probes_invalid, steps.probes_repaired), (8, 8));
+    assert!(steps.probes_captured > 8, "moved probes are captured again");
+    assert!(stats.rays_cast > 0);
 }
 
 /// In a closed room at steady state every emitted watt is absorbed somewhere. The
