@@ -1,12 +1,10 @@
 //! The live engine: a program steers a scene without keyframes (moves an object with
 //! transforms, switches a light) and gets the same light as the same motion written as
-//! keyframes; and a soak of random steering on every solver and preset stays finite, within
-//! the energy bound, and flat in memory.
+//! keyframes. The soak of random steering on every solver is `tests/soak.rs`.
 
 use glam::{Affine3A, Quat, Vec3};
 use shrad::dispersive::DispersiveOptions;
 use shrad::engine::Engine;
-use shrad::grid::GridOptions;
 use shrad::scene::{Animation, EmissionKey, Keyframe};
 use shrad::solver::SolverChoice;
 use shrad::vis::Backend;
@@ -78,115 +76,4 @@ fn steering_by_transforms_matches_the_same_keyframes() {
     let (a, b) = (live.error().overall, keyed.error().overall);
     assert!((a - b).abs() < 1e-4, "{a} vs {b}");
     assert!(a < 0.15, "error {a}");
-}
-
-/// Resident memory of this process (bytes), from /proc/self/statm.
-fn rss() -> u64 {
-    let statm = std::fs::read_to_string("/proc/self/statm").unwrap_or_default();
-    let pages: u64 = statm
-        .split_whitespace()
-        .nth(1)
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(0);
-    pages * 4096
-}
-
-/// Random motion and light changes, `frames` frames on every solver and preset; the full
-/// size (10,000 frames each) runs with `SHRAD_SOAK_FRAMES=10000 cargo test --release -p shrad
-/// --test engine soak -- --nocapture`.
-#[test]
-fn soak_random_steering_on_every_solver() {
-    let frames: usize = std::env::var("SHRAD_SOAK_FRAMES")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1500);
-    let choices = [
-        (
-            "default",
-            SolverChoice::Dispersive(DispersiveOptions::improved()),
-        ),
-        (
-            "paper",
-            SolverChoice::Dispersive(DispersiveOptions {
-                cube_res: 16,
-                emitter_res: 16,
-                ..DispersiveOptions::paper()
-            }),
-        ),
-        (
-            "grid",
-            SolverChoice::Grid(GridOptions {
-                cube_res: 8,
-                ..GridOptions::paper(3)
-            }),
-        ),
-    ];
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    let mut rand = move || {
-        state ^= state >> 12;
-        state ^= state << 25;
-        state ^= state >> 27;
-        ((state.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 40) as f32) / (1u64 << 24) as f32
-    };
-    for (name, choice) in choices {
-        let mut engine = Engine::new(
-            shrad::scene::cornell_box(),
-            PatchSizing::Count(400),
-            Backend::Auto,
-            choice,
-        )
-        .unwrap();
-        let blocks = [
-            engine.object("short_block").unwrap(),
-            engine.object("tall_block").unwrap(),
-        ];
-        let light = engine.object("light").unwrap();
-        let rests = blocks.map(|o| engine.transform(o));
-        let (mut worst, mut rss_after_100) = (0.0f64, 0u64);
-        let mut rss_max = 0u64;
-        for f in 0..frames {
-            let k = (rand() * 2.0) as usize % 2;
-            let offset = Vec3::new(rand() - 0.5, 0.0, rand() - 0.5) * 200.0;
-            let turn = Quat::from_rotation_y(rand() * std::f32::consts::TAU);
-            let rest = rests[k];
-            let centre = rest.translation;
-            let at = Affine3A::from_translation(Vec3::from(centre) + offset)
-                * Affine3A::from_quat(turn)
-                * Affine3A::from_translation(-Vec3::from(centre))
-                * rest;
-            engine.set_transform(blocks[k], at).unwrap();
-            if f % 7 == 0 {
-                let c = Vec3::new(rand(), rand(), rand()) * 30.0;
-                engine.set_emission(light, c).unwrap();
-            }
-            let stats = engine.step();
-            let e = stats.energy;
-            assert!(
-                e.reflected <= e.reflected_bound * shrad::energy::BOUND_TOLERANCE + 1e-9,
-                "{name} frame {f}: {e:?}"
-            );
-            assert!(
-                engine.radiosity().iter().all(|b| b.is_finite()),
-                "{name} frame {f}: non-finite radiosity"
-            );
-            worst = worst.max(e.bound_ratio());
-            if f == 100 {
-                rss_after_100 = rss();
-            }
-            if f > 100 {
-                rss_max = rss_max.max(rss());
-            }
-        }
-        let growth = rss_max as f64 / rss_after_100.max(1) as f64 - 1.0;
-        eprintln!(
-            "soak {name}: {frames} frames, largest reflected / bound {worst:.3}, memory {:.1} MiB after 100 frames, growth after that {:.2} %",
-            rss_after_100 as f64 / (1 << 20) as f64,
-            100.0 * growth
-        );
-        assert!(
-            growth < 0.05,
-            "{name}: memory grew by {:.1} %",
-            100.0 * growth
-        );
-    }
 }
