@@ -2,21 +2,20 @@
 //! interpolation and shading, the boundary splat, and whole dispersive / grid frames on a
 //! small room.
 //! Every benchmark checks its result once before it is timed. Run:
-//! `cargo bench -p shrad --bench kernels -- --measurement-time 3 --warm-up-time 1`.
+//! `cargo bench -p shrad-bench --bench kernels -- --measurement-time 3 --warm-up-time 1`.
 
 use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
-use shrad::bench::{check_radiosity, Machine};
-use shrad::dispersive::{splat_to_boundary, Changes, DispersiveOptions};
-use shrad::grid::GridOptions;
+use shrad::dispersive::splat_to_boundary;
+use shrad::engine::Engine;
 use shrad::probes::ProbeCamera;
 use shrad::scene::{room, Role, RoomParams};
-use shrad::solver::{Solver, SolverChoice};
 use shrad::vis::{Backend, Hit};
 use shrad::{PatchSizing, World};
+use shrad_bench::{check_radiosity, Machine, SolverKind};
 use shrad_sh::{cosine_lobe_sh, num_coeffs, trilinear_weights, CubeMap, ShProjector, ShRgb};
 
 fn small_room(patches: usize) -> World {
@@ -238,35 +237,28 @@ fn splat(c: &mut Criterion) {
 }
 
 fn frames(c: &mut Criterion) {
-    let world = small_room(12_000);
+    let mut world = small_room(12_000);
     let n = world.patches.len() as u64;
     let mut g = c.benchmark_group("frame");
     g.sample_size(10);
     g.throughput(Throughput::Elements(n));
-    let choices = [
+    let kinds = [
         (
             "dispersive default, room 12k (patches)",
-            SolverChoice::Dispersive(DispersiveOptions::improved()),
+            SolverKind::Dispersive,
         ),
-        (
-            "dispersive paper, room 12k (patches)",
-            SolverChoice::Dispersive(DispersiveOptions::paper()),
-        ),
-        (
-            "grid G=4, room 12k (patches)",
-            SolverChoice::Grid(GridOptions::paper(4)),
-        ),
+        ("dispersive paper, room 12k (patches)", SolverKind::Paper),
+        ("grid G=4, room 12k (patches)", SolverKind::Grid4),
     ];
-    for (name, choice) in choices {
-        let mut solver = Solver::new(&world, choice);
-        let changes = Changes::default();
-        for _ in 0..solver.frames_to_converge(1) {
-            let _ = solver.step(&world, &changes);
+    for (name, kind) in kinds {
+        // The engine a front end drives, on the same world for each solver.
+        let mut engine = Engine::from_world(world, kind.choice()).expect("a preset is valid");
+        for _ in 0..engine.frames_to_converge(1) {
+            let _ = engine.step();
         }
-        check_radiosity(&world, solver.radiosity()).expect("radiosity is sane");
-        g.bench_function(name, |b| {
-            b.iter(|| black_box(solver.step(&world, &changes).frame_ms))
-        });
+        check_radiosity(engine.world(), engine.radiosity()).expect("radiosity is sane");
+        g.bench_function(name, |b| b.iter(|| black_box(engine.step().frame_ms)));
+        world = engine.into_world();
     }
     g.finish();
 }

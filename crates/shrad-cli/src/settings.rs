@@ -1,155 +1,108 @@
-//! A scene file's `[settings.solver]` applied as command-line options: each key is a solver
-//! option's long name (`cube-res` or `cube_res`), its value what the option takes; an option
-//! given on the command line wins over the file. Unknown keys and bad values are errors
-//! naming the file and the key.
+//! A scene file's `[settings.solver]`: `solver`, `preset` and the solver's keys, the same
+//! keys as `--set` (`cube_res`, or `cube-res`). Every key is checked when the scene loads
+//! (an unknown one is an error naming the file and the key, with the nearest key); the
+//! values are checked by the library when they are applied (`solver_args`), and a key the
+//! command line sets is not read from the file.
 
 use std::collections::BTreeMap;
-use std::ffi::OsString;
 
-use anyhow::{anyhow, bail, Result};
-use clap::parser::ValueSource;
-use clap::{ArgMatches, Args, Parser};
+use anyhow::{bail, Result};
+use shrad::settings::SOLVERS;
+use shrad::solver::SolverChoice;
 
-/// Names the scene files used before the keys were the options' own.
-const ALIASES: [(&str, &str); 2] = [("objects-per-frame", "per-frame"), ("method", "solver")];
+/// Names that scene files used before the keys were the library's.
+const OLD_NAMES: [(&str, &str); 4] = [
+    ("objects_per_frame", "per_frame"),
+    ("method", "solver"),
+    ("direct_interior", "direct_on_interior"),
+    ("grid", "per_axis"),
+];
 
-/// One setting of the file that is applied (its option was not on the command line).
-pub struct FileSetting {
+/// One solver key of the file.
+pub struct FileKey {
     /// The key as written in the file.
+    pub written: String,
+    /// The library's key.
     pub key: String,
-    /// The option's long name.
-    pub long: String,
     /// The value as written.
     pub value: String,
 }
 
-/// The applied settings of one scene file.
+/// The `[settings.solver]` of one scene file.
 #[derive(Default)]
 pub struct FileSettings {
     /// The scene file, for messages.
     pub source: String,
-    /// Settings not overridden by the command line.
-    pub applied: Vec<FileSetting>,
+    /// `solver = ...`.
+    pub solver: Option<String>,
+    /// `preset = ...`.
+    pub preset: Option<String>,
+    /// The solver keys.
+    pub keys: Vec<FileKey>,
 }
 
-impl FileSettings {
-    /// `error` named after the file and key when it is about an option the file set.
-    pub fn attribute(&self, error: anyhow::Error) -> anyhow::Error {
-        let msg = format!("{error:#}");
-        match self
-            .applied
-            .iter()
-            .find(|s| msg.contains(&format!("--{} ", s.long)))
-        {
-            Some(s) => anyhow!(
-                "{}: [settings.solver] {} = {}: {msg}",
-                self.source,
-                s.key,
-                s.value
-            ),
-            None => error,
-        }
-    }
+/// Every key of every solver, sorted and without repeats.
+fn every_key() -> Vec<&'static str> {
+    let mut all: Vec<&'static str> = SOLVERS
+        .iter()
+        .filter_map(|s| SolverChoice::keys_of(s).ok())
+        .flat_map(|keys| keys.iter().map(|k| k.name))
+        .collect();
+    all.sort_unstable();
+    all.dedup();
+    all
 }
 
-/// The solver options a scene file may set: (argument id, long name).
-fn solver_options() -> Vec<(String, String)> {
-    crate::SolverArgs::augment_args(clap::Command::new("settings"))
-        .get_arguments()
-        .filter_map(|a| Some((a.get_id().to_string(), a.get_long()?.to_string())))
-        .collect()
-}
-
-/// Check every key of `solver` (from the scene file `source`) and keep those whose option
-/// `matches` (the subcommand's, when it has the solver options) did not get from the command
-/// line.
-pub fn from_file(
-    source: &str,
-    solver: &BTreeMap<String, String>,
-    matches: Option<&ArgMatches>,
-) -> Result<FileSettings> {
-    let options = solver_options();
-    let mut applied = Vec::new();
-    for (key, value) in solver {
-        let norm = key.trim().to_ascii_lowercase().replace('_', "-");
-        let long = ALIASES
-            .iter()
-            .find(|(a, _)| *a == norm)
-            .map_or(norm.as_str(), |(_, l)| l);
-        let Some((id, long)) = options.iter().find(|(_, l)| l == long) else {
-            let best = options
-                .iter()
-                .map(|(_, l)| (edit_distance(&norm, l), l))
-                .min()
-                .filter(|(d, _)| *d <= 3);
-            match best {
-                Some((_, l)) => {
-                    bail!("{source}: [settings.solver] {key}: unknown setting (did you mean {l}?)")
-                }
-                None => {
-                    let all: Vec<&str> = options.iter().map(|(_, l)| l.as_str()).collect();
-                    bail!(
-                        "{source}: [settings.solver] {key}: unknown setting (known: {})",
-                        all.join(", ")
-                    )
-                }
-            }
-        };
-        if let Some(m) = matches {
-            if m.value_source(id) == Some(ValueSource::CommandLine) {
-                continue;
-            }
-        }
-        applied.push(FileSetting {
-            key: key.clone(),
-            long: long.clone(),
-            value: value.clone(),
-        });
-    }
-    Ok(FileSettings {
+/// Check the keys of `solver` (the `[settings.solver]` table of the scene file `source`).
+pub fn from_file(source: &str, solver: &BTreeMap<String, String>) -> Result<FileSettings> {
+    let known = every_key();
+    let mut file = FileSettings {
         source: source.to_string(),
-        applied,
-    })
-}
-
-/// Parse the command line again with the file's settings placed before the user's
-/// arguments (`argv[1]` is the subcommand). Each setting is tried alone first, so a bad
-/// value is reported with its key.
-pub fn reparse(argv: &[OsString], settings: &FileSettings) -> Result<crate::Cli> {
-    let with = |extra: &[OsString]| -> Vec<OsString> {
-        let mut v: Vec<OsString> = argv.iter().take(2).cloned().collect();
-        v.extend_from_slice(extra);
-        v.extend(argv.iter().skip(2).cloned());
-        v
+        ..FileSettings::default()
     };
-    let mut extra = Vec::with_capacity(settings.applied.len());
-    for s in &settings.applied {
-        let arg = OsString::from(format!("--{}={}", s.long, s.value));
-        if let Err(e) = crate::Cli::try_parse_from(with(std::slice::from_ref(&arg))) {
+    for (written, value) in solver {
+        let norm = written.trim().to_ascii_lowercase().replace('-', "_");
+        let key = OLD_NAMES
+            .iter()
+            .find(|(old, _)| *old == norm)
+            .map_or(norm.as_str(), |(_, new)| new);
+        match key {
+            "solver" => file.solver = Some(value.trim().to_string()),
+            "preset" => file.preset = Some(value.trim().to_string()),
+            _ if known.contains(&key) => file.keys.push(FileKey {
+                written: written.clone(),
+                key: key.to_string(),
+                value: value.clone(),
+            }),
+            _ => {
+                let mut names = known.clone();
+                names.extend(["solver", "preset"]);
+                let best = names
+                    .iter()
+                    .map(|n| (edit_distance(&norm, n), *n))
+                    .min()
+                    .filter(|(d, _)| *d <= 3);
+                match best {
+                    Some((_, n)) => bail!(
+                        "{source}: [settings.solver] {written}: unknown setting (did you mean {n}?)"
+                    ),
+                    None => bail!(
+                        "{source}: [settings.solver] {written}: unknown setting (known: {})",
+                        names.join(", ")
+                    ),
+                }
+            }
+        }
+    }
+    if let Some(s) = &file.solver {
+        if !SOLVERS.contains(&s.as_str()) {
             bail!(
-                "{}: [settings.solver] {} = {}: {}",
-                settings.source,
-                s.key,
-                s.value,
-                clap_message(&e)
+                "{source}: [settings.solver] solver = {s}: invalid value (solvers: {})",
+                SOLVERS.join(", ")
             );
         }
-        extra.push(arg);
     }
-    crate::Cli::try_parse_from(with(&extra)).map_err(|e| {
-        anyhow!(
-            "{}: [settings.solver]: {}",
-            settings.source,
-            clap_message(&e)
-        )
-    })
-}
-
-/// The first line of a clap error, without its `error: ` prefix.
-fn clap_message(e: &clap::Error) -> String {
-    let text = e.render().to_string();
-    let line = text.lines().next().unwrap_or_default();
-    line.strip_prefix("error: ").unwrap_or(line).to_string()
+    Ok(file)
 }
 
 /// Levenshtein distance, for "did you mean".
@@ -170,13 +123,32 @@ fn edit_distance(a: &str, b: &str) -> usize {
 
 #[cfg(test)]
 mod tests {
-    use super::edit_distance;
+    use super::*;
 
     #[test]
     fn edit_distance_counts_edits() {
-        assert_eq!(edit_distance("cube-rez", "cube-res"), 1);
+        assert_eq!(edit_distance("cube_rez", "cube_res"), 1);
         assert_eq!(edit_distance("", "abc"), 3);
         assert_eq!(edit_distance("bands", "bands"), 0);
-        assert_eq!(edit_distance("per-fram", "per-frame"), 1);
+        assert_eq!(edit_distance("per_fram", "per_frame"), 1);
+    }
+
+    #[test]
+    fn file_keys_are_the_library_keys_with_the_old_names() {
+        let map: BTreeMap<String, String> = [
+            ("method", "dispersive"),
+            ("cube-res", "8"),
+            ("objects-per-frame", "2"),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+        let f = from_file("s.toml", &map).unwrap();
+        assert_eq!(f.solver.as_deref(), Some("dispersive"));
+        let keys: Vec<&str> = f.keys.iter().map(|k| k.key.as_str()).collect();
+        assert_eq!(keys, ["cube_res", "per_frame"]);
+        let bad: BTreeMap<String, String> = [("cube_rez".to_string(), "8".to_string())].into();
+        let e = from_file("s.toml", &bad).err().unwrap().to_string();
+        assert!(e.contains("did you mean cube_res?"), "{e}");
     }
 }

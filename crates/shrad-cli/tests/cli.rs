@@ -326,12 +326,12 @@ fn scene_file_solver_settings_errors_name_the_file_and_key() {
     let cases = [
         (
             "cube-rez = 8",
-            "[settings.solver] cube-rez: unknown setting (did you mean cube-res?)",
+            "[settings.solver] cube-rez: unknown setting (did you mean cube_res?)",
         ),
         ("wibble = 1", "[settings.solver] wibble: unknown setting"),
         (
-            "cube-res = \"big\"",
-            "[settings.solver] cube-res = big: invalid value",
+            "solver = \"dispersive\"\ncube-res = \"big\"",
+            "[settings.solver] cube-res = big: dispersive option cube_res = big: must be integer 1..=2048",
         ),
         (
             "solver = \"magic\"",
@@ -339,7 +339,11 @@ fn scene_file_solver_settings_errors_name_the_file_and_key() {
         ),
         (
             "solver = \"dispersive\"\nbands = 9",
-            "[settings.solver] bands = 9: --bands must be between 1 and 8",
+            "[settings.solver] bands = 9: dispersive option bands = 9: must be integer 1..=8",
+        ),
+        (
+            "solver = \"dispersive\"\npreset = \"fastest\"",
+            "[settings.solver] preset: the dispersive solver has no preset 'fastest' (presets: default, paper)",
         ),
         (
             "cube-res = [8, 8]",
@@ -582,4 +586,150 @@ fn info_lists_gltf_animations_and_animate_plays_all_of_it() {
     assert_eq!(stats.lines().count(), 1 + 9, "{stats}");
     assert!(dir.join("frame_0008.png").exists() && dir.join("frame_0008.exr").exists());
     assert!(!dir.join("frame_0009.png").exists());
+}
+
+#[test]
+fn set_applies_keys_like_their_aliases_and_the_preset() {
+    let dir = temp_dir("set");
+    let plain = scene_with_settings(&dir, "plain.toml", "");
+    let by_set = patch_csv(
+        &plain,
+        &[
+            "--solver",
+            "dispersive",
+            "--set",
+            "cube_res=8",
+            "--set",
+            "bands=2",
+        ],
+    )
+    .unwrap();
+    let by_alias = patch_csv(
+        &plain,
+        &["--solver", "dispersive", "--cube-res", "8", "--bands", "2"],
+    )
+    .unwrap();
+    assert_eq!(by_set, by_alias);
+    // `-` stands for `_`, and the schedule is set before its parameters whatever the order.
+    let scheduled = patch_csv(
+        &plain,
+        &[
+            "--solver",
+            "dispersive",
+            "--set",
+            "cube-res=8",
+            "--set",
+            "per_frame=2",
+            "--set",
+            "schedule=round_robin",
+        ],
+    )
+    .unwrap();
+    assert_ne!(scheduled, by_set);
+    let paper = patch_csv(
+        &plain,
+        &[
+            "--solver",
+            "dispersive",
+            "--preset",
+            "paper",
+            "--set",
+            "cube_res=8",
+        ],
+    )
+    .unwrap();
+    assert_ne!(paper, by_set, "--preset paper changes nothing");
+}
+
+#[test]
+fn set_errors_name_the_key() {
+    let cornell = Path::new("cornell");
+    let dispersive = ["--solver", "dispersive"];
+    let with = |extra: &[&'static str]| [&dispersive[..], extra].concat();
+    // An unknown key lists the solver's keys.
+    fails_cleanly(
+        cornell,
+        &with(&["--set", "wibble=1"]),
+        "--set wibble=1: the dispersive solver has no option 'wibble' (options: bands, cube_res",
+    );
+    // Out of range: the key and its range, whatever the spelling.
+    fails_cleanly(
+        cornell,
+        &with(&["--set", "cube_res=0"]),
+        "--set cube_res=0: dispersive option cube_res = 0: must be integer 1..=2048",
+    );
+    fails_cleanly(
+        cornell,
+        &with(&["--set", "probe-margin=2"]),
+        "--set probe-margin=2: dispersive option probe_margin = 2: must be number 0..=1",
+    );
+    fails_cleanly(
+        cornell,
+        &with(&["--set", "schedule=sometimes"]),
+        "--set schedule=sometimes: dispersive option schedule = sometimes: must be round_robin|priority|budget|full",
+    );
+    fails_cleanly(
+        cornell,
+        &with(&["--set", "bands"]),
+        "--set bands: expected KEY=VALUE",
+    );
+    // A key of another solver is an error on the command line, not silently ignored.
+    fails_cleanly(
+        cornell,
+        &["--solver", "grid", "--set", "schedule=full"],
+        "--set schedule=full: the grid solver has no option 'schedule'",
+    );
+    fails_cleanly(
+        cornell,
+        &["--solver", "grid", "--preset", "paper"],
+        "the grid solver has no preset 'paper' (presets: paper5, paper4)",
+    );
+}
+
+/// Every key of `solver` in the library, by `shrad options SOLVER`'s own source.
+fn library_keys(solver: &str) -> Vec<&'static str> {
+    shrad::solver::SolverChoice::keys_of(solver)
+        .unwrap()
+        .iter()
+        .map(|k| k.name)
+        .collect()
+}
+
+#[test]
+fn options_lists_every_key_with_its_default_and_range() {
+    let o = shrad(&["options"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    for solver in shrad::settings::SOLVERS {
+        assert!(out.contains(&format!("## {solver}")), "{out}");
+        for key in library_keys(solver) {
+            assert!(
+                out.contains(&format!("| `{key}` |")),
+                "{key} missing: {out}"
+            );
+        }
+    }
+    // The default and paper presets side by side, with the range.
+    assert!(
+        out.contains("| `cube_res` | 32 | 128 | integer 1..=2048 | yes |"),
+        "{out}"
+    );
+    let o = shrad(&["options", "grid"]);
+    let grid = String::from_utf8_lossy(&o.stdout);
+    assert!(grid.contains("| `per_axis` | 5 | 4 |"), "{grid}");
+    assert!(!grid.contains("`schedule`"), "{grid}");
+    let o = shrad(&["options", "magic"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn docs_options_md_is_the_output_of_shrad_options() {
+    let o = shrad(&["options"]);
+    assert!(o.status.success());
+    let doc = std::fs::read_to_string(repo().join("docs/options.md")).unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        doc == out,
+        "docs/options.md is out of date: regenerate it with the command written in it"
+    );
 }

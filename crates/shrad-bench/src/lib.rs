@@ -1,0 +1,43 @@
+//! The benchmark harness of shrad: the paper's Tables 1-3 reproduced in one run, apart from
+//! the core library (it reads `/proc`, draws plots and writes files; the core does none of
+//! that).
+//!
+//! For every scene (the built-in `room` at the paper's patch counts, [`scenes`]) and every
+//! solver ([`SolverKind`]: grid G=4, grid G=5, grid G=5 at the default's probe resolution,
+//! the dispersive method with shrad's defaults and with the paper's preset), in one process:
+//!
+//! - a fresh [`shrad::engine::Engine`] over the scene's world runs frames on the static
+//!   scene from its initial state (radiosity = emission);
+//! - after its warm-up frames the radiosity is checked (finite, non-negative, not all zero,
+//!   relative error against the reference below [`BenchOptions::error_bound`]) *before* any
+//!   frame is timed;
+//! - the timed window gives the median frame time and the median of each step;
+//! - the error against the reference (area-weighted relative L2, [`shrad::metrics`]) is
+//!   taken after the same number of frames for every solver ([`BenchOptions::same_frames`])
+//!   and after the same solver time: the sum of `frame_ms` of grid5's first
+//!   [`BenchOptions::same_time_grid5_frames`] frames in the same scene (each solver runs
+//!   until its own summed `frame_ms` reaches it);
+//! - memory: the process's resident-set growth while the solver was built and warmed up, and
+//!   the process's high-water mark ([`machine`]);
+//! - the first line of the log is the machine the run is on.
+//!
+//! [`write_outputs`] writes `results.json`, `report.json`, `results.md` and the plots.
+//! The command is `shrad bench` (crates/shrad-cli); the protocol and the figures are in
+//! `docs/results-bench.md`.
+
+pub mod machine;
+mod markdown;
+mod output;
+pub mod plots;
+mod report;
+mod run;
+mod scenes;
+mod solvers;
+
+pub use machine::Machine;
+pub use markdown::{markdown, summary};
+pub use output::write_outputs;
+pub use report::{BenchReport, Errors, Record, SceneInfo, StepMs, TracePoint};
+pub use run::{check_radiosity, median, run, BenchOptions};
+pub use scenes::{build_world, scenes, SceneSpec, Table};
+pub use solvers::SolverKind;

@@ -1,0 +1,197 @@
+//! The results as Markdown tables in the paper's layout (`results.md`).
+
+use std::fmt::Write as _;
+
+use shrad::metrics::RelativeError;
+
+use crate::report::{BenchReport, Record};
+use crate::scenes::Table;
+use crate::solvers::SolverKind;
+
+fn pct(x: f64) -> String {
+    if x.is_finite() {
+        format!("{:.1}", 100.0 * x)
+    } else {
+        "-".into()
+    }
+}
+
+fn ms(r: Option<&Record>) -> String {
+    r.map_or("-".into(), |r| format!("{:.1}", r.frame_ms_median))
+}
+
+fn speedup(r: Option<&Record>) -> String {
+    r.and_then(|r| r.speedup_vs_grid5)
+        .map_or("-".into(), |x| format!("{x:.1}x"))
+}
+
+fn errors(e: &RelativeError) -> String {
+    format!(
+        "{} / {} / {}",
+        pct(e.overall),
+        pct(e.boundary),
+        pct(e.interior)
+    )
+}
+
+/// Tables 1-2: one row per scene, one column per solver.
+fn scaling_table(s: &mut String, report: &BenchReport) {
+    use SolverKind::*;
+    let scaling = report.scenes_of(Table::Scaling);
+    if scaling.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "## Tables 1-2: time per frame against patch count (8 interior objects)\n"
+    );
+    let _ = writeln!(s, "| scene | patches | grid G=4 (ms) | grid G=5 (ms) | dispersive (ms) | paper preset (ms) | speed-up dispersive vs G=5 | speed-up paper vs G=5 | grid G=5 at R=32 (ms) | speed-up dispersive vs G=5 at R=32 |");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for i in &scaling {
+        let find = |k| report.find(&i.scene, k);
+        let like_for_like = match (find(Grid5DefaultRes), find(Dispersive)) {
+            (Some(g), Some(d)) if d.frame_ms_median > 0.0 => {
+                format!("{:.1}x", g.frame_ms_median / d.frame_ms_median)
+            }
+            _ => "-".into(),
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            i.scene,
+            i.patches,
+            ms(find(Grid4)),
+            ms(find(Grid5)),
+            ms(find(Dispersive)),
+            ms(find(Paper)),
+            speedup(find(Dispersive)),
+            speedup(find(Paper)),
+            ms(find(Grid5DefaultRes)),
+            like_for_like,
+        );
+    }
+    let _ = writeln!(s, "\nGrids: cube maps of 128^2 per face (the paper's), and G=5 at 32^2 (the dispersive default's probe resolution: the like-for-like cost). Dispersive default: probes 32^2, Step 3 splat 64^2. Paper preset: 128^2.\n");
+}
+
+/// Table 3: per-step times of every solver as one object grows.
+fn big_object_table(s: &mut String, report: &BenchReport) {
+    let big = report.scenes_of(Table::BigObject);
+    if big.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "## Table 3: one interior object grows (per-step median times, ms)\n"
+    );
+    let _ = writeln!(s, "| scene patches | largest object patches | solver | direct | objects | to boundary | assemble | frame | frame updating the largest object | speed-up vs G=5 |");
+    let _ = writeln!(s, "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|");
+    for i in &big {
+        for r in report.records.iter().filter(|r| r.scene == i.scene) {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {} | {} |",
+                r.patches,
+                r.largest_object_patches,
+                r.solver,
+                r.step_ms.direct,
+                r.step_ms.objects,
+                r.step_ms.to_boundary,
+                r.step_ms.assemble,
+                r.frame_ms_median,
+                if r.largest_object_frame_ms.is_finite() {
+                    format!("{:.1}", r.largest_object_frame_ms)
+                } else {
+                    "-".into()
+                },
+                speedup(Some(r)),
+            );
+        }
+    }
+    s.push('\n');
+}
+
+/// Every record with its steps, errors and memory.
+fn records_table(s: &mut String, report: &BenchReport) {
+    let _ = writeln!(s, "## Every record: steps, error, memory\n");
+    let _ = writeln!(s, "Memory: \"solver RSS\" is the resident-set growth from before building the solver to the end of its warm-up (its lasting state); \"solver peak\" is the process high-water mark during the solver's run (reset before it through /proc/self/clear_refs) minus the resident set before it (transient buffers included); \"process peak\" is that high-water mark itself, world and reference included.\n");
+    let _ = writeln!(s, "Errors are area-weighted relative L2 against the reference, in %, overall / boundary / interior. \"Same frames\": after the same number of frames from the initial state. \"Same time\": after the solver time of the first grid5 frames of that scene.\n");
+    let _ = writeln!(s, "| scene | patches | largest obj | solver | frame (ms) | direct | objects | to boundary | assemble | error same frames (frames) | error same time (frames) | setup (ms) | solver RSS (MiB) | solver peak (MiB) | process peak (MiB) | check |");
+    let _ = writeln!(
+        s,
+        "|---|---:|---:|---|---:|---:|---:|---:|---:|---|---|---:|---:|---:|---|"
+    );
+    for r in &report.records {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {:.1} | {:.2} | {:.2} | {:.2} | {:.2} | {} ({}) | {} ({}) | {:.0} | {:.0} | {:.0} | {:.0} | {} |",
+            r.scene,
+            r.patches,
+            r.largest_object_patches,
+            r.solver,
+            r.frame_ms_median,
+            r.step_ms.direct,
+            r.step_ms.objects,
+            r.step_ms.to_boundary,
+            r.step_ms.assemble,
+            errors(&r.error.same_frames),
+            r.same_frames,
+            errors(&r.error.same_time),
+            r.same_time_frames,
+            r.setup_ms,
+            r.solver_rss_mib,
+            r.solver_peak_mib,
+            r.peak_mib,
+            r.check,
+        );
+    }
+    s.push('\n');
+}
+
+/// The scenes and their reference solves.
+fn scenes_table(s: &mut String, report: &BenchReport) {
+    let _ = writeln!(s, "## Scenes\n");
+    let _ = writeln!(s, "| scene | patches | boundary | interior | light | world build (s) | reference (s) | reference converged |");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---|");
+    for i in &report.scenes {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {:.2} | {:.1} | {} |",
+            i.scene,
+            i.patches,
+            i.by_role.0,
+            i.by_role.1,
+            i.by_role.2,
+            i.world_seconds,
+            i.reference_seconds,
+            i.reference_converged
+        );
+    }
+}
+
+/// The results as Markdown tables in the paper's layout; `command` is the command line that
+/// produced them.
+pub fn markdown(report: &BenchReport, command: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# shrad bench results\n");
+    let _ = writeln!(s, "Command: `{command}`  ");
+    let _ = writeln!(s, "Machine: {}  ", report.machine.line());
+    let _ = writeln!(
+        s,
+        "Total wall time: {:.0} s. Reference: sparse radiosity, {} form-factor rays per patch.\n",
+        report.seconds, report.reference_rays
+    );
+    scaling_table(&mut s, report);
+    big_object_table(&mut s, report);
+    records_table(&mut s, report);
+    scenes_table(&mut s, report);
+    s
+}
+
+/// The summary tables only (Tables 1-3, without every record): what the command prints.
+pub fn summary(report: &BenchReport, command: &str) -> String {
+    markdown(report, command)
+        .lines()
+        .take_while(|l| !l.starts_with("## Every"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}

@@ -1,0 +1,475 @@
+//! Running the protocol: for each scene one world and one reference solve, then each solver
+//! in turn on an [`Engine`] over that world, checked before it is timed.
+
+use std::time::Instant;
+
+use glam::Vec3;
+use shrad::dispersive::FrameStats;
+use shrad::engine::Engine;
+use shrad::metrics::relative_error;
+use shrad::reference::{solve, ReferenceOptions};
+use shrad::scene::Role;
+use shrad::vis::Backend;
+use shrad::{Error, NoProgress, Progress, World};
+
+use crate::machine::{memory_mib, reset_peak, Machine};
+use crate::report::{BenchReport, Errors, Record, SceneInfo, StepMs, TracePoint};
+use crate::scenes::{build_world, scenes, SceneSpec, Table};
+use crate::solvers::SolverKind;
+
+/// Settings of a benchmark run.
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    /// Scenes to run.
+    pub scenes: Vec<SceneSpec>,
+    /// Solvers to run (grid5 should be first: it sets the same-time budget).
+    pub solvers: Vec<SolverKind>,
+    /// Visibility backend.
+    pub backend: Backend,
+    /// Reference solver settings (fewer rays than the standard preset, to fit the time).
+    pub reference: ReferenceOptions,
+    /// Grid: warm-up frames before the timed window.
+    pub grid_warmup: usize,
+    /// Grid: timed frames.
+    pub grid_timed: usize,
+    /// Dispersive: warm-up passes (a pass updates every interior object once).
+    pub dispersive_warmup_passes: usize,
+    /// Dispersive: timed passes.
+    pub dispersive_timed_passes: usize,
+    /// Frames after which every solver's error is taken ("same frames"); 0: two passes of
+    /// the dispersive scheduler (2 x interior objects).
+    pub same_frames: usize,
+    /// The same-time budget is the solver time of this many grid5 frames.
+    pub same_time_grid5_frames: usize,
+    /// No solver runs more frames than this.
+    pub max_frames: usize,
+    /// Sanity bound on the relative error after warm-up (fraction).
+    pub error_bound: f64,
+}
+
+impl BenchOptions {
+    /// The default protocol over [`scenes`]`(quick)`.
+    pub fn new(quick: bool) -> Self {
+        BenchOptions {
+            scenes: scenes(quick),
+            solvers: SolverKind::ALL.to_vec(),
+            backend: Backend::Auto,
+            reference: ReferenceOptions {
+                rays_per_patch: 128,
+                direct_samples: 32,
+                ..ReferenceOptions::standard()
+            },
+            grid_warmup: 2,
+            grid_timed: 5,
+            dispersive_warmup_passes: 1,
+            dispersive_timed_passes: 2,
+            same_frames: 0,
+            same_time_grid5_frames: 5,
+            max_frames: 4000,
+            error_bound: 1.0,
+        }
+    }
+
+    /// Keep only `solvers` (any order, repeats ignored), run in [`SolverKind::ALL`]'s order
+    /// so that grid5, which sets the others' same-time budget, comes first.
+    pub fn set_solvers(&mut self, solvers: &[SolverKind]) {
+        self.solvers = SolverKind::ALL
+            .into_iter()
+            .filter(|k| solvers.contains(k))
+            .collect();
+    }
+}
+
+/// Median (0 for an empty slice).
+pub fn median(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        0.5 * (s[n / 2 - 1] + s[n / 2])
+    }
+}
+
+/// Is this radiosity usable? `Err` says why not.
+pub fn check_radiosity(world: &World, b: &[Vec3]) -> Result<(), String> {
+    if b.len() != world.patches.len() {
+        return Err(format!(
+            "{} values for {} patches",
+            b.len(),
+            world.patches.len()
+        ));
+    }
+    if let Some(i) = b.iter().position(|v| !v.is_finite()) {
+        return Err(format!("patch {i} is not finite: {}", b[i]));
+    }
+    if let Some(i) = b.iter().position(|v| v.min_element() < 0.0) {
+        return Err(format!("patch {i} is negative: {}", b[i]));
+    }
+    // Something besides the lights must be lit.
+    let lit = (0..b.len())
+        .filter(|&i| world.patches.role(i) != Role::Light)
+        .any(|i| b[i].max_element() > 0.0);
+    if !lit {
+        return Err("every non-light patch is black".into());
+    }
+    Ok(())
+}
+
+/// What one solver's run keeps of the scene around it.
+struct SceneRun<'a> {
+    spec: &'a SceneSpec,
+    reference: &'a [Vec3],
+    world_rss_mib: f64,
+}
+
+/// Run one solver on an engine over `world` and hand the world back. `budget_ms`: the
+/// same-time budget (None for grid5, which sets it from its own first frames and returns it).
+fn run_solver(
+    world: World,
+    scene: &SceneRun<'_>,
+    kind: SolverKind,
+    options: &BenchOptions,
+    budget_ms: Option<f64>,
+) -> Result<(Record, World), Error> {
+    let spec = scene.spec;
+    let p = &world.patches;
+    let interior: Vec<usize> = (0..p.object_role.len())
+        .filter(|&o| p.object_role[o] == Role::Interior)
+        .collect();
+    // Table 3: the grown object (the first interior one); else the largest.
+    let largest_object = match spec.table {
+        Table::BigObject => interior.first().copied(),
+        Table::Scaling => interior.iter().copied().max_by_key(|&o| p.range(o).len()),
+    };
+    let largest = largest_object.map_or(0, |o| p.range(o).len());
+    let n_obj = interior.len().max(1);
+    let same_frames = if options.same_frames > 0 {
+        options.same_frames
+    } else {
+        2 * n_obj
+    };
+    let (warmup, timed) = if kind.is_grid() {
+        (options.grid_warmup, options.grid_timed.max(1))
+    } else {
+        (
+            options.dispersive_warmup_passes * n_obj,
+            (options.dispersive_timed_passes * n_obj).max(1),
+        )
+    };
+    let patches = p.len();
+    let peak_reset = reset_peak();
+    let (rss0, _) = memory_mib();
+    let t = Instant::now();
+    let mut engine = Engine::from_world(world, kind.choice())?;
+    let setup_ms = t.elapsed().as_secs_f64() * 1e3;
+    let error_now = |e: &Engine| relative_error(&e.world().patches, e.radiosity(), scene.reference);
+    let mut cum_ms = 0.0;
+    let mut frames = 0usize;
+    let mut timed_stats: Vec<FrameStats> = Vec::with_capacity(timed);
+    let mut err_same_frames = None;
+    let mut err_same_time = None;
+    let mut budget = budget_ms;
+    let mut same_time_frames = 0;
+    let mut trace = Vec::new();
+    let mut solver_rss = 0.0;
+    let mut check = String::from("ok");
+    let mut next_trace = 1usize;
+    loop {
+        let s = engine.step();
+        frames += 1;
+        cum_ms += s.frame_ms;
+        if frames > warmup && timed_stats.len() < timed {
+            timed_stats.push(s);
+        }
+        let mut error = None;
+        let mut err = || *error.get_or_insert_with(|| error_now(&engine));
+        if frames == warmup.max(1) {
+            // The check comes before the timed window.
+            solver_rss = memory_mib().0 - rss0;
+            check_radiosity(engine.world(), engine.radiosity())
+                .map_err(|e| Error::Invalid(format!("{kind} on {}: {e}", spec.name)))?;
+            let e = err();
+            let within = e.overall <= options.error_bound; // false for NaN
+            if !within {
+                check = format!(
+                    "error {:.1} % after {frames} warm-up frames exceeds {:.0} %",
+                    100.0 * e.overall,
+                    100.0 * options.error_bound
+                );
+            }
+        }
+        if frames == same_frames {
+            err_same_frames = Some(err());
+        }
+        if kind == SolverKind::Grid5
+            && budget.is_none()
+            && frames == options.same_time_grid5_frames.max(1)
+        {
+            budget = Some(cum_ms);
+        }
+        if err_same_time.is_none() {
+            if let Some(b) = budget {
+                if cum_ms >= b - 1e-9 {
+                    err_same_time = Some(err());
+                    same_time_frames = frames;
+                }
+            }
+        }
+        // Trace: every frame for the first 16, then geometrically spaced.
+        if frames >= next_trace {
+            trace.push(TracePoint {
+                frames,
+                ms: cum_ms,
+                error: err().overall,
+            });
+            next_trace = if frames < 16 {
+                frames + 1
+            } else {
+                (frames as f64 * 1.12).ceil() as usize
+            };
+        }
+        let done = timed_stats.len() >= timed
+            && err_same_frames.is_some()
+            && (err_same_time.is_some() || budget.is_none());
+        if done || frames >= options.max_frames {
+            break;
+        }
+    }
+    if trace.last().is_none_or(|t| t.frames != frames) {
+        trace.push(TracePoint {
+            frames,
+            ms: cum_ms,
+            error: error_now(&engine).overall,
+        });
+    }
+    if err_same_time.is_none() {
+        // The frame cap came first: report the last state.
+        err_same_time = Some(error_now(&engine));
+        same_time_frames = frames;
+    }
+    let steps: Vec<StepMs> = timed_stats.iter().map(StepMs::of).collect();
+    let step = |f: fn(&StepMs) -> f64| median(&steps.iter().map(f).collect::<Vec<_>>());
+    let frame_ms: Vec<f64> = timed_stats.iter().map(|s| s.frame_ms).collect();
+    // The paper's Table 3 column: the frames that update the largest object.
+    let largest_frames: Vec<f64> = timed_stats
+        .iter()
+        .filter(|s| largest_object.is_some_and(|o| s.objects_updated.contains(&o)))
+        .map(|s| s.frame_ms)
+        .collect();
+    let (_, hwm) = memory_mib();
+    let record = Record {
+        scene: spec.name.clone(),
+        table: spec.table,
+        patches,
+        largest_object_patches: largest,
+        interior_objects: interior.len(),
+        solver: kind,
+        frame_ms_median: median(&frame_ms),
+        largest_object_frame_ms: if largest_frames.is_empty() {
+            f64::NAN
+        } else {
+            median(&largest_frames)
+        },
+        step_ms: StepMs {
+            direct: step(|s| s.direct),
+            objects: step(|s| s.objects),
+            to_boundary: step(|s| s.to_boundary),
+            assemble: step(|s| s.assemble),
+        },
+        warmup_frames: warmup,
+        timed_frames: timed_stats.len(),
+        error: Errors {
+            same_frames: err_same_frames.unwrap_or_default(),
+            same_time: err_same_time.unwrap_or_default(),
+        },
+        same_frames,
+        same_time_budget_ms: budget.unwrap_or(0.0),
+        same_time_frames,
+        speedup_vs_grid5: None,
+        setup_ms,
+        peak_mib: hwm,
+        peak_is_per_solver: peak_reset,
+        solver_peak_mib: if peak_reset { hwm - rss0 } else { f64::NAN },
+        solver_rss_mib: solver_rss,
+        world_rss_mib: scene.world_rss_mib,
+        check,
+        trace,
+    };
+    // The solver is dropped here, before the next one is built (the memory columns).
+    Ok((record, engine.into_world()))
+}
+
+/// One line per solver for the log.
+fn record_line(r: &Record) -> String {
+    format!(
+        "  {:<10} frame {:>9.2} ms (direct {:.2}, objects {:.2}, to boundary {:.2}, assemble {:.2}), error {:.1} % after {} frames, {:.1} % after {} frames in {:.0} ms{}",
+        r.solver.label(),
+        r.frame_ms_median,
+        r.step_ms.direct,
+        r.step_ms.objects,
+        r.step_ms.to_boundary,
+        r.step_ms.assemble,
+        100.0 * r.error.same_frames.overall,
+        r.same_frames,
+        100.0 * r.error.same_time.overall,
+        r.same_time_frames,
+        r.same_time_budget_ms,
+        if r.check == "ok" { String::new() } else { format!(", CHECK: {}", r.check) }
+    )
+}
+
+/// Run the whole benchmark. `log` receives one line per finished step, the machine's first.
+pub fn run(
+    options: &BenchOptions,
+    progress: &dyn Progress,
+    log: &dyn Fn(&str),
+) -> Result<BenchReport, Error> {
+    let start = Instant::now();
+    let mut records: Vec<Record> = Vec::new();
+    let mut infos = Vec::new();
+    let mut machine = None;
+    let units = options.scenes.len() as u64 * (2 + options.solvers.len() as u64);
+    progress.begin("bench", units);
+    for spec in &options.scenes {
+        let (rss0, _) = memory_mib();
+        let t = Instant::now();
+        let mut world = build_world(spec, options.backend)?;
+        let world_seconds = t.elapsed().as_secs_f64();
+        let world_rss_mib = memory_mib().0 - rss0;
+        if machine.is_none() {
+            let m = Machine::detect(world.vis.name());
+            log(&format!("machine: {}", m.line()));
+            machine = Some(m);
+        }
+        progress.advance(1);
+        // The ground truth every solver is measured against, checked like them.
+        let t = Instant::now();
+        let (reference, stats) = solve(&world, &options.reference, &NoProgress);
+        let reference_seconds = t.elapsed().as_secs_f64();
+        check_radiosity(&world, &reference)
+            .map_err(|e| Error::Invalid(format!("reference on {}: {e}", spec.name)))?;
+        let by_role = world.patches.count_by_role();
+        log(&format!(
+            "{}: {} patches (boundary {}, interior {}, light {}), world {:.1} s, reference {:.1} s ({} iterations{})",
+            spec.name,
+            world.patches.len(),
+            by_role.0,
+            by_role.1,
+            by_role.2,
+            world_seconds,
+            reference_seconds,
+            stats.iterations,
+            if stats.converged { "" } else { ", NOT converged" }
+        ));
+        infos.push(SceneInfo {
+            scene: spec.name.clone(),
+            patches: world.patches.len(),
+            by_role,
+            reference_seconds,
+            reference_converged: stats.converged,
+            world_seconds,
+        });
+        progress.advance(1);
+        let scene = SceneRun {
+            spec,
+            reference: &reference,
+            world_rss_mib,
+        };
+        let mut budget = None;
+        let first = records.len();
+        for &kind in &options.solvers {
+            let (r, back) = run_solver(world, &scene, kind, options, budget)?;
+            world = back;
+            if kind == SolverKind::Grid5 {
+                budget = Some(r.same_time_budget_ms);
+            }
+            log(&record_line(&r));
+            records.push(r);
+            progress.advance(1);
+        }
+        // Speed-ups within the scene.
+        let grid5 = records[first..]
+            .iter()
+            .find(|r| r.solver == SolverKind::Grid5)
+            .map(|r| r.frame_ms_median);
+        if let Some(g) = grid5 {
+            for r in &mut records[first..] {
+                if r.frame_ms_median > 0.0 {
+                    r.speedup_vs_grid5 = Some(g / r.frame_ms_median);
+                }
+            }
+        }
+    }
+    progress.end();
+    Ok(BenchReport {
+        machine: machine.unwrap_or_else(|| Machine::detect("none")),
+        records,
+        scenes: infos,
+        reference_rays: options.reference.rays_per_patch,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use shrad::scene::RoomParams;
+
+    #[test]
+    fn median_of_even_and_odd() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
+        assert_eq!(median(&[]), 0.0);
+    }
+
+    #[test]
+    fn solvers_run_in_the_canonical_order() {
+        let mut o = BenchOptions::new(true);
+        o.set_solvers(&[SolverKind::Paper, SolverKind::Grid5, SolverKind::Paper]);
+        assert_eq!(o.solvers, vec![SolverKind::Grid5, SolverKind::Paper]);
+    }
+
+    #[test]
+    fn small_room_runs_every_solver() {
+        let spec = SceneSpec {
+            name: "tiny".into(),
+            table: Table::Scaling,
+            params: RoomParams {
+                objects: 2,
+                patches: 1500,
+                big_object_patches: None,
+            },
+        };
+        let mut options = BenchOptions::new(true);
+        options.scenes = vec![spec];
+        options.reference = ReferenceOptions::fast();
+        options.grid_timed = 2;
+        options.grid_warmup = 1;
+        options.same_time_grid5_frames = 2;
+        // The kinds fix the paper's settings (cube maps of 128): keep it to one scene of
+        // 1500 patches.
+        let lines = std::sync::Mutex::new(Vec::new());
+        let report = run(&options, &NoProgress, &|l| {
+            lines.lock().unwrap().push(l.to_string())
+        })
+        .unwrap();
+        assert_eq!(report.records.len(), SolverKind::ALL.len());
+        for r in &report.records {
+            assert!(r.frame_ms_median > 0.0, "{r:?}");
+            assert!(r.error.same_frames.overall.is_finite(), "{r:?}");
+            assert!(r.error.same_time.overall.is_finite(), "{r:?}");
+            assert!(r.same_time_frames >= 1);
+            assert_eq!(r.check, "ok");
+        }
+        assert!(report.records.iter().all(|r| r.speedup_vs_grid5.is_some()));
+        // The machine comes first in the log.
+        assert!(lines.lock().unwrap()[0].starts_with("machine: CPU "));
+        let md = crate::markdown(&report, "test");
+        assert!(md.contains("| tiny |"));
+    }
+}

@@ -1,0 +1,88 @@
+//! The benchmark scenes: the built-in `room` at the paper's patch counts, for Tables 1-2
+//! (8 interior objects, growing patch count) and Table 3 (one interior object grows).
+
+use serde::Serialize;
+use shrad::scene::{room, RoomParams};
+use shrad::vis::Backend;
+use shrad::{Error, PatchSizing, World};
+
+/// Which table of the paper a scene belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum Table {
+    /// Tables 1-2 (and Figure 2): 8 interior objects, growing patch count.
+    Scaling,
+    /// Table 3 (and Figure 3): one interior object grows.
+    BigObject,
+}
+
+/// One benchmark scene: the built-in room with these parameters.
+#[derive(Clone, Debug)]
+pub struct SceneSpec {
+    /// Short name used in the results.
+    pub name: String,
+    /// Table of the paper it reproduces.
+    pub table: Table,
+    /// Room parameters.
+    pub params: RoomParams,
+}
+
+/// The scenes of the full run (`quick == false`) or of `--quick` (the Tables 1-2 row nearest
+/// 75k patches).
+pub fn scenes(quick: bool) -> Vec<SceneSpec> {
+    let scaling = [12_000, 26_000, 37_000, 63_000, 77_000, 129_000];
+    // (total patches, patches of the big object): the paper's Table 3 range.
+    let big: [(usize, usize); 5] = [
+        (18_500, 280),
+        (26_000, 4_000),
+        (37_000, 16_000),
+        (55_000, 32_000),
+        (75_000, 64_000),
+    ];
+    let mut v: Vec<SceneSpec> = scaling
+        .iter()
+        .map(|&n| SceneSpec {
+            name: format!("room-{}k", n / 1000),
+            table: Table::Scaling,
+            params: RoomParams {
+                objects: 8,
+                patches: n,
+                big_object_patches: None,
+            },
+        })
+        .collect();
+    if quick {
+        v.retain(|s| s.params.patches == 77_000);
+        return v;
+    }
+    v.extend(big.iter().map(|&(n, b)| SceneSpec {
+        name: format!("big-{:.1}k-{}", n as f32 / 1000.0, b),
+        table: Table::BigObject,
+        // The target count is the scene's total, the big object's patches included.
+        params: RoomParams {
+            objects: 8,
+            patches: n,
+            big_object_patches: Some(b),
+        },
+    }));
+    v
+}
+
+/// Build a scene's world.
+pub fn build_world(spec: &SceneSpec, backend: Backend) -> Result<World, Error> {
+    let scene = room(&spec.params);
+    let n = scene.settings.patches.unwrap_or(spec.params.patches);
+    World::new(scene, PatchSizing::Count(n), backend)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quick_is_one_scene_near_75k() {
+        let s = scenes(true);
+        assert_eq!(s.len(), 1);
+        assert_eq!(s[0].params.patches, 77_000);
+        assert_eq!(scenes(false).len(), 11);
+    }
+}

@@ -1,0 +1,95 @@
+//! `shrad info`: what a scene contains (objects, roles, materials, patches, animations),
+//! without solving anything.
+
+use anyhow::Result;
+use clap::Args;
+use shrad::PatchSizing;
+use shrad_scene::Scene;
+
+use crate::common::{sizing, SceneArgs};
+
+/// Options of `shrad info`.
+#[derive(Args)]
+pub struct InfoArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+}
+
+fn print_animations(scene: &Scene) {
+    if scene.duration() > 0.0 {
+        println!("animation: {:.2} s", scene.duration());
+    }
+    if scene.animations.is_empty() {
+        return;
+    }
+    let playing = scene.animations.iter().filter(|a| a.playing).count();
+    println!(
+        "glTF animations: {} ({playing} playing; --animation NAME|INDEX plays one)",
+        scene.animations.len()
+    );
+    for a in &scene.animations {
+        println!(
+            "  {:<3} {:<24} {:>3} channel(s){} {:.3} .. {:.3} s{}",
+            a.index,
+            a.name,
+            a.channels,
+            if a.ignored > 0 {
+                format!(" (+{} ignored)", a.ignored)
+            } else {
+                String::new()
+            },
+            a.start,
+            a.end,
+            if a.playing { "" } else { "  (not playing)" }
+        );
+    }
+}
+
+/// Print the scene.
+pub fn run(args: InfoArgs, scene: Scene) -> Result<()> {
+    let sizing = sizing(&args.scene, &scene)?;
+    println!("scene: {}", scene.source);
+    if let Some((lo, hi)) = scene.bounds() {
+        println!(
+            "bounds: [{:.3}, {:.3}, {:.3}] .. [{:.3}, {:.3}, {:.3}]",
+            lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+        );
+    }
+    match &scene.camera {
+        Some(c) => println!(
+            "camera: from the scene, yfov {:.2} deg",
+            c.yfov.to_degrees()
+        ),
+        None => println!("camera: none in the scene (a default frames the scene)"),
+    }
+    print_animations(&scene);
+    // The same memory check as a solve: a tiny --patch-size is an error, not an abort.
+    let plan = shrad::Patches::plan(&scene, sizing);
+    shrad::limits::check_patches(&scene.source, plan)?;
+    let patches = shrad::Patches::build(&scene, PatchSizing::Size(plan.patch_size));
+    println!(
+        "patch size: {:.4}, patches: {}",
+        patches.patch_size,
+        patches.len()
+    );
+    println!(
+        "{:<4} {:<24} {:<9} {:>9} {:>9} {:<22} {:<22} animated",
+        "#", "object", "role", "triangles", "patches", "reflectance", "emission L_e"
+    );
+    for (o, object) in scene.objects.iter().enumerate() {
+        let r = object.material.reflectance;
+        let e = object.material.emitted_radiance;
+        println!(
+            "{:<4} {:<24} {:<9} {:>9} {:>9} {:<22} {:<22} {}",
+            o,
+            object.name,
+            object.role(),
+            object.mesh.triangles.len(),
+            patches.range(o).len(),
+            format!("{:.3} {:.3} {:.3}", r.x, r.y, r.z),
+            format!("{:.3} {:.3} {:.3}", e.x, e.y, e.z),
+            if object.is_animated() { "yes" } else { "no" }
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,268 @@
+//! `shrad render`: solve a scene at one time on an engine (any solver, the reference
+//! included) and write a picture, optionally linear EXR and every patch as CSV.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, ValueEnum};
+use shrad::engine::Engine;
+use shrad::frame::SolverStats;
+use shrad::image_io::{write_exr, write_png, Tonemap};
+use shrad::render::{RenderOptions, Shading};
+use shrad::solver::SolverChoice;
+use shrad::World;
+use shrad_scene::Scene;
+
+use crate::common::{build_world, check_positive, print_energy, progress_for, SceneArgs};
+use crate::settings::FileSettings;
+use crate::solver_args::SolverArgs;
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ShadingArg {
+    /// Interpolated from patch corners.
+    Smooth,
+    /// One colour per patch.
+    Flat,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum TonemapArg {
+    /// Exposure (auto unless --exposure) and sRGB.
+    Exposure,
+    /// The paper's linear map of [min, max] to [0, 255].
+    Minmax,
+}
+
+/// Options of `shrad render`.
+#[derive(Args)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    #[command(flatten)]
+    pub solver: SolverArgs,
+    /// Dispersive / grid: frames to run on the (static) scene before drawing
+    /// [default: 8 passes over the interior objects, 8 frames for the grid].
+    #[arg(long)]
+    frames: Option<usize>,
+    /// Also solve the reference and print the error of spec section 8 (dispersive / grid).
+    #[arg(long)]
+    compare: bool,
+    /// Scene time in seconds: animated objects and lights are posed at this time, and every
+    /// solver solves that pose.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    time: f32,
+    /// Output PNG [default: SCENE-NAME.png].
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Also write linear radiance to this OpenEXR file.
+    #[arg(long)]
+    hdr: Option<PathBuf>,
+    /// Also write every patch (object, role, centre, normal, area, radiosity) as CSV.
+    #[arg(long)]
+    export_patches: Option<PathBuf>,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 512)]
+    width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 512)]
+    height: u32,
+    /// Samples (primary rays) per pixel.
+    #[arg(long, default_value_t = 4)]
+    spp: u32,
+    /// How radiosity is drawn.
+    #[arg(long, value_enum, default_value_t = ShadingArg::Smooth)]
+    shading: ShadingArg,
+    /// How radiance becomes PNG colour.
+    #[arg(long, value_enum, default_value_t = TonemapArg::Exposure)]
+    tonemap: TonemapArg,
+    /// Exposure scale for --tonemap exposure [default: auto, 99th percentile to 0.9].
+    #[arg(long, allow_negative_numbers = true)]
+    exposure: Option<f32>,
+}
+
+fn default_output(scene: &str) -> PathBuf {
+    let stem = Path::new(scene)
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "shrad".into());
+    PathBuf::from(format!("{stem}.png"))
+}
+
+/// Check the picture options before anything is solved.
+fn check_picture(args: &RenderArgs) -> Result<()> {
+    if args.width == 0 || args.height == 0 || args.width > 16384 || args.height > 16384 {
+        bail!(
+            "--width and --height must be between 1 and 16384, got {}x{}",
+            args.width,
+            args.height
+        );
+    }
+    if args.spp == 0 || args.spp > 4096 {
+        bail!("--spp must be between 1 and 4096, got {}", args.spp);
+    }
+    if let Some(e) = args.exposure {
+        check_positive("--exposure", e)?;
+    }
+    shrad::limits::check_image(args.width, args.height, args.spp)
+        .context("--width, --height, --spp")?;
+    if !args.time.is_finite() {
+        bail!(
+            "--time must be a finite number of seconds, got {}",
+            args.time
+        );
+    }
+    Ok(())
+}
+
+/// Run the frames of a solve on `engine` and report them unless `quiet`.
+fn solve(engine: &mut Engine, frames: Option<usize>, quiet: bool) {
+    let reference = matches!(engine.solver_choice(), SolverChoice::Reference(_));
+    let frames = frames
+        .filter(|_| !reference)
+        .unwrap_or_else(|| engine.frames_to_converge(8));
+    let progress = progress_for(quiet || reference);
+    progress.begin("frames", frames as u64);
+    let mut last = None;
+    let mut diverged = Vec::new();
+    for f in 0..frames {
+        let stats = engine.step();
+        if let Some(d) = &stats.diverged {
+            diverged.push((f, d.message.clone()));
+        }
+        last = Some(stats);
+        progress.advance(1);
+    }
+    progress.end();
+    if let Some((f, message)) = diverged.first() {
+        // Always said, even with --quiet: the published state was repaired.
+        eprintln!(
+            "warning: the solver diverged in {} of {frames} frames (first in frame {f}: {message})",
+            diverged.len()
+        );
+    }
+    if let Some(r) = last.as_ref().and_then(|s| s.reference()) {
+        if r.non_finite > 0 {
+            eprintln!(
+                "warning: reference: {} non-finite value(s) reset to 0",
+                r.non_finite
+            );
+        }
+    }
+    if let (false, Some(s)) = (quiet, last) {
+        match &s.solver {
+            SolverStats::Reference(r) => eprintln!(
+                "reference: {} iterations, residual {:.2e}{}, direct {:.2} s, form factors {:.2} s ({} entries, {:.1} MiB), solve {:.2} s",
+                r.iterations,
+                r.residual,
+                if r.converged { "" } else { " (NOT converged)" },
+                r.direct_seconds,
+                r.form_factor_seconds,
+                r.form_factor_entries,
+                r.form_factor_bytes as f64 / (1 << 20) as f64,
+                r.solve_seconds
+            ),
+            SolverStats::Dispersive(d) => eprintln!(
+                "{frames} frames; last frame {:.2} ms (direct {:.2}, objects/probes {:.2}, to boundary {:.2}, assemble {:.2}), invalid probes {}, repaired {}",
+                s.frame_ms, d.direct_ms, d.objects_ms, d.to_boundary_ms, d.assemble_ms, d.probes_invalid, d.probes_repaired
+            ),
+            SolverStats::Grid(g) => eprintln!(
+                "{frames} frames; last frame {:.2} ms (capture {:.2}, shading {:.2}), {} probes, {} invalid",
+                s.frame_ms, g.capture_ms, g.shade_ms, g.probes, g.probes_invalid
+            ),
+        }
+        print_energy(&s.energy);
+    }
+}
+
+/// Solve, then draw and write.
+pub fn run(args: RenderArgs, scene: Scene, file: &FileSettings) -> Result<()> {
+    check_picture(&args)?;
+    let quiet = args.scene.quiet;
+    let choice = args.solver.choice(file, quiet)?;
+    let reference = args.solver.reference()?;
+    let mut world = build_world(scene, &args.scene, quiet)?;
+    if args.time != 0.0 {
+        // Before any solver exists: each converges at this pose.
+        let (moved, relit) = world.set_time(args.time);
+        if !quiet {
+            eprintln!(
+                "time {} s: {} object(s) moved, {} light(s) changed",
+                args.time,
+                moved.len(),
+                relit.len()
+            );
+        }
+    }
+    let t = Instant::now();
+    let mut engine = Engine::from_world(world, choice)?;
+    engine.set_reference_options(reference);
+    solve(&mut engine, args.frames, quiet);
+    if args.compare && !matches!(choice, SolverChoice::Reference(_)) {
+        let e = engine.error();
+        println!(
+            "error vs reference (spec 8): overall {:.2} %, boundary {:.2} %, interior {:.2} %",
+            100.0 * e.overall,
+            100.0 * e.boundary,
+            100.0 * e.interior
+        );
+    }
+    let solve_seconds = t.elapsed().as_secs_f64();
+    let options = RenderOptions {
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        shading: match args.shading {
+            ShadingArg::Smooth => Shading::Smooth,
+            ShadingArg::Flat => Shading::Flat,
+        },
+    };
+    let image = engine.render(None, &options)?;
+    let tonemap = match args.tonemap {
+        TonemapArg::Exposure => Tonemap::Exposure(args.exposure),
+        TonemapArg::Minmax => Tonemap::MinMax,
+    };
+    let output = args
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output(&args.scene.scene));
+    write_png(&image, &output, tonemap)?;
+    if !quiet {
+        if let Tonemap::Exposure(scale) = tonemap {
+            let scale = scale.unwrap_or_else(|| shrad::image_io::auto_exposure(&image));
+            eprintln!("exposure {scale:.6e}");
+        }
+    }
+    if let Some(hdr) = &args.hdr {
+        write_exr(&image, hdr)?;
+    }
+    if let Some(csv) = &args.export_patches {
+        let (world, radiosity) = (engine.world(), engine.radiosity());
+        shrad::image_io::write_atomic(csv, |tmp| {
+            export_patches(world, radiosity, tmp).map_err(|e| format!("{e:#}"))
+        })?;
+    }
+    if !quiet {
+        eprintln!("solved in {solve_seconds:.2} s; wrote {}", output.display());
+    }
+    Ok(())
+}
+
+/// Every patch as a CSV row: object, role, centre, normal, area, radiosity.
+fn export_patches(world: &World, radiosity: &[glam::Vec3], path: &Path) -> Result<()> {
+    let mut w = csv::Writer::from_path(path).with_context(|| format!("{}", path.display()))?;
+    w.write_record([
+        "object", "role", "cx", "cy", "cz", "nx", "ny", "nz", "area", "r", "g", "b",
+    ])?;
+    let p = &world.patches;
+    for i in 0..p.len() {
+        let o = p.object[i] as usize;
+        let (c, n, b) = (p.centre[i], p.normal[i], radiosity[i]);
+        let numbers = [c.x, c.y, c.z, n.x, n.y, n.z, p.area[i], b.x, b.y, b.z];
+        let mut row = vec![world.scene.objects[o].name.clone(), p.role(i).to_string()];
+        row.extend(numbers.iter().map(|x| x.to_string()));
+        w.write_record(&row)?;
+    }
+    w.flush()?;
+    Ok(())
+}

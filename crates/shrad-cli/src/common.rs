@@ -1,0 +1,167 @@
+//! What every command that loads a scene shares: the scene options, loading with warnings,
+//! the patch sizing, the world with its one-line summary, the visibility backend's
+//! description, progress bars and the energy line.
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{bail, Result};
+use clap::{Args, ValueEnum};
+use shrad::{PatchSizing, Progress, World};
+use shrad_scene::{LoadOptions, Scene};
+
+/// Options shared by every command that loads a scene.
+#[derive(Args, Clone)]
+pub struct SceneArgs {
+    /// Scene: a .gltf, .glb, .obj or .toml file, or a built-in name (cornell, room).
+    pub scene: String,
+    /// Patch edge length in scene units [default: the scene file's, else --patches].
+    #[arg(long, conflicts_with = "patches", allow_negative_numbers = true)]
+    pub patch_size: Option<f32>,
+    /// Target total patch count [default: the scene file's, else 20000].
+    #[arg(long)]
+    pub patches: Option<usize>,
+    /// Skip zero-area triangles (with a warning) instead of rejecting the file.
+    #[arg(long)]
+    pub drop_degenerate: bool,
+    /// glTF: play only this animation, by name or index [default: every animation of the
+    /// file at once, on one timeline].
+    #[arg(long, value_name = "NAME|INDEX")]
+    pub animation: Option<String>,
+    /// Visibility backend.
+    #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
+    pub backend: BackendArg,
+    /// No progress bars and no informational lines (errors and warnings still print).
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// The visibility backend asked for.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum BackendArg {
+    /// Embree when this build has it, else the pure-Rust BVH.
+    Auto,
+    /// Intel Embree 3.
+    Embree,
+    /// Pure-Rust BVH.
+    Bvh,
+}
+
+impl BackendArg {
+    /// The library's backend.
+    pub fn backend(self) -> shrad::vis::Backend {
+        match self {
+            BackendArg::Auto => shrad::vis::Backend::Auto,
+            BackendArg::Embree => shrad::vis::Backend::Embree,
+            BackendArg::Bvh => shrad::vis::Backend::Bvh,
+        }
+    }
+}
+
+/// Progress bars, or nothing with `--quiet`.
+pub fn progress_for(quiet: bool) -> Box<dyn Progress> {
+    if quiet {
+        Box::new(shrad::NoProgress)
+    } else {
+        Box::new(crate::progress::Bars::default())
+    }
+}
+
+/// Load the scene and print its warnings.
+pub fn load_scene(args: &SceneArgs) -> Result<Scene> {
+    let scene = shrad_scene::load(
+        Path::new(&args.scene),
+        &LoadOptions {
+            drop_degenerate: args.drop_degenerate,
+            animation: args.animation.clone(),
+        },
+    )?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(scene)
+}
+
+/// `value` must be a finite number above 0; the error names the option.
+pub fn check_positive(name: &str, value: f32) -> Result<()> {
+    if !(value.is_finite() && value > 0.0) {
+        bail!("{name} must be a positive number, got {value}");
+    }
+    Ok(())
+}
+
+/// The patch sizing: the command line's, else the scene file's, else 20000 patches.
+pub fn sizing(args: &SceneArgs, scene: &Scene) -> Result<PatchSizing> {
+    if let Some(h) = args.patch_size {
+        check_positive("--patch-size", h)?;
+        return Ok(PatchSizing::Size(h));
+    }
+    if let Some(n) = args.patches {
+        if n == 0 || n > 50_000_000 {
+            bail!("--patches must be between 1 and 50000000, got {n}");
+        }
+        return Ok(PatchSizing::Count(n));
+    }
+    Ok(match (scene.settings.patch_size, scene.settings.patches) {
+        (Some(h), _) => PatchSizing::Size(h),
+        (None, Some(n)) => PatchSizing::Count(n),
+        (None, None) => PatchSizing::Count(20_000),
+    })
+}
+
+/// Patch the scene and build its visibility, saying what it made unless `quiet`.
+pub fn build_world(scene: Scene, args: &SceneArgs, quiet: bool) -> Result<World> {
+    let sizing = sizing(args, &scene)?;
+    let t = Instant::now();
+    let world = World::new(scene, sizing, args.backend.backend())?;
+    if !quiet {
+        let (b, i, l) = world.patches.count_by_role();
+        eprintln!(
+            "{}: {} patches (boundary {b}, interior {i}, light {l}), patch size {:.4} ({:.2} s)",
+            world.scene.source,
+            world.patches.len(),
+            world.patches.patch_size,
+            t.elapsed().as_secs_f64()
+        );
+        eprintln!(
+            "visibility: {}",
+            describe_backend(world.vis.name(), args.backend)
+        );
+    }
+    Ok(world)
+}
+
+/// The visibility backend in use, for the user: `name` is [`shrad::vis::Visibility::name`].
+pub fn describe_backend(name: &str, requested: BackendArg) -> String {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads = std::env::var("RAYON_NUM_THREADS")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+        .filter(|&n| n > 0)
+        .unwrap_or(threads);
+    let compiled = shrad::vis::available_backends().contains(&shrad::vis::Backend::Embree);
+    match (name, requested) {
+        ("embree", _) => format!("Embree 3 ({threads} threads)"),
+        (_, BackendArg::Bvh) => format!("pure-Rust BVH (obvhs, {threads} threads; --backend bvh)"),
+        _ if compiled => format!(
+            "pure-Rust BVH (obvhs, {threads} threads): Embree is in this build but did not start"
+        ),
+        _ => format!(
+            "pure-Rust BVH (obvhs, {threads} threads) - install libembree-dev (scripts/setup) and rebuild for 2-4x speed"
+        ),
+    }
+}
+
+/// The energy meter's line (spec 2): what the lights emit, what all patches absorb (lights
+/// included), and the reflected flux against the most a steady state can reflect.
+pub fn print_energy(e: &shrad::energy::EnergyBalance) {
+    eprintln!(
+        "energy: emitted {:.4e}, absorbed {:.4e} ({:.1} % of emitted; 100 % in a closed scene at rest), reflected {:.4e} ({:.0} % of the bound {:.4e})",
+        e.emitted,
+        e.absorbed,
+        100.0 * e.closure(),
+        e.reflected,
+        100.0 * e.bound_ratio(),
+        e.reflected_bound
+    );
+}
