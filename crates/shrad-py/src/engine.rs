@@ -1,0 +1,407 @@
+//! `shrad.Engine`: the library's [`shrad::engine::Engine`] behind a mutex. Every call that
+//! works (building, stepping, rendering, the reference solve of `error()`, the bake) runs
+//! with the GIL released, so other Python threads go on, and two engines solve in parallel.
+
+use std::sync::{Mutex, MutexGuard};
+
+use glam::Vec3;
+use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use shrad::engine::Engine;
+use shrad::render::{RenderOptions, Shading};
+use shrad::scene::Camera;
+
+use crate::arrays;
+use crate::scene::PyScene;
+use crate::to_py_err;
+
+/// An object by name or by index.
+#[derive(FromPyObject)]
+pub enum ObjRef {
+    /// Its index in `Scene.objects`.
+    Index(usize),
+    /// Its name.
+    Name(String),
+}
+
+/// The live engine over one scene: a patched world and one solver.
+///
+/// ``Engine(scene, solver="dispersive", preset="default", *, backend="auto", **settings)``
+///
+/// ``solver`` is ``"dispersive"`` (the paper's method), ``"grid"`` (the uniform probe grid
+/// baseline) or ``"reference"`` (converged radiosity every frame); ``preset`` one of
+/// ``shrad.presets(solver)``; ``settings`` the solver's keys (``shrad.options(solver)``
+/// lists them with their ranges and defaults), e.g. ``cube_res=64, schedule="full"``.
+/// ``backend`` is ``"auto"``, ``"embree"`` or ``"bvh"``. The precomputation runs here,
+/// with the GIL released.
+///
+/// Steer it with ``set_transform``, ``set_emission``, ``set_time`` and ``set_option``;
+/// advance it with ``step()``; read ``radiosity``, ``vertex_colors``, the patch arrays
+/// (``centres``, ``normals``, ``areas``, ``object_ids``), ``render(...)`` a picture,
+/// measure ``error()`` against a reference solve, ``export_gltf(path)`` the baked light.
+#[pyclass(name = "Engine", module = "shrad", frozen)]
+pub struct PyEngine {
+    inner: Mutex<Engine>,
+}
+
+impl PyEngine {
+    /// Run `f` on the engine with the GIL released.
+    fn with<T: Send>(&self, py: Python<'_>, f: impl FnOnce(&mut Engine) -> T + Send) -> T {
+        py.detach(|| f(&mut self.lock()))
+    }
+
+    fn lock(&self) -> MutexGuard<'_, Engine> {
+        // A panic inside the library (a bug) poisons the lock; the engine's state is still
+        // whole (every mutation validates first), so go on with it.
+        self.inner.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn object(&self, py: Python<'_>, obj: &ObjRef) -> PyResult<usize> {
+        match obj {
+            ObjRef::Index(i) => {
+                let n = self.with(py, |e| e.world().scene.objects.len());
+                if *i >= n {
+                    return Err(PyValueError::new_err(format!(
+                        "object index {i} out of range ({n} objects)"
+                    )));
+                }
+                Ok(*i)
+            }
+            ObjRef::Name(name) => self.with(py, |e| e.object(name)).map_err(to_py_err),
+        }
+    }
+}
+
+/// A camera from `{"eye": [..], "target": [..], "yfov_deg": 40}`.
+pub fn camera_from(d: &Bound<'_, PyDict>) -> PyResult<Camera> {
+    let get3 = |k: &str| -> PyResult<Option<Vec3>> {
+        match d.get_item(k)? {
+            None => Ok(None),
+            Some(v) => {
+                let a: [f32; 3] = v.extract().map_err(|_| {
+                    PyValueError::new_err(format!("camera '{k}' must be [x, y, z]"))
+                })?;
+                Ok(Some(Vec3::from(a)))
+            }
+        }
+    };
+    for k in d.keys() {
+        let k: String = k.extract()?;
+        if !["eye", "target", "yfov_deg", "aspect_ratio"].contains(&k.as_str()) {
+            return Err(PyValueError::new_err(format!(
+                "camera: unknown key '{k}' (known: eye, target, yfov_deg, aspect_ratio)"
+            )));
+        }
+    }
+    let eye = get3("eye")?.ok_or_else(|| PyValueError::new_err("camera needs 'eye'"))?;
+    let target = get3("target")?.ok_or_else(|| PyValueError::new_err("camera needs 'target'"))?;
+    let yfov: f32 = d.get_item("yfov_deg")?.map_or(Ok(40.0), |v| v.extract())?;
+    if !(eye.is_finite() && target.is_finite()) || (eye - target).length() < 1e-9 {
+        return Err(PyValueError::new_err(
+            "camera: eye and target must be finite and apart",
+        ));
+    }
+    if !(yfov > 0.0 && yfov < 180.0) {
+        return Err(PyValueError::new_err(format!(
+            "camera: yfov_deg {yfov} must be between 0 and 180"
+        )));
+    }
+    let mut c = Camera::look_at(eye, target, yfov.to_radians());
+    c.aspect_ratio = d
+        .get_item("aspect_ratio")?
+        .map(|v| v.extract())
+        .transpose()?;
+    Ok(c)
+}
+
+fn backend(name: &str) -> PyResult<shrad::vis::Backend> {
+    use shrad::vis::Backend;
+    Ok(match name {
+        "auto" => Backend::Auto,
+        "embree" => Backend::Embree,
+        "bvh" => Backend::Bvh,
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "backend '{name}' is not auto, embree or bvh"
+            )))
+        }
+    })
+}
+
+#[pymethods]
+impl PyEngine {
+    #[new]
+    #[pyo3(signature = (scene, solver="dispersive", preset="default", *, backend="auto", **settings))]
+    fn new(
+        py: Python<'_>,
+        scene: &PyScene,
+        solver: &str,
+        preset: &str,
+        backend: &str,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<PyEngine> {
+        let choice = crate::settings::choice(solver, preset, settings)?;
+        let backend = self::backend(backend)?;
+        let (scene, sizing) = (scene.scene.as_ref().clone(), scene.sizing);
+        let engine = py
+            .detach(|| Engine::new(scene, sizing, backend, choice))
+            .map_err(to_py_err)?;
+        Ok(PyEngine {
+            inner: Mutex::new(engine),
+        })
+    }
+
+    /// The solver in use: ``"dispersive"``, ``"grid"`` or ``"reference"``.
+    #[getter]
+    fn solver(&self, py: Python<'_>) -> &'static str {
+        self.with(py, |e| e.solver_choice().name())
+    }
+
+    /// Every setting of the solver in use, ``{key: value as text}``.
+    #[getter]
+    fn settings(&self, py: Python<'_>) -> PyResult<Vec<(String, String)>> {
+        self.with(py, |e| {
+            let c = e.solver_choice();
+            c.keys()
+                .iter()
+                .map(|k| Ok((k.name.to_string(), c.get(k.name)?)))
+                .collect::<Result<Vec<_>, shrad::Error>>()
+        })
+        .map_err(to_py_err)
+    }
+
+    /// Change one setting by name (``set_option("cube_res", 64)``). Returns the
+    /// milliseconds the precomputation took when the key needs it again, else None (a
+    /// schedule key applies from the next frame). A bad key or value raises ValueError and
+    /// changes nothing.
+    fn set_option(
+        &self,
+        py: Python<'_>,
+        key: &str,
+        value: &Bound<'_, PyAny>,
+    ) -> PyResult<Option<f64>> {
+        let value = crate::settings::value_text(key, value)?;
+        self.with(py, |e| e.set_option(key, &value))
+            .map(|r| r.map(|r| r.precompute_ms))
+            .map_err(to_py_err)
+    }
+
+    /// The value of setting ``key`` of the solver in use, as text.
+    fn option(&self, py: Python<'_>, key: &str) -> PyResult<String> {
+        self.with(py, |e| e.option(key)).map_err(to_py_err)
+    }
+
+    /// Switch the solver (``set_solver("grid", "paper4", cube_res=16)``): its
+    /// precomputation runs again and the state restarts from the lights' emission. Returns
+    /// the milliseconds that took.
+    #[pyo3(signature = (solver, preset="default", **settings))]
+    fn set_solver(
+        &self,
+        py: Python<'_>,
+        solver: &str,
+        preset: &str,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<f64> {
+        let choice = crate::settings::choice(solver, preset, settings)?;
+        self.with(py, |e| e.set_solver(choice))
+            .map(|r| r.precompute_ms)
+            .map_err(to_py_err)
+    }
+
+    /// Put object ``obj`` (a name or an index) at ``matrix``, a 4x4 world-from-object
+    /// matrix (any affine map; column vectors, ``p' = M @ [x, y, z, 1]``). The scheduler
+    /// updates it and its neighbours first.
+    fn set_transform(
+        &self,
+        py: Python<'_>,
+        obj: ObjRef,
+        matrix: PyArrayLike2<'_, f64, AllowTypeChange>,
+    ) -> PyResult<()> {
+        let o = self.object(py, &obj)?;
+        let m = arrays::read_affine(&matrix, "matrix")?;
+        self.with(py, |e| e.set_transform(o, m)).map_err(to_py_err)
+    }
+
+    /// Object ``obj``'s current world-from-object matrix (4x4 float64).
+    fn transform<'py>(&self, py: Python<'py>, obj: ObjRef) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let o = self.object(py, &obj)?;
+        let m = self.with(py, |e| e.transform(o));
+        arrays::affine(py, m)
+    }
+
+    /// Set object ``obj``'s emitted radiance (linear RGB, W/(m^2 sr); zero switches it off).
+    fn set_emission(&self, py: Python<'_>, obj: ObjRef, rgb: [f32; 3]) -> PyResult<()> {
+        let o = self.object(py, &obj)?;
+        self.with(py, |e| e.set_emission(o, Vec3::from(rgb)))
+            .map_err(to_py_err)
+    }
+
+    /// Go to time ``t`` (seconds) on the scene's animation.
+    fn set_time(&self, py: Python<'_>, t: f32) -> PyResult<()> {
+        self.with(py, |e| e.set_time(t)).map_err(to_py_err)
+    }
+
+    /// The time the world is at (seconds).
+    #[getter]
+    fn time(&self, py: Python<'_>) -> f32 {
+        self.with(py, |e| e.world().time)
+    }
+
+    /// One frame (GIL released). With ``budget_ms`` the dispersive solver updates as many
+    /// objects as fit in it (at least one). Returns the frame's statistics as a dict
+    /// (``frame_ms``, ``objects_updated``, ``stalest``, ``energy``, ``diverged``, ...).
+    #[pyo3(signature = (budget_ms=None))]
+    fn step<'py>(&self, py: Python<'py>, budget_ms: Option<f32>) -> PyResult<Bound<'py, PyAny>> {
+        let stats = match budget_ms {
+            None => self.with(py, |e| Ok(e.step())),
+            Some(ms) => self.with(py, |e| e.step_within(ms)),
+        }
+        .map_err(to_py_err)?;
+        crate::to_py(py, &stats)
+    }
+
+    /// Frames a static scene needs to converge: every object updated ``passes`` times.
+    #[pyo3(signature = (passes=2))]
+    fn frames_to_converge(&self, py: Python<'_>, passes: usize) -> usize {
+        self.with(py, |e| e.frames_to_converge(passes))
+    }
+
+    /// Step until a static scene has converged (every object updated ``passes`` times);
+    /// the statistics of every frame.
+    #[pyo3(signature = (passes=2))]
+    fn converge<'py>(&self, py: Python<'py>, passes: usize) -> PyResult<Bound<'py, PyAny>> {
+        let stats = self.with(py, |e| e.converge(passes));
+        crate::to_py(py, &stats)
+    }
+
+    /// Frames stepped since the engine (or its solver) was made.
+    #[getter]
+    fn frames(&self, py: Python<'_>) -> u64 {
+        self.with(py, |e| e.frames())
+    }
+
+    /// Number of patches.
+    fn __len__(&self, py: Python<'_>) -> usize {
+        self.with(py, |e| e.world().patches.len())
+    }
+
+    /// Radiosity ``B`` of every patch: (N, 3) float32, linear RGB, W/m^2 (a copy: the
+    /// engine's state moves on with the next step).
+    #[getter]
+    fn radiosity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let b = self.with(py, |e| e.radiosity().to_vec());
+        arrays::vec3s(py, b)
+    }
+
+    /// Radiosity at every shading vertex (area-weighted over the patches that share it):
+    /// (V, 3) float32, the colours a viewer draws.
+    #[getter]
+    fn vertex_colors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let v = self.with(py, |e| e.vertex_colors());
+        arrays::vec3s(py, v)
+    }
+
+    /// World-space centre of every patch: (N, 3) float32.
+    #[getter]
+    fn centres<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let v = self.with(py, |e| e.world().patches.centre.clone());
+        arrays::vec3s(py, v)
+    }
+
+    /// World-space unit normal of every patch: (N, 3) float32.
+    #[getter]
+    fn normals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let v = self.with(py, |e| e.world().patches.normal.clone());
+        arrays::vec3s(py, v)
+    }
+
+    /// World area of every patch: (N,) float32.
+    #[getter]
+    fn areas<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f32>> {
+        let v = self.with(py, |e| e.world().patches.area.clone());
+        PyArray1::from_vec(py, v)
+    }
+
+    /// The object (its index in ``Scene.objects``) of every patch: (N,) uint32.
+    #[getter]
+    fn object_ids<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u32>> {
+        let v = self.with(py, |e| e.world().patches.object.clone());
+        PyArray1::from_vec(py, v)
+    }
+
+    /// Reflectance of every patch (the area average of its material): (N, 3) float32.
+    #[getter]
+    fn reflectance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let v = self.with(py, |e| e.world().reflectance.clone());
+        arrays::vec3s(py, v)
+    }
+
+    /// The objects, as ``Scene.objects`` lists them (names, roles, bounds at rest).
+    #[getter]
+    fn objects(&self, py: Python<'_>) -> Vec<crate::scene::PyObjectInfo> {
+        let scene = self.with(py, |e| e.world().scene.clone());
+        PyScene {
+            scene: std::sync::Arc::new(scene),
+            sizing: shrad::PatchSizing::Count(1),
+        }
+        .object_list()
+    }
+
+    /// A linear picture: (height, width, 3) float32 radiance (``B / pi`` on surfaces,
+    /// ``L_e`` on lights, 0 for the background). ``camera`` is a dict ``{"eye": [..],
+    /// "target": [..], "yfov_deg": 40}``, or None for the scene's camera (or one that frames
+    /// it); ``shading`` is ``"smooth"`` (interpolated) or ``"flat"`` (one colour per patch).
+    #[pyo3(signature = (width=512, height=512, *, spp=4, camera=None, shading="smooth"))]
+    fn render<'py>(
+        &self,
+        py: Python<'py>,
+        width: u32,
+        height: u32,
+        spp: u32,
+        camera: Option<&Bound<'py, PyDict>>,
+        shading: &str,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let camera = camera.map(camera_from).transpose()?;
+        let shading = match shading {
+            "smooth" => Shading::Smooth,
+            "flat" => Shading::Flat,
+            s => {
+                return Err(PyValueError::new_err(format!(
+                    "shading '{s}' is not smooth or flat"
+                )))
+            }
+        };
+        let options = RenderOptions {
+            width,
+            height,
+            spp,
+            shading,
+        };
+        let image = self
+            .with(py, |e| e.render(camera.as_ref(), &options))
+            .map_err(to_py_err)?;
+        arrays::image(py, image.pixels, width as usize, height as usize)
+    }
+
+    /// The relative L2 error of the current state against a reference solve of the same
+    /// state (area-weighted, lights left out; fractions, not percent): a dict with
+    /// ``overall``, ``boundary`` and ``interior`` (NaN where a role has no patches).
+    fn error<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let e = self.with(py, |e| e.error());
+        crate::to_py(py, &e)
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> String {
+        self.with(py, |e| {
+            format!(
+                "Engine({:?}, solver={:?}, {} patches, {} frames)",
+                e.world().scene.source,
+                e.solver_choice().name(),
+                e.world().patches.len(),
+                e.frames()
+            )
+        })
+    }
+}

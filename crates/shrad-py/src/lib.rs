@@ -1,0 +1,89 @@
+//! `shrad._shrad`, the native half of the Python package `shrad` (PyO3): scenes
+//! ([`scene`]), the live engine ([`engine`]), pictures ([`images`]). The Python half
+//! (`python/shrad/`) adds `sweep` and re-exports everything here.
+//!
+//! Errors: a bad input is a `ValueError`, a file that cannot be read or written an
+//! `OSError`, each with the message the CLI prints (it names the file and what is wrong).
+
+use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+mod arrays;
+mod engine;
+mod images;
+mod scene;
+mod settings;
+
+/// A library error as the Python exception a user expects: `OSError` for files that
+/// cannot be read or written, `ValueError` for everything else.
+pub(crate) fn to_py_err(e: shrad::Error) -> PyErr {
+    use shrad::scene::SceneError;
+    let message = e.to_string();
+    match e {
+        shrad::Error::Scene(SceneError::Io { source, .. }) => {
+            // The OS's reason after the file ("cornell.glb: cannot read file: No such file").
+            PyOSError::new_err(format!("{message}: {source}"))
+        }
+        shrad::Error::Input(..) | shrad::Error::Output(..) => PyOSError::new_err(message),
+        _ => PyValueError::new_err(message),
+    }
+}
+
+/// A JSON value (statistics serialised by serde) as the Python object it reads as.
+pub(crate) fn json_to_py<'py>(
+    py: Python<'py>,
+    v: &serde_json::Value,
+) -> PyResult<Bound<'py, PyAny>> {
+    use serde_json::Value;
+    Ok(match v {
+        Value::Null => py.None().into_bound(py),
+        Value::Bool(b) => b.into_pyobject(py)?.to_owned().into_any(),
+        Value::Number(n) => match (n.as_i64(), n.as_u64()) {
+            (Some(i), _) => i.into_pyobject(py)?.into_any(),
+            (None, Some(u)) => u.into_pyobject(py)?.into_any(),
+            _ => n.as_f64().unwrap_or(f64::NAN).into_pyobject(py)?.into_any(),
+        },
+        Value::String(s) => s.into_pyobject(py)?.into_any(),
+        Value::Array(items) => {
+            let list = PyList::empty(py);
+            for item in items {
+                list.append(json_to_py(py, item)?)?;
+            }
+            list.into_any()
+        }
+        Value::Object(map) => {
+            let dict = PyDict::new(py);
+            for (k, item) in map {
+                dict.set_item(k, json_to_py(py, item)?)?;
+            }
+            dict.into_any()
+        }
+    })
+}
+
+/// Any serialisable value (frame statistics, errors) as a Python dict / list / number.
+pub(crate) fn to_py<'py, T: serde::Serialize>(
+    py: Python<'py>,
+    v: &T,
+) -> PyResult<Bound<'py, PyAny>> {
+    let json = serde_json::to_value(v).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    json_to_py(py, &json)
+}
+
+/// The native module `shrad._shrad`.
+#[pymodule]
+fn _shrad(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<scene::PyScene>()?;
+    m.add_class::<scene::PyObjectInfo>()?;
+    m.add_class::<engine::PyEngine>()?;
+    m.add_function(wrap_pyfunction!(scene::load, m)?)?;
+    m.add_function(wrap_pyfunction!(scene::load_dict, m)?)?;
+    m.add_function(wrap_pyfunction!(scene::builtins, m)?)?;
+    m.add_function(wrap_pyfunction!(images::write_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(images::write_png, m)?)?;
+    m.add_function(wrap_pyfunction!(images::read_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(settings::options, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

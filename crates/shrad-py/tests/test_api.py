@@ -1,0 +1,251 @@
+"""The API over the engine: loading, steering, reading arrays, pictures, errors."""
+
+import math
+
+import numpy as np
+import pytest
+
+import shrad
+from conftest import box_mesh, room_dict
+
+
+def test_load_builtin_lists_objects(cornell):
+    names = [o.name for o in cornell.objects]
+    assert "short_block" in names and "tall_block" in names
+    roles = {o.name: o.role for o in cornell.objects}
+    assert roles["short_block"] == "interior"
+    assert "light" in roles.values() and "boundary" in roles.values()
+    for o in cornell.objects:
+        lo, hi = o.bounds
+        assert all(a <= b for a, b in zip(lo, hi)), o
+        assert o.triangles > 0
+    assert cornell.patching == ("count", 1500.0)
+    assert "cornell" in cornell.source
+    assert shrad.builtins() == ["cornell", "room"] or "cornell" in shrad.builtins()
+
+
+def test_engine_arrays_have_shapes_and_dtypes(cornell):
+    e = shrad.Engine(cornell, solver="dispersive", preset="default")
+    n = len(e)
+    assert n > 1000
+    stats = e.step()
+    assert isinstance(stats, dict) and stats["frame_ms"] > 0
+    B = e.radiosity
+    assert B.shape == (n, 3) and B.dtype == np.float32 and B.flags["C_CONTIGUOUS"]
+    assert np.isfinite(B).all() and B.max() > 0
+    assert e.centres.shape == (n, 3) and e.centres.dtype == np.float32
+    normals = e.normals
+    assert normals.shape == (n, 3)
+    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-4)
+    assert e.areas.shape == (n,) and e.areas.dtype == np.float32 and (e.areas > 0).all()
+    ids = e.object_ids
+    assert ids.shape == (n,) and ids.dtype == np.uint32
+    assert set(np.unique(ids)) == set(range(len(cornell.objects)))
+    vc = e.vertex_colors
+    assert vc.ndim == 2 and vc.shape[1] == 3 and vc.dtype == np.float32
+    # The arrays are the engine's state at the time of reading: a step moves on, the
+    # array read before does not change under the caller.
+    before = B.copy()
+    e.step()
+    np.testing.assert_array_equal(B, before)
+
+
+def test_radiosity_matches_the_lights_emission_on_light_patches(cornell):
+    e = shrad.Engine(cornell, solver="reference", preset="fast")
+    e.step()
+    lights = [o.index for o in cornell.objects if o.role == "light"]
+    on_light = np.isin(e.object_ids, lights)
+    # The light's radiosity is at least its exitance pi * L_e (plus what it reflects).
+    assert (e.radiosity[on_light].sum(axis=1) > 0).all()
+
+
+def test_transform_round_trip_and_names_or_indices(cornell):
+    e = shrad.Engine(cornell)
+    i = [o.name for o in cornell.objects].index("short_block")
+    m = e.transform("short_block")
+    assert m.shape == (4, 4) and m.dtype == np.float64
+    np.testing.assert_array_equal(m, e.transform(i))
+    moved = m.copy()
+    moved[:3, 3] += [10.0, 0.0, 0.0]
+    e.set_transform("short_block", moved)
+    np.testing.assert_allclose(e.transform(i), moved, atol=1e-4)
+    # A list of lists is an array too.
+    e.set_transform(i, m.tolist())
+    np.testing.assert_allclose(e.transform("short_block"), m, atol=1e-4)
+    centre = e.centres[e.object_ids == i].mean(axis=0)
+    lo, hi = cornell.objects[i].bounds
+    np.testing.assert_allclose(centre, (np.array(lo) + np.array(hi)) / 2, atol=1.0)
+
+
+def test_emission_switches_the_light_off(cornell):
+    e = shrad.Engine(cornell, solver="reference", preset="fast")
+    light = next(o.name for o in cornell.objects if o.role == "light")
+    e.step()
+    lit = e.radiosity.sum()
+    e.set_emission(light, [0.0, 0.0, 0.0])
+    e.step()
+    assert e.radiosity.sum() < 1e-6 * lit
+
+
+def test_settings_are_the_engines_keys(cornell):
+    e = shrad.Engine(cornell, "dispersive", "paper", cube_res=16, schedule="full")
+    assert e.option("cube_res") == "16"
+    assert e.option("schedule") == "full"
+    assert len(e.step()["objects_updated"]) == sum(o.role == "interior" for o in cornell.objects)
+    assert e.set_option("schedule", "round_robin") is None  # live, no precomputation
+    ms = e.set_option("cube_res", 8)
+    assert ms is not None and ms >= 0  # a rebuild, with what it cost
+    keys = {d["name"] for d in shrad.options("dispersive")}
+    assert {"cube_res", "bands", "schedule"} <= keys
+    assert dict(e.settings)["cube_res"] == "8"
+    assert shrad.presets("dispersive")[0] == "default"
+
+
+def test_render_is_linear_float32(cornell):
+    e = shrad.Engine(cornell, solver="reference", preset="fast")
+    e.step()
+    img = e.render(48, 32, spp=1)
+    assert img.shape == (32, 48, 3) and img.dtype == np.float32
+    assert np.isfinite(img).all() and img.max() > 0
+    cam = {"eye": [278, 273, -800], "target": [278, 273, 0], "yfov_deg": 39}
+    other = e.render(16, 16, spp=1, camera=cam, shading="flat")
+    assert other.shape == (16, 16, 3)
+
+
+def test_images_round_trip_through_exr(tmp_path, cornell):
+    img = np.random.default_rng(1).random((8, 12, 3), dtype=np.float32) * 3
+    path = tmp_path / "x.exr"
+    shrad.write_exr(path, img)
+    np.testing.assert_array_equal(shrad.read_exr(path), img)
+    shrad.write_png(tmp_path / "x.png", img, exposure=0.5)
+    shrad.write_png(str(tmp_path / "y.png"), img.astype(np.float64), tonemap="minmax")
+    assert (tmp_path / "x.png").stat().st_size > 0 and (tmp_path / "y.png").exists()
+
+
+def test_load_dict_round_trip():
+    d = room_dict(patches=800)
+    s = shrad.load_dict(d)
+    assert [o.name for o in s.objects] == ["room", "lamp", "block"]
+    assert [o.role for o in s.objects] == ["boundary", "light", "interior"]
+    lo, hi = s.objects[2].bounds
+    np.testing.assert_allclose(lo, [-0.9, 0.0, -0.3], atol=1e-5)
+    np.testing.assert_allclose(hi, [-0.3, 0.6, 0.3], atol=1e-5)
+    assert s.source == "py-room" and s.patching == ("count", 800.0)
+    e = shrad.Engine(s, solver="reference", preset="fast")
+    e.step()
+    on_block = e.object_ids == 2
+    # Lit by the lamp and the walls, but for the face resting on the floor.
+    assert e.radiosity[on_block & (e.normals[:, 1] > -0.5)].min() > 0
+    assert e.radiosity[on_block & (e.normals[:, 1] < -0.5)].max() < 1e-6
+
+
+def test_load_dict_transform_colours_and_keyframes():
+    pos, tris = box_mesh((0.2, 0.2, 0.2))
+    m = np.eye(4)
+    m[:3, 3] = [0.5, 0.2, 0.5]
+    d = room_dict(patches=600, keyframes=True)
+    d["objects"].append(
+        {
+            "name": "tinted",
+            "shape": "mesh",
+            "positions": pos.astype(np.float64),  # converted
+            "triangles": tris.astype(np.int32),
+            "colors": np.tile([[1.0, 0.25, 0.25]], (len(pos), 1)),  # times the reflectance
+            "reflectance": [0.8, 0.8, 0.8],
+            "transform": m,
+        }
+    )
+    s = shrad.load_dict(d)
+    assert s.duration == pytest.approx(1.0)
+    assert [o.animated for o in s.objects] == [False, False, True, False]
+    lo, hi = s.objects[3].bounds
+    np.testing.assert_allclose(lo, [0.3, 0.0, 0.3], atol=1e-5)
+    e = shrad.Engine(s, solver="reference", preset="fast")
+    e.set_time(1.0)
+    np.testing.assert_allclose(e.transform("block")[:3, 3], [0.6, 0.3, 0.0], atol=1e-4)
+    assert e.time == 1.0
+    e.step()
+    red = e.reflectance[e.object_ids == 3]
+    np.testing.assert_allclose(red.mean(axis=0), [0.8, 0.2, 0.2], atol=1e-3)
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda d: d["objects"][2].update(shape="cone"), "object 2 'block': shape 'cone'"),
+        (lambda d: d["objects"][1].update(colour=[1, 1, 1]), "unknown key 'colour'"),
+        (lambda d: d["objects"][0].update(corners=[[0, 0, 0]] * 4), "'corners' does not apply to shape 'box'"),
+        (lambda d: d["objects"][2].update(triangles=np.array([[0, 1, 99]])), "vertex index 99 out of range"),
+        (lambda d: d["objects"][2].update(positions=np.zeros((4, 2))), "shape (N, 3)"),
+        (lambda d: d["objects"][1].update(emission=[-1, 0, 0]), "emission must be >= 0"),
+        (lambda d: d["objects"][2].update(reflectance=[1.5, 0, 0]), "reflectance"),
+        (lambda d: d["objects"][2].update(key=[{"time": math.inf}]), "key 0: time must be finite"),
+        (lambda d: d.update(objects=[]), "no objects"),
+    ],
+)
+def test_bad_dicts_raise_value_error_naming_what(change, message):
+    d = room_dict()
+    change(d)
+    with pytest.raises(ValueError, match="py-room") as info:
+        shrad.load_dict(d)
+    assert message in str(info.value)
+
+
+def test_missing_file_is_oserror_naming_it(tmp_path):
+    missing = tmp_path / "nope.glb"
+    with pytest.raises(OSError, match="nope.glb: cannot read file"):
+        shrad.load(missing)
+    with pytest.raises(OSError, match="not a built-in scene"):
+        shrad.load("no_such_builtin")
+
+
+def test_bad_file_content_is_value_error_naming_it(tmp_path):
+    bad = tmp_path / "broken.toml"
+    bad.write_text("[[object]]\nshape = 'box'\nsize = [1, -1, 1]\n")
+    with pytest.raises(ValueError, match="broken.toml"):
+        shrad.load(bad)
+    gltf = tmp_path / "broken.gltf"
+    gltf.write_text("{ not json")
+    with pytest.raises(ValueError, match="broken.gltf"):
+        shrad.load(gltf)
+
+
+def test_bad_steering_raises(cornell, tmp_path):
+    e = shrad.Engine(cornell, solver="reference", preset="fast")
+    with pytest.raises(ValueError, match="no object 'nope'.*short_block"):
+        e.set_transform("nope", np.eye(4))
+    with pytest.raises(ValueError, match="out of range"):
+        e.set_emission(99, [1, 1, 1])
+    with pytest.raises(ValueError, match="4x4"):
+        e.set_transform(0, np.eye(3))
+    singular = np.eye(4)
+    singular[0, 0] = 0
+    with pytest.raises(ValueError):
+        e.set_transform(0, singular)
+    with pytest.raises(ValueError):
+        e.set_emission(0, [-1, 0, 0])
+    with pytest.raises(ValueError, match="finite"):
+        e.set_time(math.nan)
+    with pytest.raises(ValueError, match="bands"):
+        shrad.Engine(cornell, "dispersive", bands=9)
+    with pytest.raises(ValueError, match="no solver 'magic'"):
+        shrad.Engine(cornell, "magic")
+    with pytest.raises(ValueError, match="no preset 'fancy'"):
+        shrad.Engine(cornell, "grid", "fancy")
+    with pytest.raises(ValueError, match="image size"):
+        e.render(0, 10)
+    with pytest.raises(ValueError, match="patches must be between"):
+        shrad.load("cornell", patches=0)
+    with pytest.raises(OSError, match="does not exist"):
+        shrad.write_exr(tmp_path / "no" / "dir" / "x.exr", np.zeros((2, 2, 3), np.float32))
+    # Nothing moved after all that.
+    e.step()
+    assert np.isfinite(e.radiosity).all()
+
+
+def test_help_is_useful():
+    doc = shrad.Engine.__doc__
+    assert "set_transform" in doc and "radiosity" in doc
+    assert "matrix" in shrad.Engine.set_transform.__doc__
+    assert "(N, 3)" in shrad.Engine.radiosity.__doc__
+    assert "patches" in shrad.load.__doc__
