@@ -31,6 +31,7 @@ pub mod sampling;
 pub mod settings;
 pub mod solver;
 pub mod surface;
+pub mod view_data;
 mod world;
 
 pub use patches::{PatchSizing, Patches};

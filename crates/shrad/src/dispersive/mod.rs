@@ -34,6 +34,7 @@ use crate::reference::form_factor_rows;
 use crate::{NoProgress, World};
 
 mod frame;
+pub mod inspect;
 mod object_state;
 mod options;
 mod scheduler;

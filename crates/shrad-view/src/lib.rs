@@ -1,0 +1,227 @@
+//! `shrad view`: watch and steer dynamic global illumination live in a browser.
+//!
+//! [`Server::start`] builds an [`Engine`] for a scene, runs it on a thread of its own and
+//! serves one web page (`web/` in the repository, three.js from `web/node_modules`) and a
+//! WebSocket at `/ws` over which the page steers the engine and receives every frame
+//! (protocol: `docs/viewer-protocol.md`, [`protocol`]). [`serve`] does that until Ctrl-C.
+//!
+//! All clients share one engine, so they see one scene and each other's steering. A client
+//! that reads slowly only skips frames: frames go through a latest-value slot, requests
+//! through a bounded queue that refuses rather than waits.
+//!
+//! ```no_run
+//! let options = shrad_view::ServeOptions::new(shrad::scene::cornell_box());
+//! shrad_view::serve(options).unwrap();
+//! ```
+
+use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::sync::{mpsc as std_mpsc, Arc};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use anyhow::{bail, Context, Result};
+use shrad::engine::Engine;
+use shrad::scene::Scene;
+use shrad::solver::SolverChoice;
+use shrad::vis::Backend;
+use shrad::PatchSizing;
+use tokio::sync::watch;
+
+mod engine_loop;
+mod http;
+pub mod protocol;
+pub mod solvers;
+
+use engine_loop::{EngineLoop, Shared};
+
+/// Requests waiting for the engine at most; beyond, a request is refused with an error.
+const QUEUE: usize = 256;
+
+/// What [`serve`] and [`Server::start`] need (no command-line parsing here: `shrad view`
+/// fills it from its flags).
+pub struct ServeOptions {
+    /// The scene, loaded.
+    pub scene: Scene,
+    /// How finely to patch it.
+    pub sizing: PatchSizing,
+    /// Visibility backend.
+    pub backend: Backend,
+    /// Solver name the page shows (`dispersive`, `grid`, `reference`).
+    pub solver: String,
+    /// Preset name the page shows (`default`, `paper`).
+    pub preset: String,
+    /// The solver's settings; `None`: those of `solver` under `preset`.
+    pub choice: Option<SolverChoice>,
+    /// Address to bind (127.0.0.1 unless asked otherwise; any other gets a warning).
+    pub host: IpAddr,
+    /// Port (0: any free port).
+    pub port: u16,
+    /// The page's folder (`web/` with `src/` and `node_modules/three`).
+    pub web_root: PathBuf,
+}
+
+impl ServeOptions {
+    /// `scene` at 20,000 patches with the default dispersive solver, on 127.0.0.1:8080, the
+    /// page from this repository's `web/`.
+    pub fn new(scene: Scene) -> ServeOptions {
+        ServeOptions {
+            scene,
+            sizing: PatchSizing::Count(20_000),
+            backend: Backend::Auto,
+            solver: "dispersive".to_string(),
+            preset: "default".to_string(),
+            choice: None,
+            host: IpAddr::V4(Ipv4Addr::LOCALHOST),
+            port: 8080,
+            web_root: default_web_root(),
+        }
+    }
+}
+
+/// This repository's `web/` (where `scripts/setup-browser` installs three.js).
+pub fn default_web_root() -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../web"))
+}
+
+/// A running viewer server.
+pub struct Server {
+    addr: SocketAddr,
+    runtime: Option<tokio::runtime::Runtime>,
+    stop: watch::Sender<bool>,
+    shared: Arc<Shared>,
+    engine_thread: Option<JoinHandle<()>>,
+    http_task: Option<tokio::task::JoinHandle<std::io::Result<()>>>,
+}
+
+impl Server {
+    /// Patch the scene, precompute the solver, bind, and start serving.
+    pub fn start(options: ServeOptions) -> Result<Server> {
+        let web_root = options.web_root.clone();
+        for need in ["src/index.html", "node_modules/three/build/three.module.js"] {
+            if !web_root.join(need).is_file() {
+                bail!(
+                    "{}: missing (the viewer's page; run scripts/setup-browser to install three.js into web/node_modules)",
+                    web_root.join(need).display()
+                );
+            }
+        }
+        if !options.host.is_loopback() {
+            eprintln!(
+                "warning: serving on {} : anyone who can reach this address can steer the scene (there is no authentication)",
+                options.host
+            );
+        }
+        let choice = match options.choice {
+            Some(c) => c,
+            None => {
+                solvers::choice(&options.solver, &options.preset).map_err(anyhow::Error::msg)?
+            }
+        };
+        let engine = Engine::new(options.scene, options.sizing, options.backend, choice)
+            .context("cannot build the engine")?;
+        let runtime = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(1)
+            .thread_name("shrad-view-io")
+            .enable_all()
+            .build()
+            .context("cannot start the I/O runtime")?;
+        let addr = SocketAddr::new(options.host, options.port);
+        let listener = runtime
+            .block_on(tokio::net::TcpListener::bind(addr))
+            .with_context(|| format!("cannot listen on {addr}"))?;
+        let addr = listener.local_addr()?;
+        let shared = Arc::new(Shared::new());
+        let (commands_tx, commands_rx) = std_mpsc::sync_channel(QUEUE);
+        let (engine_loop, intro, frames) = EngineLoop::new(
+            engine,
+            options.solver,
+            options.preset,
+            commands_rx,
+            shared.clone(),
+        );
+        let engine_thread = std::thread::Builder::new()
+            .name("shrad-engine".to_string())
+            .spawn(move || engine_loop.run())
+            .context("cannot start the engine thread")?;
+        let (stop, stop_rx) = watch::channel(false);
+        let app = Arc::new(http::App {
+            web_root,
+            intro,
+            frames,
+            commands: commands_tx,
+            shared: shared.clone(),
+            stop: stop_rx.clone(),
+        });
+        let http_task = runtime.spawn(http::run(listener, app, stop_rx));
+        Ok(Server {
+            addr,
+            runtime: Some(runtime),
+            stop,
+            shared,
+            engine_thread: Some(engine_thread),
+            http_task: Some(http_task),
+        })
+    }
+
+    /// The address it listens on.
+    pub fn addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// The page's URL.
+    pub fn url(&self) -> String {
+        format!("http://{}/", self.addr)
+    }
+
+    /// Close every connection, stop the engine and wait for both.
+    pub fn stop(mut self) -> Result<()> {
+        self.shutdown()
+    }
+
+    fn shutdown(&mut self) -> Result<()> {
+        self.shared.stop.store(true, Ordering::Relaxed);
+        let _ = self.stop.send(true);
+        let mut result = Ok(());
+        if let (Some(rt), Some(task)) = (&self.runtime, self.http_task.take()) {
+            match rt.block_on(async { tokio::time::timeout(Duration::from_secs(5), task).await }) {
+                Ok(Ok(Ok(()))) => {}
+                Ok(Ok(Err(e))) => {
+                    result = Err(anyhow::Error::new(e).context("the HTTP server failed"))
+                }
+                Ok(Err(e)) => result = Err(anyhow::anyhow!("the HTTP server task failed: {e}")),
+                Err(_) => result = Err(anyhow::anyhow!("the HTTP server did not stop within 5 s")),
+            }
+        }
+        if let Some(t) = self.engine_thread.take() {
+            if t.join().is_err() {
+                result = Err(anyhow::anyhow!("the engine thread panicked"));
+            }
+        }
+        if let Some(rt) = self.runtime.take() {
+            rt.shutdown_timeout(Duration::from_secs(2));
+        }
+        result
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        let _ = self.shutdown();
+    }
+}
+
+/// Start the server, print its URL and serve until Ctrl-C; then close every connection and
+/// stop the engine.
+pub fn serve(options: ServeOptions) -> Result<()> {
+    let server = Server::start(options)?;
+    println!("shrad view: {}  (Ctrl-C to stop)", server.url());
+    let ctrl_c = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()?
+        .block_on(tokio::signal::ctrl_c());
+    ctrl_c.context("cannot wait for Ctrl-C")?;
+    eprintln!("shrad view: stopping");
+    server.stop()
+}

@@ -1,0 +1,46 @@
+//! Solver names, presets and settings as the page sees them: a thin layer over the
+//! library's settings (`shrad::settings`: one table of keys per solver, validated there).
+
+use serde_json::{json, Map, Value};
+use shrad::engine::Engine;
+use shrad::settings::{presets, SOLVERS};
+use shrad::solver::SolverChoice;
+
+/// The settings of `solver` under `preset` (`default`: the solver's default preset).
+pub fn choice(solver: &str, preset: &str) -> Result<SolverChoice, String> {
+    SolverChoice::preset(solver, preset).map_err(|e| e.to_string())
+}
+
+/// Every solver's presets, default first: `{"dispersive": ["default", "paper"], ...}`.
+pub fn presets_json() -> Value {
+    let mut m = Map::new();
+    for s in SOLVERS {
+        let list: Vec<&str> = presets(s).map(|p| p.to_vec()).unwrap_or_default();
+        m.insert(s.to_string(), json!(list));
+    }
+    Value::Object(m)
+}
+
+/// Change one setting of the solver in use by name. Keys that need precomputation rebuild
+/// the solver (the reply says what that cost); the schedule's keys change live.
+pub fn set_option(engine: &mut Engine, key: &str, value: &str) -> Result<Value, String> {
+    let rebuilt = engine.set_option(key, value).map_err(|e| e.to_string())?;
+    Ok(json!({
+        "key": key,
+        "value": engine.option(key).unwrap_or_default(),
+        "precompute_ms": rebuilt.map(|r| r.precompute_ms),
+    }))
+}
+
+/// Every setting of the solver in use, as text (`-` for a schedule parameter the schedule
+/// in force does not use).
+pub fn settings(engine: &Engine) -> Value {
+    let choice = engine.solver_choice();
+    let mut m = Map::new();
+    for spec in choice.keys() {
+        if let Ok(v) = choice.get(spec.name) {
+            m.insert(spec.name.to_string(), json!(v));
+        }
+    }
+    Value::Object(m)
+}

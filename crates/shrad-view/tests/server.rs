@@ -1,0 +1,446 @@
+//! The viewer server as a service: two clients at once, a client that vanishes in the middle
+//! of a frame, 1,000 random or malformed messages, oversized messages, a client that never
+//! reads; after each, the server still answers. A small Cornell box (2,000 patches) on
+//! 127.0.0.1, port 0.
+
+use std::net::{IpAddr, Ipv4Addr};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use futures_util::{SinkExt, StreamExt};
+use serde_json::{json, Value};
+use shrad_view::{ServeOptions, Server};
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio_tungstenite::tungstenite::Message;
+
+type Ws =
+    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
+/// A page folder with the two files the server checks for (the tests need no npm).
+fn web_root() -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("shrad-view-test-web-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("src")).unwrap();
+    std::fs::create_dir_all(dir.join("node_modules/three/build")).unwrap();
+    std::fs::write(
+        dir.join("src/index.html"),
+        "<!doctype html><title>test page</title>",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("node_modules/three/build/three.module.js"),
+        "export {};",
+    )
+    .unwrap();
+    dir
+}
+
+fn server() -> Server {
+    let mut o = ServeOptions::new(shrad::scene::cornell_box());
+    o.sizing = shrad::PatchSizing::Count(2000);
+    o.host = IpAddr::V4(Ipv4Addr::LOCALHOST);
+    o.port = 0;
+    o.web_root = web_root();
+    Server::start(o).unwrap()
+}
+
+fn runtime() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .unwrap()
+}
+
+async fn connect(s: &Server) -> Ws {
+    let (ws, _) = tokio_tungstenite::connect_async(format!("ws://{}/ws", s.addr()))
+        .await
+        .unwrap();
+    ws
+}
+
+/// The next text message that is not a `frame` or `probes` broadcast.
+async fn reply(ws: &mut Ws) -> Value {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let m = tokio::time::timeout(left, ws.next())
+            .await
+            .expect("no reply within 30 s")
+            .expect("connection closed")
+            .expect("read error");
+        if let Message::Text(t) = m {
+            let v: Value = serde_json::from_str(t.as_str()).unwrap();
+            if v["type"] != "frame" && v["type"] != "probes" && v["type"] != "scene" {
+                return v;
+            }
+        }
+    }
+}
+
+async fn ping(ws: &mut Ws, id: u64) {
+    ws.send(Message::Text(
+        json!({"v": 1, "type": "ping", "id": id}).to_string().into(),
+    ))
+    .await
+    .unwrap();
+    let r = reply(ws).await;
+    assert_eq!(r["type"], "pong", "{r}");
+    assert_eq!(r["id"], id);
+}
+
+/// Read until a colour frame; returns its frame number and the matrices.
+async fn colour_frame(ws: &mut Ws) -> (u32, Vec<f32>) {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let m = tokio::time::timeout(left, ws.next())
+            .await
+            .expect("no frame within 30 s");
+        if let Some(Ok(Message::Binary(b))) = m {
+            assert_eq!(&b[0..4], b"SHRV");
+            if b[6] != 1 {
+                continue;
+            }
+            let frame = u32::from_le_bytes(b[8..12].try_into().unwrap());
+            let n = u32::from_le_bytes(b[12..16].try_into().unwrap()) as usize;
+            let vertices = u32::from_le_bytes(b[20..24].try_into().unwrap()) as usize;
+            assert_eq!(b.len(), 24 + 64 * n + 6 * vertices);
+            let m: Vec<f32> = b[24..24 + 64 * n]
+                .chunks(4)
+                .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+                .collect();
+            return (frame, m);
+        }
+    }
+}
+
+/// A plain HTTP GET; the status line's code.
+async fn http_get(s: &Server, path: &str) -> u16 {
+    let mut tcp = tokio::net::TcpStream::connect(s.addr()).await.unwrap();
+    tcp.write_all(
+        format!(
+            "GET {path} HTTP/1.1\r\nHost: {}\r\nConnection: close\r\n\r\n",
+            s.addr()
+        )
+        .as_bytes(),
+    )
+    .await
+    .unwrap();
+    let mut out = Vec::new();
+    tcp.read_to_end(&mut out).await.unwrap();
+    let text = String::from_utf8_lossy(&out);
+    text.split_whitespace().nth(1).unwrap().parse().unwrap()
+}
+
+async fn still_answers(s: &Server) {
+    let mut ws = connect(s).await;
+    ping(&mut ws, 4242).await;
+    colour_frame(&mut ws).await;
+    assert_eq!(http_get(s, "/").await, 200);
+}
+
+#[test]
+fn two_clients_share_one_scene() {
+    let s = server();
+    runtime().block_on(async {
+        let mut a = connect(&s).await;
+        let mut b = connect(&s).await;
+        let (_, before) = colour_frame(&mut b).await;
+        colour_frame(&mut a).await;
+        // A moves the short block 0.1 along x; B sees it in a later frame.
+        let o = shrad::scene::cornell_box()
+            .objects
+            .iter()
+            .position(|o| o.name == "short_block")
+            .unwrap();
+        let mut matrix = before[16 * o..16 * o + 16].to_vec();
+        matrix[12] += 0.1;
+        let request = json!({"v": 1, "type": "set_transform", "object": "short_block", "id": 1,
+            "matrix": matrix});
+        a.send(Message::Text(request.to_string().into()))
+            .await
+            .unwrap();
+        let r = reply(&mut a).await;
+        assert_eq!(r["type"], "ok", "{r}");
+        let shown = r["frame"].as_u64().unwrap() as u32;
+        loop {
+            let (f, m) = colour_frame(&mut b).await;
+            if f >= shown {
+                let dx = m[16 * o + 12] - before[16 * o + 12];
+                assert!((dx - 0.1).abs() < 1e-4, "B saw the block move by {dx}");
+                break;
+            }
+        }
+        ping(&mut a, 1).await;
+        ping(&mut b, 2).await;
+    });
+    s.stop().unwrap();
+}
+
+#[test]
+fn a_client_that_vanishes_mid_frame_breaks_nothing() {
+    let s = server();
+    runtime().block_on(async {
+        let mut keep = connect(&s).await;
+        keep.send(Message::Text(json!({"v": 1, "type": "run", "continuous": true}).to_string().into()))
+            .await
+            .unwrap();
+        for round in 0..5 {
+            // A raw WebSocket handshake, a few bytes of the stream (the scene, the geometry,
+            // a frame), then the socket dropped while the server writes.
+            let mut tcp = tokio::net::TcpStream::connect(s.addr()).await.unwrap();
+            tcp.write_all(
+                format!(
+                    "GET /ws HTTP/1.1\r\nHost: {}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n",
+                    s.addr()
+                )
+                .as_bytes(),
+            )
+            .await
+            .unwrap();
+            let mut buf = vec![0u8; 4096 + 997 * round];
+            let mut got = 0;
+            while got < buf.len() {
+                let n = tcp.read(&mut buf[got..]).await.unwrap();
+                assert!(n > 0);
+                got += n;
+            }
+            drop(tcp);
+        }
+        // A websocket client that disconnects after its first colour frame, too.
+        let mut c = connect(&s).await;
+        colour_frame(&mut c).await;
+        drop(c);
+        let (f0, _) = colour_frame(&mut keep).await;
+        let (f1, _) = colour_frame(&mut keep).await;
+        assert!(f1 > f0);
+        ping(&mut keep, 9).await;
+    });
+    runtime().block_on(still_answers(&s));
+    s.stop().unwrap();
+}
+
+/// A small deterministic generator (xorshift).
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+}
+
+/// A random or malformed control message.
+fn malformed(r: &mut Rng) -> Message {
+    let templates = [
+        r#"{"v":1,"type":"set_transform","object":"short_block","matrix":[1,0,0,0,0,1,0,0,0,0,1,0,0.1,0,0,1]}"#,
+        r#"{"v":1,"type":"set_emission","object":"light","radiance":[1,2,3]}"#,
+        r#"{"v":1,"type":"set_time","t":0.5}"#,
+        r#"{"v":1,"type":"set_option","key":"per_frame","value":"2"}"#,
+        r#"{"v":1,"type":"set_channel","channel":"direct"}"#,
+        r#"{"v":1,"type":"probes","on":true}"#,
+        r#"{"v":1,"type":"play","playing":true}"#,
+        r#"{"v":1,"type":"ping"}"#,
+    ];
+    let junk = [
+        "", "{", "}", "null", "[]", "1e999", "\"x\"", "{\"v\":1}", "{\"type\":\"ping\"}",
+        "{\"v\":\"1\",\"type\":\"ping\"}", "{\"v\":1,\"type\":7}", "{\"v\":1,\"type\":\"set_transform\",\"object\":99,\"matrix\":[]}",
+        "{\"v\":1,\"type\":\"set_transform\",\"object\":\"floor\",\"matrix\":[1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1]}",
+        "{\"v\":1,\"type\":\"set_transform\",\"object\":\"short_block\",\"matrix\":[0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,1]}",
+        "{\"v\":1,\"type\":\"set_transform\",\"object\":\"short_block\",\"matrix\":[1e300,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1]}",
+        "{\"v\":1,\"type\":\"set_emission\",\"object\":0,\"radiance\":[-1,0,0]}",
+        "{\"v\":1,\"type\":\"set_solver\",\"solver\":\"magic\"}",
+        "{\"v\":1,\"type\":\"set_solver\",\"solver\":\"grid\",\"preset\":\"nope\"}",
+        "{\"v\":1,\"type\":\"set_option\",\"key\":\"per_frame\",\"value\":\"-3\"}",
+        "{\"v\":1,\"type\":\"set_option\",\"key\":\"budget_ms\",\"value\":\"NaN\"}",
+        "{\"v\":1,\"type\":\"set_option\",\"key\":\"cube_res\",\"value\":[1]}",
+        "{\"v\":1,\"type\":\"set_channel\",\"channel\":\"ultraviolet\"}",
+        "{\"v\":1,\"type\":\"play\",\"playing\":true,\"speed\":-1}",
+        "{\"v\":1,\"type\":\"ping\",\"id\":1.5}",
+        "\u{0}\u{1}\u{2}",
+    ];
+    match r.below(5) {
+        0 => Message::Text(junk[r.below(junk.len())].to_string().into()),
+        1 => {
+            // A template cut short.
+            let t = templates[r.below(templates.len())];
+            Message::Text(t[..r.below(t.len())].to_string().into())
+        }
+        2 => {
+            // A template with a few bytes replaced by random printable ones.
+            let mut t = templates[r.below(templates.len())].as_bytes().to_vec();
+            for _ in 0..1 + r.below(4) {
+                let i = r.below(t.len());
+                let pool = b" \"{}[]:,0123456789aez-.";
+                t[i] = pool[r.below(pool.len())];
+            }
+            Message::Text(String::from_utf8_lossy(&t).into_owned().into())
+        }
+        3 => {
+            // Random bytes as a binary message.
+            let n = r.below(200);
+            Message::Binary((0..n).map(|_| r.next() as u8).collect::<Vec<u8>>().into())
+        }
+        _ => {
+            // Deeply nested or oddly typed JSON.
+            let depth = 1 + r.below(300);
+            Message::Text(
+                format!(
+                    "{{\"v\":1,\"type\":\"set_time\",\"t\":{}1{}}}",
+                    "[".repeat(depth),
+                    "]".repeat(depth)
+                )
+                .into(),
+            )
+        }
+    }
+}
+
+#[test]
+fn a_thousand_random_or_malformed_messages_get_replies_and_nothing_breaks() {
+    let s = server();
+    runtime().block_on(async {
+        let mut ws = connect(&s).await;
+        let mut rng = Rng(0x9e3779b97f4a7c15);
+        let mut replies = 0usize;
+        let mut errors = 0usize;
+        for _ in 0..1000 {
+            ws.send(malformed(&mut rng)).await.unwrap();
+            let r = reply(&mut ws).await;
+            replies += 1;
+            match r["type"].as_str() {
+                Some("error") => {
+                    errors += 1;
+                    assert!(!r["message"].as_str().unwrap().is_empty());
+                }
+                Some("ok") | Some("pong") => {}
+                other => panic!("unexpected reply {other:?}: {r}"),
+            }
+        }
+        assert_eq!(replies, 1000);
+        assert!(
+            errors > 700,
+            "only {errors} errors among 1000 mostly malformed messages"
+        );
+        ping(&mut ws, 77).await;
+    });
+    runtime().block_on(still_answers(&s));
+    s.stop().unwrap();
+}
+
+#[test]
+fn oversized_messages_get_an_error_or_a_close_and_the_server_goes_on() {
+    let s = server();
+    runtime().block_on(async {
+        let mut ws = connect(&s).await;
+        // Over the protocol's limit, under the wire's: an error, and the connection stays.
+        let big = json!({"v": 1, "type": "ping", "pad": "x".repeat(100_000)}).to_string();
+        ws.send(Message::Text(big.into())).await.unwrap();
+        let r = reply(&mut ws).await;
+        assert_eq!(r["type"], "error");
+        assert!(
+            r["message"].as_str().unwrap().contains("larger than"),
+            "{r}"
+        );
+        ping(&mut ws, 5).await;
+        // Over the wire's limit: the connection is closed (status 1009), nothing else.
+        let huge = "y".repeat(2 * 1024 * 1024);
+        let _ = ws.send(Message::Text(huge.into())).await;
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let mut closed = false;
+        while Instant::now() < deadline {
+            match tokio::time::timeout(Duration::from_secs(10), ws.next()).await {
+                Ok(Some(Ok(Message::Close(frame)))) => {
+                    if let Some(f) = frame {
+                        assert_eq!(u16::from(f.code), 1009);
+                    }
+                    closed = true;
+                    break;
+                }
+                Ok(Some(Ok(_))) => continue,
+                Ok(Some(Err(_))) | Ok(None) => {
+                    closed = true;
+                    break;
+                }
+                Err(_) => break,
+            }
+        }
+        assert!(closed, "a 2 MiB message did not close the connection");
+    });
+    runtime().block_on(still_answers(&s));
+    s.stop().unwrap();
+}
+
+/// The newest frame number this client has been sent: everything it receives for 0.5 s.
+async fn latest_frame(ws: &mut Ws) -> u32 {
+    let mut newest = colour_frame(ws).await.0;
+    let until = Instant::now() + Duration::from_millis(500);
+    while let Ok(Some(Ok(m))) =
+        tokio::time::timeout(until.saturating_duration_since(Instant::now()), ws.next()).await
+    {
+        if let Message::Binary(b) = m {
+            if b.len() >= 16 && b[6] == 1 {
+                newest = newest.max(u32::from_le_bytes(b[8..12].try_into().unwrap()));
+            }
+        }
+    }
+    newest
+}
+
+#[test]
+fn a_client_that_never_reads_does_not_stall_the_engine() {
+    let s = server();
+    runtime().block_on(async {
+        let _sleeper = connect(&s).await; // never read from
+        let mut ws = connect(&s).await;
+        ws.send(Message::Text(
+            json!({"v": 1, "type": "run", "continuous": true})
+                .to_string()
+                .into(),
+        ))
+        .await
+        .unwrap();
+        let f0 = latest_frame(&mut ws).await;
+        tokio::time::sleep(Duration::from_secs(2)).await;
+        let f1 = latest_frame(&mut ws).await;
+        // The slow client's socket buffer is long full by now: the engine went on.
+        assert!(
+            f1 > f0 + 20,
+            "the engine advanced only {} frames in 2 s",
+            f1 - f0
+        );
+    });
+    s.stop().unwrap();
+}
+
+#[test]
+fn files_are_served_from_the_page_folder_only() {
+    let s = server();
+    runtime().block_on(async {
+        assert_eq!(http_get(&s, "/").await, 200);
+        assert_eq!(http_get(&s, "/vendor/three/build/three.module.js").await, 200);
+        assert_eq!(http_get(&s, "/../Cargo.toml").await, 404);
+        assert_eq!(http_get(&s, "/%2e%2e/Cargo.toml").await, 404);
+        assert_eq!(http_get(&s, "/vendor/three/package.json").await, 404);
+        assert_eq!(http_get(&s, "/.hidden.js").await, 404);
+        // A WebSocket from a page of another origin is refused.
+        let mut tcp = tokio::net::TcpStream::connect(s.addr()).await.unwrap();
+        tcp.write_all(
+            format!(
+                "GET /ws HTTP/1.1\r\nHost: {}\r\nOrigin: http://evil.example\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n",
+                s.addr()
+            )
+            .as_bytes(),
+        )
+        .await
+        .unwrap();
+        let mut buf = [0u8; 64];
+        let n = tcp.read(&mut buf).await.unwrap();
+        assert!(String::from_utf8_lossy(&buf[..n]).contains(" 403 "));
+    });
+    s.stop().unwrap();
+}
