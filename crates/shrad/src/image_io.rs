@@ -2,7 +2,7 @@
 //! and linear OpenEXR (never clamped or tone mapped). Files are written to a temporary name
 //! beside the target and renamed, so a failure never leaves a half-written picture.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::Vec3;
 
@@ -96,36 +96,13 @@ pub fn to_rgb8(image: &Image, tonemap: Tonemap) -> Vec<u8> {
     }
 }
 
-/// A sibling temporary path for atomic writes, keeping the extension (encoders look at it).
-fn temp_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    path.with_file_name(format!(".{name}.partial-{}", std::process::id()))
-        .with_extension(path.extension().unwrap_or_default())
-}
+/// Every file is written whole or not at all, by the one [`shrad_scene::write_atomic`].
+pub use shrad_scene::write_atomic;
 
-/// Write through a temporary file and rename it into place.
-pub fn write_atomic(
-    path: &Path,
-    write: impl FnOnce(&Path) -> Result<(), String>,
-) -> Result<(), Error> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        if !dir.is_dir() {
-            return Err(Error::Output(
-                path.into(),
-                format!("directory {} does not exist", dir.display()),
-            ));
-        }
+impl From<shrad_scene::WriteError> for Error {
+    fn from(e: shrad_scene::WriteError) -> Self {
+        Error::Output(e.path, e.message)
     }
-    let tmp = temp_path(path);
-    let result = write(&tmp).and_then(|_| std::fs::rename(&tmp, path).map_err(|e| e.to_string()));
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::Output(path.into(), e));
-    }
-    Ok(())
 }
 
 /// Write a PNG.
@@ -142,6 +119,7 @@ pub fn write_png(image: &Image, path: &Path, tonemap: Tonemap) -> Result<(), Err
         )
         .map_err(|e| e.to_string())
     })
+    .map_err(Error::from)
 }
 
 /// Write a linear OpenEXR (RGB, 32-bit float): radiance `B / pi`, `L_e` for emitters, 0
@@ -155,6 +133,7 @@ pub fn write_exr(image: &Image, path: &Path) -> Result<(), Error> {
         })
         .map_err(|e| e.to_string())
     })
+    .map_err(Error::from)
 }
 
 /// Read a linear OpenEXR written by [`write_exr`] (or any RGB EXR), for comparisons.
@@ -207,4 +186,5 @@ pub fn write_gif(
         }
         Ok(())
     })
+    .map_err(Error::from)
 }
