@@ -692,6 +692,14 @@ fn buffers_data_uris_and_glb_chunks() {
         &quad_with(|v| v["buffers"][0]["uri"] = json!("data:application/octet-stream;base64,AA*A")),
         &["buffers[0].uri", "data URI"],
     );
+    // A percent-escape that decodes to bytes that are not UTF-8 (the gltf crate's importer
+    // panics on it): a file that does not exist, named.
+    assert_refused(
+        &dir,
+        "notutf8.gltf",
+        &quad_with(|v| v["buffers"][0]["uri"] = json!("quad%FF.bin")),
+        &["buffers[0].uri", "cannot read", "quad\u{FFFD}.bin"],
+    );
     assert_refused(
         &dir,
         "nouri.gltf",
