@@ -7,6 +7,9 @@
 //! `a%FF.bin` panics; its I/O errors name no file; and it pads every buffer with zeros to a
 //! multiple of 4 before comparing it with `byteLength`, so a buffer up to 3 bytes short
 //! passes.
+//!
+//! Only regular files are read, so memory stays bounded by what is on disk (a URI naming
+//! `/dev/zero` or a pipe is refused).
 
 use std::path::{Path, PathBuf};
 
@@ -65,7 +68,14 @@ pub(super) fn read_uri(base: &Path, uri: &str) -> Result<Vec<u8>, String> {
         return Err(format!("unsupported URI scheme in '{uri}'"));
     }
     let file = base.join(relative_path(uri));
-    std::fs::read(&file).map_err(|e| format!("cannot read '{}': {e}", file.display()))
+    let cannot = |why: String| format!("cannot read '{}': {why}", file.display());
+    // Only a regular file has a size to stop at: a device (`/dev/zero`) or a pipe would be
+    // read without end.
+    let meta = std::fs::metadata(&file).map_err(|e| cannot(e.to_string()))?;
+    if !meta.is_file() {
+        return Err(cannot("not a regular file".into()));
+    }
+    std::fs::read(&file).map_err(|e| cannot(e.to_string()))
 }
 
 /// The path a relative (or `file://`) URI names: percent-decoded, bytes that are not UTF-8
@@ -100,5 +110,17 @@ mod tests {
         assert!(e.starts_with("data URI: invalid base64"), "{e}");
         let e = read_uri(base, "data:application/octet-stream,%00").unwrap_err();
         assert!(e.starts_with("data URI is not base64"), "{e}");
+    }
+
+    #[test]
+    fn only_regular_files_are_read() {
+        let dir = std::env::temp_dir();
+        let e = read_uri(&dir, ".").unwrap_err();
+        assert!(e.ends_with("not a regular file"), "{e}");
+        // A device has no end: refused before reading (else this test would never finish).
+        if Path::new("/dev/zero").exists() {
+            let e = read_uri(&dir, "/dev/zero").unwrap_err();
+            assert_eq!(e, "cannot read '/dev/zero': not a regular file");
+        }
     }
 }
