@@ -162,7 +162,7 @@ fn line_of(text: &str, pos: usize) -> usize {
         + 1
 }
 
-/// Read a scene file (no role inference or validation; that is [`crate::load`]'s job).
+/// Read a scene file (no role inference or validation; that is [`crate::load()`]'s job).
 pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
     read_nested(path, 0)
 }

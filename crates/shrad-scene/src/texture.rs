@@ -72,7 +72,7 @@ impl TextureImage {
     }
     /// Decode a PNG or JPEG file's bytes (sRGB) as `name`. A small file can decode huge (a
     /// 16000 x 16000 1-bit PNG is 31 KB): the size the header declares is checked before
-    /// anything is allocated, at most [`MAX_TEXTURE_SIZE`] a side and 256 MiB decoded.
+    /// anything is allocated, at most `MAX_TEXTURE_SIZE` (8192) a side and 256 MiB decoded.
     pub fn decode(bytes: &[u8], name: String) -> Result<TextureImage, String> {
         let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
             .with_guessed_format()

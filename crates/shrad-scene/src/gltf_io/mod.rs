@@ -1,7 +1,7 @@
 //! glTF 2.0 import (`.gltf` with embedded or external buffers, `.glb`) and export.
 //!
 //! Import: every triangle primitive of every node of the default scene becomes one
-//! [`Object`] whose mesh is in the node's frame and whose `world_from_object` is the node's
+//! [`Object`](crate::Object) whose mesh is in the node's frame and whose `world_from_object` is the node's
 //! accumulated transform. Export: each object one node (matrix), one mesh, one material.
 //!
 //! A file is read in this order, one file a step:
