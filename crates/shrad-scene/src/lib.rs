@@ -5,6 +5,7 @@
 //! one [`Material`], a [`Role`] and an optional rigid [`Animation`]. Everything here is plain
 //! data; patches, visibility and the solvers live in the crates above this one.
 
+mod aabb;
 mod builtin;
 mod error;
 mod gltf_io;
@@ -17,6 +18,7 @@ mod scene_file;
 mod texture;
 mod write_atomic;
 
+pub use aabb::Aabb;
 pub use builtin::{box_mesh, builtin, builtin_names, cornell_box, quad, room, RoomParams};
 pub use error::SceneError;
 pub use gltf_io::write_gltf;

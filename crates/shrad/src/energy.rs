@@ -129,7 +129,12 @@ impl IncidentMeter {
         let mut dirs = vec![Vec3::ZERO; n];
         for (k, &i) in self.patches.iter().enumerate() {
             let r = k * self.rays..(k + 1) * self.rays;
-            crate::reference::patch_rays(world, i as usize, &mut origins[r.clone()], &mut dirs[r]);
+            crate::form_factors::patch_rays(
+                world,
+                i as usize,
+                &mut origins[r.clone()],
+                &mut dirs[r],
+            );
         }
         let mut hits = vec![Hit::MISS; n];
         world.vis.closest(&origins, &dirs, 0.0, &[], &mut hits);

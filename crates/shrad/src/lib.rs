@@ -13,10 +13,12 @@
 //!
 //! See `ARCHITECTURE.md` at the repository root for the layers and the data flow of a frame.
 
+pub mod bake;
 pub mod direct;
 pub mod dispersive;
 pub mod energy;
 pub mod engine;
+pub mod form_factors;
 pub mod frame;
 pub mod grid;
 pub mod image_io;
@@ -30,8 +32,8 @@ pub mod render;
 pub mod sampling;
 pub mod settings;
 pub mod solver;
+pub mod sparse;
 pub mod surface;
-pub mod view_data;
 mod world;
 
 pub use patches::{PatchSizing, Patches};

@@ -36,7 +36,11 @@ fn ff01(scene: Scene, backend: Backend) -> f32 {
     let world = World::new(scene, PatchSizing::Size(10.0), backend).unwrap();
     assert_eq!(world.patches.len(), 2);
     let ff = form_factors(&world, &[0], 1 << 20, &NoProgress);
-    ff.row(0).filter(|(j, _)| *j == 1).map(|(_, f)| f).sum()
+    ff.row(0)
+        .iter()
+        .filter(|(j, _)| *j == 1)
+        .map(|(_, f)| f)
+        .sum()
 }
 
 #[test]
@@ -84,8 +88,18 @@ fn reciprocity_of_unequal_patches() {
     );
     let world = World::new(s, PatchSizing::Size(10.0), Backend::Auto).unwrap();
     let ff = form_factors(&world, &[0, 1], 1 << 19, &NoProgress);
-    let f01: f32 = ff.row(0).filter(|(j, _)| *j == 1).map(|(_, f)| f).sum();
-    let f10: f32 = ff.row(1).filter(|(j, _)| *j == 0).map(|(_, f)| f).sum();
+    let f01: f32 = ff
+        .row(0)
+        .iter()
+        .filter(|(j, _)| *j == 1)
+        .map(|(_, f)| f)
+        .sum();
+    let f10: f32 = ff
+        .row(1)
+        .iter()
+        .filter(|(j, _)| *j == 0)
+        .map(|(_, f)| f)
+        .sum();
     let (a0, a1) = (world.patches.area[0], world.patches.area[1]);
     assert!(f01 > 0.0 && f10 > 0.0);
     assert!(

@@ -28,13 +28,13 @@ use glam::Vec3;
 use shrad_scene::Role;
 
 use crate::energy::IncidentMeter;
+use crate::form_factors::form_factor_rows;
 use crate::frame::SolverStats;
 use crate::probes::ProbeCamera;
-use crate::reference::form_factor_rows;
+use crate::sparse::SparseRows;
 use crate::{NoProgress, World};
 
 mod frame;
-pub mod inspect;
 mod object_state;
 mod options;
 mod scheduler;
@@ -81,12 +81,12 @@ pub struct Dispersive {
     wall: Vec<Vec3>,
     /// Form-factor rows among boundary patches (aligned with `boundary_patches`), if the
     /// wall exchange is on.
-    wall_rows: Option<Vec<Vec<(u32, f32)>>>,
+    wall_rows: Option<SparseRows<(u32, f32)>>,
     boundary_patches: Vec<u32>,
     /// Boundary patches next to each patch (itself included), for `splat_smoothing`.
     neighbours: Neighbours,
     /// World bounding box of every object at the last frame (to know where movers were).
-    object_boxes: Vec<(Vec3, Vec3)>,
+    object_boxes: Vec<shrad_scene::Aabb>,
     /// Wall-exchange rows waiting to be re-traced.
     wall_dirty: Vec<bool>,
     /// Where the next frame's window of wall-exchange rows starts.
@@ -123,14 +123,14 @@ impl Dispersive {
             // Every object occludes; only boundary-to-boundary entries are kept (light via
             // interior objects is Step 3's). Rows whose rays pass where an object moves are
             // re-traced then (see `refresh_wall_rows`).
-            form_factor_rows(
+            SparseRows::from_rows(form_factor_rows(
                 world,
                 &boundary_patches,
                 options.wall_rays,
                 &[],
                 |j| receives_as_boundary(world, j),
                 &NoProgress,
-            )
+            ))
         });
         let object_boxes = (0..world.scene.objects.len())
             .map(|o| world_box(world, o))

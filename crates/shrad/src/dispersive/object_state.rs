@@ -10,20 +10,21 @@
 //! lives in the scheduler.
 
 use glam::Vec3;
+use shrad_scene::Aabb;
 use shrad_sh::trilinear_weights;
 
 use super::step2_probes::self_transfer;
 use super::step3_to_boundary::emitter_groups;
 use super::DispersiveOptions;
+use crate::sparse::SparseRows;
 use crate::World;
 
 /// Probe box, per-patch weights and exit directions of one interior object (rest frame:
 /// paper 2.3.1 item 3), and its current contribution to the boundary.
 pub(super) struct ObjectProbes {
     pub(super) object: usize,
-    /// Box `(lo, hi)` in the object frame, margin included.
-    pub(super) lo: Vec3,
-    pub(super) hi: Vec3,
+    /// The probe box in the object frame, margin included; the probes sit at its corners.
+    pub(super) probe_box: Aabb,
     /// Trilinear weights of each patch (object's patch range order).
     pub(super) weights: Vec<[f32; 8]>,
     /// Exit direction of each patch in the object frame (paper 2.3.4 Step 1).
@@ -40,10 +41,8 @@ pub(super) struct ObjectProbes {
     pub(super) transfer: Vec<f32>,
     /// Per patch, the object's own patches its blocked directions see, with their form
     /// factors (the light the object sends itself, which the transfer vector leaves out):
-    /// compressed rows, patch `k`'s in `self_view[self_view_start[k]..self_view_start[k + 1]]`
-    /// (`self_view_start` is empty when the transfer is off).
-    self_view_start: Vec<u32>,
-    self_view: Vec<(u32, f32)>,
+    /// patch `k`'s row is `self_view.row(k)` (no rows when the transfer is off).
+    self_view: SparseRows<(u32, f32)>,
     /// Per patch, the contact openness (see `Dispersive::contact_openness`); empty until
     /// computed and again when the object or a neighbour moves (it is geometry only).
     pub(super) openness: Vec<f32>,
@@ -55,12 +54,15 @@ impl ObjectProbes {
     /// transfer vectors.
     pub(super) fn new(world: &World, o: usize, options: &DispersiveOptions) -> ObjectProbes {
         let p = &world.patches;
-        let (mut lo, mut hi) = p.shapes[o].bounds().unwrap_or((Vec3::ZERO, Vec3::ZERO));
-        let margin = options.probe_margin.max(0.0) * (hi - lo).length();
+        let shape = p.shapes[o]
+            .bounds()
+            .map_or(Aabb::new(Vec3::ZERO, Vec3::ZERO), Aabb::from);
+        let diagonal = shape.diagonal();
+        let margin = options.probe_margin.max(0.0) * diagonal;
         // A flat object still needs a box with volume.
-        let pad = Vec3::splat(margin).max(Vec3::splat(1e-4 * (hi - lo).length().max(world.eps)));
-        lo -= pad;
-        hi += pad;
+        let pad = Vec3::splat(margin).max(Vec3::splat(1e-4 * diagonal.max(world.eps)));
+        let probe_box = shape.padded(pad);
+        let (lo, hi) = (probe_box.min, probe_box.max);
         let range = p.range(o);
         let centre = 0.5 * (lo + hi);
         let weights = range
@@ -79,26 +81,16 @@ impl ObjectProbes {
             })
             .collect();
         let (transfer, rows) = self_transfer(world, o, options.bands, options.self_shadow_rays);
-        let mut self_view_start = Vec::with_capacity(rows.len() + 1);
-        if !rows.is_empty() {
-            self_view_start.push(0);
-        }
-        let mut self_view = Vec::new();
-        for row in rows {
-            self_view.extend(row);
-            self_view_start.push(self_view.len() as u32);
-        }
+        let self_view = SparseRows::from_rows(rows);
         ObjectProbes {
             object: o,
-            lo,
-            hi,
+            probe_box,
             weights,
             exit_local,
             to_boundary: Vec::new(),
             probe_scale: [1.0; 8],
             emitters: emitter_groups(p, o, centre, options.emitter_per_face),
             transfer,
-            self_view_start,
             self_view,
             openness: Vec::new(),
         }
@@ -112,21 +104,17 @@ impl ObjectProbes {
 
     /// Corner `c` of the box (bit 0: x, bit 1: y, bit 2: z), object frame.
     pub(super) fn corner_local(&self, c: usize) -> Vec3 {
-        let s = Vec3::new((c & 1) as f32, ((c >> 1) & 1) as f32, ((c >> 2) & 1) as f32);
-        self.lo + (self.hi - self.lo) * s
+        self.probe_box.corner(c)
     }
 
     /// Centre of the box, object frame.
     pub(super) fn centre_local(&self) -> Vec3 {
-        0.5 * (self.lo + self.hi)
+        self.probe_box.centre()
     }
 
     /// The self form factors of patch `k` (offset in the object's range): (own patch offset,
     /// form factor); empty when the transfer is off.
     pub(super) fn self_view(&self, k: usize) -> &[(u32, f32)] {
-        match (self.self_view_start.get(k), self.self_view_start.get(k + 1)) {
-            (Some(&a), Some(&b)) => &self.self_view[a as usize..b as usize],
-            _ => &[],
-        }
+        self.self_view.row(k)
     }
 }

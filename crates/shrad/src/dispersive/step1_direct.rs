@@ -10,7 +10,7 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
-use shrad_scene::Role;
+use shrad_scene::{Aabb, Role};
 
 use super::{Changes, Dispersive};
 use crate::direct::direct_irradiance;
@@ -51,7 +51,7 @@ impl Dispersive {
             }
             let m = p.world_from_local[ob.object];
             let c = m.transform_point3(ob.centre_local());
-            let r = 0.5 * m.transform_vector3(ob.hi - ob.lo).length();
+            let r = 0.5 * m.transform_vector3(ob.probe_box.size()).length();
             // A neighbour: within three times the two radii.
             if boxes
                 .iter()
@@ -65,7 +65,7 @@ impl Dispersive {
 
     /// Boxes swept by the objects that moved since the last frame (old and new positions),
     /// as bounding spheres; updates the remembered boxes.
-    pub(super) fn swept_boxes(&mut self, world: &World, changes: &Changes) -> Vec<(Vec3, Vec3)> {
+    pub(super) fn swept_boxes(&mut self, world: &World, changes: &Changes) -> Vec<Aabb> {
         let mut swept = Vec::new();
         for &o in &changes.moved {
             let old = self.object_boxes[o];
@@ -81,12 +81,7 @@ impl Dispersive {
     /// `direct_on_interior`). The paper recomputes it every frame; here it is cached and
     /// recomputed only for the patches whose view of a light an object's motion may have
     /// changed (all of them when a light moved or changed).
-    pub(super) fn direct_to_boundary(
-        &mut self,
-        world: &World,
-        changes: &Changes,
-        swept: &[(Vec3, Vec3)],
-    ) {
+    pub(super) fn direct_to_boundary(&mut self, world: &World, changes: &Changes, swept: &[Aabb]) {
         if self.direct_valid && changes.moved.is_empty() && changes.relit.is_empty() {
             return;
         }
@@ -104,10 +99,10 @@ impl Dispersive {
                 .filter(|&o| {
                     !p.range(o).is_empty() && world.exitance[p.range(o).start].max_element() > 0.0
                 })
-                .map(|o| sphere(world_box(world, o)))
+                .map(|o| world_box(world, o).bounding_sphere())
                 .collect()
         };
-        let movers: Vec<(Vec3, f32)> = swept.iter().map(|&b| sphere(b)).collect();
+        let movers: Vec<(Vec3, f32)> = swept.iter().map(Aabb::bounding_sphere).collect();
         let receivers: Vec<u32> = (0..p.len() as u32)
             .into_par_iter()
             .filter(|&i| match p.role(i as usize) {
@@ -144,24 +139,11 @@ impl Dispersive {
 }
 
 /// World bounding box of object `o` (its rest-frame mesh box, transformed).
-pub(super) fn world_box(world: &World, o: usize) -> (Vec3, Vec3) {
-    let m = world.patches.world_from_local[o];
-    let Some((lo, hi)) = world.patches.shapes[o].bounds() else {
-        return (Vec3::ZERO, Vec3::ZERO);
-    };
-    (0..8)
-        .map(|c| {
-            let s = Vec3::new((c & 1) as f32, ((c >> 1) & 1) as f32, ((c >> 2) & 1) as f32);
-            m.transform_point3(lo + (hi - lo) * s)
-        })
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), q| {
-            (a.min(q), b.max(q))
-        })
-}
-
-/// Bounding sphere of a box.
-pub(super) fn sphere((lo, hi): (Vec3, Vec3)) -> (Vec3, f32) {
-    (0.5 * (lo + hi), 0.5 * (hi - lo).length())
+pub(super) fn world_box(world: &World, o: usize) -> Aabb {
+    match world.patches.shapes[o].bounds() {
+        Some(local) => Aabb::from(local).transformed(world.patches.world_from_local[o]),
+        None => Aabb::new(Vec3::ZERO, Vec3::ZERO),
+    }
 }
 
 /// Does the cone from `x` to the sphere `(lc, lr)` (a light) meet the sphere `(bc, br)`?
@@ -172,14 +154,4 @@ fn cone_meets_sphere(x: Vec3, lc: Vec3, lr: f32, bc: Vec3, br: f32) -> bool {
     let s = ((bc - x).dot(axis) / len2).clamp(0.0, 1.0);
     let closest = x + axis * s;
     (bc - closest).length() <= br + lr * s * 1.1 + 1e-6
-}
-
-/// Slab test of the ray `o + t d`, `t > 0`, against a box.
-pub(super) fn ray_meets_box(o: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> bool {
-    let inv = d.recip();
-    let t0 = (lo - o) * inv;
-    let t1 = (hi - o) * inv;
-    let near = t0.min(t1).max_element();
-    let far = t0.max(t1).min_element();
-    far >= near.max(0.0)
 }

@@ -144,7 +144,7 @@ impl Dispersive {
         let ob = &self.objects[k];
         let o = ob.object;
         let m = p.world_from_local[o];
-        let reach = 0.02 * m.transform_vector3(ob.hi - ob.lo).length();
+        let reach = 0.02 * m.transform_vector3(ob.probe_box.size()).length();
         let rays = self.options.contact_rays as usize;
         let range = p.range(o);
         let mut origins = vec![Vec3::ZERO; range.len() * rays];

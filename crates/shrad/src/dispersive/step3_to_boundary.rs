@@ -19,6 +19,7 @@ use shrad_vis::Hit;
 
 use super::{receives_as_boundary, Dispersive, ToBoundary};
 use crate::probes::ProbeCamera;
+use crate::sparse::SparseRows;
 use crate::World;
 
 impl Dispersive {
@@ -259,8 +260,9 @@ pub fn splat_to_boundary(
 /// rows over all patches; non-boundary patches have none.
 #[derive(Default)]
 pub(super) struct Neighbours {
-    start: Vec<u32>,
-    list: Vec<u32>,
+    /// Row `i`: patch `i` itself, then its neighbours (empty for a patch not on the
+    /// boundary).
+    rows: SparseRows<u32>,
     /// 1 / the summed area of each patch's neighbourhood.
     inv_area: Vec<f32>,
 }
@@ -299,26 +301,22 @@ impl Neighbours {
             &vertex_patches
                 [vertex_start[c as usize] as usize..vertex_start[c as usize + 1] as usize]
         };
-        let mut start = Vec::with_capacity(p.len() + 1);
-        let mut list = Vec::new();
-        start.push(0);
+        let mut rows = SparseRows::default();
         let mut near = Vec::new();
         for i in 0..p.len() {
+            near.clear();
             if boundary(i) {
-                near.clear();
                 for &c in &p.corner_vertex[i] {
                     near.extend(at_vertex(c).iter().filter(|&&k| k as usize != i));
                 }
                 near.sort_unstable();
                 near.dedup();
-                list.push(i as u32);
-                list.extend_from_slice(&near);
+                near.insert(0, i as u32);
             }
-            start.push(list.len() as u32);
+            rows.push_row(near.iter().copied());
         }
         let mut n = Neighbours {
-            start,
-            list,
+            rows,
             inv_area: Vec::new(),
         };
         n.inv_area = (0..p.len())
@@ -335,10 +333,7 @@ impl Neighbours {
     }
 
     fn of(&self, i: usize) -> &[u32] {
-        match (self.start.get(i), self.start.get(i + 1)) {
-            (Some(&a), Some(&b)) => &self.list[a as usize..b as usize],
-            _ => &[],
-        }
+        self.rows.row(i)
     }
 }
 

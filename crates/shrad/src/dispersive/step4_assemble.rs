@@ -11,9 +11,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::Role;
 
-use super::step1_direct::{ray_meets_box, sphere};
 use super::{receives_as_boundary, Changes, Dispersive, Divergence, EnergyBalance, FrameStats};
-use crate::reference::{form_factor_rows, patch_rays};
+use crate::form_factors::{form_factor_rows, patch_rays};
 use crate::{NoProgress, World};
 
 /// Wall-exchange rows refreshed per frame (Step 4): at most this many, so a frame's cost does
@@ -55,7 +54,7 @@ impl Dispersive {
     /// Mark the wall-exchange rows whose rays pass through a box an object swept, and
     /// re-trace the stalest dirty rows, at most an eighth of the boundary per frame (the
     /// dispersive idea applied to the walls: the cost of a frame stays bounded).
-    pub(super) fn refresh_wall_rows(&mut self, world: &World, swept: &[(Vec3, Vec3)]) {
+    pub(super) fn refresh_wall_rows(&mut self, world: &World, swept: &[shrad_scene::Aabb]) {
         let Some(rows) = &mut self.wall_rows else {
             return;
         };
@@ -70,8 +69,8 @@ impl Dispersive {
                     let i = boundary[k] as usize;
                     let (c, n) = (p.centre[i], p.normal[i]);
                     // A box wholly behind the patch cannot meet its rays.
-                    let in_front = swept.iter().any(|&(lo, hi)| {
-                        let (bc, br) = sphere((lo, hi));
+                    let in_front = swept.iter().any(|b| {
+                        let (bc, br) = b.bounding_sphere();
                         n.dot(bc - c) > -br
                     });
                     if !in_front {
@@ -82,7 +81,7 @@ impl Dispersive {
                     patch_rays(world, i, &mut o, &mut d);
                     o.iter()
                         .zip(&d)
-                        .any(|(o, d)| swept.iter().any(|&(lo, hi)| ray_meets_box(*o, *d, lo, hi)))
+                        .any(|(o, d)| swept.iter().any(|b| b.meets_ray(*o, *d)))
                 })
                 .collect();
             for k in newly {
@@ -107,7 +106,7 @@ impl Dispersive {
             &NoProgress,
         );
         for (k, row) in dirty.into_iter().zip(fresh) {
-            rows[k] = row;
+            rows.set_row(k, &row);
             self.wall_dirty[k] = false;
         }
     }
@@ -141,7 +140,7 @@ impl Dispersive {
                 let wall: Vec<Vec3> = ks
                     .par_iter()
                     .map(|&k| {
-                        rows[k]
+                        rows.row(k)
                             .iter()
                             .map(|&(j, f)| reflected[j as usize] * f)
                             .sum()
