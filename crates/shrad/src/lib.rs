@@ -13,7 +13,6 @@
 //!
 //! See `ARCHITECTURE.md` at the repository root for the layers and the data flow of a frame.
 
-pub mod bake;
 pub mod direct;
 pub mod dispersive;
 pub mod energy;
@@ -34,6 +33,7 @@ pub mod settings;
 pub mod solver;
 pub mod sparse;
 pub mod surface;
+pub mod view_data;
 mod world;
 
 pub use patches::{PatchSizing, Patches};

@@ -35,6 +35,7 @@ use crate::sparse::SparseRows;
 use crate::{NoProgress, World};
 
 mod frame;
+pub mod inspect;
 mod object_state;
 mod options;
 mod scheduler;
