@@ -1,0 +1,74 @@
+//! The patch size and count known before the patches are made: a size from a target count
+//! (bisection) and the count at a size, so that `limits.rs` refuses an absurd size first.
+
+use shrad_scene::{Mesh, Scene};
+
+use super::shape::ShapedObject;
+use super::split::{cells_along, Face};
+
+/// Patch size that gives about `n` patches, by bisection on the count (cheap: no geometry).
+pub(super) fn size_for_count(
+    scene: &Scene,
+    shaped: &[ShapedObject],
+    faces: &[Vec<Face>],
+    n: usize,
+) -> f32 {
+    let count = |h: f32| count_patches(scene, shaped, faces, h);
+    let total_area: f32 = shaped.iter().map(|(_, _, m)| m.area()).sum();
+    let mut lo = (total_area / (n.max(1) as f32) / 50.0).sqrt();
+    let mut hi = (total_area / (n.max(1) as f32) * 50.0).sqrt().max(lo * 2.0);
+    for _ in 0..40 {
+        let mid = (lo * hi).sqrt();
+        if count(mid) > n {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    // The coarser of the two brackets never overshoots the target by much.
+    if count(lo).abs_diff(n) < count(hi).abs_diff(n) {
+        lo
+    } else {
+        hi
+    }
+}
+
+/// Patches of the whole scene at size `h` (double-sided objects count twice), saturating.
+pub(super) fn count_patches(
+    scene: &Scene,
+    shaped: &[ShapedObject],
+    faces: &[Vec<Face>],
+    h: f32,
+) -> usize {
+    scene
+        .objects
+        .iter()
+        .zip(shaped.iter().zip(faces))
+        .map(|(o, ((_, _, mesh), faces))| {
+            let sides = if o.material.double_sided { 2 } else { 1 };
+            let oh = o.patch_size.unwrap_or(h);
+            count_faces(mesh, faces, oh).saturating_mul(sides)
+        })
+        .fold(0usize, usize::saturating_add)
+}
+
+/// How many cells `faces` (of `mesh`) give at patch size `h`, saturating (no overflow for
+/// an absurd `h`): what `split::subdivide` would make, without making it.
+pub(super) fn count_faces(mesh: &Mesh, faces: &[Face], h: f32) -> usize {
+    let p = |i: u32| mesh.positions[i as usize];
+    faces
+        .iter()
+        .map(|f| match f {
+            Face::Quad(c, _) => cells_along((c[1] - c[0]).length(), h)
+                .saturating_mul(cells_along((c[3] - c[0]).length(), h)),
+            Face::Triangle(t) => {
+                let [a, b, c] = t.map(p);
+                let n = cells_along(
+                    (b - a).length().max((c - b).length()).max((a - c).length()),
+                    h,
+                );
+                n.saturating_mul(n)
+            }
+        })
+        .fold(0usize, usize::saturating_add)
+}
