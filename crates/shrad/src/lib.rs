@@ -13,6 +13,7 @@
 //!
 //! See `ARCHITECTURE.md` at the repository root for the layers and the data flow of a frame.
 
+pub mod bake;
 pub mod direct;
 pub mod dispersive;
 pub mod energy;
