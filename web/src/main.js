@@ -16,7 +16,18 @@ const TONE_MAPS = {
 
 // ---- renderer, camera, controls -------------------------------------------------------
 const container = $('view');
-const renderer = new THREE.WebGLRenderer({ antialias: true });
+// Multisampling is cheap on a GPU but dominates the cost of a software rasteriser
+// (SwiftShader, llvmpipe: about 3x per frame), so it is off there; `?aa=1` / `?aa=0` force it.
+function softwareRenderer() {
+  const gl = document.createElement('canvas').getContext('webgl2');
+  const info = gl && gl.getExtension('WEBGL_debug_renderer_info');
+  const name = info ? String(gl.getParameter(info.UNMASKED_RENDERER_WEBGL)) : '';
+  gl?.getExtension('WEBGL_lose_context')?.loseContext();
+  return /swiftshader|llvmpipe|software/i.test(name);
+}
+const params = new URLSearchParams(location.search);
+const antialias = params.has('aa') ? params.get('aa') !== '0' : !softwareRenderer();
+const renderer = new THREE.WebGLRenderer({ antialias });
 renderer.setPixelRatio(1);
 renderer.outputColorSpace = THREE.SRGBColorSpace;
 renderer.toneMapping = THREE.ACESFilmicToneMapping;
@@ -271,7 +282,7 @@ function showStats(m) {
   const rows = [
     ['solver', `${m.solver} (${m.preset})`],
     ['frame', `${m.frame}${m.converged ? ' · converged' : ''}`],
-    ['ms per step', fmt(stat(s, 'frame_ms'), 2)],
+    ['ms per step', `${fmt(stat(s, 'frame_ms'), 2)} (server loop ${fmt(m.loop_ms, 1)}, publish ${fmt(m.publish_ms, 1)})`],
     ['objects updated', `${updated.length}${names ? ' (' + names + ')' : ''}`],
     ['stalest', `${stat(s, 'stalest') ?? '–'} frames`],
     ['energy', energy.emitted ? `absorbed/emitted ${fmt(energy.absorbed / energy.emitted, 3)} · reflected/bound ${fmt(energy.reflected / energy.reflected_bound, 3)}` : '–'],

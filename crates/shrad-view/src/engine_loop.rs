@@ -117,6 +117,9 @@ pub struct EngineLoop {
     probe_dirs: Vec<Vec3>,
     last_error: Option<Value>,
     last_tick: Instant,
+    publish_ms: f64,
+    loop_ms: f64,
+    last_step: Option<Instant>,
 }
 
 impl EngineLoop {
@@ -156,6 +159,9 @@ impl EngineLoop {
             probe_dirs,
             last_error: None,
             last_tick: Instant::now(),
+            publish_ms: 0.0,
+            loop_ms: 0.0,
+            last_step: None,
         };
         let intro = Intro {
             scene: me.scene_message(&probe_triangles),
@@ -248,6 +254,10 @@ impl EngineLoop {
                 if self.engine.set_time(self.time as f32).is_ok() {
                     self.changed();
                 }
+            }
+            let start = Instant::now();
+            if let Some(t) = self.last_step.replace(start) {
+                self.loop_ms = start.duration_since(t).as_secs_f64() * 1e3;
             }
             let stats = self.engine.step();
             self.quiet_frames += 1;
@@ -355,10 +365,15 @@ impl EngineLoop {
                 "continuous": self.continuous,
                 "converged": self.converged(),
                 "gi_updates_per_s": self.recent.len(),
+                // Wall time of the previous publication (colours, probes, messages).
+                "publish_ms": self.publish_ms,
+                // Wall time between the starts of the last two frames.
+                "loop_ms": self.loop_ms,
                 "stats": stats_json,
                 "error": self.last_error,
             }),
         );
+        self.publish_ms = now.elapsed().as_secs_f64() * 1e3;
         let frame = Frame {
             seq: self.seq,
             stats: message,
