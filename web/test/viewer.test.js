@@ -212,6 +212,7 @@ test('shrad view in a real browser: lit, drag, solver, channels, probes, perform
     // put back (the GI of the old state, rendered under the same camera).
     await shot(page, 'cornell-after-drag.png');
     const changeFirstToLast = maxDiff(series[0], after);
+    const idleFrame = await shrad(page, () => window.__shrad.state.lastFrame.frame);
     const back = await shrad(page, ([n, m]) => {
       const s = window.__shrad.state;
       const o = s.objects.findIndex((x) => x.meta.name === n);
@@ -225,7 +226,8 @@ test('shrad view in a real browser: lit, drag, solver, channels, probes, perform
       return Array.from(m.elements);
     }, [name, boxBefore[0][0] - boxAfter[0][0], boxBefore[0][2] - boxAfter[0][2]])]);
     assert.ok(back !== undefined);
-    await sleep(300);
+    // The engine was idle (converged): the next frame it steps is the one with the block back.
+    await page.waitForFunction((f) => window.__shrad.state.lastDrawnFrame > f, idleFrame, { timeout: 30_000 });
     await settled(page);
     const restored = await shrad(page, (r) => window.__shrad.sample(r), rects);
     const gi = maxDiff(restored, after);
