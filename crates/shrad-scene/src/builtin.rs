@@ -215,9 +215,7 @@ pub fn cornell_box() -> Scene {
             aspect_ratio: Some(1.0),
             ..camera
         }),
-        settings: Default::default(),
-        warnings: Vec::new(),
-        animations: Vec::new(),
+        ..Default::default()
     }
 }
 
@@ -354,9 +352,7 @@ pub fn room(params: &RoomParams) -> Scene {
             v(5.2, 0.4, 4.4),
             65f32.to_radians(),
         )),
-        settings: Default::default(),
-        warnings: Vec::new(),
-        animations: Vec::new(),
+        ..Default::default()
     };
     scene.settings.patches = Some(params.patches);
     if let Some(big) = params.big_object_patches {

@@ -202,6 +202,7 @@ fn read_nested(path: &Path, depth: usize) -> Result<Scene, SceneError> {
     if def.object.is_empty() {
         return Err(SceneError::invalid(path, "no [[object]] in the scene file"));
     }
+    let mut shape_triangles = 0usize;
     for (i, spanned) in def.object.into_iter().enumerate() {
         let line = line_of(&text, spanned.span().start);
         let o = spanned.into_inner();
@@ -211,10 +212,29 @@ fn read_nested(path: &Path, depth: usize) -> Result<Scene, SceneError> {
         };
         let objects = object(path, &o, i, depth, &mut scene.warnings)
             .map_err(|m| SceneError::invalid(path, format!("{label}: {m}")))?;
+        if !matches!(o.shape, Shape::Mesh) {
+            shape_triangles += objects
+                .iter()
+                .map(|o| o.mesh.triangles.len())
+                .sum::<usize>();
+            if shape_triangles > MAX_SHAPE_TRIANGLES {
+                return Err(SceneError::invalid(
+                    path,
+                    format!(
+                        "{label}: the file's quads, boxes and spheres make {shape_triangles} triangles by here, more than the {MAX_SHAPE_TRIANGLES} a scene file may build (use fewer segments)"
+                    ),
+                ));
+            }
+        }
         scene.objects.extend(objects);
     }
     Ok(scene)
 }
+
+/// Most triangles the primitive shapes (quads, boxes, spheres) of one scene file may make
+/// together: sixteen 512-segment spheres. Each sphere is bounded by its `segments` limit; this
+/// bounds a small file repeating them (a 64 KB file holds a thousand such spheres).
+const MAX_SHAPE_TRIANGLES: usize = 16 * 261_120;
 
 fn settings(path: &Path, s: SettingsDef) -> Result<SceneSettings, SceneError> {
     let bad = |m: &str| SceneError::invalid(path, format!("[settings]: {m}"));
@@ -360,7 +380,7 @@ fn object(
             }
             let segments = o.segments.unwrap_or(32);
             if !(3..=512).contains(&segments) {
-                return Err(format!("segments {segments} must be in 3..=512 (512 segments make 131,000 triangles; patches subdivide further)"));
+                return Err(format!("segments {segments} must be in 3..=512 (512 segments make 261,120 triangles; patches subdivide further)"));
             }
             Ok(vec![make(sphere_mesh(r, segments), material)])
         }

@@ -53,7 +53,21 @@ pub fn srgb_to_linear(c: f32) -> f32 {
 /// Largest texture width or height decoded (larger ones are refused when loading).
 pub const MAX_TEXTURE_SIZE: u32 = 8192;
 
+/// Most texels all the textures of one file may decode to together (two 8192 x 8192
+/// images, 384 MiB as 8-bit RGB): textures past it are refused (the reader warns and uses
+/// the factor alone), so a small file naming many huge images stays bounded.
+pub const MAX_FILE_TEXELS: u64 = 2 * (MAX_TEXTURE_SIZE as u64) * (MAX_TEXTURE_SIZE as u64);
+
 impl TextureImage {
+    /// The width and height a PNG or JPEG file's header declares, read without decoding.
+    pub(crate) fn declared_size(bytes: &[u8]) -> Result<(u32, u32), String> {
+        image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| e.to_string())?
+            .into_dimensions()
+            .map_err(|e| e.to_string())
+    }
+
     /// An image of `width x height` sRGB texels, `r, g, b` bytes each (row-major from the
     /// top-left); `None` when the sizes do not match or the image is empty.
     pub fn from_srgb8(

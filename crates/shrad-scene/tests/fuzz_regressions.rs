@@ -218,3 +218,96 @@ fn obj_face_indices_out_of_bounds_name_the_line() {
     assert!(msg.contains("no objects"), "{msg}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The two resource findings of fuzz/README.md end bounded: the 10 KB GLB whose seven images
+/// share one buffer view of an 8192 x 8192 PNG decodes it once (every material holds the
+/// same image), and a scene file of seventeen 512-segment spheres is refused by the file's
+/// triangle budget before it builds them all.
+#[test]
+fn resource_findings_are_bounded() {
+    let glb = fuzz_dir().join("regressions/glb/slow-seven-8192px-textures.glb");
+    let s = load(&glb, &LoadOptions::default()).unwrap();
+    // Seven images of 64 Mi texels each against a budget of 128 Mi: decoded apart, five
+    // would be refused. The mesh has no TEXCOORD_0, so each material's texture is averaged.
+    let refused: Vec<_> = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("cannot be loaded"))
+        .collect();
+    assert!(
+        refused.is_empty(),
+        "the shared PNG was decoded more than once: {refused:?}"
+    );
+    let averaged = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("base colour texture averaged"))
+        .count();
+    assert_eq!(averaged, s.objects.len(), "{:?}", s.warnings);
+    assert_eq!(s.objects.len(), 14);
+
+    let toml = fuzz_dir().join("regressions/toml/many-spheres-512-segments.toml");
+    let msg = load(&toml, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("many-spheres-512-segments.toml")
+            && msg.contains("object 16")
+            && msg.contains("more than the 4177920 a scene file may build"),
+        "{msg}"
+    );
+}
+
+/// Distinct huge images in one file stop at the file's texel budget: the textures past it
+/// are refused with a warning (the factor alone), the file still loads.
+#[test]
+fn textures_past_the_file_texel_budget_are_refused_with_a_warning() {
+    let glb =
+        std::fs::read(fuzz_dir().join("regressions/glb/slow-seven-8192px-textures.glb")).unwrap();
+    // The same GLB as glTF JSON, its images on three copies of the PNG's buffer view (three
+    // sources, each decoded): 3 x 64 Mi texels pass the budget of 128 Mi.
+    let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    let mut root: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+    let bin = &glb[20 + json_len + 8..];
+    let png_view = root["images"][0]["bufferView"].as_u64().unwrap() as usize;
+    let copy = root["bufferViews"][png_view].clone();
+    let views = root["bufferViews"].as_array_mut().unwrap();
+    let first = views.len();
+    views.extend([copy.clone(), copy]);
+    for (k, img) in root["images"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .enumerate()
+    {
+        img["bufferView"] = serde_json::json!([png_view, first, first + 1][k % 3]);
+    }
+    root["buffers"][0]["uri"] = serde_json::json!(format!(
+        "data:application/octet-stream;base64,{}",
+        base64::encode(bin)
+    ));
+    let dir = std::env::temp_dir().join(format!("shrad-texel-budget-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("three.gltf");
+    std::fs::write(&path, serde_json::to_vec(&root).unwrap()).unwrap();
+    let s = load(&path, &LoadOptions::default()).unwrap();
+    let refused = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("texels all textures of a file may decode to"))
+        .count();
+    // Images 0 and 1 decode (the budget), image 2 and its material are refused; images
+    // 3..6 share the three sources already tried.
+    let decoded = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("base colour texture averaged"))
+        .count();
+    assert_eq!(refused, 1, "{:?}", s.warnings);
+    assert!(s.warnings.iter().any(|w| w.starts_with(
+        "materials[2]: base colour image 2 cannot be loaded (its 8192 x 8192 texels pass"
+    )));
+    // Materials 0, 1, 3, 4, 6 have a texture (image k % 3 != 2), on each of the two nodes.
+    assert_eq!(decoded, 10, "{:?}", s.warnings);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -382,13 +382,6 @@ fn accessor_and_buffer_view_bounds() {
             &["meshes[0].primitives[0].indices: accessor 1 is SCALAR FLOAT"],
         ),
         (
-            "no_minmax",
-            Box::new(|v| {
-                v["accessors"][0].as_object_mut().unwrap().remove("min");
-            }),
-            &["attributes.POSITION: accessor 0 has no min and max"],
-        ),
-        (
             "attr_count",
             Box::new(|v| {
                 v["accessors"].as_array_mut().unwrap().push(
@@ -937,6 +930,79 @@ fn non_finite_positions_name_the_accessor_path() {
         &root,
         &["meshes[0].primitives[0].attributes.POSITION (nodes[0] 'floor'): vertex 1 is not finite"],
     );
+}
+
+/// POSITION without min / max (the specification requires them, some exporters omit them,
+/// three.js and Blender load such files): loaded with a warning, the bounds those of the
+/// vertices; non-finite positions without min / max are still refused.
+#[test]
+fn positions_without_min_max_load_with_a_warning() {
+    let dir = temp_dir("no-minmax");
+    let strip = |v: &mut Value| {
+        let a = v["accessors"][0].as_object_mut().unwrap();
+        a.remove("min");
+        a.remove("max");
+    };
+    let reference = load_no_panic(&write_json(&dir, "with.gltf", &quad_gltf())).unwrap();
+    for (name, edit) in [
+        ("no-min-max.gltf", Box::new(strip) as Edit),
+        (
+            "no-min.gltf",
+            Box::new(|v: &mut Value| {
+                v["accessors"][0].as_object_mut().unwrap().remove("min");
+            }),
+        ),
+        (
+            "null-max.gltf",
+            Box::new(|v: &mut Value| v["accessors"][0]["max"] = Value::Null),
+        ),
+    ] {
+        // A second primitive on the same accessor: one warning for the accessor.
+        let root = quad_with(|v| {
+            edit(v);
+            let p = v["meshes"][0]["primitives"][0].clone();
+            v["meshes"][0]["primitives"].as_array_mut().unwrap().push(p);
+        });
+        let s = load_no_panic(&write_json(&dir, name, &root)).unwrap();
+        let warned: Vec<_> = s
+            .warnings
+            .iter()
+            .filter(|w| w.contains("POSITION: accessor 0 has no min and max"))
+            .collect();
+        assert_eq!(warned.len(), 1, "{name}: {:?}", s.warnings);
+        assert!(
+            warned[0].contains("meshes[0].primitives[0].attributes"),
+            "{}",
+            warned[0]
+        );
+        // One object per primitive, each the quad as read with min / max.
+        assert_eq!(s.objects.len(), 2, "{name}");
+        for o in &s.objects {
+            assert_eq!(o.mesh, reference.objects[0].mesh, "{name}");
+        }
+        assert_eq!(s.bounds(), reference.bounds(), "{name}");
+        assert_eq!(s.bounds(), Some((Vec3::ZERO, Vec3::new(1.0, 0.0, 1.0))));
+    }
+    for (k, bad) in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY]
+        .into_iter()
+        .enumerate()
+    {
+        let mut bin = quad_bin();
+        bin[24..28].copy_from_slice(&bad.to_le_bytes());
+        let root = quad_with(|v| {
+            strip(v);
+            v["buffers"][0]["uri"] = json!(format!(
+                "data:application/octet-stream;base64,{}",
+                b64(&bin)
+            ))
+        });
+        assert_refused(
+            &dir,
+            &format!("non-finite-{k}.gltf"),
+            &root,
+            &["attributes.POSITION (nodes[0] 'floor'): vertex 2 is not finite"],
+        );
+    }
 }
 
 /// World-space normal of each triangle: the inverse transpose of the local cross product.

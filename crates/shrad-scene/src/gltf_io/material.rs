@@ -65,7 +65,9 @@ impl Walk<'_> {
             ));
             return None;
         };
-        let decoded = match self.textures.get(&image) {
+        // Images are shared by their source: seven images of one buffer view or URI decode once.
+        let key = self.image_source(image);
+        let decoded = match self.textures.get(&key) {
             Some(d) => d.clone(),
             None => {
                 let d = match self.texture_image(image) {
@@ -78,7 +80,7 @@ impl Walk<'_> {
                         None
                     }
                 };
-                self.textures.insert(image, d.clone());
+                self.textures.insert(key, d.clone());
                 d
             }
         }?;
@@ -117,8 +119,21 @@ impl Walk<'_> {
         }
     }
 
-    /// Image `index`, decoded to 8-bit sRGB RGB (see [`TextureImage`]).
-    fn texture_image(&self, index: usize) -> Result<TextureImage, String> {
+    /// What image `index` is read from (its buffer view, else its URI), so images that
+    /// share one are decoded once.
+    fn image_source(&self, index: usize) -> ImageSource {
+        match self.doc.as_json().images.get(index) {
+            Some(j) if j.buffer_view.is_some() => {
+                ImageSource::View(j.buffer_view.map_or(0, |v| v.value()))
+            }
+            Some(j) if j.uri.is_some() => ImageSource::Uri(j.uri.clone().unwrap_or_default()),
+            _ => ImageSource::Image(index),
+        }
+    }
+
+    /// Image `index`, decoded to 8-bit sRGB RGB (see [`TextureImage`]), within what is left
+    /// of the file's texel budget ([`crate::texture::MAX_FILE_TEXELS`]), which it spends.
+    fn texture_image(&mut self, index: usize) -> Result<TextureImage, String> {
         let json = self
             .doc
             .as_json()
@@ -144,6 +159,28 @@ impl Walk<'_> {
         } else {
             return Err("image has neither uri nor bufferView".into());
         };
-        TextureImage::decode(&bytes, self.image_label(index))
+        let (w, h) = TextureImage::declared_size(&bytes)?;
+        let texels = u64::from(w) * u64::from(h);
+        if texels > self.texels_left {
+            return Err(format!(
+                "its {w} x {h} texels pass what is left ({}) of the {} texels all textures of a file may decode to",
+                self.texels_left,
+                crate::texture::MAX_FILE_TEXELS
+            ));
+        }
+        let image = TextureImage::decode(&bytes, self.image_label(index))?;
+        self.texels_left -= u64::from(image.width()) * u64::from(image.height());
+        Ok(image)
     }
+}
+
+/// Where an image's bytes come from (the key of the reader's decoded images).
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub(super) enum ImageSource {
+    /// A buffer view.
+    View(usize),
+    /// A URI (data or file).
+    Uri(String),
+    /// Neither (cannot be loaded): by image index.
+    Image(usize),
 }

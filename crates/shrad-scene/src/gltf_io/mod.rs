@@ -61,6 +61,36 @@ pub(crate) fn read(
     }
 }
 
+/// Give every POSITION accessor without `min` / `max` (warned about by the validator) a
+/// placeholder pair, so the gltf crate, which requires them, accepts the file. shrad never
+/// reads them: it bounds the vertices it reads and refuses non-finite ones.
+fn fill_position_bounds(root: &mut Value) {
+    let mut positions: Vec<usize> = Vec::new();
+    if let Some(meshes) = root.get("meshes").and_then(Value::as_array) {
+        for prim in meshes
+            .iter()
+            .filter_map(|m| m.get("primitives")?.as_array())
+            .flatten()
+        {
+            if let Some(a) = prim.pointer("/attributes/POSITION").and_then(Value::as_u64) {
+                positions.push(a as usize);
+            }
+        }
+    }
+    let Some(accessors) = root.get_mut("accessors").and_then(Value::as_array_mut) else {
+        return;
+    };
+    for a in positions {
+        if let Some(acc) = accessors.get_mut(a).and_then(Value::as_object_mut) {
+            for key in ["min", "max"] {
+                if acc.get(key).is_none_or(Value::is_null) {
+                    acc.insert(key.into(), json!([0.0, 0.0, 0.0]));
+                }
+            }
+        }
+    }
+}
+
 fn read_bytes(
     path: &Path,
     bytes: &[u8],
@@ -108,6 +138,7 @@ fn read_bytes(
             }
         }
     }
+    fill_position_bounds(&mut for_crate);
     let root: gltf::json::Root =
         serde_json::from_value(for_crate).map_err(|e| bad(format!("invalid glTF: {e}")))?;
     let doc = gltf::Document::from_json(root).map_err(|e| bad(format!("invalid glTF: {e}")))?;
@@ -131,6 +162,7 @@ fn read_bytes(
         graph: animations.graph,
         names: Vec::new(),
         textures: std::collections::HashMap::new(),
+        texels_left: crate::texture::MAX_FILE_TEXELS,
         materials: std::collections::HashMap::new(),
     };
     let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {

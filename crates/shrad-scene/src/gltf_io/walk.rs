@@ -1,5 +1,5 @@
 //! The default scene's node hierarchy walked into objects: each node's accumulated
-//! transform, its animation, the first perspective camera, and its mesh (see `mesh`).
+//! transform, its animation, the first perspective camera (and what moves it), and its mesh (see `mesh`).
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -26,8 +26,10 @@ pub(super) struct Walk<'a> {
     pub(super) buffers: &'a [gltf::buffer::Data],
     pub(super) scene: Scene,
     pub(super) names: Vec<PartNames>,
-    /// Each image decoded once (None: could not be loaded), shared by the materials.
-    pub(super) textures: HashMap<usize, Option<Arc<TextureImage>>>,
+    /// Each image source decoded once (None: could not be loaded), shared by the materials.
+    pub(super) textures: HashMap<super::material::ImageSource, Option<Arc<TextureImage>>>,
+    /// Texels the file's textures may still decode to ([`crate::texture::MAX_FILE_TEXELS`] at first).
+    pub(super) texels_left: u64,
     /// Each material once converted (None: the default material).
     pub(super) materials: HashMap<Option<usize>, Material>,
 }
@@ -45,6 +47,21 @@ impl Walk<'_> {
             object.world_from_object = anim.world_from_object_at(0.0);
             object.node_animation = Some(anim);
         }
+    }
+
+    /// When the camera's node `node` or an ancestor is animated, the scene's camera follows
+    /// it: [`Scene::camera_animation`] holds the node and the camera becomes its pose at
+    /// time 0, as an animated object's rest transform does.
+    fn animate_camera(&mut self, node: usize) {
+        let Some(graph) = self.graph.as_ref().filter(|g| g.moves(node)) else {
+            return;
+        };
+        self.scene.camera_animation = Some(crate::NodeAnimation {
+            graph: graph.clone(),
+            node,
+            outer: Affine3A::IDENTITY,
+        });
+        self.scene.camera = self.scene.camera_at(0.0);
     }
 
     pub(super) fn node(
@@ -84,6 +101,7 @@ impl Walk<'_> {
                             yfov: p.yfov(),
                             aspect_ratio: p.aspect_ratio(),
                         });
+                        self.animate_camera(node.index());
                     }
                     gltf::camera::Projection::Orthographic(_) => self
                         .scene

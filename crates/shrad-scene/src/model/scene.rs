@@ -64,8 +64,12 @@ pub struct Scene {
     pub source: String,
     /// The objects.
     pub objects: Vec<Object>,
-    /// The scene's camera, if it has one.
+    /// The scene's camera, if it has one (for a camera that moves: its pose at time 0).
     pub camera: Option<Camera>,
+    /// What moves the camera: the glTF node holding it, when that node or an ancestor is
+    /// animated (`None`: the camera stays where [`Scene::camera`] puts it). Use
+    /// [`Scene::camera_at`] for the camera at a time.
+    pub camera_animation: Option<crate::NodeAnimation>,
     /// Settings from the scene file.
     pub settings: SceneSettings,
     /// Non-fatal problems found while loading (printed by the CLI).
@@ -81,6 +85,35 @@ impl Scene {
             .iter()
             .filter_map(|o| o.world_bounds())
             .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
+    }
+
+    /// The scene's camera at time `t` (seconds): [`Scene::camera`] moved by
+    /// [`Scene::camera_animation`] when it has one (the node's world transform at `t`,
+    /// scale dropped), else [`Scene::camera`] as it is.
+    pub fn camera_at(&self, t: f32) -> Option<Camera> {
+        let camera = self.camera?;
+        let Some(anim) = &self.camera_animation else {
+            return Some(camera);
+        };
+        let (_, rotation, translation) =
+            anim.world_from_object_at(t).to_scale_rotation_translation();
+        let world_from_camera =
+            Affine3A::from_rotation_translation(rotation.normalize(), translation);
+        if !world_from_camera.is_finite() {
+            // A degenerate (zero-scale) pose of a parent: keep the rest pose.
+            return Some(camera);
+        }
+        Some(Camera {
+            world_from_camera,
+            ..camera
+        })
+    }
+
+    /// [`Scene::camera_or_default`] at time `t`: the scene's camera where
+    /// [`Scene::camera_at`] puts it, or the default one (which does not move).
+    pub fn camera_or_default_at(&self, t: f32) -> Camera {
+        self.camera_at(t)
+            .unwrap_or_else(|| self.camera_or_default())
     }
 
     /// The scene's camera, or one that frames the scene. When a boundary object encloses
@@ -107,12 +140,16 @@ impl Scene {
         })
     }
 
-    /// Length of the longest animation (0 for a static scene).
+    /// Length of the longest animation, the camera's included (0 for a static scene).
     pub fn duration(&self) -> f32 {
+        let camera = self
+            .camera_animation
+            .as_ref()
+            .map_or(0.0, crate::NodeAnimation::duration);
         self.objects
             .iter()
             .map(Object::duration)
-            .fold(0.0, f32::max)
+            .fold(camera, f32::max)
     }
 
     /// Is there any emitter?

@@ -238,6 +238,7 @@ impl JsonCheck<'_> {
     }
 
     pub(super) fn meshes(&mut self, accessors: &[AccessorInfo]) -> Result<(), String> {
+        let mut unbounded = Vec::new();
         for (m, mesh) in array(self.root, "meshes", "")?.iter().enumerate() {
             let at = format!("meshes[{m}]");
             let prims = array(mesh, "primitives", &at)?;
@@ -285,11 +286,17 @@ impl JsonCheck<'_> {
                     ));
                 }
                 let pos_json = &self.root["accessors"][pos];
-                if pos_json.get("min").is_none_or(Value::is_null)
-                    || pos_json.get("max").is_none_or(Value::is_null)
+                // The specification requires min and max on POSITION, but some exporters
+                // leave them out and three.js and Blender load such files: shrad does not
+                // use them (it bounds the vertices it reads, and refuses non-finite ones),
+                // so a missing pair is a warning, once per accessor.
+                if (pos_json.get("min").is_none_or(Value::is_null)
+                    || pos_json.get("max").is_none_or(Value::is_null))
+                    && !unbounded.contains(&pos)
                 {
-                    return Err(format!(
-                        "{attrs_at}.POSITION: accessor {pos} has no min and max (the specification requires them)"
+                    unbounded.push(pos);
+                    self.warnings.push(format!(
+                        "{attrs_at}.POSITION: accessor {pos} has no min and max (the specification requires them); bounds computed from the vertices"
                     ));
                 }
                 for (name, a, _) in &counts {
