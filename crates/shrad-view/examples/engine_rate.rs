@@ -14,7 +14,11 @@ use shrad::solver::SolverChoice;
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let scene_name = args.first().map(String::as_str).unwrap_or("cornell");
-    let patches: usize = args.get(1).map(|s| s.parse()).transpose()?.unwrap_or(20_000);
+    let patches: usize = args
+        .get(1)
+        .map(|s| s.parse())
+        .transpose()?
+        .unwrap_or(20_000);
     let scene = shrad::scene::load(std::path::Path::new(scene_name), &Default::default())?;
     let mut engine = Engine::new(
         scene,
@@ -45,7 +49,10 @@ fn main() -> Result<()> {
     let mut frames = 0;
     while t.elapsed() < seconds {
         let phase = (t.elapsed().as_secs_f64() * std::f64::consts::PI).sin() as f32;
-        engine.set_transform(object, Affine3A::from_translation(Vec3::X * reach * phase) * rest)?;
+        engine.set_transform(
+            object,
+            Affine3A::from_translation(Vec3::X * reach * phase) * rest,
+        )?;
         engine.step();
         frames += 1;
     }
