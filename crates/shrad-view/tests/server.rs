@@ -444,3 +444,126 @@ fn files_are_served_from_the_page_folder_only() {
     });
     s.stop().unwrap();
 }
+
+/// Send a request and return its reply (skipping broadcasts).
+async fn ask(ws: &mut Ws, request: Value) -> Value {
+    ws.send(Message::Text(request.to_string().into()))
+        .await
+        .unwrap();
+    reply(ws).await
+}
+
+/// The next `frame` message.
+async fn frame_message(ws: &mut Ws) -> Value {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let m = tokio::time::timeout(left, ws.next())
+            .await
+            .expect("no frame within 30 s")
+            .expect("connection closed")
+            .expect("read error");
+        if let Message::Text(t) = m {
+            let v: Value = serde_json::from_str(t.as_str()).unwrap();
+            if v["type"] == "frame" {
+                return v;
+            }
+        }
+    }
+}
+
+#[test]
+fn steering_requests_do_what_they_say() {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/moving_box.toml");
+    let scene = shrad::scene::load(&path, &Default::default()).unwrap();
+    let mut o = ServeOptions::new(scene);
+    o.sizing = shrad::PatchSizing::Count(1500);
+    o.port = 0;
+    o.web_root = web_root();
+    let s = Server::start(o).unwrap();
+    runtime().block_on(async {
+        let mut ws = connect(&s).await;
+        // The animation: scrub, then play; frames say where it is.
+        let r = ask(&mut ws, json!({"v": 1, "type": "set_time", "t": 1.5})).await;
+        assert_eq!(r["type"], "ok", "{r}");
+        assert_eq!(r["time"], 1.5);
+        let r = ask(
+            &mut ws,
+            json!({"v": 1, "type": "play", "playing": true, "speed": 2.0}),
+        )
+        .await;
+        assert_eq!(r["type"], "ok", "{r}");
+        let mut last = frame_message(&mut ws).await;
+        while last["time"].as_f64().unwrap() <= 1.6 {
+            last = frame_message(&mut ws).await;
+        }
+        assert_eq!(last["playing"], true);
+        let r = ask(&mut ws, json!({"v": 1, "type": "play", "playing": false})).await;
+        assert_eq!(r["type"], "ok", "{r}");
+        // A light switched off.
+        let light = r#"{"v":1,"type":"set_emission","object":"light","radiance":[0,0,0]}"#;
+        ws.send(Message::Text(light.into())).await.unwrap();
+        let r = reply(&mut ws).await;
+        assert_eq!(r["type"], "ok", "{r}");
+        // A live setting, then a solver switch, then a setting the new solver lacks.
+        let r = ask(
+            &mut ws,
+            json!({"v": 1, "type": "set_option", "key": "per_frame", "value": "2"}),
+        )
+        .await;
+        assert_eq!(r["type"], "ok", "{r}");
+        assert_eq!(r["value"], "2");
+        assert!(r["precompute_ms"].is_null());
+        let r = ask(
+            &mut ws,
+            json!({"v": 1, "type": "set_solver", "solver": "grid", "preset": "paper4"}),
+        )
+        .await;
+        assert_eq!(r["type"], "ok", "{r}");
+        assert!(r["precompute_ms"].as_f64().unwrap() >= 0.0);
+        let f = frame_message(&mut ws).await;
+        assert_eq!(f["solver"], "grid");
+        let r = ask(
+            &mut ws,
+            json!({"v": 1, "type": "set_option", "key": "per_frame", "value": "2"}),
+        )
+        .await;
+        assert_eq!(r["type"], "error", "{r}");
+        assert!(r["message"].as_str().unwrap().contains("per_frame"), "{r}");
+        // The error against the reference, and a frame that carries it.
+        let r = ask(
+            &mut ws,
+            json!({"v": 1, "type": "set_solver", "solver": "dispersive"}),
+        )
+        .await;
+        assert_eq!(r["type"], "ok", "{r}");
+        // (With the light off the reference is black and the relative error undefined: null.)
+        let on =
+            json!({"v": 1, "type": "set_emission", "object": "light", "radiance": [17, 12, 4]});
+        assert_eq!(ask(&mut ws, on).await["type"], "ok");
+        let r = ask(&mut ws, json!({"v": 1, "type": "compute_error"})).await;
+        assert_eq!(r["type"], "ok", "{r}");
+        let e = r["overall"].as_f64().unwrap();
+        assert!(e.is_finite() && e >= 0.0, "{r}");
+        // Probes: 8 for the one interior object, each with a radiance per sphere direction.
+        let r = ask(&mut ws, json!({"v": 1, "type": "probes", "on": true})).await;
+        assert_eq!(r["type"], "ok", "{r}");
+        let deadline = Instant::now() + Duration::from_secs(30);
+        let probes = loop {
+            assert!(Instant::now() < deadline, "no probes within 30 s");
+            if let Some(Ok(Message::Text(t))) = ws.next().await {
+                let v: Value = serde_json::from_str(t.as_str()).unwrap();
+                if v["type"] == "probes" {
+                    break v;
+                }
+            }
+        };
+        let list = probes["probes"].as_array().unwrap();
+        assert_eq!(list.len(), 8);
+        assert!(list
+            .iter()
+            .all(|p| p["radiance"].as_array().unwrap().len() % 3 == 0));
+    });
+    s.stop().unwrap();
+}
