@@ -16,7 +16,7 @@ fn main() {
     shrad::scene::infer_roles(&mut scene);
     let world = World::new(scene, PatchSizing::Count(patches), Backend::Auto).expect("world");
     let (reference, _) = solve(&world, &ReferenceOptions::fast(), &NoProgress);
-    let mut d = Dispersive::new(&world, DispersiveOptions::improved());
+    let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
     for s in d.converge(&world, 8) {
         if let Some(div) = s.diverged {
             println!("frame {}: {}", s.frame, div.message);

@@ -53,8 +53,9 @@ pub struct Grid {
 }
 
 impl Grid {
-    /// Place the probes over the scene's box at rest.
-    pub fn new(world: &World, options: GridOptions) -> Grid {
+    /// Place the probes over the scene's box at rest; options out of range are an error.
+    pub fn new(world: &World, options: GridOptions) -> Result<Grid, crate::Error> {
+        crate::solver::SolverChoice::Grid(options).validate()?;
         let g = options.per_axis.max(1);
         let (lo, hi) = world.scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
         let extent = (hi - lo).max(Vec3::splat(1e-6));
@@ -67,7 +68,7 @@ impl Grid {
                 }
             }
         }
-        Grid {
+        Ok(Grid {
             camera: ProbeCamera::new(options.cube_res, options.bands),
             options,
             lo,
@@ -75,7 +76,7 @@ impl Grid {
             probes,
             radiosity: world.exitance.clone(),
             frame: 0,
-        }
+        })
     }
 
     /// Probe positions (x fastest, then y, then z).

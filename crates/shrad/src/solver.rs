@@ -38,8 +38,8 @@ impl Solver {
         choice.validate()?;
         Ok(match choice {
             SolverChoice::Reference(o) => Solver::Reference(o, world.exitance.clone(), 0),
-            SolverChoice::Dispersive(o) => Solver::Dispersive(Box::new(Dispersive::new(world, o))),
-            SolverChoice::Grid(o) => Solver::Grid(Box::new(Grid::new(world, o))),
+            SolverChoice::Dispersive(o) => Solver::Dispersive(Box::new(Dispersive::new(world, o)?)),
+            SolverChoice::Grid(o) => Solver::Grid(Box::new(Grid::new(world, o)?)),
         })
     }
 

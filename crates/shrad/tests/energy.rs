@@ -149,25 +149,30 @@ fn random_rooms_never_run_away() {
                 G(Box<Grid>),
             }
             let mut s = match solver {
-                "default" => S::D(Box::new(Dispersive::new(
-                    &world,
-                    DispersiveOptions::improved(),
-                ))),
-                "paper" => S::D(Box::new(Dispersive::new(
-                    &world,
-                    DispersiveOptions {
-                        cube_res: 16,
-                        emitter_res: 16,
-                        ..DispersiveOptions::paper()
-                    },
-                ))),
-                _ => S::G(Box::new(Grid::new(
-                    &world,
-                    GridOptions {
-                        cube_res: 16,
-                        ..GridOptions::paper(4)
-                    },
-                ))),
+                "default" => S::D(Box::new(
+                    Dispersive::new(&world, DispersiveOptions::improved()).unwrap(),
+                )),
+                "paper" => S::D(Box::new(
+                    Dispersive::new(
+                        &world,
+                        DispersiveOptions {
+                            cube_res: 16,
+                            emitter_res: 16,
+                            ..DispersiveOptions::paper()
+                        },
+                    )
+                    .unwrap(),
+                )),
+                _ => S::G(Box::new(
+                    Grid::new(
+                        &world,
+                        GridOptions {
+                            cube_res: 16,
+                            ..GridOptions::paper(4)
+                        },
+                    )
+                    .unwrap(),
+                )),
             };
             for f in 0..FRAMES {
                 let (moved, relit) = world.set_time(f as f32);
@@ -231,7 +236,7 @@ fn a_runaway_is_caught_named_and_damped() {
             world.patches.area[i] *= 200.0;
         }
     }
-    let mut d = Dispersive::new(&world, DispersiveOptions::improved());
+    let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
     let mut caught = None;
     for f in 0..100 {
         let stats = d.step(&world, &Changes::default());

@@ -84,7 +84,7 @@ fn blender_room_dispersive_is_close_to_the_reference() {
         "{:?}",
         stats.energy
     );
-    let mut d = Dispersive::new(&world, DispersiveOptions::improved());
+    let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
     d.converge(&world, 6);
     let e = shrad::metrics::relative_error(&world.patches, d.radiosity(), &reference);
     eprintln!(

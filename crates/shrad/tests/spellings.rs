@@ -197,9 +197,9 @@ fn difference(wa: &World, a: &[Vec3], wb: &World, b: &[Vec3], to_a: &[usize]) ->
 
 fn solutions(world: &World) -> [Vec<Vec3>; 3] {
     let reference = solve(world, &ReferenceOptions::fast(), &NoProgress).0;
-    let mut d = Dispersive::new(world, DispersiveOptions::improved());
+    let mut d = Dispersive::new(world, DispersiveOptions::improved()).unwrap();
     d.converge(world, 6);
-    let mut g = Grid::new(world, GridOptions::paper(4));
+    let mut g = Grid::new(world, GridOptions::paper(4)).unwrap();
     let changes = Default::default();
     for _ in 0..8 {
         g.step(world, &changes);

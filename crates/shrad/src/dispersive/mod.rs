@@ -108,8 +108,10 @@ pub struct Dispersive {
 
 impl Dispersive {
     /// Precompute (paper 2.3.1): probe boxes, trilinear weights, exit directions, cube-map
-    /// directions and SH weights; the wall exchange's form factors if enabled.
-    pub fn new(world: &World, options: DispersiveOptions) -> Dispersive {
+    /// directions and SH weights; the wall exchange's form factors if enabled. Options out
+    /// of range are an error (see [`crate::settings`]).
+    pub fn new(world: &World, options: DispersiveOptions) -> Result<Dispersive, crate::Error> {
+        crate::solver::SolverChoice::Dispersive(options).validate()?;
         let p = &world.patches;
         let camera = ProbeCamera::new(options.cube_res, options.bands);
         let emitter_camera = ProbeCamera::new(options.emitter_res, options.bands);
@@ -138,7 +140,7 @@ impl Dispersive {
             .collect();
         let n = p.len();
         let radiosity = world.exitance.clone();
-        Dispersive {
+        Ok(Dispersive {
             options,
             camera,
             emitter_camera,
@@ -174,7 +176,7 @@ impl Dispersive {
             ),
             step_warnings: Vec::new(),
             outer_side: outer_sides(world),
-        }
+        })
     }
 
     /// Current radiosity of every patch.

@@ -43,10 +43,42 @@ fn sphere_in_a_room() -> Scene {
 }
 
 #[test]
+fn options_out_of_range_are_an_error_not_a_panic() {
+    let world = World::new(
+        shrad_scene::cornell_box(),
+        PatchSizing::Size(80.0),
+        Backend::Auto,
+    )
+    .unwrap();
+    for bad in [
+        DispersiveOptions {
+            bands: 9,
+            ..Default::default()
+        },
+        DispersiveOptions {
+            cube_res: 0,
+            ..Default::default()
+        },
+        DispersiveOptions {
+            probe_margin: f32::NAN,
+            ..Default::default()
+        },
+    ] {
+        let e = Dispersive::new(&world, bad).err().expect("refused");
+        assert!(matches!(e, crate::Error::Invalid(_)), "{e}");
+    }
+    let grid = crate::grid::GridOptions {
+        per_axis: 0,
+        ..Default::default()
+    };
+    assert!(crate::grid::Grid::new(&world, grid).is_err());
+}
+
+#[test]
 fn trilinear_weights_reproduce_a_linear_field() {
     let scene = shrad_scene::cornell_box();
     let world = World::new(scene, PatchSizing::Size(40.0), Backend::Auto).unwrap();
-    let d = Dispersive::new(&world, DispersiveOptions::improved());
+    let d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
     let f = |x: Vec3| 0.3 * x.x - 1.7 * x.y + 2.1 * x.z + 5.0;
     for ob in &d.objects {
         for (k, i) in world.patches.range(ob.object).enumerate() {
@@ -73,7 +105,7 @@ fn object_sends_its_reflected_flux_to_a_closed_boundary() {
             emitter_res: 128,
             ..DispersiveOptions::improved()
         };
-        let mut d = Dispersive::new(&world, options);
+        let mut d = Dispersive::new(&world, options).unwrap();
         let p = &world.patches;
         let ball = world.scene.objects.len() - 1;
         // Give the ball a known, non-uniform reflected radiosity.
@@ -112,7 +144,8 @@ fn a_static_scene_stops_changing() {
                 cube_res: 32,
                 ..options
             },
-        );
+        )
+        .unwrap();
         d.converge(&world, 30);
         let before = d.radiosity.clone();
         d.converge(&world, 1);
@@ -142,7 +175,7 @@ fn probes_buried_in_the_floor_are_detected_and_repaired() {
         schedule: Schedule::Full,
         ..DispersiveOptions::improved()
     };
-    let mut d = Dispersive::new(&world, options);
+    let mut d = Dispersive::new(&world, options).unwrap();
     let stats = d.step(&world, &Changes::default());
     let steps = stats.dispersive().unwrap();
     assert_eq!(steps.probes_invalid, 8, "{stats:?}");
@@ -153,7 +186,8 @@ fn probes_buried_in_the_floor_are_detected_and_repaired() {
             repair: ProbeRepair::MoveInward,
             ..options
         },
-    );
+    )
+    .unwrap();
     let stats = d.step(&world, &Changes::default());
     let steps = stats.dispersive().unwrap();
     assert_eq!((steps.probes_invalid, steps.probes_repaired), (8, 8));
@@ -178,7 +212,8 @@ fn energy_balance_closes_in_a_closed_room() {
             cube_res: 32,
             ..DispersiveOptions::improved()
         },
-    );
+    )
+    .unwrap();
     let stats = d.converge(&world, 8);
     let e = stats.last().unwrap().energy;
     let gap = (e.absorbed - e.emitted).abs() / e.emitted;
@@ -228,7 +263,7 @@ fn cornell_box_default_is_close_to_the_reference() {
         Backend::Auto,
     )
     .unwrap();
-    let mut d = Dispersive::new(&world, DispersiveOptions::improved());
+    let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
     d.converge(&world, 8);
     let reference = crate::reference::solve(
         &world,
@@ -249,7 +284,7 @@ fn reflective_light_near_the_floor_bounces_light() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.toml");
     let scene = shrad_scene::load(&path, &Default::default()).unwrap();
     let world = World::new(scene, PatchSizing::Count(4000), Backend::Auto).unwrap();
-    let mut d = Dispersive::new(&world, DispersiveOptions::improved());
+    let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
     d.converge(&world, 8);
     let reference = crate::reference::solve(
         &world,
