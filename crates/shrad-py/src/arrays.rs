@@ -10,6 +10,15 @@ use numpy::{
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
+/// `obj`, or a copy of it when it is a numpy array that is not aligned (one unpickled
+/// from a byte stream may not be): the array views read here need aligned memory.
+pub fn aligned<'py>(obj: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    match obj.getattr("flags").and_then(|f| f.getattr("aligned")) {
+        Ok(a) if !a.extract::<bool>().unwrap_or(true) => obj.call_method0("copy"),
+        _ => Ok(obj.clone()),
+    }
+}
+
 /// `(N, 3)` float32 owning `v`'s memory.
 pub fn vec3s<'py>(py: Python<'py>, v: Vec<Vec3>) -> PyResult<Bound<'py, PyArray2<f32>>> {
     let n = v.len();

@@ -217,9 +217,13 @@ impl PyEngine {
         &self,
         py: Python<'_>,
         obj: ObjRef,
-        matrix: PyArrayLike2<'_, f64, AllowTypeChange>,
+        matrix: &Bound<'_, PyAny>,
     ) -> PyResult<()> {
         let o = self.object(py, &obj)?;
+        let matrix: PyArrayLike2<'_, f64, AllowTypeChange> =
+            arrays::aligned(matrix)?.extract().map_err(|e| {
+                PyValueError::new_err(format!("matrix must be a 4x4 array of numbers: {e}"))
+            })?;
         let m = arrays::read_affine(&matrix, "matrix")?;
         self.with(py, |e| e.set_transform(o, m)).map_err(to_py_err)
     }
@@ -391,6 +395,52 @@ impl PyEngine {
     fn error<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let e = self.with(py, |e| e.error());
         crate::to_py(py, &e)
+    }
+
+    /// Write the current light (no stepping) as glTF: ``.glb``, or ``.gltf`` with a ``.bin``
+    /// beside it. Each object is a mesh in world space whose ``COLOR_0`` is
+    /// ``clamp(exposure * B / pi, 0, 1)`` under an unlit material (``KHR_materials_unlit``),
+    /// so three.js, Blender or Godot show the light as it is; ``_RADIOSITY`` holds the
+    /// unclamped radiosity ``B``. ``exposure`` None: as a PNG's automatic exposure. Returns
+    /// what was written (``path``, ``exposure``, ``meshes``, ``vertices``, ``triangles``).
+    #[pyo3(signature = (path, *, exposure=None))]
+    fn export_gltf<'py>(
+        &self,
+        py: Python<'py>,
+        path: std::path::PathBuf,
+        exposure: Option<f32>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let baked = self
+            .with(py, |e| shrad::bake::write_gltf(e, &path, exposure))
+            .map_err(to_py_err)?;
+        crate::to_py(py, &baked)
+    }
+
+    /// What ``shrad bake`` does: go to ``time``, step until every object has been updated
+    /// ``passes`` times, and write ``path`` as ``export_gltf`` does; with ``frames``, a
+    /// sequence of that many files evenly over the animation (``out.glb`` ->
+    /// ``out_0000.glb``, ``out_0001.glb``, ...), each a whole scene at its pose, at the first
+    /// file's exposure. Returns one dict per file.
+    #[pyo3(signature = (path, *, time=None, frames=None, passes=2, exposure=None))]
+    fn bake<'py>(
+        &self,
+        py: Python<'py>,
+        path: std::path::PathBuf,
+        time: Option<f32>,
+        frames: Option<usize>,
+        passes: usize,
+        exposure: Option<f32>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let options = shrad::bake::BakeOptions {
+            time,
+            frames,
+            passes,
+            exposure,
+        };
+        let baked = self
+            .with(py, |e| shrad::bake::bake(e, &path, &options))
+            .map_err(to_py_err)?;
+        crate::to_py(py, &baked)
     }
 
     fn __repr__(&self, py: Python<'_>) -> String {

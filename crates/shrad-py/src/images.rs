@@ -12,7 +12,10 @@ use shrad::image_io::Tonemap;
 use shrad::render::Image;
 
 /// An (H, W, 3) array (any float dtype) as a library image.
-fn image_from(a: &PyArrayLike3<'_, f32, AllowTypeChange>) -> PyResult<Image> {
+fn image_from(a: &Bound<'_, PyAny>) -> PyResult<Image> {
+    let a: PyArrayLike3<'_, f32, AllowTypeChange> = crate::arrays::aligned(a)?
+        .extract()
+        .map_err(|e| PyValueError::new_err(format!("image must be an (H, W, 3) array: {e}")))?;
     let shape = a.shape();
     if shape[2] != 3 || shape[0] == 0 || shape[1] == 0 {
         return Err(PyValueError::new_err(format!(
@@ -39,12 +42,8 @@ fn image_from(a: &PyArrayLike3<'_, f32, AllowTypeChange>) -> PyResult<Image> {
 /// Write a linear OpenEXR (RGB, 32-bit float) of an (H, W, 3) picture such as
 /// ``Engine.render`` returns. Raises OSError naming the file when it cannot be written.
 #[pyfunction]
-pub fn write_exr(
-    py: Python<'_>,
-    path: PathBuf,
-    image: PyArrayLike3<'_, f32, AllowTypeChange>,
-) -> PyResult<()> {
-    let image = image_from(&image)?;
+pub fn write_exr(py: Python<'_>, path: PathBuf, image: &Bound<'_, PyAny>) -> PyResult<()> {
+    let image = image_from(image)?;
     py.detach(|| shrad::image_io::write_exr(&image, &path))
         .map_err(crate::to_py_err)
 }
@@ -57,7 +56,7 @@ pub fn write_exr(
 pub fn write_png(
     py: Python<'_>,
     path: PathBuf,
-    image: PyArrayLike3<'_, f32, AllowTypeChange>,
+    image: &Bound<'_, PyAny>,
     exposure: Option<f32>,
     tonemap: &str,
 ) -> PyResult<()> {
@@ -78,7 +77,7 @@ pub fn write_png(
             )))
         }
     };
-    let image = image_from(&image)?;
+    let image = image_from(image)?;
     py.detach(|| shrad::image_io::write_png(&image, &path, tonemap))
         .map_err(crate::to_py_err)
 }

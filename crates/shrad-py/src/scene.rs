@@ -569,7 +569,8 @@ fn object(
                 .get_item("positions")
                 .map_err(|e| e.to_string())?
                 .ok_or("shape 'mesh' needs 'positions' (N, 3) and 'triangles' (M, 3), or 'file'")?;
-            let positions: PyArrayLike2<'_, f32, AllowTypeChange> = positions
+            let positions: PyArrayLike2<'_, f32, AllowTypeChange> = arrays::aligned(&positions)
+                .map_err(|e| e.to_string())?
                 .extract()
                 .map_err(|e| format!("'positions' must be an (N, 3) array of numbers: {e}"))?;
             let positions =
@@ -578,14 +579,16 @@ fn object(
                 .get_item("triangles")
                 .map_err(|e| e.to_string())?
                 .ok_or("shape 'mesh' needs 'triangles' (M, 3)")?;
-            let triangles: PyArrayLike2<'_, i64, AllowTypeChange> = triangles
+            let triangles: PyArrayLike2<'_, i64, AllowTypeChange> = arrays::aligned(&triangles)
+                .map_err(|e| e.to_string())?
                 .extract()
                 .map_err(|e| format!("'triangles' must be an (M, 3) array of integers: {e}"))?;
             let triangles = arrays::read_triangles(&triangles, positions.len(), "'triangles'")
                 .map_err(|e| e.to_string())?;
             let mut mesh = Mesh::new(positions, triangles);
             if let Some(colors) = d.get_item("colors").map_err(|e| e.to_string())? {
-                let colors: PyArrayLike2<'_, f32, AllowTypeChange> = colors
+                let colors: PyArrayLike2<'_, f32, AllowTypeChange> = arrays::aligned(&colors)
+                    .map_err(|e| e.to_string())?
                     .extract()
                     .map_err(|e| format!("'colors' must be an (N, 3) array of numbers: {e}"))?;
                 let colors = arrays::read_vec3s(&colors, "'colors'").map_err(|e| e.to_string())?;
@@ -633,7 +636,8 @@ fn rest_transform(d: &Bound<'_, PyDict>) -> Result<Affine3A, String> {
                 return Err(format!("give 'transform' or '{k}', not both"));
             }
         }
-        let m: PyArrayLike2<'_, f64, AllowTypeChange> = m
+        let m: PyArrayLike2<'_, f64, AllowTypeChange> = arrays::aligned(&m)
+            .map_err(|e| e.to_string())?
             .extract()
             .map_err(|e| format!("'transform' must be a 4x4 matrix: {e}"))?;
         return arrays::read_affine(&m, "'transform'").map_err(|e| e.to_string());

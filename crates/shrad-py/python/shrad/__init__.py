@@ -30,11 +30,15 @@ from ._shrad import (
     write_exr,
     write_png,
 )
+from .sweep import Shot, ShotError, ShotResult, run_shot, sweep
 
 __all__ = [
     "Engine",
     "ObjectInfo",
     "Scene",
+    "Shot",
+    "ShotError",
+    "ShotResult",
     "__version__",
     "builtins",
     "load",
@@ -42,6 +46,8 @@ __all__ = [
     "options",
     "presets",
     "read_exr",
+    "run_shot",
+    "sweep",
     "write_exr",
     "write_png",
 ]

@@ -109,6 +109,16 @@ class Engine:
         shading: Literal["smooth", "flat"] = "smooth",
     ) -> npt.NDArray[np.float32]: ...
     def error(self) -> ErrorDict: ...
+    def export_gltf(self, path: PathLike, *, exposure: float | None = None) -> dict[str, Any]: ...
+    def bake(
+        self,
+        path: PathLike,
+        *,
+        time: float | None = None,
+        frames: int | None = None,
+        passes: int = 2,
+        exposure: float | None = None,
+    ) -> list[dict[str, Any]]: ...
 
 def load(
     path: PathLike,

@@ -1,0 +1,109 @@
+"""The glTF bake, validated by the Khronos glTF-Validator and three.js's GLTFLoader (node,
+validation/bake/validate.mjs) and, where a Python with bpy is given (SHRAD_BPY_PYTHON),
+by Blender's importer (validation/bake/blender_check.py)."""
+
+import json
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import shrad
+from conftest import room_dict
+
+ROOT = Path(__file__).resolve().parents[3]
+VALIDATION = ROOT / "validation" / "bake"
+
+
+def node_check(*files):
+    node = shutil.which("node")
+    if node is None:
+        pytest.skip("node is not installed (the bake's validators run in node)")
+    if not (VALIDATION / "node_modules" / "gltf-validator").is_dir():
+        pytest.fail("validation/bake/node_modules is missing: run scripts/setup-python (npm ci there)")
+    out = subprocess.run(
+        [node, str(VALIDATION / "validate.mjs"), *map(str, files)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    results = [json.loads(line) for line in out.stdout.splitlines() if line.startswith("{")]
+    assert out.returncode == 0, (out.stdout, out.stderr)
+    return results
+
+
+@pytest.fixture(scope="module")
+def lit(cornell):
+    e = shrad.Engine(cornell, solver="reference", preset="fast")
+    e.step()
+    return e
+
+
+def test_bake_passes_the_validator_and_loads_in_three(lit, cornell, tmp_path):
+    glb = lit.export_gltf(tmp_path / "cornell.glb", exposure=1.5)
+    gltf = lit.export_gltf(tmp_path / "cornell.gltf")
+    assert (tmp_path / "cornell.bin").is_file()
+    assert glb["exposure"] == 1.5 and gltf["exposure"] > 0
+    assert glb["vertices"] == len(lit.vertex_colors)
+    for r in node_check(tmp_path / "cornell.glb", tmp_path / "cornell.gltf"):
+        assert r["validator"]["errors"] == 0, r["validator"]["messages"]
+        assert r["validator"]["warnings"] == 0, r["validator"]["messages"]
+        meshes = r["three"]["meshes"]
+        assert sorted(m["name"] for m in meshes) == sorted(o.name for o in cornell.objects)
+        for m in meshes:
+            # Unlit: a MeshBasicMaterial drawing the vertex colours as they are.
+            assert m["material"] == "MeshBasicMaterial" and m["vertexColors"], m
+            assert m["color"] == 3 and m["radiosity"] == 3, m
+            assert 0 < m["maxColour"] <= 1.0
+        assert sum(m["vertices"] for m in meshes) == glb["vertices"]
+        assert sum(m["triangles"] for m in meshes) == glb["triangles"]
+        # _RADIOSITY is the radiosity B itself, unclamped.
+        assert max(m["maxRadiosity"] for m in meshes) == pytest.approx(float(lit.vertex_colors.max()), rel=1e-5)
+
+
+def test_an_animation_bakes_as_a_sequence(tmp_path):
+    scene = shrad.load_dict(room_dict(patches=600, keyframes=True))
+    e = shrad.Engine(scene, solver="dispersive", preset="default")
+    baked = e.bake(tmp_path / "anim.glb", frames=3, passes=1)
+    files = [Path(b["path"]) for b in baked]
+    assert [f.name for f in files] == ["anim_0000.glb", "anim_0001.glb", "anim_0002.glb"]
+    assert [b["time"] for b in baked] == [0.0, 0.5, 1.0]
+    assert len({b["exposure"] for b in baked}) == 1  # one exposure for the sequence
+    results = node_check(*files)
+    block = [next(m for m in r["three"]["meshes"] if m["name"] == "block") for r in results]
+    x0 = [b["bounds"][0][0] for b in block]
+    assert x0[0] < x0[1] < x0[2], x0  # the block moves along +x through the files
+    assert all(r["validator"]["errors"] == 0 for r in results)
+
+
+def test_bad_bake_paths_raise(lit, tmp_path):
+    with pytest.raises(OSError, match=r"x\.png.*\.glb"):
+        lit.export_gltf(tmp_path / "x.png")
+    with pytest.raises(OSError, match="does not exist"):
+        lit.export_gltf(tmp_path / "no" / "x.glb")
+    with pytest.raises(ValueError, match="not animated"):
+        lit.bake(tmp_path / "s.glb", frames=4)
+    with pytest.raises(ValueError, match="exposure"):
+        lit.export_gltf(tmp_path / "x.glb", exposure=-1)
+    assert not list(tmp_path.iterdir())  # nothing left behind
+
+
+@pytest.mark.skipif(not os.environ.get("SHRAD_BPY_PYTHON"), reason="SHRAD_BPY_PYTHON (a Python with bpy) not set")
+def test_blender_imports_the_bake_with_its_colours(lit, tmp_path):
+    path = tmp_path / "cornell.glb"
+    lit.export_gltf(path)
+    out = subprocess.run(
+        [os.environ["SHRAD_BPY_PYTHON"], str(VALIDATION / "blender_check.py"), str(path)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert out.returncode == 0, (out.stdout[-2000:], out.stderr[-2000:])
+    r = json.loads(next(line for line in out.stdout.splitlines() if line.startswith("{")))
+    assert r["ok"] and len(r["meshes"]) == len(lit.objects)
+    top = max(m["max_colour"] for m in r["meshes"])
+    assert 0 < top <= 1.0 + 1e-6
+    assert np.isfinite(top)
