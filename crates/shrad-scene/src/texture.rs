@@ -15,7 +15,7 @@ use glam::{Vec2, Vec3};
 
 /// A decoded image: 8-bit sRGB RGB texels, row-major from the top-left texel (glTF's UV
 /// origin).
-#[derive(Clone, PartialEq)]
+#[derive(Clone)]
 pub struct TextureImage {
     /// Where it came from (the glTF image index and name or URI, the MTL map path).
     pub name: String,
@@ -23,6 +23,19 @@ pub struct TextureImage {
     height: u32,
     /// `r, g, b` bytes of each texel.
     texels: Vec<u8>,
+    /// [`TextureImage::mean`], computed once (an image shared by many primitives without
+    /// texture coordinates is averaged for each of them).
+    mean: std::sync::OnceLock<Vec3>,
+}
+
+/// Equal when name, size and texels are (whether the mean is cached or not).
+impl PartialEq for TextureImage {
+    fn eq(&self, other: &Self) -> bool {
+        self.name == other.name
+            && self.width == other.width
+            && self.height == other.height
+            && self.texels == other.texels
+    }
 }
 
 impl std::fmt::Debug for TextureImage {
@@ -82,6 +95,7 @@ impl TextureImage {
                 width,
                 height,
                 texels,
+                mean: std::sync::OnceLock::new(),
             })
     }
     /// Decode a PNG or JPEG file's bytes (sRGB) as `name`. A small file can decode huge (a
@@ -121,8 +135,12 @@ impl TextureImage {
         let t = &self.texels[i..i + 3];
         Vec3::new(lut[t[0] as usize], lut[t[1] as usize], lut[t[2] as usize])
     }
-    /// Mean linear RGB over every texel.
+    /// Mean linear RGB over every texel (computed on the first call, then kept).
     pub fn mean(&self) -> Vec3 {
+        *self.mean.get_or_init(|| self.compute_mean())
+    }
+
+    fn compute_mean(&self) -> Vec3 {
         let lut = srgb_lut();
         let mut sum = [0f64; 3];
         for t in self.texels.chunks_exact(3) {
