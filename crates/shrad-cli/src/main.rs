@@ -12,7 +12,7 @@ use std::process::ExitCode;
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
-use commands::{animate, bench, info, options, render};
+use commands::{animate, bake, bench, info, options, render, view};
 
 /// Global illumination (radiosity) for dynamic scenes: the dispersive SH method of Wang, Liu
 /// and Wu (2007), its probe-grid baseline and a converged reference solver.
@@ -35,6 +35,12 @@ enum Command {
     /// Reproduce the paper's Tables 1-3 and Figures 2-3 in one run: grid (G = 4, 5) and
     /// dispersive (default and paper preset) on the same scenes, times, memory and error.
     Bench(bench::BenchArgs),
+    /// Solve a scene and write its light per vertex as glTF (COLOR_0, unlit) for three.js,
+    /// Blender or Godot; --frames N bakes an animation as N files.
+    Bake(bake::BakeArgs),
+    /// Watch and steer the scene's global illumination live in a browser: serves a page on
+    /// 127.0.0.1 (unless --host) and prints its URL; Ctrl-C stops.
+    View(view::ViewArgs),
     /// List every solver setting (the keys of --set and [settings.solver]) with its default
     /// in each preset, its range and what it does.
     Options(options::OptionsArgs),
@@ -60,6 +66,14 @@ fn run(command: Command) -> Result<()> {
         Command::Animate(args) => {
             let (scene, file) = load(&args.scene)?;
             animate::run(args, scene, &file)
+        }
+        Command::Bake(args) => {
+            let (scene, file) = load(&args.scene)?;
+            bake::run(args, scene, &file)
+        }
+        Command::View(args) => {
+            let (scene, file) = load(&args.scene)?;
+            view::run(args, scene, &file)
         }
         Command::Bench(args) => bench::run(args),
         Command::Options(args) => options::run(args),

@@ -3,7 +3,9 @@
 //! `Command` (main.rs).
 
 pub mod animate;
+pub mod bake;
 pub mod bench;
 pub mod info;
 pub mod options;
 pub mod render;
+pub mod view;

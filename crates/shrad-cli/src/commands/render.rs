@@ -115,8 +115,8 @@ fn check_picture(args: &RenderArgs) -> Result<()> {
     Ok(())
 }
 
-/// Run the frames of a solve on `engine` and report them unless `quiet`.
-fn solve(engine: &mut Engine, frames: Option<usize>, quiet: bool) {
+/// Run the frames of a solve on `engine` and report them unless `quiet` (also `bake`'s).
+pub(crate) fn solve(engine: &mut Engine, frames: Option<usize>, quiet: bool) {
     let reference = matches!(engine.solver_choice(), SolverChoice::Reference(_));
     let frames = frames
         .filter(|_| !reference)

@@ -1,0 +1,145 @@
+//! `shrad bake`: solve a scene and write its light per vertex as glTF (`COLOR_0` under an
+//! unlit material, the unclamped radiosity in `_RADIOSITY`) for three.js, Blender or Godot;
+//! an animation as a sequence of files. The file format is the library's
+//! (`shrad::bake`); the engine is made and converged as `render` does.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Result};
+use clap::Args;
+use shrad::bake::{bake, BakeOptions};
+use shrad::engine::Engine;
+use shrad_scene::Scene;
+
+use crate::commands::render::solve;
+use crate::common::{build_world, check_positive, SceneArgs};
+use crate::settings::FileSettings;
+use crate::solver_args::SolverArgs;
+
+/// Options of `shrad bake`.
+#[derive(Args)]
+pub struct BakeArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    #[command(flatten)]
+    pub solver: SolverArgs,
+    /// Output: .glb (binary), or .gltf with its buffer in a .bin beside it.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Scene time in seconds to bake: animated objects and lights are posed at this time.
+    #[arg(long, allow_negative_numbers = true, conflicts_with = "frames")]
+    time: Option<f32>,
+    /// Bake the animation as N files evenly over [0, duration]: OUT_0000.glb, OUT_0001.glb...
+    /// (glTF has no standard per-frame vertex colour; a file per frame shows everywhere).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    frames: Option<u64>,
+    /// With --frames: passes over the objects before each file (every object updated this
+    /// many times), after the first pose has converged as `render` converges.
+    #[arg(long, default_value_t = BakeOptions::default().passes)]
+    passes: usize,
+    /// Display scale of COLOR_0 (clamp(exposure * B / pi, 0, 1)) [default: auto, as a PNG's:
+    /// the 99th percentile of non-light luminance to 0.9, from the first file for them all].
+    #[arg(long, allow_negative_numbers = true)]
+    exposure: Option<f32>,
+}
+
+/// What can be checked before patching and solving: the options, the output's name and
+/// folder, and that a sequence has an animation to span.
+fn check(args: &BakeArgs, scene: &Scene) -> Result<()> {
+    if let Some(t) = args.time {
+        if !t.is_finite() {
+            bail!("--time must be a finite number of seconds, got {t}");
+        }
+    }
+    if let Some(e) = args.exposure {
+        check_positive("--exposure", e)?;
+    }
+    let out = &args.output;
+    let ext = out
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    if !matches!(ext.as_deref(), Some("glb" | "gltf")) {
+        bail!(
+            "-o {}: a bake is written as .glb (binary) or .gltf (JSON and a .bin beside it)",
+            out.display()
+        );
+    }
+    let folder = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !folder.is_dir() {
+        bail!(
+            "-o {}: the folder {} does not exist",
+            out.display(),
+            folder.display()
+        );
+    }
+    if let Some(n) = args.frames.filter(|&n| n > 1) {
+        if scene.duration() <= 0.0 {
+            bail!(
+                "--frames {n}: {} is not animated, so its {n} frames would all be the same (bake one file without --frames)",
+                scene.source
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Solve, then write the file or the sequence.
+pub fn run(args: BakeArgs, scene: Scene, file: &FileSettings) -> Result<()> {
+    check(&args, &scene)?;
+    let quiet = args.scene.quiet;
+    let choice = args.solver.choice(file, quiet)?;
+    let reference = args.solver.reference()?;
+    let mut world = build_world(scene, &args.scene, quiet)?;
+    // A sequence starts at 0; one file at --time, posed before any solver exists (as in
+    // `render`), so the solver converges at that pose.
+    let time = args.time.unwrap_or(0.0);
+    if time != 0.0 {
+        let (moved, relit) = world.set_time(time);
+        if !quiet {
+            eprintln!(
+                "time {time} s: {} object(s) moved, {} light(s) changed",
+                moved.len(),
+                relit.len()
+            );
+        }
+    }
+    let t = Instant::now();
+    let mut engine = Engine::from_world(world, choice)?;
+    engine.set_reference_options(reference);
+    solve(&mut engine, None, quiet);
+    let frames = args.frames.map(|n| n as usize);
+    if let (Some(n), false) = (frames, quiet) {
+        eprintln!(
+            "baking {n} file(s) over {:.3} s, {} pass(es) before each",
+            engine.world().scene.duration(),
+            args.passes
+        );
+    }
+    let options = BakeOptions {
+        // The engine is at --time already.
+        time: None,
+        frames,
+        passes: if frames.is_some() { args.passes } else { 0 },
+        exposure: args.exposure,
+    };
+    let baked = bake(&mut engine, &args.output, &options)?;
+    if !quiet {
+        for b in &baked {
+            println!(
+                "wrote {}: time {} s, {} meshes, {} vertices, {} triangles, exposure {:.6e}",
+                b.path.display(),
+                b.time,
+                b.meshes,
+                b.vertices,
+                b.triangles,
+                b.exposure
+            );
+        }
+        eprintln!("solved and baked in {:.2} s", t.elapsed().as_secs_f64());
+    }
+    Ok(())
+}

@@ -1,0 +1,204 @@
+//! `shrad bake` and `shrad view` as a user meets them: a bake reads back as a scene with its
+//! light in COLOR_0; bad input exits non-zero naming the problem and leaves no file; the
+//! viewer starts, prints its URL and answers on it.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::path::PathBuf;
+use std::process::{Command, Output, Stdio};
+use std::sync::mpsc;
+use std::time::Duration;
+
+fn shrad(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_shrad"))
+        .args(args)
+        .output()
+        .expect("run shrad")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("shrad-cli-bv-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn files_in(dir: &std::path::Path) -> Vec<PathBuf> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect()
+}
+
+#[test]
+fn bake_cornell_reads_back_with_colour_per_vertex() {
+    let dir = temp_dir("bake");
+    let out = dir.join("c.glb");
+    let o = shrad(&[
+        "bake",
+        "cornell",
+        "--patches",
+        "400",
+        "--solver",
+        "dispersive",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "stderr: {stderr}");
+    assert!(
+        stdout.contains(&format!("wrote {}", out.display())),
+        "{stdout}"
+    );
+    let cornell = shrad_scene::cornell_box();
+    let back = shrad_scene::load(&out, &Default::default()).unwrap();
+    assert_eq!(back.objects.len(), cornell.objects.len());
+    for (a, b) in back.objects.iter().zip(&cornell.objects) {
+        assert_eq!(a.name, b.name);
+        assert_eq!(a.mesh.colors.len(), a.mesh.positions.len(), "{}", a.name);
+        assert!(a.mesh.colors.iter().all(|c| c.is_finite()));
+    }
+    // Lit: some vertex of the box is neither black nor clamped everywhere.
+    let lit = back
+        .objects
+        .iter()
+        .flat_map(|o| &o.mesh.colors)
+        .filter(|c| c.max_element() > 0.01)
+        .count();
+    assert!(lit > 0, "every COLOR_0 is black");
+    let info = shrad(&["info", out.to_str().unwrap(), "--patches", "400"]);
+    assert!(info.status.success());
+    let text = String::from_utf8_lossy(&info.stdout);
+    for object in &cornell.objects {
+        assert!(
+            text.contains(&object.name),
+            "{} not in: {text}",
+            object.name
+        );
+    }
+}
+
+/// `bake` with `args` exits 1 naming `needle`, without a panic, and `dir` stays empty.
+fn bake_fails(dir: &std::path::Path, args: &[&str], needle: &str) {
+    let mut all = vec!["bake", "-q", "--patches", "200"];
+    all.extend_from_slice(args);
+    let o = shrad(&all);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_ne!(o.status.code(), Some(0), "{args:?} succeeded");
+    assert!(stderr.contains(needle), "expected '{needle}' in: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(files_in(dir).is_empty(), "left: {:?}", files_in(dir));
+}
+
+#[test]
+fn bake_bad_input_fails_cleanly_and_writes_nothing() {
+    let dir = temp_dir("bad");
+    let out = dir.join("c.glb");
+    let out = out.to_str().unwrap();
+    bake_fails(&dir, &["/nonexistent/scene.glb", "-o", out], "scene.glb");
+    let missing = dir.join("no/such/c.glb");
+    bake_fails(
+        &dir,
+        &["cornell", "-o", missing.to_str().unwrap()],
+        "does not exist",
+    );
+    bake_fails(&dir, &["cornell", "-o", out, "--frames", "0"], "--frames");
+    bake_fails(
+        &dir,
+        &["cornell", "-o", out, "--frames", "3"],
+        "not animated",
+    );
+    let png = dir.join("c.png");
+    bake_fails(&dir, &["cornell", "-o", png.to_str().unwrap()], ".glb");
+    bake_fails(
+        &dir,
+        &["cornell", "-o", out, "--time", "1", "--frames", "2"],
+        "--frames",
+    );
+    bake_fails(
+        &dir,
+        &["cornell", "-o", out, "--exposure", "-1"],
+        "--exposure",
+    );
+}
+
+#[test]
+fn view_help_and_missing_scene() {
+    let o = shrad(&["view", "--help"]);
+    assert!(o.status.success());
+    let help = String::from_utf8_lossy(&o.stdout);
+    for flag in [
+        "--port",
+        "--host",
+        "--solver",
+        "--set",
+        "--patches",
+        "--web",
+    ] {
+        assert!(help.contains(flag), "{flag} not in: {help}");
+    }
+    let o = shrad(&["view", "/nonexistent/scene.glb", "--port", "0"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("scene.glb"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+/// Kills the child when dropped, so a failed assertion leaves no server behind.
+struct Running(std::process::Child);
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn view_serves_the_page_on_the_printed_url() {
+    let child = Command::new(env!("CARGO_BIN_EXE_shrad"))
+        .args(["view", "cornell", "--patches", "300", "--port", "0", "-q"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start shrad view");
+    let mut running = Running(child);
+    let stdout = running.0.stdout.take().unwrap();
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let line = rx
+        .recv_timeout(Duration::from_secs(60))
+        .expect("shrad view printed no URL within 60 s");
+    let url = line
+        .split_whitespace()
+        .find(|w| w.starts_with("http://"))
+        .unwrap_or_else(|| panic!("no URL in: {line}"));
+    let addr = url
+        .trim_start_matches("http://")
+        .trim_end_matches('/')
+        .to_string();
+    assert!(addr.starts_with("127.0.0.1:"), "{addr}");
+    let mut stream = std::net::TcpStream::connect(&addr).unwrap();
+    stream
+        .set_read_timeout(Some(Duration::from_secs(10)))
+        .unwrap();
+    write!(
+        stream,
+        "GET / HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut response = String::new();
+    stream.read_to_string(&mut response).unwrap();
+    assert!(
+        response.starts_with("HTTP/1.1 200"),
+        "{}",
+        &response[..response.len().min(300)]
+    );
+    assert!(response.contains("<html") || response.contains("<!DOCTYPE"));
+}
