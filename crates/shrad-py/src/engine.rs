@@ -34,7 +34,9 @@ pub enum ObjRef {
 /// baseline) or ``"reference"`` (converged radiosity every frame); ``preset`` one of
 /// ``shrad.presets(solver)``; ``settings`` the solver's keys (``shrad.options(solver)``
 /// lists them with their ranges and defaults), e.g. ``cube_res=64, schedule="full"``.
-/// ``backend`` is ``"auto"``, ``"embree"`` or ``"bvh"``. The precomputation runs here,
+/// ``backend`` is ``"auto"``, ``"embree"`` or ``"bvh"``. ``threads`` gives the engine
+/// worker threads of its own (default: the process's shared pool, one per core), so that
+/// engines in several Python threads each keep their cores. The precomputation runs here,
 /// with the GIL released.
 ///
 /// Steer it with ``set_transform``, ``set_emission``, ``set_time`` and ``set_option``;
@@ -44,12 +46,17 @@ pub enum ObjRef {
 #[pyclass(name = "Engine", module = "shrad", frozen)]
 pub struct PyEngine {
     inner: Mutex<Engine>,
+    /// The engine's own worker threads (`threads=`), else rayon's global pool.
+    pool: Option<rayon::ThreadPool>,
 }
 
 impl PyEngine {
     /// Run `f` on the engine with the GIL released.
     fn with<T: Send>(&self, py: Python<'_>, f: impl FnOnce(&mut Engine) -> T + Send) -> T {
-        py.detach(|| f(&mut self.lock()))
+        py.detach(|| match &self.pool {
+            Some(pool) => pool.install(|| f(&mut self.lock())),
+            None => f(&mut self.lock()),
+        })
     }
 
     fn lock(&self) -> MutexGuard<'_, Engine> {
@@ -133,23 +140,43 @@ fn backend(name: &str) -> PyResult<shrad::vis::Backend> {
 #[pymethods]
 impl PyEngine {
     #[new]
-    #[pyo3(signature = (scene, solver="dispersive", preset="default", *, backend="auto", **settings))]
+    #[pyo3(signature = (scene, solver="dispersive", preset="default", *, backend="auto", threads=None, **settings))]
     fn new(
         py: Python<'_>,
         scene: &PyScene,
         solver: &str,
         preset: &str,
         backend: &str,
+        threads: Option<usize>,
         settings: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<PyEngine> {
+        let pool = match threads {
+            None => None,
+            Some(n) if (1..=1024).contains(&n) => Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("threads: {e}")))?,
+            ),
+            Some(n) => {
+                return Err(PyValueError::new_err(format!(
+                    "threads must be between 1 and 1024, got {n}"
+                )))
+            }
+        };
         let choice = crate::settings::choice(solver, preset, settings)?;
         let backend = self::backend(backend)?;
         let (scene, sizing) = (scene.scene.as_ref().clone(), scene.sizing);
+        let build = || Engine::new(scene, sizing, backend, choice);
         let engine = py
-            .detach(|| Engine::new(scene, sizing, backend, choice))
+            .detach(|| match &pool {
+                Some(p) => p.install(build),
+                None => build(),
+            })
             .map_err(to_py_err)?;
         Ok(PyEngine {
             inner: Mutex::new(engine),
+            pool,
         })
     }
 

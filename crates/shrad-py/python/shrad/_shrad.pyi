@@ -62,6 +62,7 @@ class Engine:
         preset: str = "default",
         *,
         backend: Literal["auto", "embree", "bvh"] = "auto",
+        threads: int | None = None,
         **settings: int | float | bool | str,
     ) -> None: ...
     @property
