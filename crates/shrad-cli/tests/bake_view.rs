@@ -55,7 +55,11 @@ fn bake_cornell_reads_back_with_colour_per_vertex() {
     assert_eq!(back.objects.len(), cornell.objects.len());
     for (a, b) in back.objects.iter().zip(&cornell.objects) {
         assert_eq!(a.name, b.name);
-        assert_eq!(a.mesh.colors.len(), a.mesh.positions.len(), "{}", a.name);
+        // The loader drops an all-white COLOR_0 (a no-op for a reflector): the light's,
+        // saturated at any exposure. Every other object has its light per vertex.
+        if a.role != Some(shrad_scene::Role::Light) {
+            assert_eq!(a.mesh.colors.len(), a.mesh.positions.len(), "{}", a.name);
+        }
         assert!(a.mesh.colors.iter().all(|c| c.is_finite()));
     }
     // Lit: some vertex of the box is neither black nor clamped everywhere.
