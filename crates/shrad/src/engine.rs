@@ -285,10 +285,11 @@ impl Engine {
         &self.world.patches.object_role
     }
 
-    /// A linear picture from `camera` (the scene's, or one that frames it, when `None`).
+    /// A linear picture from `camera` (when `None`, the scene's camera at the current time,
+    /// which follows its animated glTF node, or one that frames the scene).
     pub fn render(&self, camera: Option<&Camera>, options: &RenderOptions) -> Result<Image, Error> {
         crate::limits::check_image(options.width, options.height, options.spp)?;
-        let own = self.world.scene.camera_or_default();
+        let own = self.world.scene.camera_or_default_at(self.world.time);
         Ok(render(
             &self.world,
             self.solver.radiosity(),

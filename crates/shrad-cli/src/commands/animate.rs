@@ -214,7 +214,6 @@ pub fn run(args: AnimateArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     let world = build_world(scene, &args.scene, quiet)?;
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("{}: cannot create directory", args.output.display()))?;
-    let camera = world.scene.camera_or_default();
     let options = RenderOptions {
         width: args.width,
         height: args.height,
@@ -247,7 +246,8 @@ pub fn run(args: AnimateArgs, scene: Scene, file: &FileSettings) -> Result<()> {
             .map(|&o| names[o].as_str())
             .collect();
         stats.push(f, time, &updated, &s, error)?;
-        images.push(engine.render(Some(&camera), &options)?);
+        // The scene's camera at this frame's time: it follows an animated glTF node.
+        images.push(engine.render(None, &options)?);
         progress.advance(1);
     }
     progress.end();
