@@ -36,10 +36,12 @@ fn main() -> Result<()> {
     let seconds = Duration::from_secs(5);
     let t = Instant::now();
     let mut frames = 0;
+    let mut steps = StepTimes::default();
     while t.elapsed() < seconds {
-        engine.step();
+        steps.add(&engine.step());
         frames += 1;
     }
+    println!("static: {}", steps.mean());
     let static_rate = frames as f64 / t.elapsed().as_secs_f64();
     // Back and forth along x by a fifth of the scene's size, one move per frame.
     let (lo, hi) = engine.world().scene.bounds().context("empty scene")?;
@@ -47,15 +49,17 @@ fn main() -> Result<()> {
     let rest = engine.transform(object);
     let t = Instant::now();
     let mut frames = 0;
+    let mut steps = StepTimes::default();
     while t.elapsed() < seconds {
         let phase = (t.elapsed().as_secs_f64() * std::f64::consts::PI).sin() as f32;
         engine.set_transform(
             object,
             Affine3A::from_translation(Vec3::X * reach * phase) * rest,
         )?;
-        engine.step();
+        steps.add(&engine.step());
         frames += 1;
     }
+    println!("moving: {}", steps.mean());
     let moving_rate = frames as f64 / t.elapsed().as_secs_f64();
     println!(
         "{scene_name} at {} patches, dispersive default: {static_rate:.1} frames/s static, {moving_rate:.1} frames/s while '{}' moves every frame",
@@ -63,4 +67,37 @@ fn main() -> Result<()> {
         engine.world().scene.objects[object].name
     );
     Ok(())
+}
+
+/// Sums of the dispersive steps' times, to print their means.
+#[derive(Default)]
+struct StepTimes {
+    frames: usize,
+    ms: [f64; 5],
+}
+
+impl StepTimes {
+    fn add(&mut self, stats: &shrad::dispersive::FrameStats) {
+        self.frames += 1;
+        self.ms[0] += stats.frame_ms;
+        if let Some(d) = stats.dispersive() {
+            for (sum, ms) in self.ms[1..].iter_mut().zip([
+                d.direct_ms,
+                d.objects_ms,
+                d.to_boundary_ms,
+                d.assemble_ms,
+            ]) {
+                *sum += ms;
+            }
+        }
+    }
+
+    fn mean(&self) -> String {
+        let n = self.frames.max(1) as f64;
+        let [frame, s1, s2, s3, s4] = self.ms.map(|x| x / n);
+        format!(
+            "{frame:.2} ms a frame (step 1 {s1:.2}, step 2 {s2:.2}, step 3 {s3:.2}, step 4 {s4:.2}) over {} frames",
+            self.frames
+        )
+    }
 }
