@@ -26,7 +26,13 @@ function softwareRenderer() {
   return /swiftshader|llvmpipe|software/i.test(name);
 }
 const params = new URLSearchParams(location.search);
-const antialias = params.has('aa') ? params.get('aa') !== '0' : !softwareRenderer();
+const software = softwareRenderer();
+const antialias = params.has('aa') ? params.get('aa') !== '0' : !software;
+// While something changes (a drag, the engine converging, the animation playing) a software
+// rasteriser draws at a fraction of the canvas's resolution (its cost grows with the pixels:
+// about 4x less at 0.5), and once the scene is still at full resolution, so that an
+// interactive frame stays cheap enough to follow the mouse. `?scale=` sets the fraction.
+const busyScale = Math.min(1, Math.max(0.125, Number(params.get('scale') ?? (software ? 0.5 : 1)) || 1));
 const renderer = new THREE.WebGLRenderer({ antialias });
 renderer.setPixelRatio(1);
 renderer.outputColorSpace = THREE.SRGBColorSpace;
@@ -62,7 +68,11 @@ const state = {
   nextId: 1,
   pendingSteer: new Map(), // id -> event time
   awaitingFrame: [], // [{frame, t}] steering to see drawn
-  latencies: [], // ms from the mouse event to the drawn frame that shows it
+  latencies: [], // ms from the mouse event to the drawn engine frame that shows its GI
+  moveLatencies: [], // ms from the mouse event to the drawn frame that shows the object there
+  awaitingMove: [], // mouse-event times of local moves not drawn yet
+  drawMs: [], // ms from queueing each of the last frames to the rasteriser finishing it
+  pixelRatio: 1,
   messages: [],
   error: null,
   probes: null,
@@ -115,7 +125,13 @@ function onText(m) {
     case 'probes': return onProbes(m);
     case 'ok': return onOk(m);
     case 'pong': return;
-    case 'error': return note(m.message, true);
+    case 'error': {
+      // A refused move: show the engine's place again.
+      const moved = localMoveOf(m.id);
+      if (moved) { moved.local = null; requestDraw(); }
+      state.pendingSteer.delete(m.id);
+      return note(m.message, true);
+    }
     default: return note(`unknown message type '${m.type}'`, true);
   }
 }
@@ -195,7 +211,11 @@ function onGeometry(objects) {
 function onFrame(m) {
   state.lastFrame = m;
   if (m.error) state.error = m.error;
-  showStats(m);
+  if (m.stats) plot.push(stat(m.stats, 'frame_ms') ?? 0, m.gi_updates_per_s);
+  // The panel is redrawn a few times a second, not per frame: with software compositing
+  // its layout and paint cost the engine and the canvas CPU time.
+  const now = performance.now();
+  if (!(now - (state.statsShownAt ?? -1e9) < 200)) { state.statsShownAt = now; showStats(m); plot.draw(); }
   if (m.playing) { $('time').value = String(m.time); $('time-value').textContent = `${m.time.toFixed(2)} s`; }
   $('play').textContent = m.playing ? 'pause' : 'play';
   $('continuous').checked = m.continuous;
@@ -208,11 +228,11 @@ function onColours(c) {
   if (c.matrices.length !== 16 * n) return note('colour frame does not match the geometry', true);
   for (let o = 0; o < n; o++) {
     const ob = state.objects[o];
-    ob.worldFromLocal.fromArray(c.matrices, 16 * o);
-    ob.mesh.matrix.copy(ob.worldFromLocal);
-    ob.mesh.matrixWorldNeedsUpdate = true;
-    ob.overlay.matrix.copy(ob.worldFromLocal);
-    ob.overlay.matrixWorldNeedsUpdate = true;
+    // A move the page showed ahead of the engine stays until a frame that has it arrives.
+    if (ob.local && ob.local.untilFrame !== undefined && c.frame >= ob.local.untilFrame) ob.local = null;
+    if (ob.local) ob.worldFromLocal.copy(ob.local.worldFromLocal);
+    else ob.worldFromLocal.fromArray(c.matrices, 16 * o);
+    placeMesh(ob);
     const first = ob.meta.first_vertex;
     const attr = ob.mesh.geometry.getAttribute('color');
     attr.array.set(c.halves.subarray(3 * first, 3 * (first + ob.vertices)));
@@ -224,6 +244,13 @@ function onColours(c) {
   requestDraw();
 }
 
+function placeMesh(ob) {
+  ob.mesh.matrix.copy(ob.worldFromLocal);
+  ob.mesh.matrixWorldNeedsUpdate = true;
+  ob.overlay.matrix.copy(ob.worldFromLocal);
+  ob.overlay.matrixWorldNeedsUpdate = true;
+}
+
 let drawQueued = false;
 function requestDraw() {
   if (drawQueued) return;
@@ -231,10 +258,53 @@ function requestDraw() {
   requestAnimationFrame(draw);
 }
 
+/** Wait (without blocking) for the frame queued at `done.start` to be rasterised, then note
+ * its draw time and the latencies of the mouse events it shows. */
+const fences = [];
+function whenFinished(done) {
+  const gl = renderer.getContext();
+  done.sync = typeof gl.fenceSync === 'function' ? gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0) : null;
+  gl.flush();
+  fences.push(done);
+  if (fences.length === 1) setTimeout(pollFences, 2);
+}
+function pollFences() {
+  const gl = renderer.getContext();
+  while (fences.length) {
+    const f = fences[0];
+    if (f.sync && gl.getSyncParameter(f.sync, gl.SYNC_STATUS) !== gl.SIGNALED) break;
+    fences.shift();
+    if (f.sync) gl.deleteSync(f.sync);
+    const now = performance.now();
+    state.drawMs.push(now - f.start);
+    if (state.drawMs.length > 60) state.drawMs.shift();
+    for (const t of f.moves) state.moveLatencies.push(now - t);
+    for (const t of f.gi) state.latencies.push(now - t);
+  }
+  if (fences.length) setTimeout(pollFences, 2);
+}
+
+/** Is anything changing on screen (so that a cheap, lower-resolution frame is enough)? */
+function busy() {
+  const f = state.lastFrame;
+  return drag !== null || (f && (!f.converged || f.playing || f.continuous)) || state.objects.some((o) => o.local);
+}
+
 function draw() {
   drawQueued = false;
+  const ratio = busy() ? busyScale : 1;
+  if (ratio !== state.pixelRatio) {
+    state.pixelRatio = ratio;
+    renderer.setPixelRatio(ratio); // resizes the drawing buffer; the canvas keeps its CSS size
+  }
+  const start = performance.now();
   renderer.render(world, camera);
   const now = performance.now();
+  // render() only queues the frame; a fence says when the rasteriser has finished it (what
+  // the drag latencies and the draw time measure).
+  const done = { start, moves: state.awaitingMove.splice(0), gi: [] };
+  // Once still, draw again at full resolution.
+  if (ratio !== 1 && !busy()) requestDraw();
   if (state.pendingColours !== undefined) {
     const f = state.pendingColours;
     state.pendingColours = undefined;
@@ -243,14 +313,22 @@ function draw() {
     state.drawnTimes.push(now);
     // Steering that this frame shows: the latency from its mouse event.
     state.awaitingFrame = state.awaitingFrame.filter((a) => {
-      if (f >= a.frame) { state.latencies.push(now - a.t); return false; }
+      if (f >= a.frame) { done.gi.push(a.t); return false; }
       return true;
     });
   }
+  whenFinished(done);
   while (state.drawnTimes.length && now - state.drawnTimes[0] > 1000) state.drawnTimes.shift();
 }
 
+/** The object whose move `id` the page shows ahead of the engine, if any. */
+function localMoveOf(id) {
+  return id === undefined ? undefined : state.objects.find((ob) => ob.local && ob.local.id === id);
+}
+
 function onOk(m) {
+  const moved = localMoveOf(m.id);
+  if (moved) moved.local.untilFrame = m.frame;
   if (m.id !== undefined && state.pendingSteer.has(m.id)) {
     state.awaitingFrame.push({ frame: m.frame, t: state.pendingSteer.get(m.id) });
     state.pendingSteer.delete(m.id);
@@ -261,6 +339,7 @@ function onOk(m) {
 }
 
 // ---- stats ----------------------------------------------------------------------------
+const median = (xs) => { if (!xs.length) return undefined; const v = xs.slice().sort((a, b) => a - b); return v[Math.floor(v.length / 2)]; };
 const fmt = (x, d = 1) => (x === undefined || x === null || Number.isNaN(x) ? '–' : Number(x).toFixed(d));
 
 /** A field of FrameStats whether it sits at the top level or in its common part. */
@@ -287,12 +366,10 @@ function showStats(m) {
     ['stalest', `${stat(s, 'stalest') ?? '–'} frames`],
     ['energy', energy.emitted ? `absorbed/emitted ${fmt(energy.absorbed / energy.emitted, 3)} · reflected/bound ${fmt(energy.reflected / energy.reflected_bound, 3)}` : '–'],
     ['GI updates/s', `${m.gi_updates_per_s} engine · ${pageRate} drawn`],
+    ['page draw', `${fmt(median(state.drawMs), 1)} ms at ${Math.round(100 * state.pixelRatio)} % resolution`],
     ['error', e ? `${fmt(100 * e.overall, 2)} % (boundary ${fmt(100 * e.boundary, 2)}, interior ${fmt(100 * e.interior, 2)}) at frame ${e.at_frame}, ${e.solver}` : 'not computed'],
   ];
-  if (state.latencies.length) {
-    const l = state.latencies.slice(-20).sort((a, b) => a - b);
-    rows.push(['drag latency', `${fmt(l[Math.floor(l.length / 2)], 0)} ms median of ${l.length}`]);
-  }
+  if (state.moveLatencies.length) rows.push(['drag to screen', `${fmt(median(state.moveLatencies.slice(-20)), 0)} ms (object) · ${fmt(median(state.latencies.slice(-20)), 0)} ms (its light)`]);
   if (stat(s, 'diverged')) rows.push(['diverged', stat(s, 'diverged').message]);
   const table = $('stats');
   table.replaceChildren(...rows.map(([k, v]) => {
@@ -302,7 +379,6 @@ function showStats(m) {
     tr.append(a, b);
     return tr;
   }));
-  if (m.stats) plot.push(stat(s, 'frame_ms') ?? 0, pageRate);
 }
 
 // ---- solver controls ------------------------------------------------------------------
@@ -450,7 +526,6 @@ $('time').oninput = () => {
 const raycaster = new THREE.Raycaster();
 const pointer = new THREE.Vector2();
 let drag = null; // { object, plane, start (Vector3), startMatrix (world from object), pivot, normal, rotate, x0 }
-let pendingSteer = null; // { matrix, t } sent at most once per animation frame
 
 function ndc(e) {
   const r = renderer.domElement.getBoundingClientRect();
@@ -505,17 +580,20 @@ function select(o) {
   requestDraw();
 }
 
+/** Move object `o` to `matrix` (world from object) for the mouse event at time `t`: the page
+ * shows it there at once, with the colours it has, and the engine's frames take over once
+ * one of them has the move (its light then follows within a few frames). */
 function steer(o, matrix, t) {
-  pendingSteer = { o, matrix, t };
-  requestAnimationFrame(flushSteer);
-}
-
-function flushSteer() {
-  if (!pendingSteer) return;
-  const { o, matrix, t } = pendingSteer;
-  pendingSteer = null;
   const id = send('set_transform', { object: o, matrix: Array.from(matrix.elements) }, true);
-  if (id !== undefined) state.pendingSteer.set(id, t);
+  if (id === undefined) return;
+  state.pendingSteer.set(id, t);
+  const ob = state.objects[o];
+  const worldFromLocal = matrix.clone().multiply(ob.localFromObject.clone().invert());
+  ob.local = { id, worldFromLocal, untilFrame: undefined };
+  ob.worldFromLocal.copy(worldFromLocal);
+  placeMesh(ob);
+  state.awaitingMove.push(t);
+  requestDraw();
 }
 
 function rotated(o, start, angle, normal) {
@@ -585,6 +663,7 @@ window.addEventListener('keydown', (e) => {
 
 // ---- hooks for the browser test (read-only views of the page's state) -----------------
 window.__shrad = {
+  renderer, camera, world,
   state,
   send,
   /** Canvas-pixel position of object `name`'s world-box centre, or of a world point. */
@@ -608,20 +687,25 @@ window.__shrad = {
     const b = ob.mesh.geometry.boundingBox.clone().applyMatrix4(ob.worldFromLocal);
     return [b.min.toArray(), b.max.toArray()];
   },
-  /** Render now and read back the mean colour (0..255) of each [x, y, w, h] canvas rect. */
+  /** Render now and read back the mean colour (0..255) of each [x, y, w, h] rect, in CSS
+   * pixels of the page (as `screenOf` gives them; the drawing buffer may be smaller). */
   sample(rects) {
     renderer.render(world, camera);
     const gl = renderer.getContext();
-    const H = renderer.domElement.height;
-    return rects.map(([x, y, w, h]) => {
+    const el = renderer.domElement, box = el.getBoundingClientRect();
+    const k = el.width / Math.max(box.width, 1);
+    return rects.map(([x0, y0, w0, h0]) => {
+      const x = Math.round((x0 - box.left) * k), w = Math.max(1, Math.round(w0 * k));
+      const y = Math.round((y0 - box.top) * k), h = Math.max(1, Math.round(h0 * k));
       const px = new Uint8Array(4 * w * h);
-      gl.readPixels(x, H - y - h, w, h, gl.RGBA, gl.UNSIGNED_BYTE, px);
+      gl.readPixels(x, el.height - y - h, w, h, gl.RGBA, gl.UNSIGNED_BYTE, px);
       let r = 0, g = 0, b = 0;
       for (let i = 0; i < px.length; i += 4) { r += px[i]; g += px[i + 1]; b += px[i + 2]; }
       const n = w * h;
       return [r / n, g / n, b / n];
     });
   },
-  canvasSize() { return [renderer.domElement.width, renderer.domElement.height]; },
+  /** The canvas's size in CSS pixels. */
+  canvasSize() { const r = renderer.domElement.getBoundingClientRect(); return [Math.round(r.width), Math.round(r.height)]; },
 };
 resize();

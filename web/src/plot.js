@@ -1,5 +1,6 @@
-// A small plot of two series over the last frames: ms per step (left scale) and GI updates
-// per second drawn by the page (right scale).
+// A small plot of two series over the last frames: ms per step (left scale) and the engine's
+// GI updates per second (right scale). `push` records, `draw` paints (the page paints a few
+// times a second).
 
 export class Plot {
   constructor(canvas, length = 300) {
@@ -13,7 +14,6 @@ export class Plot {
     this.a.push(a);
     this.b.push(b);
     if (this.a.length > this.length) { this.a.shift(); this.b.shift(); }
-    this.draw();
   }
 
   draw() {

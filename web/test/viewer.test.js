@@ -119,7 +119,7 @@ async function dragBy(page, from, dx, dy, steps, ms) {
 
 /** GI updates per second and drag latency while an object is dragged back and forth. */
 async function measure(page, name, seconds, pixels) {
-  await shrad(page, () => { window.__shrad.state.latencies.length = 0; });
+  await shrad(page, () => { window.__shrad.state.latencies.length = 0; window.__shrad.state.moveLatencies.length = 0; });
   const from = await shrad(page, (n) => window.__shrad.screenOf(n), name);
   const f0 = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now() }));
   const engineRates = [];
@@ -133,16 +133,23 @@ async function measure(page, name, seconds, pixels) {
     if (i % 15 === 0) engineRates.push(await shrad(page, () => window.__shrad.state.lastFrame.gi_updates_per_s));
   }
   await page.mouse.up();
-  const f1 = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now(), latencies: window.__shrad.state.latencies.slice(), ms: window.__shrad.state.lastFrame.stats.frame_ms ?? window.__shrad.state.lastFrame.stats.common?.frame_ms }));
+  const f1 = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now(), latencies: window.__shrad.state.latencies.slice(), moves: window.__shrad.state.moveLatencies.slice(), drawMs: window.__shrad.state.drawMs.slice(), ms: window.__shrad.state.lastFrame.stats.frame_ms ?? window.__shrad.state.lastFrame.stats.common?.frame_ms }));
   const secs = (f1.t - f0.t) / 1000;
-  const lat = f1.latencies.sort((a, b) => a - b);
-  const q = (p) => (lat.length ? lat[Math.min(lat.length - 1, Math.floor(p * lat.length))] : NaN);
+  const quantiles = (xs) => {
+    const v = xs.slice().sort((a, b) => a - b);
+    const q = (p) => (v.length ? v[Math.min(v.length - 1, Math.floor(p * v.length))] : NaN);
+    return { samples: v.length, median: q(0.5), p90: q(0.9), max: v[v.length - 1] };
+  };
   return {
     seconds: secs,
     drawn_per_s: (f1.drawn - f0.drawn) / secs,
     engine_frames_per_s: (f1.engine - f0.engine) / secs,
     engine_reported_per_s: engineRates,
-    latency_ms: { samples: lat.length, median: q(0.5), p90: q(0.9), max: lat[lat.length - 1] },
+    // Mouse event to the page drawing the object at the new place (the page moves it at once).
+    object_latency_ms: quantiles(f1.moves),
+    // Mouse event to the page drawing the first engine frame computed with the object there.
+    latency_ms: quantiles(f1.latencies),
+    page_draw_ms: quantiles(f1.drawMs),
   };
 }
 
