@@ -48,6 +48,16 @@ impl ProbeCamera {
         self.cube.directions.len()
     }
 
+    /// The raw hits of a cube map at each of `points` (objects in `exclude` are transparent),
+    /// `texels()` per point, for a caller that keeps them (the dispersive Step 2 cache).
+    pub fn capture_hits(&self, world: &World, points: &[Vec3], exclude: &[u32]) -> Vec<Hit> {
+        let mut hits = vec![Hit::MISS; points.len() * self.texels()];
+        world
+            .vis
+            .capture(points, &self.cube.directions, 0.0, exclude, &mut hits);
+        hits
+    }
+
     /// Capture a cube map of ids at each of `points` (objects in `exclude` are transparent),
     /// turn every hit into radiance with `shade`, and project to SH.
     pub fn capture(
@@ -58,10 +68,7 @@ impl ProbeCamera {
         shade: impl Fn(&Hit) -> Seen + Sync,
     ) -> Captured {
         let n = self.texels();
-        let mut hits = vec![Hit::MISS; points.len() * n];
-        world
-            .vis
-            .capture(points, &self.cube.directions, 0.0, exclude, &mut hits);
+        let hits = self.capture_hits(world, points, exclude);
         let results: Vec<(ShRgb, f32)> = hits
             .par_chunks(n)
             .map(|h| {

@@ -34,6 +34,7 @@ use crate::probes::ProbeCamera;
 use crate::sparse::SparseRows;
 use crate::{NoProgress, World};
 
+mod caches;
 mod frame;
 pub mod inspect;
 mod object_state;
@@ -104,6 +105,9 @@ pub struct Dispersive {
     /// single-sided back face (Blender exports every material double-sided by default, so
     /// without this a probe buried in the floor sees the floor's dark underside as valid).
     outer_side: Vec<bool>,
+    /// Keep Steps 2 and 3's rays between updates (`caches.rs`); off only to test that they
+    /// change nothing.
+    caching: bool,
 }
 
 impl Dispersive {
@@ -176,6 +180,7 @@ impl Dispersive {
             ),
             step_warnings: Vec::new(),
             outer_side: outer_sides(world),
+            caching: true,
         })
     }
 
@@ -250,6 +255,7 @@ impl Dispersive {
         // Step 2 (2.3.3) for the objects the scheduler picks.
         let batch = self.scheduler.schedule(self.frame);
         let t = Instant::now();
+        self.forget_stale_caches(world, changes, &swept);
         let lit = self.light_selected_objects(world, batch, &mut stats, &mut steps);
         steps.objects_ms = ms(t);
 

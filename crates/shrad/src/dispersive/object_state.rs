@@ -13,6 +13,7 @@ use glam::Vec3;
 use shrad_scene::Aabb;
 use shrad_sh::trilinear_weights;
 
+use super::caches::{EmitterCache, ProbeCache};
 use super::step2_probes::self_transfer;
 use super::step3_to_boundary::emitter_groups;
 use super::DispersiveOptions;
@@ -46,6 +47,10 @@ pub(super) struct ObjectProbes {
     /// Per patch, the contact openness (see `Dispersive::contact_openness`); empty until
     /// computed and again when the object or a neighbour moves (it is geometry only).
     pub(super) openness: Vec<f32>,
+    /// Step 2's cached probe hits (`caches.rs`).
+    pub(super) probe_cache: ProbeCache,
+    /// Step 3's cached emitter rays (`caches.rs`).
+    pub(super) emitter_cache: EmitterCache,
 }
 
 impl ObjectProbes {
@@ -93,6 +98,8 @@ impl ObjectProbes {
             transfer,
             self_view,
             openness: Vec::new(),
+            probe_cache: ProbeCache::default(),
+            emitter_cache: EmitterCache::default(),
         }
     }
 

@@ -19,6 +19,7 @@ use shrad_scene::Role;
 use shrad_sh::{cosine_lobe_sh, eval_basis, num_coeffs, ShRgb, MAX_COEFFS};
 use shrad_vis::Hit;
 
+use super::caches::{ProbeCache, ProbeHits, SEES_BACK, SEES_NOTHING};
 use super::{ms, Batch, Dispersive, DispersiveStats, FrameStats, ProbeRepair};
 use crate::probes::Seen;
 use crate::World;
@@ -174,84 +175,164 @@ impl Dispersive {
             .collect()
     }
 
-    /// Capture the 8 probes of object `k`; `None` for a probe dropped as invalid.
+    /// The SH radiance of the 8 probes of object `k` (paper 2.3.3 Steps 2-3); `None` for a
+    /// probe dropped as invalid. A probe whose hits are cached (`caches.rs`) is only shaded
+    /// and projected again; the others are captured, checked and, if invalid, repaired.
     fn capture_corner_probes(
-        &self,
+        &mut self,
         world: &World,
         k: usize,
         m: Affine3A,
         steps: &mut DispersiveStats,
     ) -> (Vec<Option<ShRgb>>, [f32; 8]) {
+        let mut cache = std::mem::take(&mut self.objects[k].probe_cache);
         let ob = &self.objects[k];
         let o = ob.object as u32;
+        if cache.key != Some((m, ob.probe_scale)) {
+            cache = ProbeCache::default();
+        }
         let exclude: Vec<u32> = if self.options.see_through_self {
             vec![o]
         } else {
             vec![]
         };
-        let points: Vec<Vec3> = (0..8)
-            .map(|c| m.transform_point3(ob.probe_local(c)))
+        // Capture the probes not cached, all in one batch.
+        let missing: Vec<usize> = (0..8).filter(|&c| cache.probes[c].is_none()).collect();
+        let points: Vec<Vec3> = missing
+            .iter()
+            .map(|&c| m.transform_point3(ob.probe_local(c)))
             .collect();
-        let shade = |h: &Hit| self.shade_probe_texel(world, h, o);
-        let captured = self.camera.capture(world, &points, &exclude, shade);
+        let fresh = self.probe_hits(world, &points, &exclude, o);
         steps.probes_captured += points.len();
         let limit = self.options.invalid_back_fraction;
-        let mut out: Vec<Option<ShRgb>> = captured.sh.into_iter().map(Some).collect();
+        let repair = self.options.repair;
+        let valid = |h: &ProbeHits| h.back_fraction <= limit || repair == ProbeRepair::None;
         let mut scale = ob.probe_scale;
-        for c in 0..8 {
-            if captured.back_fraction[c] <= limit {
-                continue;
+        let mut slots = std::mem::take(&mut cache.probes);
+        for (c, hits) in missing.into_iter().zip(fresh) {
+            if hits.back_fraction > limit {
+                steps.probes_invalid += 1;
             }
-            steps.probes_invalid += 1;
-            match self.options.repair {
-                ProbeRepair::None => {}
-                ProbeRepair::Drop => out[c] = None,
-                ProbeRepair::MoveInward => {
-                    out[c] = None;
-                    let centre = ob.centre_local();
-                    for s in [0.8f32, 0.6, 0.4, 0.2]
-                        .into_iter()
-                        .filter(|&s| s < scale[c])
-                    {
-                        let q = m.transform_point3(centre + (ob.corner_local(c) - centre) * s);
-                        let again = self.camera.capture(world, &[q], &exclude, shade);
-                        steps.probes_captured += 1;
-                        if again.back_fraction[0] <= limit {
-                            out[c] = again.sh.into_iter().next();
-                            scale[c] = s;
-                            steps.probes_repaired += 1;
-                            break;
-                        }
+            if hits.back_fraction > limit && repair == ProbeRepair::MoveInward {
+                // Move it inward along the diagonal until it is valid (else it is dropped).
+                let centre = ob.centre_local();
+                let tries = [0.8f32, 0.6, 0.4, 0.2]
+                    .into_iter()
+                    .filter(|&s| s < scale[c]);
+                for s in tries {
+                    let q = m.transform_point3(centre + (ob.corner_local(c) - centre) * s);
+                    let again = self.probe_hits(world, &[q], &exclude, o).pop();
+                    steps.probes_captured += 1;
+                    if let Some(again) = again.filter(|h| h.back_fraction <= limit) {
+                        slots[c] = Some(again);
+                        scale[c] = s;
+                        steps.probes_repaired += 1;
+                        break;
                     }
                 }
+                if slots[c].is_none() {
+                    slots[c] = Some(hits);
+                }
+            } else {
+                slots[c] = Some(hits);
             }
+        }
+        // Shade every texel from the current radiosity and project to SH.
+        let projector = &self.camera.projector;
+        let out: Vec<Option<ShRgb>> = slots
+            .par_iter()
+            .map(|h| {
+                let h = h.as_ref().filter(|h| valid(h))?;
+                Some(projector.project_indexed(|t| match h.seen[t] {
+                    SEES_NOTHING | SEES_BACK => Vec3::ZERO,
+                    j => self.texel_radiance(world, j as usize),
+                }))
+            })
+            .collect();
+        // Keep what a later update can reuse: not a probe MoveInward failed to repair.
+        if self.caching {
+            for h in &mut slots {
+                if h.as_ref().is_some_and(|h| !valid(h)) {
+                    *h = None;
+                }
+            }
+            cache.key = Some((m, scale));
+            cache.probes = slots;
+            self.objects[k].probe_cache = cache;
         }
         (out, scale)
     }
 
-    /// Radiance a probe texel of object `o` sees (paper 2.3.3: its own texels are 0).
-    pub(super) fn shade_probe_texel(&self, world: &World, h: &Hit, o: u32) -> Seen {
-        if !h.is_hit() {
-            return Seen::Radiance(Vec3::ZERO);
+    /// Capture a cube map at each of `points` and keep, per texel, what shading needs: the
+    /// patch seen (as [`Dispersive::shade_probe_texel`] decides) and the distance.
+    fn probe_hits(
+        &self,
+        world: &World,
+        points: &[Vec3],
+        exclude: &[u32],
+        o: u32,
+    ) -> Vec<ProbeHits> {
+        let n = self.camera.texels();
+        let solid_angles = &self.camera.cube.solid_angles;
+        let hits = self.camera.capture_hits(world, points, exclude);
+        hits.par_chunks(n)
+            .zip(points)
+            .map(|(h, &origin)| {
+                let mut back = 0.0;
+                let seen = h
+                    .iter()
+                    .zip(solid_angles)
+                    .map(|(h, &sa)| {
+                        let s = self.seen_code(world, h, o);
+                        if s == SEES_BACK {
+                            back += sa;
+                        }
+                        s
+                    })
+                    .collect();
+                let t = h
+                    .iter()
+                    .map(|h| if h.is_hit() { h.t } else { f32::INFINITY })
+                    .collect();
+                ProbeHits {
+                    origin,
+                    seen,
+                    t,
+                    back_fraction: back / (4.0 * std::f32::consts::PI),
+                }
+            })
+            .collect()
+    }
+
+    /// What a probe texel of object `o` sees, as a code (see `caches.rs`): the same
+    /// decisions as [`Dispersive::shade_probe_texel`].
+    fn seen_code(&self, world: &World, h: &Hit, o: u32) -> u32 {
+        if !h.is_hit() || h.object == o {
+            return SEES_NOTHING;
         }
-        if h.object == o {
-            // Only reached when the object is not transparent: the paper's black self.
-            return Seen::Radiance(Vec3::ZERO);
+        match world.seen_patch(h) {
+            Some(j) if !self.outer_side[j] => j as u32,
+            _ => SEES_BACK,
         }
-        let Some(j) = world.seen_patch(h) else {
-            return Seen::BackFace;
-        };
-        if self.outer_side[j] {
-            // The outside of a double-sided enclosure: the probe is outside the scene.
-            return Seen::BackFace;
-        }
+    }
+
+    /// Radiance a probe texel that sees patch `j` receives.
+    fn texel_radiance(&self, world: &World, j: usize) -> Vec3 {
         let b = if self.options.direct_on_interior {
-            // Direct light is added apart; the probe carries reflected light only.
             self.radiosity[j] - world.exitance[j]
         } else {
             self.radiosity[j]
         };
-        Seen::Radiance(b * std::f32::consts::FRAC_1_PI)
+        b * std::f32::consts::FRAC_1_PI
+    }
+
+    /// Radiance a probe texel of object `o` sees (paper 2.3.3: its own texels are 0).
+    pub(super) fn shade_probe_texel(&self, world: &World, h: &Hit, o: u32) -> Seen {
+        match self.seen_code(world, h, o) {
+            SEES_NOTHING => Seen::Radiance(Vec3::ZERO),
+            SEES_BACK => Seen::BackFace,
+            j => Seen::Radiance(self.texel_radiance(world, j as usize)),
+        }
     }
 }
 

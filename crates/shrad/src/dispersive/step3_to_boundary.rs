@@ -17,6 +17,10 @@ use rayon::prelude::*;
 use shrad_sh::{cosine_lobe, eval_basis, num_coeffs, ShRgb};
 use shrad_vis::Hit;
 
+use super::caches::{
+    EmitterCache, EmitterRays, GatherEntries, SplatTexels, LANDS_NOWHERE, MAX_STEP3_BYTES,
+    RAY_BLOCKED, RAY_CLEAR, RAY_UNKNOWN, UNKNOWN,
+};
 use super::{receives_as_boundary, Dispersive, ToBoundary};
 use crate::probes::ProbeCamera;
 use crate::sparse::SparseRows;
@@ -48,35 +52,32 @@ impl Dispersive {
                 ToBoundary::Auto => ToBoundary::Gather,
                 m => m,
             };
+            // The geometry of its emitters, cached between updates (`caches.rs`).
+            let mut cache = std::mem::take(&mut self.objects[k].emitter_cache);
+            let ob = &self.objects[k];
+            if cache.key != Some(m) {
+                cache = self.emitter_geometry(world, k, m, method);
+            }
             // Pieces (boundary patch, value), several per patch: irradiance from a gather,
             // flux from a splat.
             let mut pieces: Vec<(u32, Vec3)> = Vec::new();
-            for (centre_local, members) in &ob.emitters {
-                let centre = m.transform_point3(*centre_local);
+            for (((_, members), lobes), rays) in
+                ob.emitters.iter().zip(&cache.lobes).zip(&mut cache.rays)
+            {
                 // Outgoing intensity in SH: sum_i (rho_i E_i) A_i / pi * A_l Y_k(d_i).
                 let mut intensity = vec![Vec3::ZERO; nc];
-                let mut basis = [0f32; 64];
-                for &k in members {
+                for (&k, lobe) in members.iter().zip(lobes.chunks_exact(nc)) {
                     let i = range.start + k as usize;
                     let reflected = self.radiosity[i] - world.exitance[i];
-                    let local = if self.options.emitter_per_face {
-                        p.normal_local[i]
-                    } else {
-                        ob.exit_local[k as usize]
-                    };
-                    let d = m.transform_vector3(local).normalize_or_zero();
-                    eval_basis(bands, d, &mut basis[..nc]);
                     let scale = reflected * p.area[i] * std::f32::consts::FRAC_1_PI;
                     for c in 0..nc {
-                        intensity[c] += scale * (cosine_lobe(shrad_sh::band_of(c)) * basis[c]);
+                        intensity[c] += scale * lobe[c];
                     }
                 }
                 let intensity = ShRgb::from_coeffs(intensity);
-                pieces.extend(match method {
-                    ToBoundary::Splat | ToBoundary::Auto => {
-                        self.splat(world, o, centre, &intensity)
-                    }
-                    ToBoundary::Gather => {
+                pieces.extend(match rays {
+                    EmitterRays::Splat(texels) => self.splat(world, o, texels, &intensity),
+                    EmitterRays::Gather(entries) => {
                         let soften = if self.options.emitter_per_face {
                             members
                                 .iter()
@@ -86,9 +87,14 @@ impl Dispersive {
                         } else {
                             0.0
                         };
-                        self.gather(world, o, centre, &intensity, soften)
+                        self.gather(world, o, entries, &intensity, soften)
                     }
                 });
+            }
+            // Kept unless the caches are off or it would be too large (then it is rebuilt at
+            // every update, as the uncached code would).
+            if self.caching && cache.bytes() <= MAX_STEP3_BYTES {
+                self.objects[k].emitter_cache = cache;
             }
             let contribution = match method {
                 ToBoundary::Gather => sum_by_patch(&mut self.scratch, pieces),
@@ -148,29 +154,74 @@ impl Dispersive {
         flux_sent
     }
 
-    /// The paper's Step 3 from one emitter: see [`splat_to_boundary`].
-    fn splat(&self, world: &World, o: usize, centre: Vec3, intensity: &ShRgb) -> Vec<(u32, Vec3)> {
-        splat_to_boundary(world, &self.emitter_camera, o as u32, centre, intensity)
-    }
-
-    /// Point-emitter gather: `E_j = I(w_j) cos_j / r^2`, one shadow ray per boundary patch
-    /// the emitter sends light to.
-    ///
-    /// `soften` (an area / pi) regularises `1 / r^2` near an extended emitter, as for a disc:
-    /// `cos / (r^2 + soften)` (on a disc's axis this is exact).
-    fn gather(
+    /// What Step 3 of object `k` at `m` needs of geometry (`caches.rs`): per emitter, its
+    /// patches' lobes along their world exit directions (2.3.4 Step 1) and the rays to the
+    /// boundary, none cast yet.
+    fn emitter_geometry(
         &self,
         world: &World,
-        o: usize,
-        centre: Vec3,
-        intensity: &ShRgb,
-        soften: f32,
-    ) -> Vec<(u32, Vec3)> {
+        k: usize,
+        m: glam::Affine3A,
+        method: ToBoundary,
+    ) -> EmitterCache {
         let p = &world.patches;
-        // Unoccluded irradiance with the softened and the plain 1 / r^2; the softened one is
-        // rescaled to the plain one's total flux, so softening moves light but neither adds
-        // nor loses any. Patches facing away or behind the emitter's lobe get no ray.
-        let lit: Vec<(u32, Vec3, f32, f32)> = self
+        let bands = self.options.bands;
+        let nc = num_coeffs(bands);
+        let ob = &self.objects[k];
+        let range = p.range(ob.object);
+        let mut basis = [0f32; 64];
+        let lobes = ob
+            .emitters
+            .iter()
+            .map(|(_, members)| {
+                let mut lobes = Vec::with_capacity(members.len() * nc);
+                for &k in members {
+                    let i = range.start + k as usize;
+                    let local = if self.options.emitter_per_face {
+                        p.normal_local[i]
+                    } else {
+                        ob.exit_local[k as usize]
+                    };
+                    let d = m.transform_vector3(local).normalize_or_zero();
+                    eval_basis(bands, d, &mut basis[..nc]);
+                    lobes.extend((0..nc).map(|c| cosine_lobe(shrad_sh::band_of(c)) * basis[c]));
+                }
+                lobes
+            })
+            .collect();
+        let rays = ob
+            .emitters
+            .iter()
+            .map(|(centre_local, _)| {
+                let centre = m.transform_point3(*centre_local);
+                match method {
+                    ToBoundary::Gather => {
+                        EmitterRays::Gather(self.gather_entries(world, centre, bands))
+                    }
+                    _ => {
+                        let n = self.emitter_camera.texels();
+                        EmitterRays::Splat(SplatTexels {
+                            centre,
+                            seen: vec![UNKNOWN; n],
+                            t: vec![f32::INFINITY; n],
+                        })
+                    }
+                }
+            })
+            .collect();
+        EmitterCache {
+            key: Some(m),
+            lobes,
+            rays,
+        }
+    }
+
+    /// The boundary patches that face a point emitter at `centre`, with `cos`, `r^2` and the
+    /// SH basis towards them; no shadow ray cast yet.
+    fn gather_entries(&self, world: &World, centre: Vec3, bands: usize) -> GatherEntries {
+        let p = &world.patches;
+        let nc = num_coeffs(bands);
+        let facing: Vec<(u32, f32, f32, Vec3)> = self
             .boundary_patches
             .par_iter()
             .filter_map(|&j| {
@@ -178,44 +229,144 @@ impl Dispersive {
                 let r2 = d.length_squared().max(1e-12);
                 let towards_object = d / r2.sqrt();
                 let cos = p.normal[j as usize].dot(towards_object);
-                if cos <= 0.0 {
+                (cos > 0.0).then_some((j, cos, r2, -towards_object))
+            })
+            .collect();
+        let mut basis = vec![0f32; facing.len() * nc];
+        basis
+            .par_chunks_mut(nc)
+            .zip(&facing)
+            .for_each(|(b, f)| eval_basis(bands, f.3, b));
+        GatherEntries {
+            centre,
+            patch: facing.iter().map(|f| f.0).collect(),
+            cos: facing.iter().map(|f| f.1).collect(),
+            r2: facing.iter().map(|f| f.2).collect(),
+            basis,
+            ray: vec![RAY_UNKNOWN; facing.len()],
+        }
+    }
+
+    /// The paper's Step 3 from one emitter (see [`splat_to_boundary`]), tracing only the
+    /// texels that carry flux and are not cached.
+    fn splat(
+        &self,
+        world: &World,
+        o: usize,
+        texels: &mut SplatTexels,
+        intensity: &ShRgb,
+    ) -> Vec<(u32, Vec3)> {
+        let (cube, projector) = (&self.emitter_camera.cube, &self.emitter_camera.projector);
+        let flux: Vec<(usize, Vec3)> = (0..cube.directions.len())
+            .into_par_iter()
+            .filter_map(|t| {
+                let f = projector.texel_value(intensity, t).max(Vec3::ZERO);
+                (f.max_element() > 0.0).then_some((t, f))
+            })
+            .collect();
+        let unknown: Vec<usize> = flux
+            .iter()
+            .map(|&(t, _)| t)
+            .filter(|&t| texels.seen[t] == UNKNOWN)
+            .collect();
+        if !unknown.is_empty() {
+            let dirs: Vec<Vec3> = unknown.iter().map(|&t| cube.directions[t]).collect();
+            let mut hits = vec![Hit::MISS; dirs.len()];
+            // In texel order, so the capture's ray packets stay coherent.
+            world
+                .vis
+                .capture(&[texels.centre], &dirs, 0.0, &[o as u32], &mut hits);
+            for (&t, h) in unknown.iter().zip(&hits) {
+                texels.seen[t] = world.seen_patch(h).map_or(LANDS_NOWHERE, |j| j as u32);
+                texels.t[t] = if h.is_hit() { h.t } else { f32::INFINITY };
+            }
+        }
+        flux.into_iter()
+            .filter_map(|(t, f)| {
+                let j = texels.seen[t];
+                (j != LANDS_NOWHERE && receives_as_boundary(world, j as usize)).then_some((j, f))
+            })
+            .collect()
+    }
+
+    /// Point-emitter gather: `E_j = I(w_j) cos_j / r^2`, one shadow ray per boundary patch
+    /// the emitter sends light to (cast once, then cached until something moves across it).
+    ///
+    /// `soften` (an area / pi) regularises `1 / r^2` near an extended emitter, as for a disc:
+    /// `cos / (r^2 + soften)` (on a disc's axis this is exact).
+    fn gather(
+        &self,
+        world: &World,
+        o: usize,
+        g: &mut GatherEntries,
+        intensity: &ShRgb,
+        soften: f32,
+    ) -> Vec<(u32, Vec3)> {
+        let p = &world.patches;
+        let nc = intensity.len();
+        // Unoccluded irradiance with the softened and the plain 1 / r^2; the softened one is
+        // rescaled to the plain one's total flux, so softening moves light but neither adds
+        // nor loses any. Patches behind the emitter's lobe get no ray.
+        let lit: Vec<(usize, Vec3)> = (0..g.patch.len())
+            .into_par_iter()
+            .filter_map(|n| {
+                if g.ray[n] == RAY_BLOCKED {
                     return None;
                 }
-                let e = intensity.eval(-towards_object).max(Vec3::ZERO) * cos;
+                let e = intensity
+                    .dot(&g.basis[n * nc..(n + 1) * nc])
+                    .max(Vec3::ZERO)
+                    * g.cos[n];
+                (e.max_element() > 0.0).then_some((n, e))
+            })
+            .collect();
+        let unknown: Vec<usize> = lit
+            .iter()
+            .map(|&(n, _)| n)
+            .filter(|&n| g.ray[n] == RAY_UNKNOWN)
+            .collect();
+        if !unknown.is_empty() {
+            let from: Vec<Vec3> = unknown
+                .iter()
+                .map(|&n| {
+                    let j = g.patch[n] as usize;
+                    p.centre[j] + p.normal[j] * world.eps
+                })
+                .collect();
+            let to = vec![g.centre; from.len()];
+            let mut blocked = vec![false; from.len()];
+            world
+                .vis
+                .occluded(&from, &to, world.eps, &[o as u32], &mut blocked);
+            for (&n, b) in unknown.iter().zip(blocked) {
+                g.ray[n] = if b { RAY_BLOCKED } else { RAY_CLEAR };
+            }
+        }
+        let clear: Vec<(u32, Vec3, f32, f32)> = lit
+            .into_iter()
+            .filter(|&(n, _)| g.ray[n] == RAY_CLEAR)
+            .map(|(n, e)| {
+                let (j, r2) = (g.patch[n], g.r2[n]);
                 let a = p.area[j as usize];
-                (e.max_element() > 0.0).then_some((
+                (
                     j,
                     e / (r2 + soften),
                     a * e.element_sum() / r2,
                     a * e.element_sum() / (r2 + soften),
-                ))
+                )
             })
             .collect();
-        let from: Vec<Vec3> = lit
+        let (plain, softened) = clear
             .iter()
-            .map(|&(j, ..)| p.centre[j as usize] + p.normal[j as usize] * world.eps)
-            .collect();
-        let to = vec![centre; lit.len()];
-        let mut blocked = vec![false; lit.len()];
-        world
-            .vis
-            .occluded(&from, &to, world.eps, &[o as u32], &mut blocked);
-        let (plain, softened) = lit
-            .iter()
-            .zip(&blocked)
-            .filter(|(_, &b)| !b)
-            .fold((0f64, 0f64), |(x, y), (e, _)| {
-                (x + e.2 as f64, y + e.3 as f64)
-            });
+            .fold((0f64, 0f64), |(x, y), e| (x + e.2 as f64, y + e.3 as f64));
         let scale = if softened > 0.0 {
             (plain / softened) as f32
         } else {
             1.0
         };
-        lit.into_iter()
-            .zip(blocked)
-            .filter(|(_, b)| !b)
-            .map(|((j, e, _, _), _)| (j, e * scale))
+        clear
+            .into_iter()
+            .map(|(j, e, _, _)| (j, e * scale))
             .collect()
     }
 }
