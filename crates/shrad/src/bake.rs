@@ -29,7 +29,8 @@ use glam::Vec3;
 use serde_json::{json, Value};
 
 use crate::engine::Engine;
-use crate::Error;
+use crate::solver::SolverChoice;
+use crate::{Error, NoProgress, Progress};
 
 /// What [`bake`] writes.
 #[derive(Clone, Debug, PartialEq)]
@@ -92,6 +93,18 @@ pub fn frame_path(path: &Path, frame: usize) -> PathBuf {
 /// `time`, converge and write `path`; with `frames`, a sequence over the animation (see
 /// the module docs), `path` naming it (`out.glb` -> `out_0000.glb`, ...).
 pub fn bake(engine: &mut Engine, path: &Path, options: &BakeOptions) -> Result<Vec<Baked>, Error> {
+    bake_with_progress(engine, path, options, &NoProgress)
+}
+
+/// [`bake`], reporting progress: with the reference, its steps in each file's solve (form
+/// factors, iterations: minutes); with the other solvers, whose frames take milliseconds,
+/// the files of a sequence.
+pub fn bake_with_progress(
+    engine: &mut Engine,
+    path: &Path,
+    options: &BakeOptions,
+    progress: &dyn Progress,
+) -> Result<Vec<Baked>, Error> {
     check_path(path)?;
     if options
         .exposure
@@ -123,18 +136,27 @@ pub fn bake(engine: &mut Engine, path: &Path, options: &BakeOptions) -> Result<V
                 .collect()
         }
     };
+    let reference = matches!(engine.solver_choice(), SolverChoice::Reference(_));
+    let (file_bar, step_bar): (&dyn Progress, &dyn Progress) = if reference {
+        (&NoProgress, progress)
+    } else {
+        (progress, &NoProgress)
+    };
     let mut exposure = options.exposure;
     let mut out = Vec::with_capacity(times.len());
+    file_bar.begin("files", times.len() as u64);
     for (i, &t) in times.iter().enumerate() {
         engine.set_time(t)?;
-        engine.converge(options.passes);
+        engine.converge_with_progress(options.passes, step_bar);
         let file = match options.frames {
             None => path.to_path_buf(),
             Some(_) => frame_path(path, i),
         };
         let e = *exposure.get_or_insert_with(|| auto_exposure(engine));
         out.push(write_gltf(engine, &file, Some(e))?);
+        file_bar.advance(1);
     }
+    file_bar.end();
     Ok(out)
 }
 
@@ -442,7 +464,6 @@ pub fn write_gltf(engine: &Engine, path: &Path, exposure: Option<f32>) -> Result
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::solver::SolverChoice;
     use crate::PatchSizing;
 
     fn engine() -> Engine {

@@ -37,7 +37,7 @@ use crate::metrics::{relative_error, RelativeError};
 use crate::reference::{solve, ReferenceOptions};
 use crate::render::{render, Image, RenderOptions};
 use crate::solver::{Solver, SolverChoice};
-use crate::{Error, NoProgress, PatchSizing, World};
+use crate::{Error, NoProgress, PatchSizing, Progress, World};
 
 /// What switching the solver cost: its precomputation ran again.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -253,8 +253,17 @@ impl Engine {
 
     /// One frame, with the changes since the last one.
     pub fn step(&mut self) -> FrameStats {
+        self.step_with_progress(&NoProgress)
+    }
+
+    /// [`Engine::step`], reporting the progress of a long frame to `progress`: the
+    /// reference's form factors and iterations. A dispersive or grid frame (milliseconds)
+    /// reports nothing; a caller running many of them counts frames itself.
+    pub fn step_with_progress(&mut self, progress: &dyn Progress) -> FrameStats {
         let changes = std::mem::take(&mut self.pending);
-        let stats = self.solver.step(&self.world, &changes);
+        let stats = self
+            .solver
+            .step_with_progress(&self.world, &changes, progress);
         self.frames += 1;
         stats
     }
@@ -266,8 +275,19 @@ impl Engine {
 
     /// Run the frames a static scene needs to converge (every object updated `passes` times).
     pub fn converge(&mut self, passes: usize) -> Vec<FrameStats> {
+        self.converge_with_progress(passes, &NoProgress)
+    }
+
+    /// [`Engine::converge`], each frame stepped with [`Engine::step_with_progress`].
+    pub fn converge_with_progress(
+        &mut self,
+        passes: usize,
+        progress: &dyn Progress,
+    ) -> Vec<FrameStats> {
         let frames = self.solver.frames_to_converge(passes);
-        (0..frames).map(|_| self.step()).collect()
+        (0..frames)
+            .map(|_| self.step_with_progress(progress))
+            .collect()
     }
 
     /// The radiosity `B` of every patch (linear RGB, W/m^2).
@@ -310,6 +330,54 @@ mod tests {
     use super::*;
 
     fn assert_send<T: Send>() {}
+
+    /// Counts every call, as a progress bar would draw them.
+    #[derive(Default)]
+    struct Counting {
+        begun: std::sync::atomic::AtomicU64,
+        advanced: std::sync::atomic::AtomicU64,
+        ended: std::sync::atomic::AtomicU64,
+    }
+
+    impl Progress for Counting {
+        fn begin(&self, _: &str, _: u64) {
+            self.begun
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
+        fn advance(&self, n: u64) {
+            self.advanced
+                .fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+        }
+        fn end(&self) {
+            self.ended
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
+    }
+
+    #[test]
+    fn a_reference_step_reports_its_progress() {
+        use std::sync::atomic::Ordering::Relaxed;
+        let mut e = Engine::new(
+            shrad_scene::cornell_box(),
+            PatchSizing::Count(300),
+            Backend::Auto,
+            SolverChoice::preset("reference", "fast").unwrap(),
+        )
+        .unwrap();
+        let counting = Counting::default();
+        let s = e.step_with_progress(&counting);
+        assert!(s.reference().is_some_and(|r| r.iterations > 0), "{s:?}");
+        // Direct light, form factors and iterations: each begun and ended, with work done.
+        let begun = counting.begun.load(Relaxed);
+        assert!(begun >= 3, "{begun} steps begun");
+        assert_eq!(counting.ended.load(Relaxed), begun);
+        assert!(counting.advanced.load(Relaxed) > 0);
+        assert_eq!(e.frames(), 1);
+        // The converging loop passes it on too.
+        let before = counting.advanced.load(Relaxed);
+        assert_eq!(e.converge_with_progress(1, &counting).len(), 1);
+        assert!(counting.advanced.load(Relaxed) > before);
+    }
 
     #[test]
     fn the_engine_is_send() {

@@ -7,7 +7,7 @@ use crate::dispersive::{Dispersive, DispersiveOptions};
 use crate::frame::{Changes, FrameStats};
 use crate::grid::{Grid, GridOptions};
 use crate::reference::ReferenceOptions;
-use crate::{NoProgress, World};
+use crate::{NoProgress, Progress, World};
 
 /// Which solver, with its settings. By name: [`SolverChoice::preset`], [`SolverChoice::set`]
 /// and the key tables of [`crate::settings`].
@@ -45,9 +45,21 @@ impl Solver {
 
     /// One frame at the world's current time.
     pub fn step(&mut self, world: &World, changes: &Changes) -> FrameStats {
+        self.step_with_progress(world, changes, &NoProgress)
+    }
+
+    /// One frame, reporting the progress of a long one: the reference's form factors and
+    /// iterations (a frame of it can take minutes). A dispersive or grid frame takes
+    /// milliseconds and reports nothing.
+    pub fn step_with_progress(
+        &mut self,
+        world: &World,
+        changes: &Changes,
+        progress: &dyn Progress,
+    ) -> FrameStats {
         match self {
             Solver::Reference(o, b, frames) => {
-                let (radiosity, stats) = crate::reference::frame(world, o, *frames, &NoProgress);
+                let (radiosity, stats) = crate::reference::frame(world, o, *frames, progress);
                 *b = radiosity;
                 *frames += 1;
                 stats

@@ -8,12 +8,12 @@ use std::time::Instant;
 
 use anyhow::{bail, Result};
 use clap::Args;
-use shrad::bake::{bake, BakeOptions};
+use shrad::bake::{bake_with_progress, BakeOptions};
 use shrad::engine::Engine;
 use shrad_scene::Scene;
 
 use crate::commands::render::solve;
-use crate::common::{build_world, check_positive, SceneArgs};
+use crate::common::{build_world, check_positive, progress_for, SceneArgs};
 use crate::settings::FileSettings;
 use crate::solver_args::SolverArgs;
 
@@ -126,7 +126,7 @@ pub fn run(args: BakeArgs, scene: Scene, file: &FileSettings) -> Result<()> {
         passes: if frames.is_some() { args.passes } else { 0 },
         exposure: args.exposure,
     };
-    let baked = bake(&mut engine, &args.output, &options)?;
+    let baked = bake_with_progress(&mut engine, &args.output, &options, &*progress_for(quiet))?;
     if !quiet {
         for b in &baked {
             println!(

@@ -11,7 +11,7 @@ use shrad::frame::SolverStats;
 use shrad::image_io::{write_exr, write_png, Tonemap};
 use shrad::render::{RenderOptions, Shading};
 use shrad::solver::SolverChoice;
-use shrad::World;
+use shrad::{NoProgress, Progress, World};
 use shrad_scene::Scene;
 
 use crate::common::{build_world, check_positive, print_energy, progress_for, SceneArgs};
@@ -121,19 +121,26 @@ pub(crate) fn solve(engine: &mut Engine, frames: Option<usize>, quiet: bool) {
     let frames = frames
         .filter(|_| !reference)
         .unwrap_or_else(|| engine.frames_to_converge(8));
-    let progress = progress_for(quiet || reference);
-    progress.begin("frames", frames as u64);
+    // A reference frame (one, minutes long) draws its own steps' bars (form factors,
+    // iterations); the others' frames (milliseconds each) are counted on one bar.
+    let bars = progress_for(quiet);
+    let (frame_bar, step_bar): (&dyn Progress, &dyn Progress) = if reference {
+        (&NoProgress, bars.as_ref())
+    } else {
+        (bars.as_ref(), &NoProgress)
+    };
+    frame_bar.begin("frames", frames as u64);
     let mut last = None;
     let mut diverged = Vec::new();
     for f in 0..frames {
-        let stats = engine.step();
+        let stats = engine.step_with_progress(step_bar);
         if let Some(d) = &stats.diverged {
             diverged.push((f, d.message.clone()));
         }
         last = Some(stats);
-        progress.advance(1);
+        frame_bar.advance(1);
     }
-    progress.end();
+    frame_bar.end();
     if let Some((f, message)) = diverged.first() {
         // Always said, even with --quiet: the published state was repaired.
         eprintln!(
