@@ -22,6 +22,12 @@
 //! whose `COLOR_0` is optional for viewers (three.js reads it, Blender's importer does not)
 //! and which cannot carry the motion of the patches themselves; a file per frame shows
 //! everywhere as it is, and each can be loaded alone.
+//!
+//! **A sequence is all or nothing.** Each file is written under a hidden staged name in its
+//! destination's folder (`.out_0003.glb.staged-PID`), and only once every file of the
+//! sequence is written are they renamed into place; a bake that fails partway (a solve, a
+//! full disk, a file that cannot be written) removes the staged files, so no file of the
+//! sequence is left on disk, and files of an earlier bake at those names stay as they were.
 
 use std::path::{Path, PathBuf};
 
@@ -144,19 +150,32 @@ pub fn bake_with_progress(
     };
     let mut exposure = options.exposure;
     let mut out = Vec::with_capacity(times.len());
+    // Every file goes to a staged name first; only when all are written are they renamed
+    // into place (the sequence is all or nothing, module docs).
+    let mut staged = Vec::new();
     file_bar.begin("files", times.len() as u64);
     for (i, &t) in times.iter().enumerate() {
-        engine.set_time(t)?;
-        engine.converge_with_progress(options.passes, step_bar);
         let file = match options.frames {
             None => path.to_path_buf(),
             Some(_) => frame_path(path, i),
         };
-        let e = *exposure.get_or_insert_with(|| auto_exposure(engine));
-        out.push(write_gltf(engine, &file, Some(e))?);
+        let written = engine.set_time(t).and_then(|()| {
+            engine.converge_with_progress(options.passes, step_bar);
+            let e = *exposure.get_or_insert_with(|| auto_exposure(engine));
+            stage_gltf(engine, &file, Some(e), &mut staged)
+        });
+        match written {
+            Ok(baked) => out.push(baked),
+            Err(e) => {
+                file_bar.end();
+                discard(&staged);
+                return Err(e);
+            }
+        }
         file_bar.advance(1);
     }
     file_bar.end();
+    commit(&staged)?;
     Ok(out)
 }
 
@@ -407,9 +426,86 @@ fn build(engine: &Engine, exposure: f32, bin_uri: Option<&str>) -> (Value, Vec<u
 
 /// Write the engine's current state (no stepping) to `path`: `.glb`, or `.gltf` with its
 /// buffer in a `.bin` of the same name beside it. `exposure` scales `COLOR_0` (`None`:
-/// [`auto_exposure`]). Each file is written whole or not at all.
+/// [`auto_exposure`]). The file (and its `.bin`) is written whole or not at all.
 pub fn write_gltf(engine: &Engine, path: &Path, exposure: Option<f32>) -> Result<Baked, Error> {
+    let mut staged = Vec::new();
+    let baked =
+        stage_gltf(engine, path, exposure, &mut staged).inspect_err(|_| discard(&staged))?;
+    commit(&staged)?;
+    Ok(baked)
+}
+
+/// A file written under a staged name beside its destination, not yet renamed into place.
+struct Staged {
+    staged: PathBuf,
+    dest: PathBuf,
+}
+
+/// The staged name of `dest`: hidden, in the same folder (so the final rename is atomic).
+fn staged_path(dest: &Path) -> PathBuf {
+    let name = dest
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    dest.with_file_name(format!(".{name}.staged-{}", std::process::id()))
+}
+
+/// Write `bytes` (each file whole, [`shrad_scene::write_atomic`]) to the staged name of
+/// `dest` and add it to `staged`.
+fn stage(dest: &Path, bytes: &[u8], staged: &mut Vec<Staged>) -> Result<(), Error> {
+    let tmp = staged_path(dest);
+    shrad_scene::write_atomic(&tmp, |t| {
+        std::fs::write(t, bytes).map_err(|e| e.to_string())
+    })
+    .map_err(|e| Error::Output(dest.into(), e.message))?;
+    staged.push(Staged {
+        staged: tmp,
+        dest: dest.to_path_buf(),
+    });
+    Ok(())
+}
+
+/// Remove every staged file (a bake that failed leaves nothing behind).
+fn discard(staged: &[Staged]) {
+    for s in staged {
+        let _ = std::fs::remove_file(&s.staged);
+    }
+}
+
+/// Rename every staged file into place, in order. When a rename fails (rare: each is in
+/// its destination's folder), the files not yet renamed are removed, and so are those
+/// already renamed: what was at their names before is gone, but no part of the sequence
+/// stays.
+fn commit(staged: &[Staged]) -> Result<(), Error> {
+    for (i, s) in staged.iter().enumerate() {
+        if let Err(e) = std::fs::rename(&s.staged, &s.dest) {
+            discard(&staged[i..]);
+            for done in &staged[..i] {
+                let _ = std::fs::remove_file(&done.dest);
+            }
+            return Err(Error::Output(s.dest.clone(), e.to_string()));
+        }
+    }
+    Ok(())
+}
+
+/// [`write_gltf`] to staged names (added to `staged`, the `.bin` before the `.gltf` that
+/// names it), renamed into place by [`commit`].
+fn stage_gltf(
+    engine: &Engine,
+    path: &Path,
+    exposure: Option<f32>,
+    staged: &mut Vec<Staged>,
+) -> Result<Baked, Error> {
     let glb = check_path(path)?;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            return Err(Error::Output(
+                path.into(),
+                format!("directory {} does not exist", dir.display()),
+            ));
+        }
+    }
     let exposure = match exposure {
         Some(e) if e.is_finite() && e > 0.0 => e,
         Some(e) => {
@@ -446,16 +542,10 @@ pub fn write_gltf(engine: &Engine, path: &Path, exposure: Option<f32>) -> Result
         let bytes = container
             .to_vec()
             .map_err(|e| Error::Output(path.into(), e.to_string()))?;
-        shrad_scene::write_atomic(path, |tmp| {
-            std::fs::write(tmp, &bytes).map_err(|e| e.to_string())
-        })?;
+        stage(path, &bytes, staged)?;
     } else {
-        shrad_scene::write_atomic(&bin_path, |tmp| {
-            std::fs::write(tmp, &bin).map_err(|e| e.to_string())
-        })?;
-        shrad_scene::write_atomic(path, |tmp| {
-            std::fs::write(tmp, &json).map_err(|e| e.to_string())
-        })?;
+        stage(&bin_path, &bin, staged)?;
+        stage(path, &json, staged)?;
     }
     baked.path = path.to_path_buf();
     Ok(baked)
@@ -532,6 +622,81 @@ mod tests {
             (sum_b - want).length() <= 1e-4 * want.length(),
             "{sum_b} vs {want}"
         );
+    }
+
+    /// The Cornell box with its short block sliding along +x over one second.
+    fn animated_engine() -> Engine {
+        use shrad_scene::{Animation, Keyframe};
+        let mut scene = shrad_scene::cornell_box();
+        let block = scene
+            .objects
+            .iter_mut()
+            .find(|o| o.name == "short_block")
+            .unwrap();
+        let key = |time, x| Keyframe {
+            time,
+            translation: Vec3::new(x, 0.0, 0.0),
+            rotation: glam::Quat::IDENTITY,
+        };
+        block.animation = Some(Animation {
+            keys: vec![key(0.0, 0.0), key(1.0, 60.0)],
+            ..Default::default()
+        });
+        Engine::new(
+            scene,
+            PatchSizing::Count(400),
+            shrad_vis::Backend::Auto,
+            SolverChoice::preset("reference", "fast").unwrap(),
+        )
+        .unwrap()
+    }
+
+    fn entries(d: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn a_sequence_that_fails_partway_leaves_no_file_of_it() {
+        let mut e = animated_engine();
+        assert!(e.world().scene.duration() > 0.0);
+        let d = dir("partway");
+        let path = d.join("out.glb");
+        let options = BakeOptions {
+            frames: Some(3),
+            passes: 0,
+            ..Default::default()
+        };
+        // Frame 1 cannot be written: a folder holds its staged name.
+        let blocker = staged_path(&frame_path(&path, 1));
+        std::fs::create_dir(&blocker).unwrap();
+        let err = bake(&mut e, &path, &options).unwrap_err().to_string();
+        assert!(err.contains("out_0001.glb"), "{err}");
+        let blocker_name = blocker.file_name().unwrap().to_string_lossy().into_owned();
+        assert_eq!(entries(&d), [blocker_name], "frame 0 was left behind");
+        std::fs::remove_dir(&blocker).unwrap();
+
+        // Frame 2 cannot be renamed into place (a folder has its name): frames 0 and 1,
+        // renamed already, are removed again.
+        let last = frame_path(&path, 2);
+        std::fs::create_dir(&last).unwrap();
+        let err = bake(&mut e, &path, &options).unwrap_err().to_string();
+        assert!(err.contains("out_0002.glb"), "{err}");
+        assert_eq!(entries(&d), ["out_0002.glb"], "part of the sequence stayed");
+        std::fs::remove_dir(&last).unwrap();
+
+        // Nothing in the way: the whole sequence, and no staged file.
+        let baked = bake(&mut e, &path, &options).unwrap();
+        assert_eq!(baked.len(), 3);
+        assert_eq!(
+            entries(&d),
+            ["out_0000.glb", "out_0001.glb", "out_0002.glb"]
+        );
+        assert!(gltf::import(frame_path(&path, 2)).is_ok());
     }
 
     #[test]
