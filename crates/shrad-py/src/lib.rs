@@ -25,8 +25,14 @@ pub(crate) fn to_py_err(e: shrad::Error) -> PyErr {
             // The OS's reason after the file ("cornell.glb: cannot read file: No such file").
             PyOSError::new_err(format!("{message}: {source}"))
         }
-        shrad::Error::Input(..) | shrad::Error::Output(..) => PyOSError::new_err(message),
-        _ => PyValueError::new_err(message),
+        // A file that cannot be written, however it was reached: the message names it
+        // ("out.glb: cannot write: ...").
+        shrad::Error::Scene(SceneError::Write(_))
+        | shrad::Error::Input(..)
+        | shrad::Error::Output(..) => PyOSError::new_err(message),
+        // Listed, not `_`: a new kind of error has to be sorted into one or the other.
+        shrad::Error::Scene(SceneError::Invalid { .. } | SceneError::UnknownFormat { .. })
+        | shrad::Error::Invalid(_) => PyValueError::new_err(message),
     }
 }
 

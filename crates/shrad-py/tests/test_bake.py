@@ -91,6 +91,26 @@ def test_bad_bake_paths_raise(lit, tmp_path):
     assert not list(tmp_path.iterdir())  # nothing left behind
 
 
+def test_a_write_error_is_an_oserror_naming_the_file(lit, tmp_path):
+    # A folder where the file should go: the write fails, not the input.
+    (tmp_path / "taken.glb").mkdir()
+    with pytest.raises(OSError, match=r"taken\.glb: cannot write"):
+        lit.export_gltf(tmp_path / "taken.glb")
+    (tmp_path / "taken.png").mkdir()
+    with pytest.raises(OSError, match=r"taken\.png: cannot write"):
+        shrad.write_png(tmp_path / "taken.png", np.zeros((2, 2, 3), np.float32))
+
+
+def test_a_sequence_that_fails_partway_leaves_none_of_its_files(tmp_path):
+    scene = shrad.load_dict(room_dict(patches=600, keyframes=True))
+    e = shrad.Engine(scene, solver="dispersive", preset="default")
+    # Frame 1 of 3 cannot be written (a folder has its name); frame 0 was, but goes again.
+    (tmp_path / "anim_0001.glb").mkdir()
+    with pytest.raises(OSError, match=r"anim_0001\.glb"):
+        e.bake(tmp_path / "anim.glb", frames=3, passes=0)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["anim_0001.glb"]
+
+
 @pytest.mark.skipif(not os.environ.get("SHRAD_BPY_PYTHON"), reason="SHRAD_BPY_PYTHON (a Python with bpy) not set")
 def test_blender_imports_the_bake_with_its_colours(lit, tmp_path):
     path = tmp_path / "cornell.glb"
