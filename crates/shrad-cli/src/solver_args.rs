@@ -246,7 +246,13 @@ impl SolverArgs {
     /// The reference that `--compare` and `--error-every` measure against: the library's
     /// standard one with `--rays-per-patch` and `--direct-samples`.
     pub fn reference(&self) -> Result<ReferenceOptions> {
-        let mut choice = SolverChoice::Reference(ReferenceOptions::standard());
+        self.reference_over(ReferenceOptions::standard())
+    }
+
+    /// `base` with `--rays-per-patch` and `--direct-samples` (the viewer's error button
+    /// starts from the fast reference, to answer in seconds).
+    pub fn reference_over(&self, base: ReferenceOptions) -> Result<ReferenceOptions> {
+        let mut choice = SolverChoice::Reference(base);
         let pending: Vec<Pending> = self
             .aliases
             .0

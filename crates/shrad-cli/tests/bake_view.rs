@@ -148,6 +148,28 @@ fn view_help_and_missing_scene() {
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
 
+#[test]
+fn view_reads_the_reference_flags_of_its_error_button() {
+    // The reference's settings reach the viewer (its engine's error solve): a bad one is
+    // refused before anything is served, naming the flag. (Without the page's folder, a
+    // viewer that ignored the flag fails too, on the folder, instead of serving on.)
+    let o = shrad(&[
+        "view",
+        "cornell",
+        "-q",
+        "--rays-per-patch",
+        "0",
+        "--port",
+        "0",
+        "--web",
+        "/nonexistent-web",
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("--rays-per-patch 0"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
 /// Kills the child when dropped, so a failed assertion leaves no server behind.
 struct Running(std::process::Child);
 

@@ -23,6 +23,7 @@ use std::time::Duration;
 
 use anyhow::{bail, Context, Result};
 use shrad::engine::Engine;
+use shrad::reference::ReferenceOptions;
 use shrad::scene::Scene;
 use shrad::solver::SolverChoice;
 use shrad::vis::Backend;
@@ -54,6 +55,9 @@ pub struct ServeOptions {
     pub preset: String,
     /// The solver's settings; `None`: those of `solver` under `preset`.
     pub choice: Option<SolverChoice>,
+    /// The reference the page's error button measures against (`shrad view
+    /// --rays-per-patch N`); `None`: the engine's own (fast) reference.
+    pub reference: Option<ReferenceOptions>,
     /// Address to bind (127.0.0.1 unless asked otherwise; any other gets a warning).
     pub host: IpAddr,
     /// Port (0: any free port).
@@ -73,11 +77,28 @@ impl ServeOptions {
             solver: "dispersive".to_string(),
             preset: "default".to_string(),
             choice: None,
+            reference: None,
             host: IpAddr::V4(Ipv4Addr::LOCALHOST),
             port: 8080,
             web_root: default_web_root(),
         }
     }
+}
+
+/// The engine a server runs on `options`' scene (taken from it): `options.choice`, else
+/// the solver and preset the page names, and `options.reference` for its error button.
+fn build_engine(options: &mut ServeOptions) -> Result<Engine> {
+    let choice = match options.choice {
+        Some(c) => c,
+        None => solvers::choice(&options.solver, &options.preset).map_err(anyhow::Error::msg)?,
+    };
+    let scene = std::mem::take(&mut options.scene);
+    let mut engine = Engine::new(scene, options.sizing, options.backend, choice)
+        .context("cannot build the engine")?;
+    if let Some(r) = options.reference {
+        engine.set_reference_options(r);
+    }
+    Ok(engine)
 }
 
 /// This repository's `web/` (where `scripts/setup-browser` installs three.js).
@@ -97,7 +118,7 @@ pub struct Server {
 
 impl Server {
     /// Patch the scene, precompute the solver, bind, and start serving.
-    pub fn start(options: ServeOptions) -> Result<Server> {
+    pub fn start(mut options: ServeOptions) -> Result<Server> {
         let web_root = options.web_root.clone();
         for need in ["src/index.html", "node_modules/three/build/three.module.js"] {
             if !web_root.join(need).is_file() {
@@ -113,14 +134,7 @@ impl Server {
                 options.host
             );
         }
-        let choice = match options.choice {
-            Some(c) => c,
-            None => {
-                solvers::choice(&options.solver, &options.preset).map_err(anyhow::Error::msg)?
-            }
-        };
-        let engine = Engine::new(options.scene, options.sizing, options.backend, choice)
-            .context("cannot build the engine")?;
+        let engine = build_engine(&mut options)?;
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
             .thread_name("shrad-view-io")
@@ -224,4 +238,30 @@ pub fn serve(options: ServeOptions) -> Result<()> {
     ctrl_c.context("cannot wait for Ctrl-C")?;
     eprintln!("shrad view: stopping");
     server.stop()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_reference_options_reach_the_engine() {
+        let mut options = ServeOptions::new(shrad::scene::cornell_box());
+        options.sizing = PatchSizing::Count(300);
+        let engine = build_engine(&mut options).unwrap();
+        assert_eq!(
+            *engine.reference_options(),
+            ReferenceOptions::fast(),
+            "none given: the engine's own"
+        );
+        let mut options = ServeOptions::new(shrad::scene::cornell_box());
+        options.sizing = PatchSizing::Count(300);
+        options.reference = Some(ReferenceOptions {
+            rays_per_patch: 77,
+            ..ReferenceOptions::fast()
+        });
+        let engine = build_engine(&mut options).unwrap();
+        assert_eq!(engine.reference_options().rays_per_patch, 77);
+        assert_eq!(engine.solver_choice().name(), "dispersive");
+    }
 }

@@ -251,6 +251,11 @@ impl Engine {
         self.reference_options = options;
     }
 
+    /// The settings of the reference that [`Engine::error`] solves.
+    pub fn reference_options(&self) -> &ReferenceOptions {
+        &self.reference_options
+    }
+
     /// One frame, with the changes since the last one.
     pub fn step(&mut self) -> FrameStats {
         self.step_with_progress(&NoProgress)

@@ -57,6 +57,13 @@ pub fn run(mut args: ViewArgs, scene: Scene, file: &FileSettings) -> Result<()> 
     options.solver = choice.name().to_string();
     options.preset = preset;
     options.choice = Some(choice);
+    // The page's error button measures against the engine's fast reference, with the
+    // reference flags given (`--rays-per-patch`, `--direct-samples`), as `render --compare`
+    // does against the standard one.
+    options.reference = Some(
+        args.solver
+            .reference_over(shrad::reference::ReferenceOptions::fast())?,
+    );
     // The library warns about a host that is not loopback.
     options.host = args.host;
     options.port = args.port;
