@@ -166,6 +166,63 @@ pub fn eval_basis_4(dir: Vec3) -> [f32; 16] {
     ]
 }
 
+/// `out[n] = Σ_k c[k] Y_k(d_n)` over the 16 functions of 4 bands, for the directions
+/// `d_n = (x[n], y[n], z[n])`: the floats of [`eval_basis_4`] followed by a dot product in
+/// `k` order (as `ShRgb::eval` computes them), but one function at a time over a run of
+/// directions, which vectorises.
+pub(crate) fn dot_basis_4_many(c: &[Vec3; 16], x: &[f32], y: &[f32], z: &[f32], out: &mut [Vec3]) {
+    const L: usize = 16;
+    let chunks = out
+        .chunks_mut(L)
+        .zip(x.chunks(L))
+        .zip(y.chunks(L))
+        .zip(z.chunks(L));
+    for (((out, xs), ys), zs) in chunks {
+        let m = out.len().min(xs.len()).min(ys.len()).min(zs.len());
+        // Fixed-length lanes (a short last chunk padded with zeros): loops of a known
+        // length vectorise fully.
+        let lanes = |v: &[f32]| {
+            let mut a = [0f32; L];
+            a[..m].copy_from_slice(&v[..m]);
+            a
+        };
+        let (xs, ys, zs) = (lanes(xs), lanes(ys), lanes(zs));
+        let (mut r, mut g, mut b) = ([0f32; L], [0f32; L], [0f32; L]);
+        macro_rules! term {
+            ($k:expr, |$x:ident, $y:ident, $z:ident| $e:expr) => {
+                let ck = c[$k];
+                for i in 0..L {
+                    let ($x, $y, $z) = (xs[i], ys[i], zs[i]);
+                    let v: f32 = $e;
+                    r[i] += ck.x * v;
+                    g[i] += ck.y * v;
+                    b[i] += ck.z * v;
+                }
+            };
+        }
+        // The expressions of `eval_basis_4`, in its order and association.
+        term!(0, |_x, _y, _z| K00);
+        term!(1, |_x, y, _z| K1 * y);
+        term!(2, |_x, _y, z| K1 * z);
+        term!(3, |x, _y, _z| K1 * x);
+        term!(4, |x, y, _z| K2_XY * x * y);
+        term!(5, |_x, y, z| K2_XY * y * z);
+        term!(6, |_x, _y, z| K2_0 * (3.0 * (z * z) - 1.0));
+        term!(7, |x, _y, z| K2_XY * x * z);
+        term!(8, |x, y, _z| K2_2 * (x * x - y * y));
+        term!(9, |x, y, _z| K3_3 * y * (3.0 * (x * x) - y * y));
+        term!(10, |x, y, z| K3_XYZ * x * y * z);
+        term!(11, |_x, y, z| K3_1 * y * (5.0 * (z * z) - 1.0));
+        term!(12, |_x, _y, z| K3_0 * z * (5.0 * (z * z) - 3.0));
+        term!(13, |x, _y, z| K3_1 * x * (5.0 * (z * z) - 1.0));
+        term!(14, |x, y, z| K3_2 * z * (x * x - y * y));
+        term!(15, |x, y, _z| K3_3 * x * (x * x - 3.0 * (y * y)));
+        for (i, o) in out.iter_mut().enumerate().take(m) {
+            *o = Vec3::new(r[i], g[i], b[i]);
+        }
+    }
+}
+
 /// Textbook closed-form reference for `bands ≤ 4`, computed in `f64` from
 /// spherical coordinates `θ = acos z`, `φ = atan2(y, x)`, explicit
 /// associated Legendre polynomials (no Condon–Shortley phase) and factorial

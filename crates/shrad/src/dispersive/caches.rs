@@ -5,7 +5,7 @@
 //! - Step 2: for each of its 8 probes, which patch each cube-map texel sees (or that it sees
 //!   nothing, or a back face) and how far, at the probe's current place.
 //! - Step 3 gather: for each emitter, the boundary patches that face it, with `cos`, `r^2`,
-//!   the SH basis towards them and whether the shadow ray to them is blocked (cast lazily:
+//!   the direction towards them and whether the shadow ray to them is blocked (cast lazily:
 //!   only once the emitter's intensity towards the patch is positive, as the uncached
 //!   gather does).
 //! - Step 3 splat: for each emitter, the patch each texel of its cube map lands on, traced
@@ -76,8 +76,8 @@ pub(super) struct GatherEntries {
     pub(super) patch: Vec<u32>,
     pub(super) cos: Vec<f32>,
     pub(super) r2: Vec<f32>,
-    /// `nc` values per entry: `Y_k` towards the patch from the emitter.
-    pub(super) basis: Vec<f32>,
+    /// The direction from the emitter to each entry's patch (x, y and z apart).
+    pub(super) dir: [Vec<f32>; 3],
     /// [`RAY_UNKNOWN`], [`RAY_CLEAR`] or [`RAY_BLOCKED`].
     pub(super) ray: Vec<u8>,
 }
@@ -128,7 +128,7 @@ impl EmitterCache {
             .rays
             .iter()
             .map(|r| match r {
-                EmitterRays::Gather(g) => g.patch.len() * 13 + g.basis.len() * 4,
+                EmitterRays::Gather(g) => g.patch.len() * 25,
                 EmitterRays::Splat(s) => s.seen.len() * 8,
             })
             .sum();
@@ -177,7 +177,21 @@ impl Dispersive {
             .moved
             .iter()
             .any(|&o| p.object_role[o] != Role::Interior);
-        let meets = |o: Vec3, d: Vec3, t: f32| boxes.iter().any(|b| segment_meets(b, o, d, t));
+        // A bounding-sphere test first (a few multiply-adds), the slab test on what passes.
+        let spheres: Vec<(Vec3, f32)> = boxes
+            .iter()
+            .map(|b| {
+                let (c, r) = b.bounding_sphere();
+                (c, r * r)
+            })
+            .collect();
+        let meets = |o: Vec3, d: Vec3, t: f32| {
+            spheres.iter().zip(&boxes).any(|(&(c, r2), b)| {
+                let w = c - o;
+                let k = (w.dot(d) / d.length_squared().max(1e-30)).clamp(0.0, t);
+                (w - d * k).length_squared() <= r2 && segment_meets(b, o, d, t)
+            })
+        };
         let dirs = &self.camera.cube.directions;
         let emitter_dirs = &self.emitter_camera.cube.directions;
         for ob in &mut self.objects {

@@ -195,9 +195,7 @@ impl Dispersive {
             .map(|(centre_local, _)| {
                 let centre = m.transform_point3(*centre_local);
                 match method {
-                    ToBoundary::Gather => {
-                        EmitterRays::Gather(self.gather_entries(world, centre, bands))
-                    }
+                    ToBoundary::Gather => EmitterRays::Gather(self.gather_entries(world, centre)),
                     _ => {
                         let n = self.emitter_camera.texels();
                         EmitterRays::Splat(SplatTexels {
@@ -217,10 +215,9 @@ impl Dispersive {
     }
 
     /// The boundary patches that face a point emitter at `centre`, with `cos`, `r^2` and the
-    /// SH basis towards them; no shadow ray cast yet.
-    fn gather_entries(&self, world: &World, centre: Vec3, bands: usize) -> GatherEntries {
+    /// direction towards them; no shadow ray cast yet.
+    fn gather_entries(&self, world: &World, centre: Vec3) -> GatherEntries {
         let p = &world.patches;
-        let nc = num_coeffs(bands);
         let facing: Vec<(u32, f32, f32, Vec3)> = self
             .boundary_patches
             .par_iter()
@@ -232,17 +229,12 @@ impl Dispersive {
                 (cos > 0.0).then_some((j, cos, r2, -towards_object))
             })
             .collect();
-        let mut basis = vec![0f32; facing.len() * nc];
-        basis
-            .par_chunks_mut(nc)
-            .zip(&facing)
-            .for_each(|(b, f)| eval_basis(bands, f.3, b));
         GatherEntries {
             centre,
             patch: facing.iter().map(|f| f.0).collect(),
             cos: facing.iter().map(|f| f.1).collect(),
             r2: facing.iter().map(|f| f.2).collect(),
-            basis,
+            dir: [0, 1, 2].map(|a| facing.iter().map(|f| f.3[a]).collect()),
             ray: vec![RAY_UNKNOWN; facing.len()],
         }
     }
@@ -303,21 +295,29 @@ impl Dispersive {
         soften: f32,
     ) -> Vec<(u32, Vec3)> {
         let p = &world.patches;
-        let nc = intensity.len();
         // Unoccluded irradiance with the softened and the plain 1 / r^2; the softened one is
         // rescaled to the plain one's total flux, so softening moves light but neither adds
         // nor loses any. Patches behind the emitter's lobe get no ray.
-        let lit: Vec<(usize, Vec3)> = (0..g.patch.len())
+        // `I(w_j)`, block by block (`ShRgb::eval_many`: the floats `ShRgb::eval` gives, one
+        // basis function at a time over the block, which vectorises; a direction takes 12
+        // bytes where its basis would take 64).
+        const BLOCK: usize = 256;
+        let len = g.patch.len();
+        let (dir, ray, cos) = (&g.dir, &g.ray, &g.cos);
+        let lit: Vec<(usize, Vec3)> = (0..len.div_ceil(BLOCK))
             .into_par_iter()
-            .filter_map(|n| {
-                if g.ray[n] == RAY_BLOCKED {
-                    return None;
-                }
-                let e = intensity
-                    .dot(&g.basis[n * nc..(n + 1) * nc])
-                    .max(Vec3::ZERO)
-                    * g.cos[n];
-                (e.max_element() > 0.0).then_some((n, e))
+            .flat_map_iter(|b| {
+                let (lo, hi) = (b * BLOCK, ((b + 1) * BLOCK).min(len));
+                let mut value = [Vec3::ZERO; BLOCK];
+                let [x, y, z] = [0, 1, 2].map(|a| &dir[a][lo..hi]);
+                intensity.eval_many(x, y, z, &mut value[..hi - lo]);
+                (lo..hi).filter_map(move |n| {
+                    if ray[n] == RAY_BLOCKED {
+                        return None;
+                    }
+                    let e = value[n - lo].max(Vec3::ZERO) * cos[n];
+                    (e.max_element() > 0.0).then_some((n, e))
+                })
             })
             .collect();
         let unknown: Vec<usize> = lit
