@@ -2,32 +2,14 @@
 //! light in COLOR_0; bad input exits non-zero naming the problem and leaves no file; the
 //! viewer starts, prints its URL and answers on it.
 
+mod common;
+
 use std::io::{BufRead, BufReader, Read, Write};
-use std::path::PathBuf;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::mpsc;
 use std::time::Duration;
 
-fn shrad(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_shrad"))
-        .args(args)
-        .output()
-        .expect("run shrad")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("shrad-cli-bv-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn files_in(dir: &std::path::Path) -> Vec<PathBuf> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect()
-}
+use common::{files_in, shrad, temp_dir};
 
 #[test]
 fn bake_cornell_reads_back_with_colour_per_vertex() {

@@ -1,26 +1,12 @@
 //! The command line as a user meets it: bad input gives a clear error naming the file, a
 //! non-zero exit, no panic and no output file; good input writes what it says.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn shrad(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_shrad"))
-        .args(args)
-        .output()
-        .expect("run shrad")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("shrad-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use common::{repo, shrad, temp_dir};
 
 /// Rendering `scene` fails cleanly: exit code 1, the message names `needle`, no panic, and
 /// the output picture does not exist.

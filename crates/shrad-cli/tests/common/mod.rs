@@ -1,0 +1,35 @@
+//! Helpers shared by the command-line tests (`cli.rs`, `bake_view.rs`): run the binary, make
+//! a fresh folder, list one. Each test binary uses a part of them.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// Run `shrad` with `args` and wait for it.
+pub fn shrad(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_shrad"))
+        .args(args)
+        .output()
+        .expect("run shrad")
+}
+
+/// An empty folder for test `name`, unique to this test process.
+pub fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("shrad-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The repository's root.
+pub fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The entries of `dir`.
+pub fn files_in(dir: &Path) -> Vec<PathBuf> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect()
+}
