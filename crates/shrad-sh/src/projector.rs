@@ -18,6 +18,9 @@ pub struct ShProjector {
     texels: usize,
     res: usize,
     weights: Vec<f32>,
+    /// The same weights coefficient-major (`by_coeff[k·texels + t]`), for
+    /// [`ShProjector::texel_values`].
+    by_coeff: Vec<f32>,
 }
 
 impl ShProjector {
@@ -40,11 +43,19 @@ impl ShProjector {
                 w[k] = y[k] * sa;
             }
         }
+        let texels = cube.len();
+        let mut by_coeff = vec![0.0f32; texels * n];
+        for (t, w) in weights.chunks_exact(n).enumerate() {
+            for k in 0..n {
+                by_coeff[k * texels + t] = w[k];
+            }
+        }
         ShProjector {
             bands,
-            texels: cube.len(),
+            texels,
             res: cube.res(),
             weights,
+            by_coeff,
         }
     }
 
@@ -89,6 +100,34 @@ impl ShProjector {
     pub fn texel_value(&self, sh: &ShRgb, t: usize) -> Vec3 {
         let n = self.num_coeffs();
         sh.dot(&self.weights[t * n..(t + 1) * n])
+    }
+
+    /// [`ShProjector::texel_value`] of every texel, `out[t]` (the same floats:
+    /// the terms are summed in the same order), a run of texels at a time,
+    /// which vectorises.
+    ///
+    /// # Panics
+    /// If `out.len() != texels()`.
+    pub fn texel_values(&self, sh: &ShRgb, out: &mut [Vec3]) {
+        assert_eq!(out.len(), self.texels, "texel_values: length mismatch");
+        const RUN: usize = 256;
+        let n = self.num_coeffs().min(sh.len());
+        for (b, out) in out.chunks_mut(RUN).enumerate() {
+            let lo = b * RUN;
+            let m = out.len();
+            let (mut r, mut g, mut bl) = ([0f32; RUN], [0f32; RUN], [0f32; RUN]);
+            for (k, c) in sh.coeffs()[..n].iter().enumerate() {
+                let col = &self.by_coeff[k * self.texels + lo..k * self.texels + lo + m];
+                for (i, &w) in col.iter().enumerate() {
+                    r[i] += c.x * w;
+                    g[i] += c.y * w;
+                    bl[i] += c.z * w;
+                }
+            }
+            for (i, o) in out.iter_mut().enumerate() {
+                *o = Vec3::new(r[i], g[i], bl[i]);
+            }
+        }
     }
 
     /// Projects per-texel radiance (`radiance.len() == texels()`, cube-map
@@ -227,6 +266,22 @@ mod tests {
             }
         }
         worst
+    }
+
+    #[test]
+    fn texel_values_equal_texel_value_exactly() {
+        let cube = CubeMap::new(9);
+        let proj = ShProjector::new(4, &cube);
+        let sh = ShRgb::from_coeffs(
+            (0..16)
+                .map(|k| Vec3::new(k as f32 * 0.37 - 2.0, 1.0 / (k as f32 + 1.5), 0.1))
+                .collect(),
+        );
+        let mut out = vec![Vec3::NAN; proj.texels()];
+        proj.texel_values(&sh, &mut out);
+        for (t, o) in out.iter().enumerate() {
+            assert_eq!(*o, proj.texel_value(&sh, t), "texel {t}");
+        }
     }
 
     #[test]

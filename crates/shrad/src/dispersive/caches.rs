@@ -44,9 +44,15 @@ pub(super) const RAY_CLEAR: u8 = 1;
 pub(super) const RAY_BLOCKED: u8 = 2;
 
 /// Above this a Step 3 cache is not kept (it is built, used and dropped each update, which
-/// is what the uncached code costs): 24 MiB an object. Measured: the Cornell box at 20k
-/// patches needs about 3.3 MB an object (gather), the 77k room about 1.2 MB (splat).
+/// is what the uncached code costs): 24 MiB an object. Measured with both caches
+/// (`examples/cache_memory.rs`): the Cornell box at 20k patches holds 2.8 MB an object
+/// (gather: about 110k facing (emitter, patch) entries of 25 bytes, plus 0.4 MB of probe
+/// hits), the 77k room 1.7 MB an object (splat: 6 x 24576 texels of 8 bytes).
 pub(super) const MAX_STEP3_BYTES: usize = 24 << 20;
+
+/// Above this an object's probe hits are not kept (8 bytes a texel: 0.4 MB at the default
+/// 32^2 faces, 6.3 MB at the paper's 128^2, 25 MB at 256^2, which is not kept).
+pub(super) const MAX_PROBE_BYTES: usize = 8 << 20;
 
 /// What a probe's capture at its current place saw.
 pub(super) struct ProbeHits {

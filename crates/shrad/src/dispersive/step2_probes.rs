@@ -19,7 +19,7 @@ use shrad_scene::Role;
 use shrad_sh::{cosine_lobe_sh, eval_basis, num_coeffs, ShRgb, MAX_COEFFS};
 use shrad_vis::Hit;
 
-use super::caches::{ProbeCache, ProbeHits, SEES_BACK, SEES_NOTHING};
+use super::caches::{ProbeCache, ProbeHits, MAX_PROBE_BYTES, SEES_BACK, SEES_NOTHING};
 use super::{ms, Batch, Dispersive, DispersiveStats, FrameStats, ProbeRepair};
 use crate::probes::Seen;
 use crate::World;
@@ -250,7 +250,7 @@ impl Dispersive {
             })
             .collect();
         // Keep what a later update can reuse: not a probe MoveInward failed to repair.
-        if self.caching {
+        if self.caching && 8 * 8 * self.camera.texels() <= MAX_PROBE_BYTES {
             for h in &mut slots {
                 if h.as_ref().is_some_and(|h| !valid(h)) {
                     *h = None;

@@ -249,10 +249,14 @@ impl Dispersive {
         intensity: &ShRgb,
     ) -> Vec<(u32, Vec3)> {
         let (cube, projector) = (&self.emitter_camera.cube, &self.emitter_camera.projector);
-        let flux: Vec<(usize, Vec3)> = (0..cube.directions.len())
-            .into_par_iter()
-            .filter_map(|t| {
-                let f = projector.texel_value(intensity, t).max(Vec3::ZERO);
+        // Flux through every texel at once (`texel_values`: the floats of `texel_value`).
+        let mut values = vec![Vec3::ZERO; cube.directions.len()];
+        projector.texel_values(intensity, &mut values);
+        let flux: Vec<(usize, Vec3)> = values
+            .into_iter()
+            .enumerate()
+            .filter_map(|(t, f)| {
+                let f = f.max(Vec3::ZERO);
                 (f.max_element() > 0.0).then_some((t, f))
             })
             .collect();
