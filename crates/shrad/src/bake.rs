@@ -47,7 +47,8 @@ pub struct BakeOptions {
     /// at `time`).
     pub frames: Option<usize>,
     /// Before each file, step until every object has been updated this many times
-    /// ([`Engine::converge`]); 0 writes the state as it is.
+    /// ([`Engine::converge`]); 0 writes the state as it is (no step, the reference's solve
+    /// included).
     pub passes: usize,
     /// Display scale of `COLOR_0`; `None`: from the first file, as a PNG's automatic
     /// exposure (the 99th percentile of non-light luminance at 0.9), kept for the others.
@@ -160,7 +161,11 @@ pub fn bake_with_progress(
             Some(_) => frame_path(path, i),
         };
         let written = engine.set_time(t).and_then(|()| {
-            engine.converge_with_progress(options.passes, step_bar);
+            // Not `converge(0)`: the reference solves once whatever the passes, so a
+            // state just solved would be solved again.
+            if options.passes > 0 {
+                engine.converge_with_progress(options.passes, step_bar);
+            }
             let e = *exposure.get_or_insert_with(|| auto_exposure(engine));
             stage_gltf(engine, &file, Some(e), &mut staged)
         });
@@ -668,7 +673,7 @@ mod tests {
         let path = d.join("out.glb");
         let options = BakeOptions {
             frames: Some(3),
-            passes: 0,
+            passes: 1,
             ..Default::default()
         };
         // Frame 1 cannot be written: a folder holds its staged name.
@@ -704,6 +709,7 @@ mod tests {
         let mut e = engine();
         let d = dir("gltf");
         let path = d.join("c.gltf");
+        let frames = e.frames();
         let baked = bake(
             &mut e,
             &path,
@@ -713,6 +719,11 @@ mod tests {
             },
         )
         .unwrap();
+        assert_eq!(
+            e.frames(),
+            frames,
+            "0 passes: the state as it is, not solved again"
+        );
         assert!(d.join("c.bin").is_file() && baked[0].exposure > 0.0);
         assert!(gltf::import(&path).is_ok());
         let err = write_gltf(&e, &d.join("c.png"), None)
