@@ -94,6 +94,11 @@ impl Aabb {
         p.cmpge(self.min).all() && p.cmple(self.max).all()
     }
 
+    /// Whether it and `other` share a point.
+    pub fn meets_box(&self, other: &Aabb) -> bool {
+        self.min.cmple(other.max).all() && other.min.cmple(self.max).all()
+    }
+
     /// Slab test: does the ray `o + t d`, `t >= 0`, meet it?
     pub fn meets_ray(&self, o: Vec3, d: Vec3) -> bool {
         let inv = d.recip();
@@ -102,6 +107,30 @@ impl Aabb {
         let near = t0.min(t1).max_element();
         let far = t0.max(t1).min_element();
         far >= near.max(0.0)
+    }
+
+    /// Slab test: does the segment from `a` to `b` meet it? (An axis along which the segment
+    /// does not move constrains nothing in the slab arithmetic, `0 * inf` being NaN, which
+    /// `min`/`max` skip; it is tested on its own.)
+    pub fn meets_segment(&self, a: Vec3, b: Vec3) -> bool {
+        self.meets_ray_within(a, b - a, 1.0)
+    }
+
+    /// Slab test: does `o + t d`, `0 <= t <= t_max`, meet it? `t_max` may be infinite.
+    pub fn meets_ray_within(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
+        // A coordinate that does not move must lie within its slab.
+        let still = d.cmpeq(Vec3::ZERO);
+        if (still & (o.cmplt(self.min) | o.cmpgt(self.max))).any() {
+            return false;
+        }
+        let inv = d.recip();
+        let t0 = (self.min - o) * inv;
+        let t1 = (self.max - o) * inv;
+        let lo = Vec3::select(still, Vec3::NEG_INFINITY, t0.min(t1));
+        let hi = Vec3::select(still, Vec3::INFINITY, t0.max(t1));
+        let near = lo.max_element().max(0.0);
+        let far = hi.min_element().min(t_max);
+        far >= near
     }
 }
 
@@ -146,5 +175,17 @@ mod tests {
         assert!(b.meets_ray(Vec3::new(1.0, -0.5, -3.0), Vec3::Z));
         assert!(!b.meets_ray(Vec3::new(1.0, -0.5, -3.0), -Vec3::Z));
         assert!(!b.meets_ray(Vec3::new(5.0, -0.5, -3.0), Vec3::Z));
+        // Segments: one that stops short, one that reaches in, one along a face, one inside.
+        let o = Vec3::new(1.0, -0.5, -3.0);
+        assert!(!b.meets_segment(o, Vec3::new(1.0, -0.5, -0.5)));
+        assert!(b.meets_segment(o, Vec3::new(1.0, -0.5, 0.5)));
+        assert!(b.meets_segment(Vec3::new(0.0, 0.0, -1.0), Vec3::new(0.0, 0.0, 1.0)));
+        assert!(!b.meets_segment(Vec3::new(-0.1, 0.0, -1.0), Vec3::new(-0.1, 0.0, 1.0)));
+        assert!(b.meets_segment(b.centre(), b.centre() + Vec3::X * 0.1));
+        assert!(b.meets_ray_within(o, Vec3::Z, f32::INFINITY));
+        assert!(b.meets_box(&Aabb::new(Vec3::splat(2.0), Vec3::splat(3.0))));
+        assert!(!b.meets_box(&Aabb::new(Vec3::splat(2.1), Vec3::splat(3.0))));
+        assert!(!b.meets_box(&Aabb::EMPTY));
+        assert!(!b.meets_ray_within(o, Vec3::Z, 2.5));
     }
 }

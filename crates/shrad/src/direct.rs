@@ -12,7 +12,9 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::sampling::{hammersley, hash, unit};
+use shrad_scene::Aabb;
+
+use crate::sampling::{hammersley, hash, hash2, unit};
 use crate::World;
 
 /// One emitting object, in world space at the current time.
@@ -24,6 +26,13 @@ struct Emitter {
     radiance: Vec3,
     double_sided: bool,
     object: usize,
+    /// Bounding sphere of its triangles.
+    sphere: (Vec3, f32),
+}
+
+/// The objects that emit (positive exitance), in order: those [`emitters`] returns.
+fn emitting_objects(world: &World) -> impl Iterator<Item = usize> + '_ {
+    emitters(world).into_iter().map(|e| e.object)
 }
 
 fn emitters(world: &World) -> Vec<Emitter> {
@@ -72,7 +81,10 @@ fn emitters(world: &World) -> Vec<Emitter> {
             .iter()
             .map(|[a, b, c]| (*b - *a).cross(*c - *a).normalize_or_zero())
             .collect();
+        let sphere = Aabb::from_points(triangles.iter().flatten().copied())
+            .map_or((Vec3::ZERO, 0.0), |b| b.bounding_sphere());
         out.push(Emitter {
+            sphere,
             triangles,
             normals,
             cdf,
@@ -136,105 +148,352 @@ pub fn polygon_irradiance(x: Vec3, n: Vec3, tri: &[Vec3; 3]) -> f32 {
 /// Direct irradiance on each patch of `receivers` (front side), with `samples` shadow rays
 /// per (receiver, emitting object) for the visible fraction.
 pub fn direct_irradiance(world: &World, receivers: &[u32], samples: u32) -> Vec<Vec3> {
-    let emitters = emitters(world);
-    let mut out = vec![Vec3::ZERO; receivers.len()];
-    if emitters.is_empty() {
-        return out;
+    DirectCache::new(world, receivers.to_vec(), samples).irradiance
+}
+
+/// Direct irradiance of a set of receivers with what it was made of, so that it can be
+/// updated exactly when only occluders move (the dispersive solver's Step 1, paper 2.3.2):
+/// per (receiver, emitter) the unoccluded irradiance and which shadow rays were blocked.
+/// The rays themselves (endpoints, weights) are not stored: their seed depends on the
+/// receiver and the emitter only, so they are regenerated, identically, when needed.
+///
+/// An update re-traces only the shadow rays whose segment meets a box an occluder swept; a
+/// ray that meets none sees the same geometry as before, so the result equals a full
+/// recomputation with the same samples. Valid while the emitters (their shapes, places and
+/// emission) and the receivers' places stay as they were at [`DirectCache::new`].
+#[derive(Clone, Debug, Default)]
+pub struct DirectCache {
+    samples: u32,
+    /// `u64` words of blocked bits per (receiver, emitter).
+    words: usize,
+    /// The emitting objects, in order.
+    objects: Vec<usize>,
+    receivers: Vec<u32>,
+    /// `[k * emitters + e]`: unoccluded irradiance of receiver `k` from emitter `e` (unit
+    /// radiance).
+    unoccluded: Vec<f32>,
+    /// `[(k * emitters + e) * words ..]`: bit `j` set when shadow ray `j` is blocked.
+    blocked: Vec<u64>,
+    /// `[k]`: the direct irradiance.
+    irradiance: Vec<Vec3>,
+}
+
+impl DirectCache {
+    /// Compute the direct irradiance of `receivers` with `samples` shadow rays per
+    /// (receiver, emitter).
+    pub fn new(world: &World, receivers: Vec<u32>, samples: u32) -> DirectCache {
+        let ems = emitters(world);
+        let samples = samples.max(1);
+        let words = (samples as usize).div_ceil(64);
+        let ne = ems.len();
+        let mut cache = DirectCache {
+            samples,
+            words,
+            objects: ems.iter().map(|e| e.object).collect(),
+            unoccluded: vec![0.0; receivers.len() * ne],
+            blocked: vec![0; receivers.len() * ne * words],
+            irradiance: vec![Vec3::ZERO; receivers.len()],
+            receivers,
+        };
+        if ne > 0 {
+            let all: Vec<usize> = (0..cache.receivers.len()).collect();
+            cache.recompute(world, &ems, &all);
+        }
+        cache
     }
-    let samples = samples.max(1);
-    let p = &world.patches;
-    let eps = world.eps;
-    const CHUNK: usize = 2048;
-    for (chunk_index, (ids, out)) in receivers
-        .chunks(CHUNK)
-        .zip(out.chunks_mut(CHUNK))
-        .enumerate()
-    {
-        for em in &emitters {
-            // Unoccluded irradiance, exact.
-            let unoccluded: Vec<f32> = ids
-                .par_iter()
-                .map(|&i| {
-                    let (x, n) = (p.centre[i as usize], p.normal[i as usize]);
-                    em.triangles
+
+    /// The receivers, as given to [`DirectCache::new`].
+    pub fn receivers(&self) -> &[u32] {
+        &self.receivers
+    }
+
+    /// Direct irradiance of each receiver (aligned with [`DirectCache::receivers`]).
+    pub fn irradiance(&self) -> &[Vec3] {
+        &self.irradiance
+    }
+
+    /// Shadow rays per (receiver, emitter).
+    pub fn samples(&self) -> u32 {
+        self.samples
+    }
+
+    /// Whether the world's emitting objects are still those the cache was made with (their
+    /// places and emission are the caller's to watch).
+    pub fn same_emitters(&self, world: &World) -> bool {
+        emitting_objects(world).eq(self.objects.iter().copied())
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.receivers.len() * 4
+            + self.unoccluded.len() * 4
+            + self.blocked.len() * 8
+            + self.irradiance.len() * 12
+    }
+
+    /// After occluders moved from the boxes `old` to the boxes `new`: re-trace the shadow
+    /// rays that may have changed, and recompute whole the receivers `whole` accepts (those
+    /// that moved). A blocked ray can only be freed if its blocker moved, so if its segment
+    /// meets an old box; a free ray can only be blocked by a mover's new place, so if its
+    /// segment meets a new box. Returns the indices of the receivers whose irradiance was
+    /// recomputed, ascending; [`DirectCache::irradiance`] holds the new values.
+    pub fn update(
+        &mut self,
+        world: &World,
+        old: &[Aabb],
+        new: &[Aabb],
+        whole: impl Fn(u32) -> bool + Sync,
+    ) -> Vec<usize> {
+        let ems = emitters(world);
+        if ems.is_empty() || self.receivers.is_empty() {
+            return Vec::new();
+        }
+        debug_assert!(self.same_emitters(world));
+        let ne = ems.len();
+        let (samples, words) = (self.samples, self.words);
+        let p = &world.patches;
+        let eps = world.eps;
+        // A little slack on every side: a hit on a mover's surface is within float noise of
+        // its box, and a ray that grazes a padded box is only re-traced for nothing.
+        let pad = |boxes: &[Aabb]| -> Vec<Aabb> {
+            boxes
+                .iter()
+                .filter(|b| !b.is_empty())
+                .map(|b| b.padded(Vec3::splat(4.0 * eps + 1e-5 * b.diagonal())))
+                .collect()
+        };
+        let (old, new) = (pad(old), pad(new));
+        let spheres: Vec<(Vec3, f32)> = old.iter().chain(&new).map(Aabb::bounding_sphere).collect();
+        let whole_ks: Vec<usize> = (0..self.receivers.len())
+            .into_par_iter()
+            .filter(|&k| whole(self.receivers[k]))
+            .collect();
+        // Rays to re-trace: (receiver, emitter, sample, from, to).
+        let rays: Vec<(u32, u32, u32, Vec3, Vec3)> = (0..self.receivers.len())
+            .into_par_iter()
+            .filter(|&k| !whole(self.receivers[k]))
+            .flat_map_iter(|k| {
+                let i = self.receivers[k] as usize;
+                let (x, n) = (p.centre[i], p.normal[i]);
+                let mut out = Vec::new();
+                for (e, em) in ems.iter().enumerate() {
+                    if self.unoccluded[k * ne + e] <= 0.0 {
+                        continue;
+                    }
+                    // Every shadow ray lies in the cone from x to the emitter's sphere.
+                    let (lc, lr) = em.sphere;
+                    if !spheres
                         .iter()
-                        .zip(&em.normals)
-                        .map(|(t, ne)| {
-                            let front = ne.dot(x - t[0]) > 0.0;
-                            if front || em.double_sided {
-                                polygon_irradiance(x, n, t)
-                            } else {
-                                0.0
-                            }
-                        })
-                        .sum()
-                })
-                .collect();
-            // Shadow rays to stratified points on the emitter.
-            let s = samples as usize;
-            let mut from = vec![Vec3::ZERO; ids.len() * s];
-            let mut to = vec![Vec3::ZERO; ids.len() * s];
-            let mut weight = vec![0f32; ids.len() * s];
-            from.par_chunks_mut(s)
-                .zip(to.par_chunks_mut(s))
-                .zip(weight.par_chunks_mut(s))
-                .enumerate()
-                .for_each(|(k, ((f, t), w))| {
-                    let i = ids[k] as usize;
-                    if unoccluded[k] <= 0.0 {
-                        return;
+                        .any(|&(bc, br)| cone_meets_sphere(x, lc, lr, bc, br))
+                    {
+                        continue;
                     }
-                    let (x, n) = (p.centre[i], p.normal[i]);
-                    let seed =
-                        hash(i as u32 ^ hash(em.object as u32 + 0x9e37 * chunk_index as u32));
-                    let shift = (unit(seed), unit(hash(seed)));
-                    for j in 0..s {
-                        let (u, v) = hammersley(j as u32, samples, shift);
-                        let ti = em
-                            .cdf
-                            .partition_point(|&c| c < u)
-                            .min(em.triangles.len() - 1);
-                        let lo = if ti == 0 { 0.0 } else { em.cdf[ti - 1] };
-                        let u2 = ((u - lo) / (em.cdf[ti] - lo).max(1e-12)).clamp(0.0, 1.0);
-                        let [a, b, c] = em.triangles[ti];
-                        let su = u2.sqrt();
-                        let y = a * (1.0 - su) + b * (su * (1.0 - v)) + c * (su * v);
-                        let d = y - x;
-                        let r2 = d.length_squared().max(1e-30);
-                        let dir = d / r2.sqrt();
-                        let cos_e = -em.normals[ti].dot(dir);
-                        let cos_e = if em.double_sided {
-                            cos_e.abs()
-                        } else {
-                            cos_e.max(0.0)
-                        };
-                        f[j] = x + n * eps;
-                        t[j] = y;
-                        w[j] = n.dot(dir).max(0.0) * cos_e / r2;
-                    }
-                });
-            let mut blocked = vec![false; from.len()];
-            world.vis.occluded(&from, &to, eps, &[], &mut blocked);
-            out.par_iter_mut()
-                .zip(unoccluded.par_iter())
-                .enumerate()
-                .for_each(|(k, (e, &u))| {
-                    if u <= 0.0 {
-                        return;
-                    }
-                    let (mut total, mut seen) = (0.0, 0.0);
-                    for j in k * s..(k + 1) * s {
-                        total += weight[j];
-                        if !blocked[j] {
-                            seen += weight[j];
+                    let shift = sample_shift(i, em);
+                    let bits = &self.blocked[(k * ne + e) * words..];
+                    for j in 0..samples {
+                        let blocked = bits[j as usize / 64] & (1 << (j % 64)) != 0;
+                        let boxes = if blocked { &old } else { &new };
+                        if boxes.is_empty() {
+                            continue;
+                        }
+                        let (from, to, _) = shadow_sample(em, x, n, shift, j, samples, eps);
+                        if boxes.iter().any(|b| b.meets_segment(from, to)) {
+                            out.push((k as u32, e as u32, j, from, to));
                         }
                     }
-                    let fraction = if total > 0.0 { seen / total } else { 1.0 };
-                    *e += em.radiance * (u * fraction);
-                });
+                }
+                out.into_iter()
+            })
+            .collect();
+        let from: Vec<Vec3> = rays.iter().map(|r| r.3).collect();
+        let to: Vec<Vec3> = rays.iter().map(|r| r.4).collect();
+        let mut blocked = vec![false; rays.len()];
+        world.vis.occluded(&from, &to, eps, &[], &mut blocked);
+        let mut touched: Vec<usize> = whole_ks.clone();
+        for (&(k, e, j, ..), &b) in rays.iter().zip(&blocked) {
+            let w = &mut self.blocked[(k as usize * ne + e as usize) * words + j as usize / 64];
+            let bit = 1u64 << (j % 64);
+            if b != (*w & bit != 0) {
+                *w ^= bit;
+                touched.push(k as usize);
+            }
+        }
+        touched.sort_unstable();
+        touched.dedup();
+        // The receivers that moved: everything again. The others: their visible fractions.
+        self.recompute(world, &ems, &whole_ks);
+        let values: Vec<Vec3> = touched
+            .par_iter()
+            .map(|&k| self.value(world, &ems, k))
+            .collect();
+        for (&k, v) in touched.iter().zip(values) {
+            self.irradiance[k] = v;
+        }
+        touched
+    }
+
+    /// Trace receivers `ks` from scratch (unoccluded irradiance, shadow rays, irradiance).
+    fn recompute(&mut self, world: &World, ems: &[Emitter], ks: &[usize]) {
+        let p = &world.patches;
+        let eps = world.eps;
+        let ne = ems.len();
+        let (samples, words) = (self.samples, self.words);
+        let s = samples as usize;
+        const CHUNK: usize = 2048;
+        for ks in ks.chunks(CHUNK) {
+            for (e, em) in ems.iter().enumerate() {
+                // Unoccluded irradiance, exact.
+                let unoccluded: Vec<f32> = ks
+                    .par_iter()
+                    .map(|&k| {
+                        let i = self.receivers[k] as usize;
+                        unoccluded_irradiance(em, p.centre[i], p.normal[i])
+                    })
+                    .collect();
+                // Shadow rays to stratified points on the emitter.
+                let mut from = vec![Vec3::ZERO; ks.len() * s];
+                let mut to = vec![Vec3::ZERO; ks.len() * s];
+                from.par_chunks_mut(s)
+                    .zip(to.par_chunks_mut(s))
+                    .enumerate()
+                    .for_each(|(c, (f, t))| {
+                        if unoccluded[c] <= 0.0 {
+                            return;
+                        }
+                        let i = self.receivers[ks[c]] as usize;
+                        let (x, n) = (p.centre[i], p.normal[i]);
+                        let shift = sample_shift(i, em);
+                        for j in 0..s {
+                            (f[j], t[j], _) =
+                                shadow_sample(em, x, n, shift, j as u32, samples, eps);
+                        }
+                    });
+                let mut blocked = vec![false; from.len()];
+                world.vis.occluded(&from, &to, eps, &[], &mut blocked);
+                for (c, &k) in ks.iter().enumerate() {
+                    self.unoccluded[k * ne + e] = unoccluded[c];
+                    let bits = &mut self.blocked[(k * ne + e) * words..(k * ne + e + 1) * words];
+                    bits.fill(0);
+                    for (j, &b) in blocked[c * s..(c + 1) * s].iter().enumerate() {
+                        if b {
+                            bits[j / 64] |= 1 << (j % 64);
+                        }
+                    }
+                }
+            }
+            let values: Vec<Vec3> = ks.par_iter().map(|&k| self.value(world, ems, k)).collect();
+            for (&k, v) in ks.iter().zip(values) {
+                self.irradiance[k] = v;
+            }
         }
     }
-    out
+
+    /// Irradiance of receiver `k` from what is cached: per emitter, the unoccluded
+    /// irradiance times the weighted fraction of shadow rays not blocked.
+    fn value(&self, world: &World, ems: &[Emitter], k: usize) -> Vec3 {
+        let p = &world.patches;
+        let i = self.receivers[k] as usize;
+        let (x, n) = (p.centre[i], p.normal[i]);
+        let ne = ems.len();
+        let mut out = Vec3::ZERO;
+        for (e, em) in ems.iter().enumerate() {
+            let u = self.unoccluded[k * ne + e];
+            if u <= 0.0 {
+                continue;
+            }
+            let bits = &self.blocked[(k * ne + e) * self.words..];
+            let shift = sample_shift(i, em);
+            let (mut total, mut seen) = (0.0, 0.0);
+            for j in 0..self.samples {
+                let (_, _, w) = shadow_sample(em, x, n, shift, j, self.samples, world.eps);
+                total += w;
+                if bits[j as usize / 64] & (1 << (j % 64)) == 0 {
+                    seen += w;
+                }
+            }
+            let fraction = if total > 0.0 { seen / total } else { 1.0 };
+            out += em.radiance * (u * fraction);
+        }
+        out
+    }
+}
+
+/// Unoccluded irradiance at `x` (normal `n`) from emitter `em` of unit radiance, exact.
+fn unoccluded_irradiance(em: &Emitter, x: Vec3, n: Vec3) -> f32 {
+    em.triangles
+        .iter()
+        .zip(&em.normals)
+        .map(|(t, ne)| {
+            let front = ne.dot(x - t[0]) > 0.0;
+            if front || em.double_sided {
+                polygon_irradiance(x, n, t)
+            } else {
+                0.0
+            }
+        })
+        .sum()
+}
+
+/// The toroidal shift of receiver `i`'s samples on emitter `em`: a function of the two
+/// alone, so a patch gets the same rays whichever list it is computed in.
+fn sample_shift(i: usize, em: &Emitter) -> (f32, f32) {
+    let seed = hash2(i as u32, em.object as u32 ^ 0x9e37_79b9);
+    (unit(seed), unit(hash(seed)))
+}
+
+/// Shadow ray `j` of `samples` from `x` (normal `n`) to a stratified point of `em`:
+/// `(from, to, weight)`, the weight its contribution `cos cos / r^2`.
+fn shadow_sample(
+    em: &Emitter,
+    x: Vec3,
+    n: Vec3,
+    shift: (f32, f32),
+    j: u32,
+    samples: u32,
+    eps: f32,
+) -> (Vec3, Vec3, f32) {
+    let (u, v) = hammersley(j, samples, shift);
+    let ti = em
+        .cdf
+        .partition_point(|&c| c < u)
+        .min(em.triangles.len() - 1);
+    let lo = if ti == 0 { 0.0 } else { em.cdf[ti - 1] };
+    let u2 = ((u - lo) / (em.cdf[ti] - lo).max(1e-12)).clamp(0.0, 1.0);
+    let [a, b, c] = em.triangles[ti];
+    let su = u2.sqrt();
+    let y = a * (1.0 - su) + b * (su * (1.0 - v)) + c * (su * v);
+    let d = y - x;
+    let r2 = d.length_squared().max(1e-30);
+    let dir = d / r2.sqrt();
+    let cos_e = -em.normals[ti].dot(dir);
+    let cos_e = if em.double_sided {
+        cos_e.abs()
+    } else {
+        cos_e.max(0.0)
+    };
+    (x + n * eps, y, n.dot(dir).max(0.0) * cos_e / r2)
+}
+
+/// Does the cone from `x` to the sphere `(lc, lr)` meet the sphere `(bc, br)`? The cone is
+/// every point `x + s (y - x)`, `s` in [0, 1], `y` in the first sphere: the points within
+/// `s lr` of the axis point `a(s) = x + s (lc - x)`. It meets the second sphere when
+/// `|bc - a(s)| - s lr <= br` for some `s`; the left side is convex in `s`, so its minimum
+/// is where its derivative vanishes, clamped to [0, 1]. Exact (no widening needed).
+pub(crate) fn cone_meets_sphere(x: Vec3, lc: Vec3, lr: f32, bc: Vec3, br: f32) -> bool {
+    let axis = lc - x;
+    let len = axis.length();
+    if len <= 1e-20 {
+        return (bc - x).length() <= br + lr;
+    }
+    let s0 = (bc - x).dot(axis) / (len * len);
+    let perp = (bc - (x + axis * s0)).length();
+    let s = if lr < len {
+        s0 + lr * perp / ((len * len - lr * lr).sqrt() * len)
+    } else {
+        1.0
+    }
+    .clamp(0.0, 1.0);
+    (bc - (x + axis * s)).length() - s * lr <= br * (1.0 + 1e-5) + 1e-6
 }
 
 #[cfg(test)]

@@ -49,8 +49,22 @@ pub fn form_factors_with(
 /// and stratified cosine-weighted directions, paired by a random permutation (a fixed
 /// pairing correlates them and biases F). Deterministic: the same rays every call.
 pub fn patch_rays(world: &World, i: usize, origins: &mut [Vec3], dirs: &mut [Vec3]) {
-    let p = &world.patches;
     let rays = origins.len();
+    let all: Vec<usize> = (0..rays).collect();
+    some_patch_rays(world, i, rays, &all, origins, dirs);
+}
+
+/// Rays `which` of patch `i`'s `rays` [`patch_rays`] (the same rays, bit for bit), into
+/// `origins[k]`, `dirs[k]` for `which[k]`: re-tracing a few of a patch's rays costs those.
+pub fn some_patch_rays(
+    world: &World,
+    i: usize,
+    rays: usize,
+    which: &[usize],
+    origins: &mut [Vec3],
+    dirs: &mut [Vec3],
+) {
+    let p = &world.patches;
     let nrm = p.normal[i];
     let seed = hash(i as u32);
     let s1 = (unit(seed), unit(hash(seed ^ 1)));
@@ -61,11 +75,22 @@ pub fn patch_rays(world: &World, i: usize, origins: &mut [Vec3], dirs: &mut [Vec
         state = hash(state);
         perm.swap(k, (state as usize) % (k + 1));
     }
-    for j in 0..rays {
+    let corners = p.world_corners(i);
+    for (k, &j) in which.iter().enumerate() {
         let (u, v) = hammersley(perm[j], rays as u32, s1);
-        origins[j] = p.sample_point(i, u, v) + nrm * world.eps;
+        origins[k] = point_in(p.is_quad[i], &corners, u, v) + nrm * world.eps;
         let (a, b) = hammersley(j as u32, rays as u32, s2);
-        dirs[j] = square_to_cosine_hemisphere(a, b, nrm);
+        dirs[k] = square_to_cosine_hemisphere(a, b, nrm);
+    }
+}
+
+/// [`crate::patches::Patches::sample_point`] of a patch whose world corners are known.
+fn point_in(quad: bool, c: &[Vec3; 4], u: f32, v: f32) -> Vec3 {
+    if quad {
+        c[0] + u * (c[1] - c[0]) + v * (c[3] - c[0])
+    } else {
+        let su = u.sqrt();
+        c[0] * (1.0 - su) + c[1] * (su * (1.0 - v)) + c[2] * (su * v)
     }
 }
 
@@ -92,26 +117,33 @@ pub fn form_factor_rows(
             .for_each(|((o, d), &i)| patch_rays(world, i as usize, o, d));
         let mut hits = vec![shrad_vis::Hit::MISS; origins.len()];
         world.vis.closest(&origins, &dirs, 0.0, exclude, &mut hits);
-        let w = 1.0 / rays as f32;
         out.par_extend(hits.par_chunks(rays).map(|h| {
-            let mut seen: Vec<u32> = h
-                .iter()
-                .filter_map(|h| world.seen_patch(h))
-                .filter(|&j| keep(j))
-                .map(|j| j as u32)
-                .collect();
-            seen.sort_unstable();
-            let mut row: Vec<(u32, f32)> = Vec::new();
-            for j in seen {
-                match row.last_mut() {
-                    Some((c, f)) if *c == j => *f += w,
-                    _ => row.push((j, w)),
-                }
-            }
-            row
+            row_from_hits(
+                h.iter()
+                    .filter_map(|h| world.seen_patch(h))
+                    .filter(|&j| keep(j))
+                    .map(|j| j as u32),
+                rays,
+            )
         }));
         progress.advance(ids.len() as u64);
     }
     progress.end();
     out
+}
+
+/// The form-factor row of a patch whose `rays` rays saw the patches `seen` (those kept, in
+/// any order): `(patch, F)`, columns ascending, each ray worth `1 / rays`.
+pub fn row_from_hits(seen: impl Iterator<Item = u32>, rays: usize) -> Vec<(u32, f32)> {
+    let w = 1.0 / rays as f32;
+    let mut seen: Vec<u32> = seen.collect();
+    seen.sort_unstable();
+    let mut row: Vec<(u32, f32)> = Vec::new();
+    for j in seen {
+        match row.last_mut() {
+            Some((c, f)) if *c == j => *f += w,
+            _ => row.push((j, w)),
+        }
+    }
+    row
 }

@@ -28,11 +28,11 @@ use glam::Vec3;
 use shrad_scene::Role;
 
 use crate::energy::IncidentMeter;
-use crate::form_factors::form_factor_rows;
 use crate::frame::SolverStats;
 use crate::probes::ProbeCamera;
-use crate::sparse::SparseRows;
-use crate::{NoProgress, World};
+use crate::World;
+#[cfg(test)]
+use crate::NoProgress;
 
 mod caches;
 mod frame;
@@ -44,13 +44,16 @@ mod step1_direct;
 mod step2_probes;
 mod step3_to_boundary;
 mod step4_assemble;
+mod wall_rows;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_incremental;
 
 pub use frame::{Batch, Changes, DispersiveStats, Divergence, EnergyBalance, FrameStats};
 pub use options::{DispersiveOptions, ProbeRepair, Schedule, ToBoundary};
 pub use step3_to_boundary::splat_to_boundary;
-pub use step4_assemble::WALL_ROWS_PER_FRAME;
+pub use step4_assemble::{WALL_RETRACE_SHARE, WALL_ROWS_PER_FRAME};
 
 use object_state::ObjectProbes;
 use scheduler::Scheduler;
@@ -58,6 +61,7 @@ use step1_direct::world_box;
 use step2_probes::outer_sides;
 use step3_to_boundary::Neighbours;
 use step4_assemble::LIGHT_METER_RAYS;
+use wall_rows::WallRows;
 
 /// The dispersive solver's state.
 pub struct Dispersive {
@@ -83,17 +87,17 @@ pub struct Dispersive {
     wall: Vec<Vec3>,
     /// Form-factor rows among boundary patches (aligned with `boundary_patches`), if the
     /// wall exchange is on.
-    wall_rows: Option<SparseRows<(u32, f32)>>,
+    wall_rows: Option<WallRows>,
     boundary_patches: Vec<u32>,
     /// Boundary patches next to each patch (itself included), for `splat_smoothing`.
     neighbours: Neighbours,
     /// World bounding box of every object at the last frame (to know where movers were).
     object_boxes: Vec<shrad_scene::Aabb>,
-    /// Wall-exchange rows waiting to be re-traced.
-    wall_dirty: Vec<bool>,
     /// Where the next frame's window of wall-exchange rows starts.
     wall_cursor: usize,
     direct_valid: bool,
+    /// Step 1's direct light with its shadow rays, to re-trace only those a mover may block.
+    direct_cache: crate::direct::DirectCache,
     frame: u64,
     /// Irradiance of the lights that reflect nothing (kept at their emission), for the
     /// energy meter: what they absorb.
@@ -126,19 +130,10 @@ impl Dispersive {
         let boundary_patches: Vec<u32> = (0..p.len() as u32)
             .filter(|&i| receives_as_boundary(world, i as usize))
             .collect();
-        let wall_rows = options.wall_exchange.then(|| {
-            // Every object occludes; only boundary-to-boundary entries are kept (light via
-            // interior objects is Step 3's). Rows whose rays pass where an object moves are
-            // re-traced then (see `refresh_wall_rows`).
-            SparseRows::from_rows(form_factor_rows(
-                world,
-                &boundary_patches,
-                options.wall_rays,
-                &[],
-                |j| receives_as_boundary(world, j),
-                &NoProgress,
-            ))
-        });
+        // Rays that pass where an object moves are re-traced then (`refresh_wall_rows`).
+        let wall_rows = options
+            .wall_exchange
+            .then(|| WallRows::trace(world, &boundary_patches, options.wall_rays));
         let object_boxes = (0..world.scene.objects.len())
             .map(|o| world_box(world, o))
             .collect();
@@ -162,11 +157,11 @@ impl Dispersive {
                 Neighbours::default()
             },
             wall_rows,
-            wall_dirty: vec![false; boundary_patches.len()],
             wall_cursor: 0,
             boundary_patches,
             object_boxes,
             direct_valid: false,
+            direct_cache: Default::default(),
             frame: 0,
             light_meter: IncidentMeter::new(
                 world,
@@ -249,7 +244,7 @@ impl Dispersive {
         let t = Instant::now();
         let swept = self.swept_boxes(world, changes);
         self.direct_to_boundary(world, changes, &swept);
-        self.refresh_wall_rows(world, &swept);
+        self.refresh_wall_rows(world, changes);
         steps.direct_ms = ms(t);
 
         // Step 2 (2.3.3) for the objects the scheduler picks.

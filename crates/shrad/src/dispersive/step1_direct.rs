@@ -3,17 +3,19 @@
 //! leaves those to the probes). With it, the frame's bookkeeping of what changed: which
 //! objects a mover disturbed (for the scheduler) and the boxes the movers swept.
 //!
-//! The paper recomputes direct light every frame. Here it is cached and recomputed only for
-//! the patches whose view of a light a mover may have changed: a patch is re-lit when the
-//! cone from it to a light's bounding sphere meets a swept box's sphere (conservative), or
-//! everywhere when a light moved or changed.
+//! The paper recomputes direct light every frame. Here it is cached with its shadow rays
+//! ([`DirectCache`]) and only the shadow rays a mover may have changed are re-traced: a
+//! blocked ray whose segment meets a mover's old box, a free one whose segment meets its new
+//! box (receivers whose cone to a light misses every box are skipped at once). The result is
+//! what a full recomputation with the same samples gives. Everything is recomputed when a
+//! light moved or changed.
 
 use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::{Aabb, Role};
 
 use super::{Changes, Dispersive};
-use crate::direct::direct_irradiance;
+use crate::direct::DirectCache;
 use crate::World;
 
 impl Dispersive {
@@ -63,8 +65,8 @@ impl Dispersive {
         }
     }
 
-    /// Boxes swept by the objects that moved since the last frame (old and new positions),
-    /// as bounding spheres; updates the remembered boxes.
+    /// Boxes swept by the objects that moved since the last frame: for each, in order, its
+    /// old box then its new one. Updates the remembered boxes.
     pub(super) fn swept_boxes(&mut self, world: &World, changes: &Changes) -> Vec<Aabb> {
         let mut swept = Vec::new();
         for &o in &changes.moved {
@@ -78,9 +80,10 @@ impl Dispersive {
     }
 
     /// Step 1 (paper 2.3.2): direct light on the boundary (and interior patches when
-    /// `direct_on_interior`). The paper recomputes it every frame; here it is cached and
-    /// recomputed only for the patches whose view of a light an object's motion may have
-    /// changed (all of them when a light moved or changed).
+    /// `direct_on_interior`). The paper recomputes it every frame; here it is cached with its
+    /// shadow rays ([`DirectCache`]): when only occluders moved, only the shadow rays that
+    /// meet a box they swept are re-traced (exactly what a full recomputation would give),
+    /// and everything is recomputed when a light moved or changed.
     pub(super) fn direct_to_boundary(&mut self, world: &World, changes: &Changes, swept: &[Aabb]) {
         if self.direct_valid && changes.moved.is_empty() && changes.relit.is_empty() {
             return;
@@ -91,48 +94,44 @@ impl Dispersive {
                 p.object_role[o] == Role::Light
                     || world.exitance[p.range(o).start].max_element() > 0.0
             });
-        let everything = !self.direct_valid || light_changed;
-        let lights: Vec<(Vec3, f32)> = if everything {
-            Vec::new()
-        } else {
-            (0..world.scene.objects.len())
-                .filter(|&o| {
-                    !p.range(o).is_empty() && world.exitance[p.range(o).start].max_element() > 0.0
+        let everything = !self.direct_valid
+            || light_changed
+            || self.direct_cache.samples() != self.options.direct_samples.max(1)
+            || !self.direct_cache.same_emitters(world);
+        if everything {
+            let receivers: Vec<u32> = (0..p.len() as u32)
+                .into_par_iter()
+                .filter(|&i| match p.role(i as usize) {
+                    Role::Boundary | Role::Light => true,
+                    Role::Interior => self.options.direct_on_interior,
                 })
-                .map(|o| world_box(world, o).bounding_sphere())
-                .collect()
-        };
-        let movers: Vec<(Vec3, f32)> = swept.iter().map(Aabb::bounding_sphere).collect();
-        let receivers: Vec<u32> = (0..p.len() as u32)
-            .into_par_iter()
-            .filter(|&i| match p.role(i as usize) {
-                Role::Boundary | Role::Light => true,
-                Role::Interior => self.options.direct_on_interior,
-            })
-            .filter(|&i| world.reflectance[i as usize].max_element() > 0.0)
-            .filter(|&i| {
-                everything || {
-                    let x = p.centre[i as usize];
-                    lights.iter().any(|&(lc, lr)| {
-                        movers
-                            .iter()
-                            .any(|&(bc, br)| cone_meets_sphere(x, lc, lr, bc, br))
-                    })
-                }
-            })
-            .collect();
-        // Interior patches of a moved object always need it (they moved).
-        let mut receivers = receivers;
-        if !everything && self.options.direct_on_interior {
-            for &o in &changes.moved {
-                receivers.extend(p.range(o).map(|i| i as u32));
+                .filter(|&i| world.reflectance[i as usize].max_element() > 0.0)
+                .collect();
+            self.direct_cache = DirectCache::new(world, receivers, self.options.direct_samples);
+            for (&i, &e) in self
+                .direct_cache
+                .receivers()
+                .iter()
+                .zip(self.direct_cache.irradiance())
+            {
+                self.direct[i as usize] = e;
             }
-            receivers.sort_unstable();
-            receivers.dedup();
-        }
-        let e = direct_irradiance(world, &receivers, self.options.direct_samples);
-        for (&i, e) in receivers.iter().zip(e) {
-            self.direct[i as usize] = e;
+        } else {
+            // Patches of a moved object moved themselves: recomputed whole.
+            let moved: Vec<usize> = changes.moved.clone();
+            // `swept` holds each mover's old box then its new one.
+            let old: Vec<Aabb> = swept.iter().step_by(2).copied().collect();
+            let new: Vec<Aabb> = swept.iter().skip(1).step_by(2).copied().collect();
+            let changed = self.direct_cache.update(world, &old, &new, |i| {
+                moved.contains(&(p.object[i as usize] as usize))
+            });
+            let (receivers, e) = (
+                self.direct_cache.receivers(),
+                self.direct_cache.irradiance(),
+            );
+            for k in changed {
+                self.direct[receivers[k] as usize] = e[k];
+            }
         }
         self.direct_valid = true;
     }
@@ -144,14 +143,4 @@ pub(super) fn world_box(world: &World, o: usize) -> Aabb {
         Some(local) => Aabb::from(local).transformed(world.patches.world_from_local[o]),
         None => Aabb::new(Vec3::ZERO, Vec3::ZERO),
     }
-}
-
-/// Does the cone from `x` to the sphere `(lc, lr)` (a light) meet the sphere `(bc, br)`?
-/// Conservative: the cone is widened linearly from 0 at `x` to `lr` at the light.
-fn cone_meets_sphere(x: Vec3, lc: Vec3, lr: f32, bc: Vec3, br: f32) -> bool {
-    let axis = lc - x;
-    let len2 = axis.length_squared().max(1e-30);
-    let s = ((bc - x).dot(axis) / len2).clamp(0.0, 1.0);
-    let closest = x + axis * s;
-    (bc - closest).length() <= br + lr * s * 1.1 + 1e-6
 }

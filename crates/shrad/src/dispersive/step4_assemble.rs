@@ -12,12 +12,18 @@ use rayon::prelude::*;
 use shrad_scene::Role;
 
 use super::{receives_as_boundary, Changes, Dispersive, Divergence, EnergyBalance, FrameStats};
-use crate::form_factors::{form_factor_rows, patch_rays};
-use crate::{NoProgress, World};
+use crate::World;
 
-/// Wall-exchange rows refreshed per frame (Step 4): at most this many, so a frame's cost does
-/// not grow with the boundary beyond it (a 1M-patch room takes ~13 frames per full sweep).
+/// Wall-exchange rows gathered per frame (Step 4's Jacobi window): at most this many, so a
+/// frame's cost does not grow with the boundary beyond it (a 1M-patch room takes ~13 frames
+/// per full sweep). Re-tracing rows where a mover passed is bounded apart, by
+/// [`WALL_RETRACE_SHARE`].
 pub const WALL_ROWS_PER_FRAME: usize = 1 << 16;
+
+/// At most `1 / WALL_RETRACE_SHARE` of the wall exchange's rays (boundary patches x
+/// `wall_rays`) are re-traced per frame where movers passed (whole rows at a time, so up to
+/// one row's rays more); the rest wait for the next frames.
+pub const WALL_RETRACE_SHARE: usize = 8;
 
 /// Rays per light patch for the energy meter's measure of what the lights absorb.
 pub(super) const LIGHT_METER_RAYS: usize = 16;
@@ -51,64 +57,28 @@ impl Dispersive {
         }
     }
 
-    /// Mark the wall-exchange rows whose rays pass through a box an object swept, and
-    /// re-trace the stalest dirty rows, at most an eighth of the boundary per frame (the
-    /// dispersive idea applied to the walls: the cost of a frame stays bounded).
-    pub(super) fn refresh_wall_rows(&mut self, world: &World, swept: &[shrad_scene::Aabb]) {
+    /// Mark the wall-exchange rays a move may have changed (those that hit a mover, those
+    /// with a mover's new box in front of their hit, every ray of a moved boundary object's
+    /// rows: `wall_rows.rs`), and re-trace the dirty rays, at most an eighth of the
+    /// boundary's rays per frame ([`WALL_RETRACE_SHARE`]) from a cursor that
+    /// goes round: the dispersive idea applied to the walls, the cost of a frame stays
+    /// bounded and what is left waits for the next frames.
+    pub(super) fn refresh_wall_rows(&mut self, world: &World, changes: &Changes) {
         let Some(rows) = &mut self.wall_rows else {
             return;
         };
-        let p = &world.patches;
-        let rays = self.options.wall_rays.max(1) as usize;
-        if !swept.is_empty() {
-            let boundary = &self.boundary_patches;
-            let newly: Vec<usize> = (0..boundary.len())
-                .into_par_iter()
-                .filter(|&k| !self.wall_dirty[k])
-                .filter(|&k| {
-                    let i = boundary[k] as usize;
-                    let (c, n) = (p.centre[i], p.normal[i]);
-                    // A box wholly behind the patch cannot meet its rays.
-                    let in_front = swept.iter().any(|b| {
-                        let (bc, br) = b.bounding_sphere();
-                        n.dot(bc - c) > -br
-                    });
-                    if !in_front {
-                        return false;
-                    }
-                    let mut o = vec![Vec3::ZERO; rays];
-                    let mut d = vec![Vec3::ZERO; rays];
-                    patch_rays(world, i, &mut o, &mut d);
-                    o.iter()
-                        .zip(&d)
-                        .any(|(o, d)| swept.iter().any(|b| b.meets_ray(*o, *d)))
-                })
-                .collect();
-            for k in newly {
-                self.wall_dirty[k] = true;
-            }
-        }
-        let budget = self.boundary_patches.len().div_ceil(8).max(1);
-        let dirty: Vec<usize> = (0..self.boundary_patches.len())
-            .filter(|&k| self.wall_dirty[k])
-            .take(budget)
+        // The movers' new boxes (`swept_boxes` has just remembered them).
+        let new: Vec<shrad_scene::Aabb> = changes
+            .moved
+            .iter()
+            .map(|&o| self.object_boxes[o])
             .collect();
-        if dirty.is_empty() {
-            return;
-        }
-        let ids: Vec<u32> = dirty.iter().map(|&k| self.boundary_patches[k]).collect();
-        let fresh = form_factor_rows(
-            world,
-            &ids,
-            rays as u32,
-            &[],
-            |j| receives_as_boundary(world, j),
-            &NoProgress,
-        );
-        for (k, row) in dirty.into_iter().zip(fresh) {
-            rows.set_row(k, &row);
-            self.wall_dirty[k] = false;
-        }
+        let rays = self.options.wall_rays.max(1) as usize;
+        let budget = (self.boundary_patches.len() * rays)
+            .div_ceil(WALL_RETRACE_SHARE)
+            .max(1);
+        rows.mark(world, &self.boundary_patches, &changes.moved, &new, budget);
+        rows.retrace(world, &self.boundary_patches, budget);
     }
 
     /// Step 4 (paper 2.3.5): boundary radiosity from direct, object and wall light.

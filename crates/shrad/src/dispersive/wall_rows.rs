@@ -1,0 +1,536 @@
+//! The wall exchange's form-factor rows (Step 4, beyond the paper) with what their rays hit,
+//! so that a mover costs only the rays it may have changed, and the rows stay exactly what a
+//! fresh trace would give.
+//!
+//! Why it is exact: a ray's closest hit changes only if (1) it hit an object that moved
+//! (that object left), or (2) a moved object's new place meets the segment from the ray's
+//! origin to its hit (something new in front). A mover's old place cannot matter otherwise:
+//! had it been on the segment, the ray would have hit it. So a frame marks the rays of
+//! class (1), from the object they hit, and of class (2), from their segment against the
+//! movers' new boxes; marked rays are re-traced (a bounded number per frame), and a row is
+//! rebuilt from its rays' hits.
+//!
+//! What a ray keeps (10 bytes; the ray itself is [`patch_rays`], regenerated when traced):
+//! the triangle it hit (its patch, and the side in the top bit) and where its segment ends,
+//! clipped to a box `W` around the scene and quantised to 16 bits an axis. The segment test
+//! then uses the segment from the patch's centre to that end point, against the box padded
+//! by the patch's radius and the quantisation step (a superset: conservative). Per row, the
+//! box of all its segments rejects a mover at once, and a mask of the objects its rays hit
+//! rejects class (1). A segment that leaves `W` (a miss, or a hit beyond it) is clipped; it
+//! is tested whole, from regenerated rays, only when a mover's box leaves `W`.
+//!
+//! Memory: 10 bytes a ray plus 40 a row and the rows themselves: 10 MB at Cornell 20k
+//! (15.3k boundary rows x 64 rays), about 50 MB at the 77k room.
+
+use glam::Vec3;
+use rayon::prelude::*;
+use shrad_scene::Aabb;
+
+use super::receives_as_boundary;
+use crate::form_factors::{patch_rays, row_from_hits, some_patch_rays};
+use crate::sparse::SparseRows;
+use crate::World;
+
+/// What a trace against the movers alone says of a ray.
+enum Settled {
+    /// It now hits a mover: (stored hit, end point, whether the segment leaves the space).
+    Hit(u32, [u16; 3], bool),
+    /// It still hits what it hit.
+    Same,
+    /// Undecided: a full re-trace.
+    Dirty,
+}
+
+/// A row rebuilt from its rays: entries, box, mask of objects hit.
+type Rebuilt = (Vec<(u32, f32)>, Aabb, u64);
+
+/// A ray that hit nothing.
+const MISS: u32 = u32::MAX;
+/// The side bit of a stored hit: set when the ray met the triangle's front face.
+const FRONT: u32 = 1 << 31;
+
+/// Rows among boundary patches with their rays' hits (see the module's docs).
+pub(super) struct WallRows {
+    rays: usize,
+    /// `u64` words of dirty bits per row.
+    words: usize,
+    rows: SparseRows<(u32, f32)>,
+    /// `[k * rays + j]`: the patch whose triangle ray `j` of row `k` hit, with [`FRONT`];
+    /// [`MISS`] for none.
+    hit: Vec<u32>,
+    /// `[k * rays + j]`: where its segment ends (clipped to `space`), quantised.
+    end: Vec<[u16; 3]>,
+    /// The box the end points are quantised in (the scene's bounds at build, with room
+    /// around).
+    space: Aabb,
+    /// Per row: the box holding its segments (as clipped), grown by the patch's radius.
+    bounds: Vec<Aabb>,
+    /// Per row: bit `o % 64` set when a ray hit object `o`.
+    objects_hit: Vec<u64>,
+    /// Per row: whether a segment leaves `space` (a miss or a hit outside; or the patch is
+    /// outside).
+    leaves: Vec<bool>,
+    /// `[k * words ..]`: bit `j` set while ray `j` of row `k` waits to be re-traced.
+    dirty: Vec<u64>,
+    /// The row the next re-trace starts from (so every dirty ray gets its turn).
+    cursor: usize,
+}
+
+impl WallRows {
+    /// Trace every row: `rays` rays from each patch of `boundary`; every object occludes,
+    /// only boundary-to-boundary entries are kept (light via interior objects is Step 3's).
+    pub(super) fn trace(world: &World, boundary: &[u32], rays: u32) -> WallRows {
+        let rays = rays.max(1) as usize;
+        let words = rays.div_ceil(64);
+        let n = boundary.len();
+        let (lo, hi) = world.scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
+        let size = (hi - lo).max(Vec3::splat(1e-3));
+        let mut out = WallRows {
+            rays,
+            words,
+            rows: SparseRows::from_rows(vec![Vec::<(u32, f32)>::new(); n]),
+            hit: vec![MISS; n * rays],
+            end: vec![[0; 3]; n * rays],
+            space: Aabb::new(lo - 0.25 * size, hi + 0.25 * size),
+            bounds: vec![Aabb::EMPTY; n],
+            objects_hit: vec![0; n],
+            leaves: vec![false; n],
+            dirty: vec![0; n * words],
+            cursor: 0,
+        };
+        // Everything is dirty: trace it all, a chunk of rays at a time.
+        for k in 0..n {
+            out.set_all_dirty(k);
+        }
+        let chunk = ((1 << 20) / rays).max(1) * rays;
+        while out.retrace(world, boundary, chunk) > 0 {}
+        out.cursor = 0;
+        out
+    }
+
+    /// Row `k` (aligned with the boundary patches): `(patch seen, F)`.
+    pub(super) fn row(&self, k: usize) -> &[(u32, f32)] {
+        self.rows.row(k)
+    }
+
+    /// The rows.
+    #[cfg(test)]
+    pub(super) fn rows(&self) -> &SparseRows<(u32, f32)> {
+        &self.rows
+    }
+
+    /// Bytes held (the rows, the rays' hits and ends, the rows' boxes and masks).
+    #[cfg(test)]
+    pub(super) fn bytes(&self) -> usize {
+        self.rows.bytes()
+            + self.hit.len() * 4
+            + self.end.len() * 6
+            + self.bounds.len() * (std::mem::size_of::<Aabb>() + 8 + 1)
+            + self.dirty.len() * 8
+    }
+
+    /// Rays waiting to be re-traced.
+    #[cfg(test)]
+    pub(super) fn dirty_rays(&self) -> usize {
+        self.dirty.iter().map(|w| w.count_ones() as usize).sum()
+    }
+
+    fn set_all_dirty(&mut self, k: usize) {
+        let w = &mut self.dirty[k * self.words..(k + 1) * self.words];
+        w.fill(u64::MAX);
+        if self.rays % 64 != 0 {
+            w[self.words - 1] = u64::MAX >> (self.words * 64 - self.rays);
+        }
+    }
+
+    /// Quantisation step of the end points, per axis.
+    fn step(&self) -> Vec3 {
+        self.space.size() / 65535.0
+    }
+
+    fn decode(&self, e: [u16; 3]) -> Vec3 {
+        self.space.min + Vec3::new(e[0] as f32, e[1] as f32, e[2] as f32) * self.step()
+    }
+
+    fn encode(&self, p: Vec3) -> [u16; 3] {
+        let q = ((p - self.space.min) / self.step()).round();
+        let q = q.clamp(Vec3::ZERO, Vec3::splat(65535.0));
+        [q.x as u16, q.y as u16, q.z as u16]
+    }
+
+    /// Find the rays a move may have changed (see the module's docs): those that hit an
+    /// object in `moved`, those whose segment meets a box in `new` (the movers' new places),
+    /// and every ray of the rows of patches on a moved object (their origins moved, marked
+    /// dirty at once). The first two kinds are settled by a trace against the movers alone,
+    /// at most `budget` rays of them (the rest are marked dirty): a ray that meets a mover
+    /// before its old hit now hits it; one that did not hit a mover and meets none before
+    /// its hit is unchanged; the others (a ray freed by a mover, or too close to call
+    /// against the quantised end point) are marked dirty for a full re-trace.
+    pub(super) fn mark(
+        &mut self,
+        world: &World,
+        boundary: &[u32],
+        moved: &[usize],
+        new: &[Aabb],
+        budget: usize,
+    ) {
+        if moved.is_empty() {
+            return;
+        }
+        let p = &world.patches;
+        let (rays, words) = (self.rays, self.words);
+        let moved_mask = moved.iter().fold(0u64, |m, &o| m | 1 << (o % 64));
+        // Slack for the float noise of hits on a mover's surface (a ray that grazes a padded
+        // box is only re-traced for nothing).
+        let new: Vec<Aabb> = new
+            .iter()
+            .filter(|b| !b.is_empty())
+            .map(|b| b.padded(Vec3::splat(4.0 * world.eps + 1e-5 * b.diagonal())))
+            .collect();
+        let inside = new
+            .iter()
+            .all(|b| self.space.contains(b.min) && self.space.contains(b.max));
+        let q = self.step();
+        // Per row: (row, rays to settle, or every ray dirty).
+        let marks: Vec<(usize, Vec<u64>, bool)> = (0..boundary.len())
+            .into_par_iter()
+            .filter_map(|k| {
+                let i = boundary[k] as usize;
+                let bits = &self.dirty[k * words..(k + 1) * words];
+                if moved.contains(&(p.object[i] as usize)) {
+                    let mut all = vec![u64::MAX; words];
+                    if rays % 64 != 0 {
+                        all[words - 1] = u64::MAX >> (words * 64 - rays);
+                    }
+                    return (all != bits).then_some((k, all, true));
+                }
+                let mut out = vec![0u64; words];
+                let clean =
+                    |out: &[u64], j: usize| (out[j / 64] | bits[j / 64]) & (1 << (j % 64)) == 0;
+                let hits = &self.hit[k * rays..(k + 1) * rays];
+                // (1) Rays that hit a mover.
+                if self.objects_hit[k] & moved_mask != 0 {
+                    for (j, &h) in hits.iter().enumerate() {
+                        if h != MISS
+                            && clean(&out, j)
+                            && moved.contains(&(p.object[(h & !FRONT) as usize] as usize))
+                        {
+                            out[j / 64] |= 1 << (j % 64);
+                        }
+                    }
+                }
+                // (2) Rays with a mover's new place in front of their hit.
+                let (c, r) = patch_sphere(world, i);
+                let pad = Vec3::splat(r) + q;
+                let near: Vec<Aabb> = new
+                    .iter()
+                    .map(|b| b.padded(pad))
+                    .filter(|b| b.meets_box(&self.bounds[k]))
+                    .collect();
+                if !inside && self.leaves[k] {
+                    // A mover outside the quantised space: the whole rays, regenerated.
+                    let mut o = vec![Vec3::ZERO; rays];
+                    let mut d = vec![Vec3::ZERO; rays];
+                    patch_rays(world, i, &mut o, &mut d);
+                    for j in 0..rays {
+                        if clean(&out, j) && new.iter().any(|b| b.meets_ray(o[j], d[j])) {
+                            out[j / 64] |= 1 << (j % 64);
+                        }
+                    }
+                } else if !near.is_empty() {
+                    let ends = &self.end[k * rays..(k + 1) * rays];
+                    for j in 0..rays {
+                        if clean(&out, j) {
+                            let e = self.decode(ends[j]);
+                            if near.iter().any(|b| b.meets_segment(c, e)) {
+                                out[j / 64] |= 1 << (j % 64);
+                            }
+                        }
+                    }
+                }
+                out.iter().any(|&w| w != 0).then_some((k, out, false))
+            })
+            .collect();
+        // Settle what the budget allows against the movers alone; the rest waits, dirty.
+        let mut settle: Vec<(usize, Vec<usize>)> = Vec::new();
+        let mut count = 0;
+        for (k, bits, all) in marks {
+            let w = &mut self.dirty[k * words..(k + 1) * words];
+            if all || count >= budget {
+                w.iter_mut().zip(&bits).for_each(|(w, b)| *w |= b);
+                continue;
+            }
+            let js: Vec<usize> = (0..rays)
+                .filter(|j| bits[j / 64] & (1 << (j % 64)) != 0)
+                .collect();
+            count += js.len();
+            settle.push((k, js));
+        }
+        if !settle.is_empty() {
+            self.settle_against_movers(world, boundary, moved, &settle);
+        }
+    }
+
+    /// Trace the rays `settle` (rows and their rays) against the objects in `moved` alone
+    /// and update their hits where that decides them (see [`WallRows::mark`]); mark the
+    /// others dirty.
+    fn settle_against_movers(
+        &mut self,
+        world: &World,
+        boundary: &[u32],
+        moved: &[usize],
+        settle: &[(usize, Vec<usize>)],
+    ) {
+        let (rays, words) = (self.rays, self.words);
+        let p = &world.patches;
+        let (o, d) = self.regenerate(world, boundary, settle);
+        let others: Vec<u32> = (0..world.scene.objects.len() as u32)
+            .filter(|o| !moved.contains(&(*o as usize)))
+            .collect();
+        let mut hits = vec![shrad_vis::Hit::MISS; o.len()];
+        world.vis.closest(&o, &d, 0.0, &others, &mut hits);
+        let which: Vec<(usize, usize)> = settle
+            .iter()
+            .flat_map(|(k, js)| js.iter().map(move |&j| (*k, j)))
+            .collect();
+        // Per ray: its new (hit, end, leaves) if decided, else None (dirty).
+        let tol = self.step().length() * 1.01;
+        let decided: Vec<Settled> = (0..which.len())
+            .into_par_iter()
+            .map(|r| {
+                let (k, j) = which[r];
+                let (o, d, h) = (o[r], d[r], &hits[r]);
+                let old = self.hit[k * rays + j];
+                let hit_mover =
+                    old != MISS && moved.contains(&(p.object[(old & !FRONT) as usize] as usize));
+                let exit = exit_distance(&self.space, o, d);
+                let t_old = (self.decode(self.end[k * rays + j]) - o).dot(d);
+                let slack = tol + 1e-5 * t_old.abs();
+                let clipped = t_old >= exit - slack;
+                if h.is_hit() && h.t < t_old - slack {
+                    // A mover in front of the old hit (static geometry is no nearer).
+                    let t = h.t.min(exit);
+                    let end = self.encode(o + d * t);
+                    return Settled::Hit(h.id | if h.front { FRONT } else { 0 }, end, h.t > exit);
+                }
+                if !hit_mover && (!h.is_hit() || (!clipped && h.t > t_old + slack)) {
+                    return Settled::Same;
+                }
+                Settled::Dirty
+            })
+            .collect();
+        let mut changed: Vec<usize> = Vec::new();
+        for (&(k, j), dec) in which.iter().zip(decided) {
+            match dec {
+                Settled::Hit(h, e, l) => {
+                    self.hit[k * rays + j] = h;
+                    self.end[k * rays + j] = e;
+                    // The row's box and mask only grow here (still holding every segment);
+                    // a full re-trace of the row makes them tight again.
+                    self.bounds[k] = self.bounds[k].grow(self.decode(e));
+                    self.objects_hit[k] |= 1 << (p.object[(h & !FRONT) as usize] % 64);
+                    self.leaves[k] |= l;
+                    changed.push(k);
+                }
+                Settled::Same => {}
+                Settled::Dirty => self.dirty[k * words + j / 64] |= 1 << (j % 64),
+            }
+        }
+        changed.dedup();
+        let entries: Vec<Vec<(u32, f32)>> = changed
+            .par_iter()
+            .map(|&k| self.row_entries(world, k))
+            .collect();
+        for (&k, row) in changed.iter().zip(entries) {
+            self.rows.set_row(k, &row);
+        }
+    }
+
+    /// Row `k`'s entries from its rays' hits.
+    fn row_entries(&self, world: &World, k: usize) -> Vec<(u32, f32)> {
+        let rays = self.rays;
+        row_from_hits(
+            self.hit[k * rays..(k + 1) * rays]
+                .iter()
+                .filter_map(|&h| seen(world, h))
+                .filter(|&s| receives_as_boundary(world, s))
+                .map(|s| s as u32),
+            rays,
+        )
+    }
+
+    /// Rays `js` of each row `k` in `rows`, regenerated, in that order.
+    fn regenerate(
+        &self,
+        world: &World,
+        boundary: &[u32],
+        rows: &[(usize, Vec<usize>)],
+    ) -> (Vec<Vec3>, Vec<Vec3>) {
+        let total: usize = rows.iter().map(|(_, js)| js.len()).sum();
+        let mut o = vec![Vec3::ZERO; total];
+        let mut d = vec![Vec3::ZERO; total];
+        let (mut os, mut ds) = (&mut o[..], &mut d[..]);
+        let mut jobs = Vec::with_capacity(rows.len());
+        for (k, js) in rows {
+            let (oc, rest_o) = os.split_at_mut(js.len());
+            let (dc, rest_d) = ds.split_at_mut(js.len());
+            (os, ds) = (rest_o, rest_d);
+            jobs.push((*k, js, oc, dc));
+        }
+        jobs.into_par_iter().for_each(|(k, js, oc, dc)| {
+            some_patch_rays(world, boundary[k] as usize, self.rays, js, oc, dc)
+        });
+        (o, d)
+    }
+
+    /// Rebuild rows `ks` from their rays' hits, with their boxes and masks.
+    fn rebuild(&mut self, world: &World, boundary: &[u32], ks: &[usize]) {
+        let rays = self.rays;
+        let p = &world.patches;
+        let rebuilt: Vec<Rebuilt> = ks
+            .par_iter()
+            .map(|&k| {
+                let i = boundary[k] as usize;
+                let hits = &self.hit[k * rays..(k + 1) * rays];
+                let row = self.row_entries(world, k);
+                let (c, r) = patch_sphere(world, i);
+                let b = self.end[k * rays..(k + 1) * rays]
+                    .iter()
+                    .fold(Aabb::new(c, c).padded(Vec3::splat(r)), |b, &e| {
+                        b.grow(self.decode(e))
+                    });
+                let mask = hits.iter().filter(|&&h| h != MISS).fold(0u64, |m, &h| {
+                    m | 1 << (p.object[(h & !FRONT) as usize] % 64)
+                });
+                (row, b, mask)
+            })
+            .collect();
+        for (&k, (row, b, mask)) in ks.iter().zip(rebuilt) {
+            self.rows.set_row(k, &row);
+            self.bounds[k] = b;
+            self.objects_hit[k] = mask;
+        }
+    }
+
+    /// Re-trace dirty rays, whole rows at a time from the cursor round, until about
+    /// `budget` rays (at least one row's, at most `budget + rays`); rebuild those rows from
+    /// their rays' hits. Returns the rays traced.
+    pub(super) fn retrace(&mut self, world: &World, boundary: &[u32], budget: usize) -> usize {
+        let (rays, words) = (self.rays, self.words);
+        let n = boundary.len();
+        if n == 0 {
+            return 0;
+        }
+        // Pick the rows.
+        let mut picked: Vec<usize> = Vec::new();
+        let mut count = 0;
+        let start = self.cursor % n;
+        let mut next = start;
+        for step in 0..n {
+            let k = (start + step) % n;
+            next = (k + 1) % n;
+            let c: usize = self.dirty[k * words..(k + 1) * words]
+                .iter()
+                .map(|w| w.count_ones() as usize)
+                .sum();
+            if c == 0 {
+                continue;
+            }
+            picked.push(k);
+            count += c;
+            if count >= budget {
+                break;
+            }
+        }
+        if picked.is_empty() {
+            return 0;
+        }
+        self.cursor = next;
+        // The dirty rays, regenerated.
+        let rows: Vec<(usize, Vec<usize>)> = picked
+            .iter()
+            .map(|&k| {
+                let bits = &self.dirty[k * words..(k + 1) * words];
+                let js = (0..rays)
+                    .filter(|j| bits[j / 64] & (1 << (j % 64)) != 0)
+                    .collect();
+                (k, js)
+            })
+            .collect();
+        let (o, d) = self.regenerate(world, boundary, &rows);
+        let which: Vec<(usize, usize)> = rows
+            .iter()
+            .enumerate()
+            .flat_map(|(c, (_, js))| js.iter().map(move |&j| (c, j)))
+            .collect();
+        let mut hits = vec![shrad_vis::Hit::MISS; o.len()];
+        world.vis.closest(&o, &d, 0.0, &[], &mut hits);
+        let ends: Vec<([u16; 3], bool)> = (0..which.len())
+            .into_par_iter()
+            .map(|r| {
+                let (o, d, h) = (o[r], d[r], &hits[r]);
+                let exit = exit_distance(&self.space, o, d);
+                let t = if h.is_hit() { h.t } else { f32::INFINITY };
+                (self.encode(o + d * t.min(exit)), t > exit)
+            })
+            .collect();
+        for ((&(c, j), h), &(e, _)) in which.iter().zip(&hits).zip(&ends) {
+            let k = picked[c];
+            self.hit[k * rays + j] = if h.is_hit() {
+                h.id | if h.front { FRONT } else { 0 }
+            } else {
+                MISS
+            };
+            self.end[k * rays + j] = e;
+        }
+        let mut leaving = vec![false; picked.len()];
+        for (&(c, _), &(_, l)) in which.iter().zip(&ends) {
+            leaving[c] |= l;
+        }
+        // Rebuild the rows, their boxes and masks.
+        self.rebuild(world, boundary, &picked);
+        for (c, &k) in picked.iter().enumerate() {
+            let (centre, _) = patch_sphere(world, boundary[k] as usize);
+            // A segment once outside stays outside until the row is traced again whole.
+            let all_traced = rows[c].1.len() == rays;
+            self.leaves[k] =
+                leaving[c] || !self.space.contains(centre) || (!all_traced && self.leaves[k]);
+            self.dirty[k * words..(k + 1) * words].fill(0);
+        }
+        which.len()
+    }
+}
+
+/// The patch a stored hit sees (its twin when the back was hit), as [`World::seen_patch`].
+fn seen(world: &World, h: u32) -> Option<usize> {
+    (h != MISS).then_some(())?;
+    world.seen_patch(&shrad_vis::Hit {
+        id: h & !FRONT,
+        object: 0,
+        t: 0.0,
+        front: h & FRONT != 0,
+    })
+}
+
+/// A sphere holding patch `i` and its rays' origins (which are `eps` above it).
+fn patch_sphere(world: &World, i: usize) -> (Vec3, f32) {
+    let c = world.patches.centre[i];
+    let r = world
+        .patches
+        .world_corners(i)
+        .iter()
+        .map(|&v| (v - c).length())
+        .fold(0.0, f32::max);
+    (c, r * (1.0 + 1e-5) + 2.0 * world.eps)
+}
+
+/// Distance along `o + t d` to where it leaves `b` (0 when `o` is outside).
+fn exit_distance(b: &Aabb, o: Vec3, d: Vec3) -> f32 {
+    if !b.contains(o) {
+        return 0.0;
+    }
+    let inv = d.recip();
+    let t0 = (b.min - o) * inv;
+    let t1 = (b.max - o) * inv;
+    t0.max(t1).min_element().max(0.0)
+}
