@@ -18,7 +18,11 @@
 //! forgotten is cast again the next time it is needed. A moving boundary or light object
 //! (whose patches Step 3 aims at) forgets every Step 3 cache. Options never change under a
 //! solver without a rebuild (`set_schedule` changes only the schedule, which the caches do
-//! not depend on), so they need no check.
+//! not depend on), so they need no check. A light that changes emission changes radiance,
+//! which is read afresh at every update, so it forgets nothing. Sizes are bounded per object
+//! ([`MAX_PROBE_BYTES`], [`MAX_STEP3_BYTES`]): beyond them an object is not cached. The
+//! tests below run moves (a teleport and back, a light moved and dimmed) with the caches on
+//! and off (`Dispersive::set_caching`) and compare the radiosity frame by frame.
 
 use glam::{Affine3A, Vec3};
 use rayon::prelude::*;
