@@ -183,8 +183,9 @@ mod tests {
         assert!(!b.meets_segment(Vec3::new(-0.1, 0.0, -1.0), Vec3::new(-0.1, 0.0, 1.0)));
         assert!(b.meets_segment(b.centre(), b.centre() + Vec3::X * 0.1));
         assert!(b.meets_ray_within(o, Vec3::Z, f32::INFINITY));
-        assert!(b.meets_box(&Aabb::new(Vec3::splat(2.0), Vec3::splat(3.0))));
-        assert!(!b.meets_box(&Aabb::new(Vec3::splat(2.1), Vec3::splat(3.0))));
+        // Boxes that share a corner meet; a gap along one axis parts them.
+        assert!(b.meets_box(&Aabb::new(Vec3::new(2.0, 0.0, 4.0), Vec3::splat(5.0))));
+        assert!(!b.meets_box(&Aabb::new(Vec3::new(2.1, 0.0, 4.0), Vec3::splat(5.0))));
         assert!(!b.meets_box(&Aabb::EMPTY));
         assert!(!b.meets_ray_within(o, Vec3::Z, 2.5));
     }
