@@ -31,16 +31,6 @@ use crate::form_factors::{patch_rays, row_from_hits, some_patch_rays};
 use crate::sparse::SparseRows;
 use crate::World;
 
-/// What a trace against the movers alone says of a ray.
-enum Settled {
-    /// It now hits a mover: (stored hit, end point, whether the segment leaves the space).
-    Hit(u32, [u16; 3], bool),
-    /// It still hits what it hit.
-    Same,
-    /// Undecided: a full re-trace.
-    Dirty,
-}
-
 /// A row rebuilt from its rays: entries, box, mask of objects hit.
 type Rebuilt = (Vec<(u32, f32)>, Aabb, u64);
 
@@ -158,22 +148,11 @@ impl WallRows {
         [q.x as u16, q.y as u16, q.z as u16]
     }
 
-    /// Find the rays a move may have changed (see the module's docs): those that hit an
-    /// object in `moved`, those whose segment meets a box in `new` (the movers' new places),
-    /// and every ray of the rows of patches on a moved object (their origins moved, marked
-    /// dirty at once). The first two kinds are settled by a trace against the movers alone,
-    /// at most `budget` rays of them (the rest are marked dirty): a ray that meets a mover
-    /// before its old hit now hits it; one that did not hit a mover and meets none before
-    /// its hit is unchanged; the others (a ray freed by a mover, or too close to call
-    /// against the quantised end point) are marked dirty for a full re-trace.
-    pub(super) fn mark(
-        &mut self,
-        world: &World,
-        boundary: &[u32],
-        moved: &[usize],
-        new: &[Aabb],
-        budget: usize,
-    ) {
+    /// Mark dirty the rays a move may have changed (see the module's docs): those that hit
+    /// an object in `moved`, those whose segment meets a box in `new` (the movers' new
+    /// places), and every ray of the rows of patches on a moved object (their origins
+    /// moved). [`WallRows::retrace`] re-traces them.
+    pub(super) fn mark(&mut self, world: &World, boundary: &[u32], moved: &[usize], new: &[Aabb]) {
         if moved.is_empty() {
             return;
         }
@@ -191,7 +170,7 @@ impl WallRows {
             .iter()
             .all(|b| self.space.contains(b.min) && self.space.contains(b.max));
         let q = self.step();
-        // Per row: (row, rays to settle, or every ray dirty).
+        // Per row: (row, rays newly dirty, whether all of them).
         let marks: Vec<(usize, Vec<u64>, bool)> = (0..boundary.len())
             .into_par_iter()
             .filter_map(|k| {
@@ -251,98 +230,9 @@ impl WallRows {
                 out.iter().any(|&w| w != 0).then_some((k, out, false))
             })
             .collect();
-        // Settle what the budget allows against the movers alone; the rest waits, dirty.
-        let mut settle: Vec<(usize, Vec<usize>)> = Vec::new();
-        let mut count = 0;
-        for (k, bits, all) in marks {
+        for (k, bits, _) in marks {
             let w = &mut self.dirty[k * words..(k + 1) * words];
-            if all || count >= budget {
-                w.iter_mut().zip(&bits).for_each(|(w, b)| *w |= b);
-                continue;
-            }
-            let js: Vec<usize> = (0..rays)
-                .filter(|j| bits[j / 64] & (1 << (j % 64)) != 0)
-                .collect();
-            count += js.len();
-            settle.push((k, js));
-        }
-        if !settle.is_empty() {
-            self.settle_against_movers(world, boundary, moved, &settle);
-        }
-    }
-
-    /// Trace the rays `settle` (rows and their rays) against the objects in `moved` alone
-    /// and update their hits where that decides them (see [`WallRows::mark`]); mark the
-    /// others dirty.
-    fn settle_against_movers(
-        &mut self,
-        world: &World,
-        boundary: &[u32],
-        moved: &[usize],
-        settle: &[(usize, Vec<usize>)],
-    ) {
-        let (rays, words) = (self.rays, self.words);
-        let p = &world.patches;
-        let (o, d) = self.regenerate(world, boundary, settle);
-        let others: Vec<u32> = (0..world.scene.objects.len() as u32)
-            .filter(|o| !moved.contains(&(*o as usize)))
-            .collect();
-        let mut hits = vec![shrad_vis::Hit::MISS; o.len()];
-        world.vis.closest(&o, &d, 0.0, &others, &mut hits);
-        let which: Vec<(usize, usize)> = settle
-            .iter()
-            .flat_map(|(k, js)| js.iter().map(move |&j| (*k, j)))
-            .collect();
-        // Per ray: its new (hit, end, leaves) if decided, else None (dirty).
-        let tol = self.step().length() * 1.01;
-        let decided: Vec<Settled> = (0..which.len())
-            .into_par_iter()
-            .map(|r| {
-                let (k, j) = which[r];
-                let (o, d, h) = (o[r], d[r], &hits[r]);
-                let old = self.hit[k * rays + j];
-                let hit_mover =
-                    old != MISS && moved.contains(&(p.object[(old & !FRONT) as usize] as usize));
-                let exit = exit_distance(&self.space, o, d);
-                let t_old = (self.decode(self.end[k * rays + j]) - o).dot(d);
-                let slack = tol + 1e-5 * t_old.abs();
-                let clipped = t_old >= exit - slack;
-                if h.is_hit() && h.t < t_old - slack {
-                    // A mover in front of the old hit (static geometry is no nearer).
-                    let t = h.t.min(exit);
-                    let end = self.encode(o + d * t);
-                    return Settled::Hit(h.id | if h.front { FRONT } else { 0 }, end, h.t > exit);
-                }
-                if !hit_mover && (!h.is_hit() || (!clipped && h.t > t_old + slack)) {
-                    return Settled::Same;
-                }
-                Settled::Dirty
-            })
-            .collect();
-        let mut changed: Vec<usize> = Vec::new();
-        for (&(k, j), dec) in which.iter().zip(decided) {
-            match dec {
-                Settled::Hit(h, e, l) => {
-                    self.hit[k * rays + j] = h;
-                    self.end[k * rays + j] = e;
-                    // The row's box and mask only grow here (still holding every segment);
-                    // a full re-trace of the row makes them tight again.
-                    self.bounds[k] = self.bounds[k].grow(self.decode(e));
-                    self.objects_hit[k] |= 1 << (p.object[(h & !FRONT) as usize] % 64);
-                    self.leaves[k] |= l;
-                    changed.push(k);
-                }
-                Settled::Same => {}
-                Settled::Dirty => self.dirty[k * words + j / 64] |= 1 << (j % 64),
-            }
-        }
-        changed.dedup();
-        let entries: Vec<Vec<(u32, f32)>> = changed
-            .par_iter()
-            .map(|&k| self.row_entries(world, k))
-            .collect();
-        for (&k, row) in changed.iter().zip(entries) {
-            self.rows.set_row(k, &row);
+            w.iter_mut().zip(&bits).for_each(|(w, b)| *w |= b);
         }
     }
 
