@@ -308,7 +308,8 @@ impl WallRows {
     pub(super) fn retrace(&mut self, world: &World, boundary: &[u32], budget: usize) -> usize {
         let (rays, words) = (self.rays, self.words);
         let n = boundary.len();
-        if n == 0 {
+        // Nothing to do on most frames of a static scene: one pass over the bits.
+        if n == 0 || self.dirty.iter().all(|&w| w == 0) {
             return 0;
         }
         // Pick the rows.
