@@ -22,11 +22,17 @@ pub const WALL_ROWS_PER_FRAME: usize = 1 << 16;
 
 /// At most `1 / WALL_RETRACE_SHARE` of the wall exchange's rays (boundary patches x
 /// `wall_rays`) are re-traced per frame where movers passed (whole rows at a time, so up to
-/// one row's rays more); the rest wait for the next frames. A 32nd (31k rays at Cornell
-/// 20k) keeps a drag's Step 1 near what re-tracing an eighth of the rows whole cost before
-/// the rays were kept, measured on 2 cores; a ray marked while the budget is spent stays
-/// dirty, so the rows are exact again some frames after the motion stops.
-pub const WALL_RETRACE_SHARE: usize = 32;
+/// one row's rays more); the rest wait for the next frames. A 128th (7.7k rays at Cornell
+/// 20k, about 3 ms on 2 cores; a 32nd took 10-20 ms, which made a drag's frame half wall
+/// rows) keeps a frame with a mover near a static frame's cost; a ray marked while the budget
+/// is spent stays dirty, so the rows are exact again some frames after the motion stops.
+pub const WALL_RETRACE_SHARE: usize = 128;
+
+/// At most `1 / WALL_CHECK_SHARE` of the wall rows are checked against the movers per frame
+/// (`wall_rows.rs`: as exact as checking all of them, only later). Checking all of them took
+/// 16 ms a frame of a Cornell 20k drag on 2 cores (every row's rays span the box, so its
+/// bounds reject no mover); an eighth takes about 2 ms.
+pub const WALL_CHECK_SHARE: usize = 8;
 
 /// Rays per light patch for the energy meter's measure of what the lights absorb.
 pub(super) const LIGHT_METER_RAYS: usize = 16;
@@ -60,28 +66,32 @@ impl Dispersive {
         }
     }
 
-    /// Mark the wall-exchange rays a move may have changed (those that hit a mover, those
-    /// with a mover's new box in front of their hit, every ray of a moved boundary object's
-    /// rows: `wall_rows.rs`), and re-trace the dirty rays, at most a 32nd of the
-    /// boundary's rays per frame ([`WALL_RETRACE_SHARE`]) from a cursor that
-    /// goes round: the dispersive idea applied to the walls, the cost of a frame stays
-    /// bounded and what is left waits for the next frames.
+    /// Check an eighth of the wall rows against the objects that moved since each was last
+    /// checked ([`WALL_CHECK_SHARE`]), marking the rays a move may have changed (those that
+    /// hit a mover, those with a mover's box now in front of their hit, every ray of a moved
+    /// boundary object's rows: `wall_rows.rs`), and re-trace dirty rays, at most a 128th of
+    /// the boundary's rays per frame ([`WALL_RETRACE_SHARE`]), from cursors that go round:
+    /// the dispersive idea applied to the walls, the cost of a frame stays bounded and what
+    /// is left waits for the next frames.
     pub(super) fn refresh_wall_rows(&mut self, world: &World, changes: &Changes) {
         let Some(rows) = &mut self.wall_rows else {
             return;
         };
-        // The movers' new boxes (`swept_boxes` has just remembered them).
-        let new: Vec<shrad_scene::Aabb> = changes
-            .moved
-            .iter()
-            .map(|&o| self.object_boxes[o])
-            .collect();
+        let n = self.boundary_patches.len();
         let rays = self.options.wall_rays.max(1) as usize;
-        let budget = (self.boundary_patches.len() * rays)
-            .div_ceil(WALL_RETRACE_SHARE)
-            .max(1);
-        rows.mark(world, &self.boundary_patches, &changes.moved, &new);
-        rows.retrace(world, &self.boundary_patches, budget);
+        // Every object's box now (`swept_boxes` has just remembered the movers' new ones).
+        rows.mark(
+            world,
+            &self.boundary_patches,
+            &changes.moved,
+            &self.object_boxes,
+            n.div_ceil(WALL_CHECK_SHARE),
+        );
+        rows.retrace(
+            world,
+            &self.boundary_patches,
+            (n * rays).div_ceil(WALL_RETRACE_SHARE).max(1),
+        );
     }
 
     /// Step 4 (paper 2.3.5): boundary radiosity from direct, object and wall light.

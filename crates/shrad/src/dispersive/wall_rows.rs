@@ -10,6 +10,14 @@
 //! movers' new boxes; marked rays are re-traced (a bounded number per frame), and a row is
 //! rebuilt from its rays' hits.
 //!
+//! The marking is amortised too: a frame checks only a share of the rows (from a cursor that
+//! goes round), each against the objects that moved since that row was last checked, at
+//! their places *now*. That is as exact as checking every row every frame: where a mover
+//! was in between cannot matter, by the same argument (a place it left is not in front of
+//! any hit unless the ray hit it, which class (1) catches). A drag then costs a share of the
+//! rows' tests per frame instead of all of them; the rows are exact again once every row
+//! has been checked and every marked ray re-traced after the motion stops.
+//!
 //! What a ray keeps (10 bytes; the ray itself is [`patch_rays`], regenerated when traced):
 //! the triangle it hit (its patch, and the side in the top bit) and where its segment ends,
 //! clipped to a box `W` around the scene and quantised to 16 bits an axis. The segment test
@@ -64,6 +72,16 @@ pub(super) struct WallRows {
     dirty: Vec<u64>,
     /// The row the next re-trace starts from (so every dirty ray gets its turn).
     cursor: usize,
+    /// Frames seen by [`WallRows::mark`].
+    frame: u64,
+    /// Per object: the last frame it moved in (0: never).
+    moved_at: Vec<u64>,
+    /// Per row: the frame it was last checked against the movers.
+    checked_at: Vec<u64>,
+    /// The row the next check starts from.
+    mark_cursor: usize,
+    /// Every row has been checked against every move up to this frame.
+    checked_all: u64,
 }
 
 impl WallRows {
@@ -87,6 +105,11 @@ impl WallRows {
             leaves: vec![false; n],
             dirty: vec![0; n * words],
             cursor: 0,
+            frame: 0,
+            moved_at: vec![0; world.scene.objects.len()],
+            checked_at: vec![0; n],
+            mark_cursor: 0,
+            checked_all: 0,
         };
         // Everything is dirty: trace it all, a chunk of rays at a time.
         for k in 0..n {
@@ -125,6 +148,13 @@ impl WallRows {
         self.dirty.iter().map(|w| w.count_ones() as usize).sum()
     }
 
+    /// Rows not yet checked against a move (see [`WallRows::mark`]).
+    #[cfg(test)]
+    pub(super) fn unchecked_rows(&self) -> usize {
+        let last = self.moved_at.iter().copied().max().unwrap_or(0);
+        self.checked_at.iter().filter(|&&c| c < last).count()
+    }
+
     fn set_all_dirty(&mut self, k: usize) {
         let w = &mut self.dirty[k * self.words..(k + 1) * self.words];
         w.fill(u64::MAX);
@@ -148,32 +178,79 @@ impl WallRows {
         [q.x as u16, q.y as u16, q.z as u16]
     }
 
-    /// Mark dirty the rays a move may have changed (see the module's docs): those that hit
-    /// an object in `moved`, those whose segment meets a box in `new` (the movers' new
-    /// places), and every ray of the rows of patches on a moved object (their origins
-    /// moved). [`WallRows::retrace`] re-traces them.
-    pub(super) fn mark(&mut self, world: &World, boundary: &[u32], moved: &[usize], new: &[Aabb]) {
-        if moved.is_empty() {
+    /// Note this frame's movers (`moved`), then check up to `budget` rows that have not
+    /// been checked since an object moved, from a cursor that goes round: mark dirty the rays
+    /// a move may have changed (see the module's docs): those that hit an object that moved
+    /// since the row's last check, those whose segment meets such an object's box now
+    /// (`boxes`: every object's world box at this frame), and every ray of the rows of
+    /// patches on such an object (their origins moved). [`WallRows::retrace`] re-traces
+    /// them.
+    pub(super) fn mark(
+        &mut self,
+        world: &World,
+        boundary: &[u32],
+        moved: &[usize],
+        boxes: &[Aabb],
+        budget: usize,
+    ) {
+        self.frame += 1;
+        for &o in moved {
+            self.moved_at[o] = self.frame;
+        }
+        let last = self.moved_at.iter().copied().max().unwrap_or(0);
+        let n = boundary.len();
+        if n == 0 || last <= self.checked_all {
             return;
         }
+        // The rows to check this frame.
+        let mut rows: Vec<usize> = Vec::new();
+        let start = self.mark_cursor % n;
+        let mut next = start;
+        for step in 0..n {
+            let k = (start + step) % n;
+            next = (k + 1) % n;
+            if self.checked_at[k] < last {
+                rows.push(k);
+                if rows.len() >= budget.max(1) {
+                    break;
+                }
+            }
+        }
+        if rows.len() < budget.max(1) {
+            // The scan went round: these are all the rows left to check.
+            self.checked_all = last;
+        }
+        if rows.is_empty() {
+            return;
+        }
+        self.mark_cursor = next;
         let p = &world.patches;
         let (rays, words) = (self.rays, self.words);
-        let moved_mask = moved.iter().fold(0u64, |m, &o| m | 1 << (o % 64));
         // Slack for the float noise of hits on a mover's surface (a ray that grazes a padded
         // box is only re-traced for nothing).
-        let new: Vec<Aabb> = new
+        let padded: Vec<Aabb> = boxes
             .iter()
-            .filter(|b| !b.is_empty())
             .map(|b| b.padded(Vec3::splat(4.0 * world.eps + 1e-5 * b.diagonal())))
             .collect();
-        let inside = new
-            .iter()
-            .all(|b| self.space.contains(b.min) && self.space.contains(b.max));
         let q = self.step();
         // Per row: (row, rays newly dirty, whether all of them).
-        let marks: Vec<(usize, Vec<u64>, bool)> = (0..boundary.len())
-            .into_par_iter()
-            .filter_map(|k| {
+        let marks: Vec<(usize, Vec<u64>, bool)> = rows
+            .par_iter()
+            .filter_map(|&k| {
+                // The objects that moved since this row was last checked.
+                let since = self.checked_at[k];
+                let moved: Vec<usize> = (0..self.moved_at.len())
+                    .filter(|&o| self.moved_at[o] > since)
+                    .collect();
+                let moved_mask = moved.iter().fold(0u64, |m, &o| m | 1 << (o % 64));
+                let new: Vec<Aabb> = moved
+                    .iter()
+                    .map(|&o| padded[o])
+                    .filter(|b| !b.is_empty())
+                    .collect();
+                let inside = new
+                    .iter()
+                    .all(|b| self.space.contains(b.min) && self.space.contains(b.max));
                 let i = boundary[k] as usize;
                 let bits = &self.dirty[k * words..(k + 1) * words];
                 if moved.contains(&(p.object[i] as usize)) {
@@ -233,6 +310,9 @@ impl WallRows {
         for (k, bits, _) in marks {
             let w = &mut self.dirty[k * words..(k + 1) * words];
             w.iter_mut().zip(&bits).for_each(|(w, b)| *w |= b);
+        }
+        for &k in &rows {
+            self.checked_at[k] = self.frame;
         }
     }
 
