@@ -79,6 +79,7 @@ const state = {
   connected: false,
 };
 const plot = new Plot($('plot'));
+const fences = []; // frames queued and not yet finished by the rasteriser (see whenFinished)
 
 // ---- connection -----------------------------------------------------------------------
 const ws = new WebSocket(`ws://${location.host}/ws`);
@@ -251,8 +252,14 @@ function placeMesh(ob) {
   ob.overlay.matrixWorldNeedsUpdate = true;
 }
 
+// At most one frame in flight: a new frame is queued only once the rasteriser has finished
+// the last one, so that it shows the newest colours and moves rather than waiting behind
+// older frames (with a software rasteriser slower than the engine, queued frames add their
+// draw times to the latency).
 let drawQueued = false;
+let drawWanted = false;
 function requestDraw() {
+  if (fences.length) { drawWanted = true; return; }
   if (drawQueued) return;
   drawQueued = true;
   requestAnimationFrame(draw);
@@ -260,7 +267,6 @@ function requestDraw() {
 
 /** Wait (without blocking) for the frame queued at `done.start` to be rasterised, then note
  * its draw time and the latencies of the mouse events it shows. */
-const fences = [];
 function whenFinished(done) {
   const gl = renderer.getContext();
   done.sync = typeof gl.fenceSync === 'function' ? gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0) : null;
@@ -282,6 +288,7 @@ function pollFences() {
     for (const t of f.gi) state.latencies.push(now - t);
   }
   if (fences.length) setTimeout(pollFences, 2);
+  else if (drawWanted) { drawWanted = false; requestDraw(); }
 }
 
 /** Is anything changing on screen (so that a cheap, lower-resolution frame is enough)? */
