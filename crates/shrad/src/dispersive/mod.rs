@@ -30,9 +30,9 @@ use shrad_scene::Role;
 use crate::energy::IncidentMeter;
 use crate::frame::SolverStats;
 use crate::probes::ProbeCamera;
-use crate::World;
 #[cfg(test)]
 use crate::NoProgress;
+use crate::World;
 
 mod caches;
 mod frame;
@@ -44,11 +44,11 @@ mod step1_direct;
 mod step2_probes;
 mod step3_to_boundary;
 mod step4_assemble;
-mod wall_rows;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
 mod tests_incremental;
+mod wall_rows;
 
 pub use frame::{Batch, Changes, DispersiveStats, Divergence, EnergyBalance, FrameStats};
 pub use options::{DispersiveOptions, ProbeRepair, Schedule, ToBoundary};
