@@ -70,6 +70,9 @@ const state = {
   awaitingFrame: [], // [{frame, t}] steering to see drawn
   latencies: [], // ms from the mouse event to the drawn engine frame that shows its GI
   moveLatencies: [], // ms from the mouse event to the drawn frame that shows the object there
+  receiveLatencies: [], // ms from the mouse event to the page receiving the first engine frame with it
+  dispatchLatencies: [], // ms from the mouse event to its handler running (the browser's input delay)
+  replyLatencies: [], // ms from the mouse event to the engine's reply to the move
   awaitingMove: [], // mouse-event times of local moves not drawn yet
   drawMs: [], // ms from queueing each of the last frames to the rasteriser finishing it
   pixelRatio: 1,
@@ -242,6 +245,9 @@ function onColours(c) {
   }
   state.pendingColours = c.frame;
   state.lastChannel = c.channel;
+  // What the engine and the network take, before the page draws.
+  const now = performance.now();
+  for (const a of state.awaitingFrame) if (c.frame >= a.frame && !a.received) { a.received = true; state.receiveLatencies.push(now - a.t); }
   requestDraw();
 }
 
@@ -337,6 +343,7 @@ function onOk(m) {
   const moved = localMoveOf(m.id);
   if (moved) moved.local.untilFrame = m.frame;
   if (m.id !== undefined && state.pendingSteer.has(m.id)) {
+    state.replyLatencies.push(performance.now() - state.pendingSteer.get(m.id));
     state.awaitingFrame.push({ frame: m.frame, t: state.pendingSteer.get(m.id) });
     state.pendingSteer.delete(m.id);
   }
@@ -593,6 +600,7 @@ function select(o) {
 function steer(o, matrix, t) {
   const id = send('set_transform', { object: o, matrix: Array.from(matrix.elements) }, true);
   if (id === undefined) return;
+  state.dispatchLatencies.push(performance.now() - t);
   state.pendingSteer.set(id, t);
   const ob = state.objects[o];
   const worldFromLocal = matrix.clone().multiply(ob.localFromObject.clone().invert());

@@ -119,7 +119,7 @@ async function dragBy(page, from, dx, dy, steps, ms) {
 
 /** GI updates per second and drag latency while an object is dragged back and forth. */
 async function measure(page, name, seconds, pixels) {
-  await shrad(page, () => { window.__shrad.state.latencies.length = 0; window.__shrad.state.moveLatencies.length = 0; });
+  await shrad(page, () => { const s = window.__shrad.state; s.latencies.length = 0; s.moveLatencies.length = 0; s.receiveLatencies.length = 0; s.dispatchLatencies.length = 0; s.replyLatencies.length = 0; });
   const from = await shrad(page, (n) => window.__shrad.screenOf(n), name);
   const f0 = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now() }));
   const engineRates = [];
@@ -133,7 +133,7 @@ async function measure(page, name, seconds, pixels) {
     if (i % 15 === 0) engineRates.push(await shrad(page, () => window.__shrad.state.lastFrame.gi_updates_per_s));
   }
   await page.mouse.up();
-  const f1 = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now(), latencies: window.__shrad.state.latencies.slice(), moves: window.__shrad.state.moveLatencies.slice(), drawMs: window.__shrad.state.drawMs.slice(), ms: window.__shrad.state.lastFrame.stats.frame_ms ?? window.__shrad.state.lastFrame.stats.common?.frame_ms }));
+  const f1 = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now(), latencies: window.__shrad.state.latencies.slice(), moves: window.__shrad.state.moveLatencies.slice(), received: window.__shrad.state.receiveLatencies.slice(), dispatched: window.__shrad.state.dispatchLatencies.slice(), replied: window.__shrad.state.replyLatencies.slice(), drawMs: window.__shrad.state.drawMs.slice(), ms: window.__shrad.state.lastFrame.stats.frame_ms ?? window.__shrad.state.lastFrame.stats.common?.frame_ms }));
   const secs = (f1.t - f0.t) / 1000;
   const quantiles = (xs) => {
     const v = xs.slice().sort((a, b) => a - b);
@@ -149,6 +149,14 @@ async function measure(page, name, seconds, pixels) {
     object_latency_ms: quantiles(f1.moves),
     // Mouse event to the page drawing the first engine frame computed with the object there.
     latency_ms: quantiles(f1.latencies),
+    // Mouse event to the page receiving that engine frame (the engine's and the network's
+    // share of the light's latency, before the rasteriser's).
+    received_latency_ms: quantiles(f1.received),
+    // The parts before that: the browser's input delay (event to its handler), and the
+    // engine's reply to the move (it replies between frames, before stepping the one with
+    // the move).
+    dispatch_latency_ms: quantiles(f1.dispatched),
+    reply_latency_ms: quantiles(f1.replied),
     page_draw_ms: quantiles(f1.drawMs),
   };
 }

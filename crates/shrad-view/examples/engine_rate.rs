@@ -74,12 +74,15 @@ fn main() -> Result<()> {
 struct StepTimes {
     frames: usize,
     ms: [f64; 5],
+    /// The longest frame (ms).
+    max: f64,
 }
 
 impl StepTimes {
     fn add(&mut self, stats: &shrad::dispersive::FrameStats) {
         self.frames += 1;
         self.ms[0] += stats.frame_ms;
+        self.max = self.max.max(stats.frame_ms);
         if let Some(d) = stats.dispersive() {
             for (sum, ms) in self.ms[1..].iter_mut().zip([
                 d.direct_ms,
@@ -96,8 +99,8 @@ impl StepTimes {
         let n = self.frames.max(1) as f64;
         let [frame, s1, s2, s3, s4] = self.ms.map(|x| x / n);
         format!(
-            "{frame:.2} ms a frame (step 1 {s1:.2}, step 2 {s2:.2}, step 3 {s3:.2}, step 4 {s4:.2}) over {} frames",
-            self.frames
+            "{frame:.2} ms a frame (step 1 {s1:.2}, step 2 {s2:.2}, step 3 {s3:.2}, step 4 {s4:.2}; longest {:.1}) over {} frames",
+            self.max, self.frames
         )
     }
 }

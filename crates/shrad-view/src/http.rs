@@ -204,6 +204,15 @@ async fn client(mut socket: WebSocket, app: Arc<App>) {
     let mut sent_probes: Option<u64> = None;
     loop {
         tokio::select! {
+            // In this order when several are ready: a reply goes out before the frame that
+            // follows it (the engine queues a request's reply before it steps the frame that
+            // has the change, and the page learns from the reply which frame that is).
+            biased;
+            Some(reply) = replies.recv() => {
+                if socket.send(Message::Text(reply.into())).await.is_err() {
+                    break;
+                }
+            }
             incoming = socket.recv() => {
                 let Some(Ok(message)) = incoming else {
                     // Gone, or a message over the wire limit: say why if we still can.
@@ -261,11 +270,6 @@ async fn client(mut socket: WebSocket, app: Arc<App>) {
                             sent_probes = Some(*seq);
                         }
                     }
-                }
-            }
-            Some(reply) = replies.recv() => {
-                if socket.send(Message::Text(reply.into())).await.is_err() {
-                    break;
                 }
             }
             _ = stopped(&mut stop) => {
