@@ -67,6 +67,15 @@ fn series_by_solver(
         .collect()
 }
 
+/// The records that timed a moving object.
+fn moving<'a>(records: &[&'a Record]) -> Vec<&'a Record> {
+    records
+        .iter()
+        .copied()
+        .filter(|r| r.moving.is_some())
+        .collect()
+}
+
 /// The plots of `report`: Figure 2 (Tables 1-2 scenes), Figure 3 (Table 3 scenes), and the
 /// error against time on the Tables 1-2 scene nearest 75k patches and on the largest scene.
 pub fn plots(report: &BenchReport) -> Vec<Plot> {
@@ -81,6 +90,18 @@ pub fn plots(report: &BenchReport) -> Vec<Plot> {
             x_label: "patches".into(),
             y_label: "frame time (ms)".into(),
             series: series_by_solver(&scaling, |r| r.patches as f64, |r| r.frame_ms_median),
+            x_axis: XAxis::Linear,
+        });
+        plots.push(Plot {
+            name: "time_vs_patches_moving".into(),
+            title: "Time per frame against patches, one object moving every frame".into(),
+            x_label: "patches".into(),
+            y_label: "frame time (ms)".into(),
+            series: series_by_solver(
+                &moving(&scaling),
+                |r| r.patches as f64,
+                |r| r.moving.as_ref().map_or(f64::NAN, |m| m.frame_ms_median),
+            ),
             x_axis: XAxis::Linear,
         });
     }

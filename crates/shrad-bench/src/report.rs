@@ -48,6 +48,22 @@ impl StepMs {
     }
 }
 
+/// The frames timed with one object (the largest; Table 3: the grown one) moved before
+/// each (see [`crate::run::MOVE_REACH`]).
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Moving {
+    /// Median `frame_ms`.
+    pub frame_ms_median: f64,
+    /// The longest frame (ms).
+    pub frame_ms_max: f64,
+    /// Median of each step.
+    pub step_ms: StepMs,
+    /// Frames timed.
+    pub frames: usize,
+    /// grid5's median moving frame / this solver's (same scene, same run).
+    pub speedup_vs_grid5: Option<f64>,
+}
+
 /// Errors after the same frames and after the same time.
 #[derive(Clone, Copy, Debug, Default, Serialize)]
 pub struct Errors {
@@ -130,6 +146,9 @@ pub struct Record {
     pub check: String,
     /// Error against summed frame time, from the first frame on (at most ~80 points).
     pub trace: Vec<TracePoint>,
+    /// Frames with one object moving every frame (after the static ones; None when the
+    /// scene has no interior object or none were asked for).
+    pub moving: Option<Moving>,
 }
 
 /// Statistics of one scene's reference solve.

@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use glam::Vec3;
+use glam::{Affine3A, Vec3};
 use shrad::dispersive::FrameStats;
 use shrad::engine::Engine;
 use shrad::metrics::relative_error;
@@ -13,7 +13,7 @@ use shrad::vis::Backend;
 use shrad::{Error, NoProgress, Progress, World};
 
 use crate::machine::{memory_mib, reset_peak, Machine};
-use crate::report::{BenchReport, Errors, Record, SceneInfo, StepMs, TracePoint};
+use crate::report::{BenchReport, Errors, Moving, Record, SceneInfo, StepMs, TracePoint};
 use crate::scenes::{build_world, scenes, SceneSpec, Table};
 use crate::solvers::SolverKind;
 
@@ -45,7 +45,17 @@ pub struct BenchOptions {
     pub max_frames: usize,
     /// Sanity bound on the relative error after warm-up (fraction).
     pub error_bound: f64,
+    /// Grid: frames timed with one object moving every frame.
+    pub grid_moving: usize,
+    /// Dispersive: passes timed with one object moving every frame.
+    pub dispersive_moving_passes: usize,
 }
+
+/// How far the moving object goes either side of where it rests, as a fraction of the
+/// scene's extent along x (0.4 m in the 8 m room).
+pub const MOVE_REACH: f32 = 0.05;
+/// Frames of one back-and-forth of the moving object.
+pub const MOVE_PERIOD_FRAMES: usize = 16;
 
 impl BenchOptions {
     /// The default protocol over [`scenes`]`(quick)`.
@@ -67,6 +77,8 @@ impl BenchOptions {
             same_time_grid5_frames: 5,
             max_frames: 4000,
             error_bound: 1.0,
+            grid_moving: 3,
+            dispersive_moving_passes: 2,
         }
     }
 
@@ -252,6 +264,23 @@ fn run_solver(
         err_same_time = Some(error_now(&engine));
         same_time_frames = frames;
     }
+    // The case the paper is about: an object moving every frame. The static frames above
+    // are cheap once the exact caches of Steps 1-3 hold; these frames pay for the object's
+    // light, its shadows and its neighbours again.
+    let moving_frames = if kind.is_grid() {
+        options.grid_moving
+    } else {
+        options.dispersive_moving_passes * n_obj
+    };
+    let mover = largest_object.filter(|_| moving_frames > 0);
+    let rest = mover.map(|o| (o, engine.world().patches.world_from_local[o]));
+    let moving_stats = match mover {
+        Some(o) => time_moving(&mut engine, o, moving_frames).map_err(|e| {
+            Error::Invalid(format!("{kind} on {} with a moving object: {e}", spec.name))
+        })?,
+        None => Vec::new(),
+    };
+    let moving = (!moving_stats.is_empty()).then(|| medians(&moving_stats));
     let steps: Vec<StepMs> = timed_stats.iter().map(StepMs::of).collect();
     let step = |f: fn(&StepMs) -> f64| median(&steps.iter().map(f).collect::<Vec<_>>());
     let frame_ms: Vec<f64> = timed_stats.iter().map(|s| s.frame_ms).collect();
@@ -299,15 +328,68 @@ fn run_solver(
         world_rss_mib: scene.world_rss_mib,
         check,
         trace,
+        moving,
     };
-    // The solver is dropped here, before the next one is built (the memory columns).
-    Ok((record, engine.into_world()))
+    // The solver is dropped here, before the next one is built (the memory columns), and the
+    // moved object goes back exactly where it rested (its local transform, not a round trip
+    // through the object's), so that the next solver starts from the same world.
+    let mut world = engine.into_world();
+    if let Some((o, xf)) = rest {
+        world.patches.set_transform(o, xf);
+        world.vis.set_transform(o, xf);
+        world.vis.commit();
+    }
+    Ok((record, world))
+}
+
+/// Step `frames` frames, moving object `o` before each: back and forth along x by
+/// [`MOVE_REACH`] of the scene's extent, one period in [`MOVE_PERIOD_FRAMES`] frames. The
+/// radiosity is checked after the last frame.
+fn time_moving(engine: &mut Engine, o: usize, frames: usize) -> Result<Vec<FrameStats>, String> {
+    let rest = engine.transform(o);
+    let (lo, hi) = engine
+        .world()
+        .scene
+        .bounds()
+        .ok_or_else(|| "the scene is empty".to_string())?;
+    let reach = MOVE_REACH * (hi - lo).x;
+    let mut stats = Vec::with_capacity(frames);
+    for k in 1..=frames {
+        let phase = (k as f32 * std::f32::consts::TAU / MOVE_PERIOD_FRAMES as f32).sin();
+        engine
+            .set_transform(
+                o,
+                Affine3A::from_translation(Vec3::X * reach * phase) * rest,
+            )
+            .map_err(|e| e.to_string())?;
+        stats.push(engine.step());
+    }
+    check_radiosity(engine.world(), engine.radiosity())?;
+    Ok(stats)
+}
+
+/// The medians of a window of frames.
+fn medians(stats: &[FrameStats]) -> Moving {
+    let steps: Vec<StepMs> = stats.iter().map(StepMs::of).collect();
+    let step = |f: fn(&StepMs) -> f64| median(&steps.iter().map(f).collect::<Vec<_>>());
+    Moving {
+        frame_ms_median: median(&stats.iter().map(|s| s.frame_ms).collect::<Vec<_>>()),
+        frame_ms_max: stats.iter().map(|s| s.frame_ms).fold(0.0, f64::max),
+        step_ms: StepMs {
+            direct: step(|s| s.direct),
+            objects: step(|s| s.objects),
+            to_boundary: step(|s| s.to_boundary),
+            assemble: step(|s| s.assemble),
+        },
+        frames: stats.len(),
+        speedup_vs_grid5: None,
+    }
 }
 
 /// One line per solver for the log.
 fn record_line(r: &Record) -> String {
     format!(
-        "  {:<10} frame {:>9.2} ms (direct {:.2}, objects {:.2}, to boundary {:.2}, assemble {:.2}), error {:.1} % after {} frames, {:.1} % after {} frames in {:.0} ms{}",
+        "  {:<10} frame {:>9.2} ms (direct {:.2}, objects {:.2}, to boundary {:.2}, assemble {:.2}), error {:.1} % after {} frames, {:.1} % after {} frames in {:.0} ms{}{}",
         r.solver.label(),
         r.frame_ms_median,
         r.step_ms.direct,
@@ -319,6 +401,10 @@ fn record_line(r: &Record) -> String {
         100.0 * r.error.same_time.overall,
         r.same_time_frames,
         r.same_time_budget_ms,
+        r.moving.as_ref().map_or(String::new(), |m| format!(
+            "; moving {:.2} ms (direct {:.2}, objects {:.2}, to boundary {:.2}, assemble {:.2}; longest {:.1})",
+            m.frame_ms_median, m.step_ms.direct, m.step_ms.objects, m.step_ms.to_boundary, m.step_ms.assemble, m.frame_ms_max
+        )),
         if r.check == "ok" { String::new() } else { format!(", CHECK: {}", r.check) }
     )
 }
@@ -404,6 +490,21 @@ pub fn run(
                 }
             }
         }
+        let grid5_moving = records[first..]
+            .iter()
+            .find(|r| r.solver == SolverKind::Grid5)
+            .and_then(|r| r.moving.as_ref())
+            .map(|m| m.frame_ms_median);
+        if let Some(g) = grid5_moving {
+            for m in records[first..]
+                .iter_mut()
+                .filter_map(|r| r.moving.as_mut())
+            {
+                if m.frame_ms_median > 0.0 {
+                    m.speedup_vs_grid5 = Some(g / m.frame_ms_median);
+                }
+            }
+        }
     }
     progress.end();
     Ok(BenchReport {
@@ -467,9 +568,46 @@ mod tests {
             assert_eq!(r.check, "ok");
         }
         assert!(report.records.iter().all(|r| r.speedup_vs_grid5.is_some()));
+        // Every solver also timed frames with an object moving.
+        for r in &report.records {
+            let m = r.moving.as_ref().expect("a moving window");
+            assert!(m.frames >= 1 && m.frame_ms_median > 0.0, "{r:?}");
+            assert!(m.speedup_vs_grid5.is_some(), "{r:?}");
+        }
         // The machine comes first in the log.
         assert!(lines.lock().unwrap()[0].starts_with("machine: CPU "));
         let md = crate::markdown(&report, "test");
         assert!(md.contains("| tiny |"));
+    }
+
+    #[test]
+    fn the_moved_object_goes_back_where_it_rested() {
+        let spec = SceneSpec {
+            name: "tiny".into(),
+            table: Table::Scaling,
+            params: RoomParams {
+                objects: 2,
+                patches: 1200,
+                big_object_patches: None,
+            },
+        };
+        let world = build_world(&spec, Backend::Auto).unwrap();
+        let centres = world.patches.centre.clone();
+        let normals = world.patches.normal.clone();
+        let (reference, _) = solve(&world, &ReferenceOptions::fast(), &NoProgress);
+        let scene = SceneRun {
+            spec: &spec,
+            reference: &reference,
+            world_rss_mib: 0.0,
+        };
+        let mut options = BenchOptions::new(true);
+        options.dispersive_moving_passes = 3;
+        let (record, world) =
+            run_solver(world, &scene, SolverKind::Dispersive, &options, Some(1.0)).unwrap();
+        let m = record.moving.expect("a moving window");
+        assert_eq!(m.frames, 6);
+        assert!(m.frame_ms_max >= m.frame_ms_median);
+        assert_eq!(world.patches.centre, centres);
+        assert_eq!(world.patches.normal, normals);
     }
 }
