@@ -4,7 +4,7 @@ use std::fmt::Write as _;
 
 use shrad::metrics::RelativeError;
 
-use crate::report::{BenchReport, Record};
+use crate::report::{BenchReport, Record, SceneInfo};
 use crate::scenes::Table;
 use crate::solvers::SolverKind;
 
@@ -16,24 +16,42 @@ fn pct(x: f64) -> String {
     }
 }
 
-fn ms(r: Option<&Record>) -> String {
-    r.map_or("-".into(), |r| format!("{:.1}", r.frame_ms_median))
+/// Which frames of a record a column shows: those of the still scene, or those with the
+/// largest object moving.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Frames {
+    Still,
+    Moving,
 }
 
-fn moving_ms(r: Option<&Record>) -> String {
-    r.and_then(|r| r.moving.as_ref())
-        .map_or("-".into(), |m| format!("{:.1}", m.frame_ms_median))
-}
+impl Frames {
+    /// The median frame time and the speed-up over grid5 of these frames, and the longest
+    /// frame when it is recorded.
+    fn of(self, r: &Record) -> Option<(f64, Option<f64>, Option<f64>)> {
+        match self {
+            Frames::Still => Some((r.frame_ms_median, r.speedup_vs_grid5, None)),
+            Frames::Moving => r
+                .moving
+                .as_ref()
+                .map(|m| (m.frame_ms_median, m.speedup_vs_grid5, Some(m.frame_ms_max))),
+        }
+    }
 
-fn moving_speedup(r: Option<&Record>) -> String {
-    r.and_then(|r| r.moving.as_ref())
-        .and_then(|m| m.speedup_vs_grid5)
-        .map_or("-".into(), |x| format!("{x:.1}x"))
-}
+    /// "12.3", "12.3 (20)" with the longest frame, or "-".
+    fn ms(self, r: Option<&Record>) -> String {
+        match r.and_then(|r| self.of(r)) {
+            Some((median, _, Some(longest))) => format!("{median:.1} ({longest:.0})"),
+            Some((median, _, None)) => format!("{median:.1}"),
+            None => "-".into(),
+        }
+    }
 
-fn speedup(r: Option<&Record>) -> String {
-    r.and_then(|r| r.speedup_vs_grid5)
-        .map_or("-".into(), |x| format!("{x:.1}x"))
+    /// "12.3x" or "-".
+    fn speedup(self, r: Option<&Record>) -> String {
+        r.and_then(|r| self.of(r))
+            .and_then(|(_, x, _)| x)
+            .map_or("-".into(), |x| format!("{x:.1}x"))
+    }
 }
 
 fn errors(e: &RelativeError) -> String {
@@ -45,9 +63,9 @@ fn errors(e: &RelativeError) -> String {
     )
 }
 
-/// Tables 1-2: one row per scene, one column per solver.
+/// Tables 1-2: one row per scene, one column per solver; then the same with an object
+/// moving.
 fn scaling_table(s: &mut String, report: &BenchReport) {
-    use SolverKind::*;
     let scaling = report.scenes_of(Table::Scaling);
     if scaling.is_empty() {
         return;
@@ -56,14 +74,34 @@ fn scaling_table(s: &mut String, report: &BenchReport) {
         s,
         "## Tables 1-2: time per frame against patch count (8 interior objects)\n"
     );
+    scaling_rows(s, report, &scaling, Frames::Still);
+    let _ = writeln!(s, "\nGrids: cube maps of 128^2 per face (the paper's), and G=5 at 32^2 (the dispersive default's probe resolution: the like-for-like cost). Dispersive default: probes 32^2, Step 3 splat 64^2. Paper preset: 128^2. The scene is still: the dispersive solvers' exact caches of Steps 1-3 hold, so these frames trace few rays.\n");
+    let _ = writeln!(
+        s,
+        "### The same with one object moving every frame\n\nThe largest interior object moves back and forth along x by up to {:.0} % of the room's width (a period of {} frames) before every frame; medians (and, for the dispersive solvers, the longest frame).\n",
+        100.0 * crate::run::MOVE_REACH,
+        crate::run::MOVE_PERIOD_FRAMES
+    );
+    scaling_rows(s, report, &scaling, Frames::Moving);
+    s.push('\n');
+}
+
+/// The rows of Tables 1-2 for `frames`.
+fn scaling_rows(s: &mut String, report: &BenchReport, scaling: &[&SceneInfo], frames: Frames) {
+    use SolverKind::*;
     let _ = writeln!(s, "| scene | patches | grid G=4 (ms) | grid G=5 (ms) | dispersive (ms) | paper preset (ms) | speed-up dispersive vs G=5 | speed-up paper vs G=5 | grid G=5 at R=32 (ms) | speed-up dispersive vs G=5 at R=32 |");
     let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
-    for i in &scaling {
+    for i in scaling {
         let find = |k| report.find(&i.scene, k);
-        let like_for_like = match (find(Grid5DefaultRes), find(Dispersive)) {
-            (Some(g), Some(d)) if d.frame_ms_median > 0.0 => {
-                format!("{:.1}x", g.frame_ms_median / d.frame_ms_median)
-            }
+        let median = |k| find(k).and_then(|r| frames.of(r)).map(|(m, ..)| m);
+        let grid = |k| {
+            // The grids' longest frame is not of interest: they cost the same every frame.
+            find(k)
+                .and_then(|r| frames.of(r))
+                .map_or("-".into(), |(m, ..)| format!("{m:.1}"))
+        };
+        let like_for_like = match (median(Grid5DefaultRes), median(Dispersive)) {
+            (Some(g), Some(d)) if d > 0.0 => format!("{:.1}x", g / d),
             _ => "-".into(),
         };
         let _ = writeln!(
@@ -71,59 +109,16 @@ fn scaling_table(s: &mut String, report: &BenchReport) {
             "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             i.scene,
             i.patches,
-            ms(find(Grid4)),
-            ms(find(Grid5)),
-            ms(find(Dispersive)),
-            ms(find(Paper)),
-            speedup(find(Dispersive)),
-            speedup(find(Paper)),
-            ms(find(Grid5DefaultRes)),
+            grid(Grid4),
+            grid(Grid5),
+            frames.ms(find(Dispersive)),
+            frames.ms(find(Paper)),
+            frames.speedup(find(Dispersive)),
+            frames.speedup(find(Paper)),
+            grid(Grid5DefaultRes),
             like_for_like,
         );
     }
-    let _ = writeln!(s, "\nGrids: cube maps of 128^2 per face (the paper's), and G=5 at 32^2 (the dispersive default's probe resolution: the like-for-like cost). Dispersive default: probes 32^2, Step 3 splat 64^2. Paper preset: 128^2. The scene is still: the dispersive solvers' exact caches of Steps 1-3 hold, so these frames trace few rays.\n");
-    let _ = writeln!(
-        s,
-        "### The same with one object moving every frame\n\nThe largest interior object moves back and forth along x by up to {:.0} % of the room's width (a period of {} frames) before every frame; medians (and the longest frame).\n",
-        100.0 * crate::run::MOVE_REACH,
-        crate::run::MOVE_PERIOD_FRAMES
-    );
-    let _ = writeln!(s, "| scene | patches | grid G=4 (ms) | grid G=5 (ms) | dispersive (ms) | paper preset (ms) | speed-up dispersive vs G=5 | speed-up paper vs G=5 | grid G=5 at R=32 (ms) | speed-up dispersive vs G=5 at R=32 |");
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
-    for i in &scaling {
-        let find = |k| report.find(&i.scene, k);
-        let longest = |k| {
-            find(k)
-                .and_then(|r| r.moving.as_ref())
-                .map_or(String::new(), |m| format!(" ({:.0})", m.frame_ms_max))
-        };
-        let like_for_like = match (
-            find(Grid5DefaultRes).and_then(|r| r.moving.as_ref()),
-            find(Dispersive).and_then(|r| r.moving.as_ref()),
-        ) {
-            (Some(g), Some(d)) if d.frame_ms_median > 0.0 => {
-                format!("{:.1}x", g.frame_ms_median / d.frame_ms_median)
-            }
-            _ => "-".into(),
-        };
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} | {} | {}{} | {}{} | {} | {} | {} | {} |",
-            i.scene,
-            i.patches,
-            moving_ms(find(Grid4)),
-            moving_ms(find(Grid5)),
-            moving_ms(find(Dispersive)),
-            longest(Dispersive),
-            moving_ms(find(Paper)),
-            longest(Paper),
-            moving_speedup(find(Dispersive)),
-            moving_speedup(find(Paper)),
-            moving_ms(find(Grid5DefaultRes)),
-            like_for_like,
-        );
-    }
-    s.push('\n');
 }
 
 /// Table 3: per-step times of every solver as one object grows.
@@ -159,13 +154,15 @@ fn big_object_table(s: &mut String, report: &BenchReport) {
                 } else {
                     "-".into()
                 },
-                speedup(Some(r)),
+                Frames::Still.speedup(Some(r)),
                 r.moving.as_ref().map_or("-".into(), |m| format!(
                     "{:.2} / {:.2} / {:.2} / {:.2}",
                     m.step_ms.direct, m.step_ms.objects, m.step_ms.to_boundary, m.step_ms.assemble
                 )),
-                moving_ms(Some(r)),
-                moving_speedup(Some(r)),
+                r.moving
+                    .as_ref()
+                    .map_or("-".into(), |m| format!("{:.1}", m.frame_ms_median)),
+                Frames::Moving.speedup(Some(r)),
             );
         }
     }
