@@ -187,13 +187,42 @@ pub fn reset_non_finite(values: &mut [Vec3]) -> usize {
 
 /// Checks a state against the bound: `Some(scale)` by which the reflected part must be
 /// multiplied to come back within it, or `None` when it is within.
-pub fn over_bound(balance: &EnergyBalance) -> Option<f64> {
-    let limit = balance.reflected_bound * BOUND_TOLERANCE;
+///
+/// `held` is the reflected flux of the solver's last frame that was within its bound
+/// ([`LightHeld`]; `None` before its first). When a light dims or goes out, a solver that
+/// updates over several frames (every solver but the reference) still holds light from
+/// before, more than the new light can sustain, and that light drains over the next frames:
+/// no divergence. So the limit is the larger of the bound and what was held then (with the
+/// same tolerance): a state may drain from there, but not grow past it.
+pub fn over_bound(balance: &EnergyBalance, held: Option<f64>) -> Option<f64> {
     if !balance.reflected.is_finite() {
         return Some(0.0);
     }
-    (balance.reflected > limit && balance.reflected > 0.0)
-        .then(|| balance.reflected_bound / balance.reflected)
+    let level = balance
+        .reflected_bound
+        .max(held.filter(|r| r.is_finite()).unwrap_or(0.0));
+    (balance.reflected > level * BOUND_TOLERANCE && balance.reflected > 0.0)
+        .then(|| level / balance.reflected)
+}
+
+/// The reflected flux of a solver's last frame within its bound (see [`over_bound`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LightHeld(Option<f64>);
+
+impl LightHeld {
+    /// What [`over_bound`] takes.
+    pub fn get(self) -> Option<f64> {
+        self.0
+    }
+
+    /// Note a published frame's balance: kept when it was within its own bound.
+    pub fn note(&mut self, balance: &EnergyBalance) {
+        if balance.reflected.is_finite()
+            && balance.reflected <= balance.reflected_bound * BOUND_TOLERANCE
+        {
+            self.0 = Some(balance.reflected);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -210,12 +239,32 @@ mod tests {
             ..Default::default()
         };
         assert!((b.closure() - 0.99).abs() < 1e-12);
-        assert!((over_bound(&b).unwrap() - 0.8).abs() < 1e-12);
+        assert!((over_bound(&b, None).unwrap() - 0.8).abs() < 1e-12);
         let ok = EnergyBalance {
             reflected: 41.0,
             ..b
         };
-        assert_eq!(over_bound(&ok), None);
+        assert_eq!(over_bound(&ok, None), None);
+        // The light dimmed: 50 was held before, now 45 against a bound of 4. Draining is
+        // no divergence; growing past what was held is, and is brought back to it.
+        let dimmed = EnergyBalance {
+            reflected: 45.0,
+            reflected_bound: 4.0,
+            ..b
+        };
+        assert_eq!(over_bound(&dimmed, Some(50.0)), None);
+        assert!((over_bound(&dimmed, Some(40.0)).unwrap() - 40.0 / 45.0).abs() < 1e-12);
+        assert!((over_bound(&dimmed, None).unwrap() - 4.0 / 45.0).abs() < 1e-12);
+        let nan = EnergyBalance {
+            reflected: f64::NAN,
+            ..b
+        };
+        assert_eq!(over_bound(&nan, Some(50.0)), Some(0.0));
+        // What is held is the last frame within its own bound.
+        let mut held = LightHeld::default();
+        held.note(&ok);
+        held.note(&dimmed);
+        assert_eq!(held.get(), Some(41.0));
         let mut v = vec![Vec3::ONE, Vec3::new(f32::NAN, 1.0, f32::INFINITY)];
         assert_eq!(reset_non_finite(&mut v), 1);
         assert_eq!(v[1], Vec3::new(0.0, 1.0, 0.0));

@@ -50,6 +50,9 @@ pub struct Grid {
     probes: Vec<Vec3>,
     radiosity: Vec<Vec3>,
     frame: u64,
+    /// The reflected flux of the last frame within the bound (the guard lets the light held
+    /// from before a light dimmed drain: [`crate::energy::over_bound`]).
+    light_held: crate::energy::LightHeld,
 }
 
 impl Grid {
@@ -76,6 +79,7 @@ impl Grid {
             probes,
             radiosity: world.exitance.clone(),
             frame: 0,
+            light_held: Default::default(),
         })
     }
 
@@ -150,7 +154,7 @@ impl Grid {
             message: format!("{non_finite} non-finite irradiance value(s) reset to 0"),
             non_finite,
         });
-        if let Some(s) = crate::energy::over_bound(&energy) {
+        if let Some(s) = crate::energy::over_bound(&energy, self.light_held.get()) {
             irradiance.iter_mut().for_each(|e| *e *= s as f32);
             let message = format!(
                 "reflected flux {:.4e} exceeds the bound {:.4e} that the lights can sustain; probe light damped by {s:.3}",
@@ -162,6 +166,7 @@ impl Grid {
                 non_finite,
             });
         }
+        self.light_held.note(&energy);
         self.radiosity = (0..p.len())
             .map(|i| world.exitance[i] + world.reflectance[i] * irradiance[i])
             .collect();

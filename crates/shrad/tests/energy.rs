@@ -254,3 +254,59 @@ fn a_runaway_is_caught_named_and_damped() {
     eprintln!("guard: {message}");
     assert!(message.contains("box"), "{message}");
 }
+
+/// A light that dims or goes out is no divergence: the light the solvers still hold from
+/// before drains over the next frames, and the guard lets it (it only stops growth past what
+/// was held). It used to damp it and report every such frame as diverged.
+#[test]
+fn a_dimmed_light_drains_without_the_guard() {
+    for solver in ["dispersive", "grid"] {
+        let mut choice = shrad::solver::SolverChoice::preset(solver, "default").unwrap();
+        if solver == "grid" {
+            // The grid's algorithm at a resolution a test can afford.
+            choice.set_all(&[("cube_res", "16")]).unwrap();
+        }
+        let mut engine = shrad::engine::Engine::new(
+            shrad::scene::cornell_box(),
+            PatchSizing::Count(600),
+            Backend::Auto,
+            choice,
+        )
+        .unwrap();
+        let light = engine.object("light").unwrap();
+        let bright = engine.world().exitance[engine.world().patches.range(light).start]
+            / std::f32::consts::PI;
+        // Converged (the grid takes one bounce a frame), so that the light is not still rising.
+        for _ in 0..40 {
+            engine.step();
+        }
+        for (emission, what) in [(bright * 0.1, "dimmed"), (Vec3::ZERO, "off")] {
+            engine.set_emission(light, emission).unwrap();
+            let before = engine.step();
+            let mut last = before.energy.reflected;
+            assert!(
+                last > before.energy.reflected_bound,
+                "{solver}, {what}: {before:?}"
+            );
+            for f in 0..20 {
+                let s = engine.step();
+                assert!(
+                    s.diverged.is_none(),
+                    "{solver}, {what}, frame {f}: {:?}",
+                    s.diverged
+                );
+                // It drains (within the solvers' rounding).
+                assert!(
+                    s.energy.reflected <= last * 1.0001,
+                    "{solver}, {what}, frame {f}"
+                );
+                last = s.energy.reflected;
+            }
+            assert!(
+                before.diverged.is_none(),
+                "{solver}, {what}: {:?}",
+                before.diverged
+            );
+        }
+    }
+}

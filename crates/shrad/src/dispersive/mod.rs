@@ -99,6 +99,9 @@ pub struct Dispersive {
     /// Step 1's direct light with its shadow rays, to re-trace only those a mover may block.
     direct_cache: crate::direct::DirectCache,
     frame: u64,
+    /// The reflected flux of the last frame within the bound (the guard lets the light held
+    /// from before a light dimmed drain: [`crate::energy::over_bound`]).
+    light_held: crate::energy::LightHeld,
     /// Irradiance of the lights that reflect nothing (kept at their emission), for the
     /// energy meter: what they absorb.
     light_meter: IncidentMeter,
@@ -163,6 +166,7 @@ impl Dispersive {
             direct_valid: false,
             direct_cache: Default::default(),
             frame: 0,
+            light_held: Default::default(),
             light_meter: IncidentMeter::new(
                 world,
                 (0..p.len() as u32)

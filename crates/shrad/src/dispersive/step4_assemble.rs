@@ -64,6 +64,7 @@ impl Dispersive {
             };
             stats.diverged = Some(d);
         }
+        self.light_held.note(&stats.energy);
     }
 
     /// Check an eighth of the wall rows against the objects that moved since each was last
@@ -202,7 +203,7 @@ impl Dispersive {
                 }
             }
         }
-        let scale = crate::energy::over_bound(balance);
+        let scale = crate::energy::over_bound(balance, self.light_held.get());
         if scale.is_none() && non_finite == 0 {
             return earlier;
         }
