@@ -5,7 +5,7 @@
 //! Errors: a bad input is a `ValueError`, a file that cannot be read or written an
 //! `OSError`, each with the message the CLI prints (it names the file and what is wrong).
 
-use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyPermissionError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -25,6 +25,12 @@ pub(crate) fn to_py_err(e: shrad::Error) -> PyErr {
             // The OS's reason after the file ("cornell.glb: cannot read file: No such file").
             PyOSError::new_err(format!("{message}: {source}"))
         }
+        // A file the scene names (a glTF's .bin): the message names both and the reason.
+        shrad::Error::Scene(SceneError::Unreadable { kind, .. }) => match kind {
+            std::io::ErrorKind::NotFound => PyFileNotFoundError::new_err(message),
+            std::io::ErrorKind::PermissionDenied => PyPermissionError::new_err(message),
+            _ => PyOSError::new_err(message),
+        },
         // A file that cannot be written, however it was reached: the message names it
         // ("out.glb: cannot write: ...").
         shrad::Error::Scene(SceneError::Write(_))

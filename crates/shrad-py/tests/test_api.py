@@ -191,6 +191,15 @@ def test_bad_dicts_raise_value_error_naming_what(change, message):
     assert message in str(info.value)
 
 
+def test_a_gltf_without_its_bin_is_file_not_found_naming_both(tmp_path):
+    engine = shrad.Engine(shrad.load("cornell", patches=300), solver="dispersive")
+    engine.export_gltf(tmp_path / "box.gltf")
+    (tmp_path / "box.bin").unlink()
+    with pytest.raises(FileNotFoundError) as info:
+        shrad.load(tmp_path / "box.gltf")
+    assert "box.gltf" in str(info.value) and "box.bin" in str(info.value)
+
+
 def test_missing_file_is_oserror_naming_it(tmp_path):
     missing = tmp_path / "nope.glb"
     with pytest.raises(OSError, match="nope.glb: cannot read file"):

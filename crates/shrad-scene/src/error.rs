@@ -28,6 +28,16 @@ pub enum SceneError {
         /// The built-in names, for the message.
         builtins: String,
     },
+    /// A file the scene names (a glTF buffer's URI) could not be read.
+    #[error("{path}: {message}")]
+    Unreadable {
+        /// The scene file.
+        path: PathBuf,
+        /// Which reference, the file it names and the OS's reason.
+        message: String,
+        /// The OS's kind of error (not found, permission denied, ...).
+        kind: std::io::ErrorKind,
+    },
     /// An output file could not be written (nothing was left behind).
     #[error(transparent)]
     Write(#[from] crate::WriteError),

@@ -664,6 +664,28 @@ fn quantized_positions_are_refused() {
     );
 }
 
+/// A glTF whose .bin is missing: an error that names both files and says the file was not
+/// found (an I/O error, which Python raises as `FileNotFoundError`), not a malformed file.
+#[test]
+fn a_missing_bin_is_an_unreadable_file_naming_both() {
+    let dir = temp_dir("missing_bin");
+    let p = write_json(
+        &dir,
+        "lost.gltf",
+        &quad_with(|v| v["buffers"][0]["uri"] = json!("lost.bin")),
+    );
+    match load_no_panic(&p) {
+        Err(e @ SceneError::Unreadable { kind, .. }) => {
+            assert_eq!(kind, std::io::ErrorKind::NotFound);
+            let msg = e.to_string();
+            for f in ["lost.gltf", "buffers[0].uri", "cannot read", "lost.bin"] {
+                assert!(msg.contains(f), "does not say '{f}': {msg}");
+            }
+        }
+        other => panic!("expected SceneError::Unreadable, got {other:?}"),
+    }
+}
+
 #[test]
 fn buffers_data_uris_and_glb_chunks() {
     let dir = temp_dir("buffers");

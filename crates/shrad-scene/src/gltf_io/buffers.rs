@@ -37,8 +37,14 @@ pub(super) fn load_buffers(
                     format!("buffers[{i}]: has no uri and there is no GLB BIN chunk"),
                 )
             })?,
-            gltf::buffer::Source::Uri(uri) => read_uri(base, uri)
-                .map_err(|m| SceneError::invalid(path, format!("buffers[{i}].uri: {m}")))?,
+            gltf::buffer::Source::Uri(uri) => read(base, uri).map_err(|e| match e {
+                UriError::Unreadable(m, kind) => SceneError::Unreadable {
+                    path: path.to_path_buf(),
+                    message: format!("buffers[{i}].uri: {m}"),
+                    kind,
+                },
+                UriError::Invalid(m) => SceneError::invalid(path, format!("buffers[{i}].uri: {m}")),
+            })?,
         };
         if data.len() < b.length() {
             return Err(SceneError::invalid(
@@ -55,27 +61,56 @@ pub(super) fn load_buffers(
     Ok(out)
 }
 
+/// Why a URI's bytes could not be had.
+pub(super) enum UriError {
+    /// The file it names could not be read (the message names it; the OS's kind of error).
+    Unreadable(String, std::io::ErrorKind),
+    /// The URI itself is wrong, or names something that is not a regular file.
+    Invalid(String),
+}
+
+impl std::fmt::Display for UriError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            UriError::Unreadable(m, _) | UriError::Invalid(m) => f.write_str(m),
+        }
+    }
+}
+
 /// The bytes behind a glTF URI: a base64 data URI or a file relative to `base`.
 pub(super) fn read_uri(base: &Path, uri: &str) -> Result<Vec<u8>, String> {
+    read(base, uri).map_err(|e| e.to_string())
+}
+
+fn read(base: &Path, uri: &str) -> Result<Vec<u8>, UriError> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let Some((_, data)) = rest.split_once(";base64,") else {
-            return Err("data URI is not base64 (shrad reads ';base64,' data URIs only)".into());
+            return Err(UriError::Invalid(
+                "data URI is not base64 (shrad reads ';base64,' data URIs only)".into(),
+            ));
         };
         return base64::decode_config(data, BASE64)
-            .map_err(|e| format!("data URI: invalid base64 ({e})"));
+            .map_err(|e| UriError::Invalid(format!("data URI: invalid base64 ({e})")));
     }
     if uri.contains("://") && !uri.starts_with("file://") {
-        return Err(format!("unsupported URI scheme in '{uri}'"));
+        return Err(UriError::Invalid(format!(
+            "unsupported URI scheme in '{uri}'"
+        )));
     }
     let file = base.join(relative_path(uri));
-    let cannot = |why: String| format!("cannot read '{}': {why}", file.display());
+    let cannot = |e: std::io::Error| {
+        UriError::Unreadable(format!("cannot read '{}': {e}", file.display()), e.kind())
+    };
     // Only a regular file has a size to stop at: a device (`/dev/zero`) or a pipe would be
     // read without end.
-    let meta = std::fs::metadata(&file).map_err(|e| cannot(e.to_string()))?;
+    let meta = std::fs::metadata(&file).map_err(cannot)?;
     if !meta.is_file() {
-        return Err(cannot("not a regular file".into()));
+        return Err(UriError::Invalid(format!(
+            "cannot read '{}': not a regular file",
+            file.display()
+        )));
     }
-    std::fs::read(&file).map_err(|e| cannot(e.to_string()))
+    std::fs::read(&file).map_err(cannot)
 }
 
 /// The path a relative (or `file://`) URI names: percent-decoded, bytes that are not UTF-8
