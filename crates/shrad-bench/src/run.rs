@@ -347,12 +347,13 @@ fn run_solver(
 /// radiosity is checked after the last frame.
 fn time_moving(engine: &mut Engine, o: usize, frames: usize) -> Result<Vec<FrameStats>, String> {
     let rest = engine.transform(o);
-    let (lo, hi) = engine
+    let size = engine
         .world()
         .scene
         .bounds()
-        .ok_or_else(|| "the scene is empty".to_string())?;
-    let reach = MOVE_REACH * (hi - lo).x;
+        .ok_or_else(|| "the scene is empty".to_string())?
+        .size();
+    let reach = MOVE_REACH * size.x;
     let mut stats = Vec::with_capacity(frames);
     for k in 1..=frames {
         let phase = (k as f32 * std::f32::consts::TAU / MOVE_PERIOD_FRAMES as f32).sin();

@@ -12,7 +12,8 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use shrad::scene::{
-    Animation, Camera, EmissionKey, Keyframe, LoadOptions, Material, Mesh, Object, Role, Scene,
+    Aabb, Animation, Camera, EmissionKey, Keyframe, LoadOptions, Material, Mesh, Object, Role,
+    Scene,
 };
 use shrad::PatchSizing;
 
@@ -76,8 +77,11 @@ impl PyScene {
     /// World bounding box of the whole scene at rest.
     #[getter]
     fn bounds(&self) -> ([f32; 3], [f32; 3]) {
-        let (lo, hi) = self.scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ZERO));
-        (lo.to_array(), hi.to_array())
+        let b = self
+            .scene
+            .bounds()
+            .unwrap_or(Aabb::new(Vec3::ZERO, Vec3::ZERO));
+        (b.min.to_array(), b.max.to_array())
     }
 
     /// Length of the scene's animation in seconds (0 when static).
@@ -132,7 +136,9 @@ impl PyScene {
             .iter()
             .enumerate()
             .map(|(index, o)| {
-                let (lo, hi) = o.world_bounds().unwrap_or((Vec3::ZERO, Vec3::ZERO));
+                let Aabb { min: lo, max: hi } = o
+                    .world_bounds()
+                    .unwrap_or(Aabb::new(Vec3::ZERO, Vec3::ZERO));
                 PyObjectInfo {
                     index,
                     name: o.name.clone(),

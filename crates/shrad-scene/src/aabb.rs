@@ -134,18 +134,6 @@ impl Aabb {
     }
 }
 
-impl From<(Vec3, Vec3)> for Aabb {
-    fn from((min, max): (Vec3, Vec3)) -> Aabb {
-        Aabb::new(min, max)
-    }
-}
-
-impl From<Aabb> for (Vec3, Vec3) {
-    fn from(b: Aabb) -> (Vec3, Vec3) {
-        (b.min, b.max)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

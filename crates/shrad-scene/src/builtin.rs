@@ -395,7 +395,7 @@ mod tests {
     fn cornell_blocks_match_the_data() {
         let s = cornell_box();
         let short = s.objects.iter().find(|o| o.name == "short_block").unwrap();
-        let (lo, hi) = short.world_bounds().unwrap();
+        let crate::Aabb { min: lo, max: hi } = short.world_bounds().unwrap();
         assert!((lo.y).abs() < 1e-3 && (hi.y - 165.0).abs() < 1e-3);
         assert!(
             (lo.x - 82.0).abs() < 3.0 && (hi.x - 290.0).abs() < 3.0,

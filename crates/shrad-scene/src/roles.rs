@@ -6,7 +6,7 @@ use crate::{Role, Scene};
 /// bounding box touches the scene's box and spans at least half of it on two axes is
 /// boundary (a wall, floor or ceiling); the rest are interior. Returns how many were inferred.
 pub fn infer_roles(scene: &mut Scene) -> usize {
-    let Some((lo, hi)) = scene.bounds() else {
+    let Some(crate::Aabb { min: lo, max: hi }) = scene.bounds() else {
         return 0;
     };
     let ext = (hi - lo).max(glam::Vec3::splat(f32::MIN_POSITIVE));
@@ -21,7 +21,7 @@ pub fn infer_roles(scene: &mut Scene) -> usize {
             o.role = Some(Role::Light);
             continue;
         }
-        let Some((olo, ohi)) = o.world_bounds() else {
+        let Some(crate::Aabb { min: olo, max: ohi }) = o.world_bounds() else {
             o.role = Some(Role::Interior);
             continue;
         };

@@ -10,7 +10,7 @@ use std::sync::Once;
 
 use glam::{Affine3A, Mat3, Vec3};
 use serde_json::{json, Value};
-use shrad_scene::{load, write_gltf, LoadOptions, Material, Mesh, Object, Scene, SceneError};
+use shrad_scene::{load, write_gltf, Aabb, LoadOptions, Material, Mesh, Object, Scene, SceneError};
 
 thread_local! {
     static PANICS: Cell<usize> = const { Cell::new(0) };
@@ -1003,7 +1003,10 @@ fn positions_without_min_max_load_with_a_warning() {
             assert_eq!(o.mesh, reference.objects[0].mesh, "{name}");
         }
         assert_eq!(s.bounds(), reference.bounds(), "{name}");
-        assert_eq!(s.bounds(), Some((Vec3::ZERO, Vec3::new(1.0, 0.0, 1.0))));
+        assert_eq!(
+            s.bounds(),
+            Some(Aabb::new(Vec3::ZERO, Vec3::new(1.0, 0.0, 1.0)))
+        );
     }
     for (k, bad) in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY]
         .into_iter()
@@ -1240,7 +1243,7 @@ fn khronos_samples() {
         .material
         .reflectance
         .abs_diff_eq(Vec3::new(0.8, 0.0, 0.0), 1e-6));
-    let (lo, hi) = s.bounds().unwrap();
+    let Aabb { min: lo, max: hi } = s.bounds().unwrap();
     assert!(lo.abs_diff_eq(Vec3::splat(-0.5), 1e-6) && hi.abs_diff_eq(Vec3::splat(0.5), 1e-6));
     // The same box, Draco-compressed: refused for the required extension.
     refused_file(

@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 use glam::{Affine3A, Mat4, Quat, Vec3};
 use serde_json::{json, Value};
 use shrad_scene::{
-    cornell_box, load, write_gltf, write_obj, LoadOptions, Material, Mesh, Object, Role, Scene,
-    SceneError,
+    cornell_box, load, write_gltf, write_obj, Aabb, LoadOptions, Material, Mesh, Object, Role,
+    Scene, SceneError,
 };
 
 fn scenes_dir() -> PathBuf {
@@ -465,7 +465,7 @@ fn example_toml_loads() {
     // The room box faces inward: negative signed volume.
     assert!(signed_volume(&world_triangles(get("room"))) < 0.0);
     // Rotated box: rotation_deg about Y.
-    let (lo, hi) = get("red_box").world_bounds().unwrap();
+    let Aabb { min: lo, max: hi } = get("red_box").world_bounds().unwrap();
     assert!((lo.y).abs() < 1e-3 && (hi.y - 165.0).abs() < 1e-3);
     assert!(
         hi.x - lo.x > 160.0 + 1.0,
@@ -474,13 +474,13 @@ fn example_toml_loads() {
     // Animation.
     let spinner = get("spinner");
     assert!(spinner.is_animated());
-    let c0 = spinner.world_bounds().map(|(a, b)| 0.5 * (a + b)).unwrap();
+    let c0 = spinner.world_bounds().unwrap().centre();
     let c2 = spinner
         .mesh
         .transformed(spinner.world_from_object_at(2.0))
         .bounds()
-        .map(|(a, b)| 0.5 * (a + b))
-        .unwrap();
+        .unwrap()
+        .centre();
     assert!(
         c2.abs_diff_eq(c0 + Vec3::new(0.0, 40.0, 0.0), 1e-3),
         "{c0} {c2}"
@@ -507,9 +507,9 @@ fn moving_box_toml() {
             .bounds()
             .unwrap()
     };
-    let (lo0, hi0) = at(0.0);
+    let Aabb { min: lo0, max: hi0 } = at(0.0);
     assert!((lo0.y).abs() < 1e-3 && (hi0.y - 120.0).abs() < 1e-3);
-    let (lo4, _) = at(4.0);
+    let lo4 = at(4.0).min;
     assert!(
         lo4.x < lo0.x - 250.0,
         "moves from the red (x = 556) side to the green (x = 0) side"
@@ -671,7 +671,7 @@ fn toml_mesh_file_expands_into_parts() {
         .objects
         .iter()
         .any(|o| o.name == "cb/light" && o.material.is_emissive()));
-    let (lo, _) = s.bounds().unwrap();
+    let lo = s.bounds().unwrap().min;
     assert!((lo.y - 100.0).abs() < 1e-3);
 }
 

@@ -44,8 +44,14 @@ fn main() -> Result<()> {
     println!("static: {}", steps.mean());
     let static_rate = frames as f64 / t.elapsed().as_secs_f64();
     // Back and forth along x by a fifth of the scene's size, one move per frame.
-    let (lo, hi) = engine.world().scene.bounds().context("empty scene")?;
-    let reach = 0.2 * (hi - lo).x;
+    let reach = 0.2
+        * engine
+            .world()
+            .scene
+            .bounds()
+            .context("empty scene")?
+            .size()
+            .x;
     let rest = engine.transform(object);
     let t = Instant::now();
     let mut frames = 0;

@@ -191,7 +191,10 @@ impl EngineLoop {
             })
             .collect();
         let camera = world.scene.camera_or_default();
-        let (lo, hi) = world.scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
+        let shrad::scene::Aabb { min: lo, max: hi } = world
+            .scene
+            .bounds()
+            .unwrap_or(shrad::scene::Aabb::new(Vec3::ZERO, Vec3::ONE));
         protocol::message(
             "scene",
             json!({

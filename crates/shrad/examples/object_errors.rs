@@ -34,10 +34,7 @@ fn main() {
             .filter(|&i| p.twin[i] != shrad::patches::NO_PATCH && p.twin[i] < i as u32)
             .count();
         if twins > 0 {
-            let centre = {
-                let (lo, hi) = world.scene.objects[o].world_bounds().unwrap();
-                0.5 * (lo + hi)
-            };
+            let centre = world.scene.objects[o].world_bounds().unwrap().centre();
             let (mut fi, mut fo) = (Vec3::ZERO, Vec3::ZERO);
             for i in p.range(o) {
                 let inward = p.normal[i].dot(centre - p.centre[i]) > 0.0;

@@ -60,8 +60,12 @@ impl Grid {
     pub fn new(world: &World, options: GridOptions) -> Result<Grid, crate::Error> {
         crate::solver::SolverChoice::Grid(options).validate()?;
         let g = options.per_axis.max(1);
-        let (lo, hi) = world.scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
-        let extent = (hi - lo).max(Vec3::splat(1e-6));
+        let bounds = world
+            .scene
+            .bounds()
+            .unwrap_or(shrad_scene::Aabb::new(Vec3::ZERO, Vec3::ONE));
+        let lo = bounds.min;
+        let extent = bounds.size().max(Vec3::splat(1e-6));
         let mut probes = Vec::with_capacity(g * g * g);
         for k in 0..g {
             for j in 0..g {

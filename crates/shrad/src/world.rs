@@ -121,9 +121,9 @@ impl World {
             rays: rays_cast.clone(),
         });
         let (reflectance, emission_texture) = crate::surface::patch_fields(&scene, &patches);
-        let (lo, hi) = scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
+        let diagonal = scene.bounds().map_or(1.0, |b| b.diagonal());
         let mut world = World {
-            eps: 1e-4 * (hi - lo).length().max(f32::MIN_POSITIVE),
+            eps: 1e-4 * diagonal.max(f32::MIN_POSITIVE),
             exitance: vec![Vec3::ZERO; patches.len()],
             scene,
             patches,

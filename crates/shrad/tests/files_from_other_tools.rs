@@ -55,8 +55,7 @@ fn blender_mirrored_object_faces_out_and_the_room_in() {
     let world = blender_room();
     let p = &world.patches;
     for (o, object) in world.scene.objects.iter().enumerate() {
-        let (lo, hi) = object.world_bounds().unwrap();
-        let centre = 0.5 * (lo + hi);
+        let centre = object.world_bounds().unwrap().centre();
         // The file's own side (not the double-sided twins): the first of each pair.
         let own: Vec<usize> = p
             .range(o)
@@ -182,8 +181,7 @@ fn trimesh_scene_areas_and_facing() {
             (ours - area).abs() < 1e-4 * area,
             "{name}: {ours} vs trimesh's {area}"
         );
-        let (lo, hi) = world.scene.objects[o].world_bounds().unwrap();
-        let centre = 0.5 * (lo + hi);
+        let centre = world.scene.objects[o].world_bounds().unwrap().centre();
         let outward = p
             .range(o)
             .filter(|&i| p.normal[i].dot(p.centre[i] - centre) > 0.0)

@@ -49,7 +49,7 @@ fn print_animations(scene: &Scene) {
 pub fn run(args: InfoArgs, scene: Scene) -> Result<()> {
     let sizing = sizing(&args.scene, &scene)?;
     println!("scene: {}", scene.source);
-    if let Some((lo, hi)) = scene.bounds() {
+    if let Some(shrad::scene::Aabb { min: lo, max: hi }) = scene.bounds() {
         println!(
             "bounds: [{:.3}, {:.3}, {:.3}] .. [{:.3}, {:.3}, {:.3}]",
             lo.x, lo.y, lo.z, hi.x, hi.y, hi.z

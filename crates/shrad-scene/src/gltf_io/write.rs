@@ -116,7 +116,7 @@ fn build(scene: &Scene, embed: bool) -> (Value, Vec<u8>) {
     if let Some(cam) = &scene.camera {
         let size = scene
             .bounds()
-            .map_or(1.0, |(lo, hi)| (hi - lo).length())
+            .map_or(1.0, |b| b.diagonal())
             .max(f32::MIN_POSITIVE);
         let mut persp = json!({"yfov": num(cam.yfov), "znear": num(1e-3 * size)});
         if let Some(a) = cam.aspect_ratio {

@@ -18,14 +18,9 @@ pub struct Mesh {
 }
 
 impl Mesh {
-    /// Axis-aligned bounding box `(min, max)`; `None` for an empty mesh.
-    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
-        let first = *self.positions.first()?;
-        Some(
-            self.positions
-                .iter()
-                .fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p))),
-        )
+    /// Axis-aligned bounding box; `None` for an empty mesh.
+    pub fn bounds(&self) -> Option<crate::Aabb> {
+        crate::Aabb::from_points(self.positions.iter().copied())
     }
     /// Area of triangle `t`.
     pub fn triangle_area(&self, t: usize) -> f32 {

@@ -75,7 +75,7 @@ impl Object {
     }
 
     /// World bounding box at rest.
-    pub fn world_bounds(&self) -> Option<(Vec3, Vec3)> {
+    pub fn world_bounds(&self) -> Option<crate::Aabb> {
         self.mesh.transformed(self.world_from_object).bounds()
     }
 
@@ -91,9 +91,7 @@ impl Object {
             return base;
         };
         let (translation, rotation) = anim.motion_at(t);
-        let centre = self
-            .world_bounds()
-            .map_or(Vec3::ZERO, |(lo, hi)| 0.5 * (lo + hi));
+        let centre = self.world_bounds().map_or(Vec3::ZERO, |b| b.centre());
         Affine3A::from_translation(translation + centre)
             * Affine3A::from_quat(rotation)
             * Affine3A::from_translation(-centre)

@@ -80,11 +80,11 @@ pub struct Scene {
 
 impl Scene {
     /// World bounding box of every object at rest.
-    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+    pub fn bounds(&self) -> Option<crate::Aabb> {
         self.objects
             .iter()
             .filter_map(|o| o.world_bounds())
-            .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
+            .reduce(crate::Aabb::union)
     }
 
     /// The scene's camera at time `t` (seconds): [`Scene::camera`] moved by
@@ -121,13 +121,15 @@ impl Scene {
     /// outside it would see only the room's outer side.
     pub fn camera_or_default(&self) -> Camera {
         self.camera.unwrap_or_else(|| {
-            let (lo, hi) = self.bounds().unwrap_or((Vec3::splat(-1.0), Vec3::ONE));
+            let crate::Aabb { min: lo, max: hi } = self
+                .bounds()
+                .unwrap_or(crate::Aabb::new(Vec3::splat(-1.0), Vec3::ONE));
             let ext = hi - lo;
             let encloses = self.objects.iter().any(|o| {
                 o.role == Some(Role::Boundary)
-                    && o.world_bounds().is_some_and(|(a, b)| {
-                        (a - lo).max_element() <= 1e-3 * ext.max_element()
-                            && (hi - b).max_element() <= 1e-3 * ext.max_element()
+                    && o.world_bounds().is_some_and(|b| {
+                        (b.min - lo).max_element() <= 1e-3 * ext.max_element()
+                            && (hi - b.max).max_element() <= 1e-3 * ext.max_element()
                     })
             });
             if encloses {

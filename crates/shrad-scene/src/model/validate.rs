@@ -110,7 +110,7 @@ impl Scene {
                     format!("{who}: emitted radiance {e} must be finite and >= 0"),
                 ));
             }
-            let scale = o.mesh.bounds().map_or(0.0, |(lo, hi)| (hi - lo).length());
+            let scale = o.mesh.bounds().map_or(0.0, |b| b.diagonal());
             let eps = 1e-10 * scale * scale;
             let degenerate: Vec<usize> = (0..o.mesh.triangles.len())
                 .filter(|&t| {

@@ -176,10 +176,7 @@ impl Dispersive {
             return;
         }
         let p = &world.patches;
-        let diag = world
-            .scene
-            .bounds()
-            .map_or(1.0, |(lo, hi)| (hi - lo).length());
+        let diag = world.scene.bounds().map_or(1.0, |b| b.diagonal());
         // A hit on a mover's surface lies on its box up to rounding.
         let pad = Vec3::splat(4.0 * world.eps + 1e-5 * diag);
         let boxes: Vec<Aabb> = swept.iter().map(|b| b.padded(pad)).collect();

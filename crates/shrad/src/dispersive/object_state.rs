@@ -61,7 +61,7 @@ impl ObjectProbes {
         let p = &world.patches;
         let shape = p.shapes[o]
             .bounds()
-            .map_or(Aabb::new(Vec3::ZERO, Vec3::ZERO), Aabb::from);
+            .unwrap_or(Aabb::new(Vec3::ZERO, Vec3::ZERO));
         let diagonal = shape.diagonal();
         let margin = options.probe_margin.max(0.0) * diagonal;
         // A flat object still needs a box with volume.

@@ -140,7 +140,7 @@ impl Dispersive {
 /// World bounding box of object `o` (its rest-frame mesh box, transformed).
 pub(super) fn world_box(world: &World, o: usize) -> Aabb {
     match world.patches.shapes[o].bounds() {
-        Some(local) => Aabb::from(local).transformed(world.patches.world_from_local[o]),
+        Some(local) => local.transformed(world.patches.world_from_local[o]),
         None => Aabb::new(Vec3::ZERO, Vec3::ZERO),
     }
 }

@@ -339,8 +339,7 @@ impl Dispersive {
 /// See `Dispersive::outer_side`.
 pub(super) fn outer_sides(world: &World) -> Vec<bool> {
     let p = &world.patches;
-    let (lo, hi) = world.scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ZERO));
-    let centre = 0.5 * (lo + hi);
+    let centre = world.scene.bounds().map_or(Vec3::ZERO, |b| b.centre());
     (0..p.len())
         .map(|i| {
             p.role(i) == Role::Boundary

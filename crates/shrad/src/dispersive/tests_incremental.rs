@@ -53,8 +53,7 @@ fn moving_an_occluder_keeps_direct_light_and_wall_rows_exact() {
     );
     let mut rows_changed = 0;
     let mut direct_changed = 0;
-    let (lo, hi) = world.scene.bounds().unwrap();
-    let size = (hi - lo).x;
+    let size = world.scene.bounds().unwrap().size().x;
     // Small drags, a teleport across the room, a turn, and back home.
     let moves = [
         Affine3A::from_translation(Vec3::X * 0.02 * size) * rest,

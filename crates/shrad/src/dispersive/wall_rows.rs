@@ -91,8 +91,12 @@ impl WallRows {
         let rays = rays.max(1) as usize;
         let words = rays.div_ceil(64);
         let n = boundary.len();
-        let (lo, hi) = world.scene.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
-        let size = (hi - lo).max(Vec3::splat(1e-3));
+        let bounds = world
+            .scene
+            .bounds()
+            .unwrap_or(Aabb::new(Vec3::ZERO, Vec3::ONE));
+        let (lo, hi) = (bounds.min, bounds.max);
+        let size = bounds.size().max(Vec3::splat(1e-3));
         let mut out = WallRows {
             rays,
             words,

@@ -41,8 +41,6 @@ impl Welder {
 /// The length below which two positions of `mesh` are the same point: 1e-5 of its size,
 /// so welding and pairing behave alike whatever the scene's unit.
 pub(super) fn quantum(mesh: &Mesh) -> f32 {
-    let size = mesh
-        .bounds()
-        .map_or(1.0, |(lo, hi)| (hi - lo).max_element());
+    let size = mesh.bounds().map_or(1.0, |b| b.size().max_element());
     (1e-5 * size).max(f32::MIN_POSITIVE)
 }
