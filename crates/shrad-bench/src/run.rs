@@ -281,8 +281,6 @@ fn run_solver(
         None => Vec::new(),
     };
     let moving = (!moving_stats.is_empty()).then(|| medians(&moving_stats));
-    let steps: Vec<StepMs> = timed_stats.iter().map(StepMs::of).collect();
-    let step = |f: fn(&StepMs) -> f64| median(&steps.iter().map(f).collect::<Vec<_>>());
     let frame_ms: Vec<f64> = timed_stats.iter().map(|s| s.frame_ms).collect();
     // The paper's Table 3 column: the frames that update the largest object.
     let largest_frames: Vec<f64> = timed_stats
@@ -304,12 +302,7 @@ fn run_solver(
         } else {
             median(&largest_frames)
         },
-        step_ms: StepMs {
-            direct: step(|s| s.direct),
-            objects: step(|s| s.objects),
-            to_boundary: step(|s| s.to_boundary),
-            assemble: step(|s| s.assemble),
-        },
+        step_ms: step_medians(&timed_stats),
         warmup_frames: warmup,
         timed_frames: timed_stats.len(),
         error: Errors {
@@ -369,19 +362,24 @@ fn time_moving(engine: &mut Engine, o: usize, frames: usize) -> Result<Vec<Frame
     Ok(stats)
 }
 
-/// The medians of a window of frames.
-fn medians(stats: &[FrameStats]) -> Moving {
+/// The median of each step over `stats`, taken separately.
+fn step_medians(stats: &[FrameStats]) -> StepMs {
     let steps: Vec<StepMs> = stats.iter().map(StepMs::of).collect();
     let step = |f: fn(&StepMs) -> f64| median(&steps.iter().map(f).collect::<Vec<_>>());
+    StepMs {
+        direct: step(|s| s.direct),
+        objects: step(|s| s.objects),
+        to_boundary: step(|s| s.to_boundary),
+        assemble: step(|s| s.assemble),
+    }
+}
+
+/// The medians of a window of frames with an object moving.
+fn medians(stats: &[FrameStats]) -> Moving {
     Moving {
         frame_ms_median: median(&stats.iter().map(|s| s.frame_ms).collect::<Vec<_>>()),
         frame_ms_max: stats.iter().map(|s| s.frame_ms).fold(0.0, f64::max),
-        step_ms: StepMs {
-            direct: step(|s| s.direct),
-            objects: step(|s| s.objects),
-            to_boundary: step(|s| s.to_boundary),
-            assemble: step(|s| s.assemble),
-        },
+        step_ms: step_medians(stats),
         frames: stats.len(),
         speedup_vs_grid5: None,
     }
