@@ -4,8 +4,6 @@
 //! [`SolverStats`] part of its own). `render`, `animate`, `bench`, the viewer and Python read
 //! the same value whichever solver runs.
 
-use crate::reference::ReferenceStats;
-
 pub use crate::energy::{Divergence, EnergyBalance};
 
 /// What changed in the world since the last frame.
@@ -111,6 +109,31 @@ pub struct DispersiveStats {
     pub probes_invalid: usize,
     /// Of those, repaired by moving.
     pub probes_repaired: usize,
+}
+
+/// What the reference solve did.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct ReferenceStats {
+    /// Jacobi iterations run.
+    pub iterations: usize,
+    /// Final `max |dB| / max B`.
+    pub residual: f32,
+    /// Did it reach the tolerance?
+    pub converged: bool,
+    /// Seconds spent on direct light.
+    pub direct_seconds: f64,
+    /// Seconds spent estimating form factors.
+    pub form_factor_seconds: f64,
+    /// Seconds spent iterating.
+    pub solve_seconds: f64,
+    /// Non-zero form factors stored.
+    pub form_factor_entries: usize,
+    /// Bytes of the form-factor matrix.
+    pub form_factor_bytes: usize,
+    /// Flux balance of the solution, over every patch (the emitters' absorption included).
+    pub energy: crate::energy::EnergyBalance,
+    /// Non-finite values reset to 0 (always 0 unless an input was broken).
+    pub non_finite: usize,
 }
 
 /// A grid frame: every probe captured, every patch shaded.

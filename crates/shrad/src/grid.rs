@@ -56,9 +56,9 @@ pub struct Grid {
 }
 
 impl Grid {
-    /// Place the probes over the scene's box at rest; options out of range are an error.
+    /// Place the probes over the scene's box at rest. `options` are taken as checked, as for
+    /// [`crate::dispersive::Dispersive::new`] (`Solver::new` checks them).
     pub fn new(world: &World, options: GridOptions) -> Result<Grid, crate::Error> {
-        crate::solver::SolverChoice::Grid(options).validate()?;
         let g = options.per_axis.max(1);
         let bounds = world
             .scene

@@ -61,30 +61,7 @@ impl Default for ReferenceOptions {
     }
 }
 
-/// What the reference solve did.
-#[derive(Clone, Debug, Default, serde::Serialize)]
-pub struct ReferenceStats {
-    /// Jacobi iterations run.
-    pub iterations: usize,
-    /// Final `max |dB| / max B`.
-    pub residual: f32,
-    /// Did it reach the tolerance?
-    pub converged: bool,
-    /// Seconds spent on direct light.
-    pub direct_seconds: f64,
-    /// Seconds spent estimating form factors.
-    pub form_factor_seconds: f64,
-    /// Seconds spent iterating.
-    pub solve_seconds: f64,
-    /// Non-zero form factors stored.
-    pub form_factor_entries: usize,
-    /// Bytes of the form-factor matrix.
-    pub form_factor_bytes: usize,
-    /// Flux balance of the solution, over every patch (the emitters' absorption included).
-    pub energy: crate::energy::EnergyBalance,
-    /// Non-finite values reset to 0 (always 0 unless an input was broken).
-    pub non_finite: usize,
-}
+pub use crate::frame::ReferenceStats;
 
 /// One reference frame through the common frame interface: a converged [`solve`] of the
 /// world as it is, its statistics as [`SolverStats::Reference`](crate::frame::SolverStats).

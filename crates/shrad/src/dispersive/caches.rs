@@ -196,7 +196,7 @@ impl Dispersive {
             spheres.iter().zip(&boxes).any(|(&(c, r2), b)| {
                 let w = c - o;
                 let k = (w.dot(d) / d.length_squared().max(1e-30)).clamp(0.0, t);
-                (w - d * k).length_squared() <= r2 && segment_meets(b, o, d, t)
+                (w - d * k).length_squared() <= r2 && b.meets_ray_within(o, d, t)
             })
         };
         let dirs = &self.camera.cube.directions;
@@ -249,51 +249,12 @@ impl Dispersive {
     }
 }
 
-/// Does the segment `o + s d`, `0 <= s <= t`, meet the box? (`t` may be infinite.)
-fn segment_meets(b: &Aabb, o: Vec3, d: Vec3, t: f32) -> bool {
-    let (mut near, mut far) = (0f32, t);
-    for a in 0..3 {
-        if d[a].abs() < 1e-30 {
-            if o[a] < b.min[a] || o[a] > b.max[a] {
-                return false;
-            }
-            continue;
-        }
-        let inv = 1.0 / d[a];
-        let (t0, t1) = ((b.min[a] - o[a]) * inv, (b.max[a] - o[a]) * inv);
-        near = near.max(t0.min(t1));
-        far = far.min(t0.max(t1));
-        if near > far {
-            return false;
-        }
-    }
-    true
-}
-
 #[cfg(test)]
 mod tests {
     use super::super::{DispersiveOptions, Schedule, ToBoundary};
     use super::*;
     use crate::patches::PatchSizing;
     use shrad_vis::Backend;
-
-    #[test]
-    fn segments_against_a_box() {
-        let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
-        let o = Vec3::new(-1.0, 0.5, 0.5);
-        assert!(segment_meets(&b, o, Vec3::X, 1.5));
-        assert!(!segment_meets(&b, o, Vec3::X, 0.5), "stops short");
-        assert!(segment_meets(&b, o, Vec3::X, f32::INFINITY));
-        assert!(
-            !segment_meets(&b, o, -Vec3::X, f32::INFINITY),
-            "points away"
-        );
-        assert!(!segment_meets(&b, Vec3::new(-1.0, 2.0, 0.5), Vec3::X, 9.0));
-        assert!(
-            segment_meets(&b, Vec3::splat(0.5), Vec3::Y, 0.0),
-            "starts inside"
-        );
-    }
 
     /// One frame's change to the Cornell box.
     enum Event {

@@ -12,8 +12,10 @@
 //! | 3. each selected object lights the boundary as SH emitter(s), replacing its old share | 2.3.4 | `step3_to_boundary.rs` |
 //! | 4. assemble the boundary's radiosity; energy meter and guard | 2.3.5 | `step4_assemble.rs` |
 //!
-//! The precomputation of 2.3.1 is [`Dispersive::new`] and `object_state.rs` (probe boxes,
-//! trilinear weights, exit directions); the settings are `options.rs`.
+//! The precomputation of 2.3.1 is [`Dispersive::new`], `object_state.rs` (probe boxes,
+//! trilinear weights, exit directions) and `setup.rs` (what the steps share: the boundary,
+//! object boxes, neighbourhoods, transfer vectors, emitter groups); the settings are
+//! `options.rs`.
 //!
 //! Beyond the paper (spec 4.6), each switchable and measured against the reference in
 //! `docs/results.md`: probe validity and repair, wall-to-wall exchange among the static
@@ -40,6 +42,7 @@ pub mod inspect;
 mod object_state;
 mod options;
 mod scheduler;
+mod setup;
 mod step1_direct;
 mod step2_probes;
 mod step3_to_boundary;
@@ -53,14 +56,12 @@ mod wall_rows;
 pub use frame::{Batch, Changes, DispersiveStats, Divergence, EnergyBalance, FrameStats};
 pub use options::{DispersiveOptions, ProbeRepair, Schedule, ToBoundary};
 pub use step3_to_boundary::splat_to_boundary;
-pub use step4_assemble::{WALL_RETRACE_SHARE, WALL_ROWS_PER_FRAME};
+pub use step4_assemble::WALL_ROWS_PER_FRAME;
+pub use wall_rows::WALL_RETRACE_SHARE;
 
 use object_state::ObjectProbes;
 use scheduler::Scheduler;
-use step1_direct::world_box;
-use step2_probes::outer_sides;
-use step3_to_boundary::Neighbours;
-use step4_assemble::LIGHT_METER_RAYS;
+use setup::{outer_sides, receives_as_boundary, world_box, Neighbours, LIGHT_METER_RAYS};
 use wall_rows::WallRows;
 
 /// The dispersive solver's state.
@@ -119,10 +120,11 @@ pub struct Dispersive {
 
 impl Dispersive {
     /// Precompute (paper 2.3.1): probe boxes, trilinear weights, exit directions, cube-map
-    /// directions and SH weights; the wall exchange's form factors if enabled. Options out
-    /// of range are an error (see [`crate::settings`]).
+    /// directions and SH weights; the wall exchange's form factors if enabled. `options` are
+    /// taken as checked: [`crate::solver::Solver::new`] and the engine check every key
+    /// against its range first (`SolverChoice::validate`, in `settings`, the layer above
+    /// the solvers, so a solver never reaches back up to it); the presets are in range.
     pub fn new(world: &World, options: DispersiveOptions) -> Result<Dispersive, crate::Error> {
-        crate::solver::SolverChoice::Dispersive(options).validate()?;
         let p = &world.patches;
         let camera = ProbeCamera::new(options.cube_res, options.bands);
         let emitter_camera = ProbeCamera::new(options.emitter_res, options.bands);
@@ -290,18 +292,6 @@ impl Dispersive {
                 s
             })
             .collect()
-    }
-}
-
-/// Whether patch `i` is lit like the boundary (Steps 1, 3, 4 and the wall exchange): the
-/// boundary's patches, and those of lights that also reflect (a lamp panel, an emissive
-/// card: the paper's lights only emit, but a reflective emitter near a wall otherwise
-/// loses the light it bounces back).
-fn receives_as_boundary(world: &World, i: usize) -> bool {
-    match world.patches.role(i) {
-        Role::Boundary => true,
-        Role::Light => world.reflectance[i].max_element() > 0.0,
-        Role::Interior => false,
     }
 }
 

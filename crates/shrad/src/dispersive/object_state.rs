@@ -14,8 +14,7 @@ use shrad_scene::Aabb;
 use shrad_sh::trilinear_weights;
 
 use super::caches::{EmitterCache, ProbeCache};
-use super::step2_probes::self_transfer;
-use super::step3_to_boundary::emitter_groups;
+use super::setup::{emitter_groups, self_transfer};
 use super::DispersiveOptions;
 use crate::sparse::SparseRows;
 use crate::World;

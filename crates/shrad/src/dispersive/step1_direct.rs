@@ -14,6 +14,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::{Aabb, Role};
 
+use super::setup::world_box;
 use super::{Changes, Dispersive};
 use crate::direct::DirectCache;
 use crate::World;
@@ -134,13 +135,5 @@ impl Dispersive {
             }
         }
         self.direct_valid = true;
-    }
-}
-
-/// World bounding box of object `o` (its rest-frame mesh box, transformed).
-pub(super) fn world_box(world: &World, o: usize) -> Aabb {
-    match world.patches.shapes[o].bounds() {
-        Some(local) => local.transformed(world.patches.world_from_local[o]),
-        None => Aabb::new(Vec3::ZERO, Vec3::ZERO),
     }
 }

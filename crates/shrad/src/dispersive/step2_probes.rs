@@ -8,15 +8,14 @@
 //! are invalid and dropped or moved inward (`ProbeRepair`); the object may be transparent to
 //! its own probes (`see_through_self`); faces resting on another surface are darkened by
 //! their *contact openness*; and a concave object shadows itself through a transfer vector
-//! with self-visibility plus its self form factors ([`self_transfer`], precomputed with the
+//! with self-visibility plus its self form factors (`setup::self_transfer`, precomputed with the
 //! object at rest, the precomputed radiance transfer the paper cites).
 
 use std::time::Instant;
 
 use glam::{Affine3A, Vec3};
 use rayon::prelude::*;
-use shrad_scene::Role;
-use shrad_sh::{cosine_lobe_sh, eval_basis, num_coeffs, ShRgb, MAX_COEFFS};
+use shrad_sh::{cosine_lobe_sh, num_coeffs, ShRgb, MAX_COEFFS};
 use shrad_vis::Hit;
 
 use super::caches::{ProbeCache, ProbeHits, MAX_PROBE_BYTES, SEES_BACK, SEES_NOTHING};
@@ -334,85 +333,4 @@ impl Dispersive {
             j => Seen::Radiance(self.texel_radiance(world, j as usize)),
         }
     }
-}
-
-/// See `Dispersive::outer_side`.
-pub(super) fn outer_sides(world: &World) -> Vec<bool> {
-    let p = &world.patches;
-    let centre = world.scene.bounds().map_or(Vec3::ZERO, |b| b.centre());
-    (0..p.len())
-        .map(|i| {
-            p.role(i) == Role::Boundary
-                && p.twin[i] != crate::patches::NO_PATCH
-                && p.normal[i].dot(centre - p.centre[i]) < 0.0
-        })
-        .collect()
-}
-
-/// Transfer vectors with self-visibility of object `o`'s patches, in the object frame:
-/// `T_i = (pi / M) sum_j V_self(w_j) Y(w_j)` over `M` cosine-distributed directions (the
-/// pdf `cos / pi` turns the cosine-weighted integral into this mean). Rays are cast in the
-/// world at rest with every other object transparent, so only the object itself occludes.
-pub(super) fn self_transfer(
-    world: &World,
-    o: usize,
-    bands: usize,
-    rays: u32,
-) -> (Vec<f32>, Vec<Vec<(u32, f32)>>) {
-    if rays == 0 {
-        return (Vec::new(), Vec::new());
-    }
-    let p = &world.patches;
-    let nc = num_coeffs(bands);
-    let rays = rays as usize;
-    let others: Vec<u32> = (0..p.object_role.len() as u32)
-        .filter(|&x| x as usize != o)
-        .collect();
-    let m = p.world_from_local[o];
-    let range = p.range(o);
-    let mut origins = vec![Vec3::ZERO; range.len() * rays];
-    let mut dirs_world = vec![Vec3::ZERO; range.len() * rays];
-    let mut dirs_local = vec![Vec3::ZERO; range.len() * rays];
-    for (k, i) in range.clone().enumerate() {
-        let shift = (
-            crate::sampling::unit(crate::sampling::hash(i as u32 ^ 0x5eed)),
-            0.25,
-        );
-        for j in 0..rays {
-            let (u, v) = crate::sampling::hammersley(j as u32, rays as u32, shift);
-            let local = crate::sampling::square_to_cosine_hemisphere(u, v, p.normal_local[i]);
-            dirs_local[k * rays + j] = local;
-            dirs_world[k * rays + j] = m.transform_vector3(local).normalize_or_zero();
-            origins[k * rays + j] = p.centre[i] + p.normal[i] * world.eps;
-        }
-    }
-    let mut hits = vec![Hit::MISS; origins.len()];
-    world
-        .vis
-        .closest(&origins, &dirs_world, 0.0, &others, &mut hits);
-    let mut transfer = vec![0f32; range.len() * nc];
-    let mut basis = [0f32; 64];
-    let w = std::f32::consts::PI / rays as f32;
-    let mut self_view = vec![Vec::new(); range.len()];
-    for (k, t) in transfer.chunks_mut(nc).enumerate() {
-        for j in 0..rays {
-            let h = &hits[k * rays + j];
-            if h.is_hit() {
-                if let Some(q) = world.seen_patch(h) {
-                    let row: &mut Vec<(u32, f32)> = &mut self_view[k];
-                    let q = (q - range.start) as u32;
-                    match row.iter_mut().find(|e| e.0 == q) {
-                        Some(e) => e.1 += 1.0 / rays as f32,
-                        None => row.push((q, 1.0 / rays as f32)),
-                    }
-                }
-                continue;
-            }
-            eval_basis(bands, dirs_local[k * rays + j], &mut basis[..nc]);
-            for c in 0..nc {
-                t[c] += w * basis[c];
-            }
-        }
-    }
-    (transfer, self_view)
 }

@@ -8,8 +8,8 @@
 //! towards every boundary patch with one shadow ray each (2.3.4 Step 3 updates the boundary
 //! only).
 //!
-//! Beyond the paper: one emitter per face direction ([`emitter_groups`]), splat smoothing
-//! over edge neighbours ([`Neighbours`]), and a guard that damps an object that would send
+//! Beyond the paper: one emitter per face direction (`setup::emitter_groups`), splat
+//! smoothing over edge neighbours (`setup::Neighbours`), and a guard that damps an object that would send
 //! more than it reflects.
 
 use glam::Vec3;
@@ -21,9 +21,9 @@ use super::caches::{
     EmitterCache, EmitterRays, GatherEntries, SplatTexels, LANDS_NOWHERE, MAX_STEP3_BYTES,
     RAY_BLOCKED, RAY_CLEAR, RAY_UNKNOWN, UNKNOWN,
 };
-use super::{receives_as_boundary, Dispersive, ToBoundary};
+use super::setup::receives_as_boundary;
+use super::{Dispersive, ToBoundary};
 use crate::probes::ProbeCamera;
-use crate::sparse::SparseRows;
 use crate::World;
 
 impl Dispersive {
@@ -410,88 +410,6 @@ pub fn splat_to_boundary(
         .collect()
 }
 
-/// Boundary patches around each boundary patch: those sharing one of its smooth-shading
-/// vertices (corners welded by position within the crease angle), itself first. Compressed
-/// rows over all patches; non-boundary patches have none.
-#[derive(Default)]
-pub(super) struct Neighbours {
-    /// Row `i`: patch `i` itself, then its neighbours (empty for a patch not on the
-    /// boundary).
-    rows: SparseRows<u32>,
-    /// 1 / the summed area of each patch's neighbourhood.
-    inv_area: Vec<f32>,
-}
-
-impl Neighbours {
-    pub(super) fn of_boundary(world: &World) -> Neighbours {
-        let p = &world.patches;
-        let boundary = |i: usize| receives_as_boundary(world, i);
-        // Patches at each shading vertex, as compressed rows (no allocation per vertex:
-        // a 1M-patch scene has about as many vertices).
-        let corners = |i: usize| {
-            let mut v = p.corner_vertex[i];
-            v.sort_unstable();
-            (0..4)
-                .filter(move |&k| k == 0 || v[k - 1] != v[k])
-                .map(move |k| v[k])
-        };
-        let mut vertex_start = vec![0u32; p.shading_vertex_count + 1];
-        for i in (0..p.len()).filter(|&i| boundary(i)) {
-            for c in corners(i) {
-                vertex_start[c as usize + 1] += 1;
-            }
-        }
-        for v in 0..p.shading_vertex_count {
-            vertex_start[v + 1] += vertex_start[v];
-        }
-        let mut fill = vertex_start.clone();
-        let mut vertex_patches = vec![0u32; *vertex_start.last().unwrap_or(&0) as usize];
-        for i in (0..p.len()).filter(|&i| boundary(i)) {
-            for c in corners(i) {
-                vertex_patches[fill[c as usize] as usize] = i as u32;
-                fill[c as usize] += 1;
-            }
-        }
-        let at_vertex = |c: u32| {
-            &vertex_patches
-                [vertex_start[c as usize] as usize..vertex_start[c as usize + 1] as usize]
-        };
-        let mut rows = SparseRows::default();
-        let mut near = Vec::new();
-        for i in 0..p.len() {
-            near.clear();
-            if boundary(i) {
-                for &c in &p.corner_vertex[i] {
-                    near.extend(at_vertex(c).iter().filter(|&&k| k as usize != i));
-                }
-                near.sort_unstable();
-                near.dedup();
-                near.insert(0, i as u32);
-            }
-            rows.push_row(near.iter().copied());
-        }
-        let mut n = Neighbours {
-            rows,
-            inv_area: Vec::new(),
-        };
-        n.inv_area = (0..p.len())
-            .map(|i| {
-                let a: f32 = n.of(i).iter().map(|&k| p.area[k as usize]).sum();
-                if a > 0.0 {
-                    1.0 / a
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-        n
-    }
-
-    fn of(&self, i: usize) -> &[u32] {
-        self.rows.row(i)
-    }
-}
-
 /// Sum irradiance pieces per patch: one entry per patch, in order of first appearance.
 /// `scratch` (one value per patch, all zero) is left all zero.
 fn sum_by_patch(
@@ -513,34 +431,5 @@ fn sum_by_patch(
             let e = std::mem::take(&mut scratch[j as usize]);
             (e != Vec3::ZERO).then_some((j, e))
         })
-        .collect()
-}
-
-/// The Step 3 emitters of object `o`: one at the box centre with every patch (the paper), or
-/// one per dominant normal axis (±x, ±y, ±z of the rest frame) at the area-weighted
-/// centroid of its patches.
-pub(super) fn emitter_groups(
-    p: &crate::Patches,
-    o: usize,
-    box_centre: Vec3,
-    per_face: bool,
-) -> Vec<(Vec3, Vec<u32>)> {
-    let range = p.range(o);
-    if !per_face {
-        return vec![(box_centre, (0..range.len() as u32).collect())];
-    }
-    let mut groups: Vec<(Vec3, f32, Vec<u32>)> = vec![(Vec3::ZERO, 0.0, Vec::new()); 6];
-    for (k, i) in range.enumerate() {
-        let n = p.normal_local[i];
-        let axis = n.abs().max_position();
-        let g = 2 * axis + usize::from(n[axis] < 0.0);
-        groups[g].0 += p.centre_local[i] * p.area[i];
-        groups[g].1 += p.area[i];
-        groups[g].2.push(k as u32);
-    }
-    groups
-        .into_iter()
-        .filter(|g| g.1 > 0.0)
-        .map(|(sum, area, members)| (sum / area, members))
         .collect()
 }

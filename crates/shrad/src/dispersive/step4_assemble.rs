@@ -11,7 +11,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::Role;
 
-use super::{receives_as_boundary, Changes, Dispersive, Divergence, EnergyBalance, FrameStats};
+use super::setup::receives_as_boundary;
+use super::{Changes, Dispersive, Divergence, EnergyBalance, FrameStats};
 use crate::World;
 
 /// Wall-exchange rows gathered per frame (Step 4's Jacobi window): at most this many, so a
@@ -19,23 +20,6 @@ use crate::World;
 /// per full sweep). Re-tracing rows where a mover passed is bounded apart, by
 /// [`WALL_RETRACE_SHARE`].
 pub const WALL_ROWS_PER_FRAME: usize = 1 << 16;
-
-/// At most `1 / WALL_RETRACE_SHARE` of the wall exchange's rays (boundary patches x
-/// `wall_rays`) are re-traced per frame where movers passed (whole rows at a time, so up to
-/// one row's rays more); the rest wait for the next frames. A 128th (7.7k rays at Cornell
-/// 20k, about 3 ms on 2 cores; a 32nd took 10-20 ms, which made a drag's frame half wall
-/// rows) keeps a frame with a mover near a static frame's cost; a ray marked while the budget
-/// is spent stays dirty, so the rows are exact again some frames after the motion stops.
-pub const WALL_RETRACE_SHARE: usize = 128;
-
-/// At most `1 / WALL_CHECK_SHARE` of the wall rows are checked against the movers per frame
-/// (`wall_rows.rs`: as exact as checking all of them, only later). Checking all of them took
-/// 16 ms a frame of a Cornell 20k drag on 2 cores (every row's rays span the box, so its
-/// bounds reject no mover); an eighth takes about 2 ms.
-pub const WALL_CHECK_SHARE: usize = 8;
-
-/// Rays per light patch for the energy meter's measure of what the lights absorb.
-pub(super) const LIGHT_METER_RAYS: usize = 16;
 
 impl Dispersive {
     /// The energy meter, and the guard that never publishes a diverged state: fills
@@ -65,34 +49,6 @@ impl Dispersive {
             stats.diverged = Some(d);
         }
         self.light_held.note(&stats.energy);
-    }
-
-    /// Check an eighth of the wall rows against the objects that moved since each was last
-    /// checked ([`WALL_CHECK_SHARE`]), marking the rays a move may have changed (those that
-    /// hit a mover, those with a mover's box now in front of their hit, every ray of a moved
-    /// boundary object's rows: `wall_rows.rs`), and re-trace dirty rays, at most a 128th of
-    /// the boundary's rays per frame ([`WALL_RETRACE_SHARE`]), from cursors that go round:
-    /// the dispersive idea applied to the walls, the cost of a frame stays bounded and what
-    /// is left waits for the next frames.
-    pub(super) fn refresh_wall_rows(&mut self, world: &World, changes: &Changes) {
-        let Some(rows) = &mut self.wall_rows else {
-            return;
-        };
-        let n = self.boundary_patches.len();
-        let rays = self.options.wall_rays.max(1) as usize;
-        // Every object's box now (`swept_boxes` has just remembered the movers' new ones).
-        rows.mark(
-            world,
-            &self.boundary_patches,
-            &changes.moved,
-            &self.object_boxes,
-            n.div_ceil(WALL_CHECK_SHARE),
-        );
-        rows.retrace(
-            world,
-            &self.boundary_patches,
-            (n * rays).div_ceil(WALL_RETRACE_SHARE).max(1),
-        );
     }
 
     /// Step 4 (paper 2.3.5): boundary radiosity from direct, object and wall light.

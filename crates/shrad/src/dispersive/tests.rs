@@ -5,7 +5,7 @@
 use glam::Affine3A;
 use shrad_sh::{cosine_lobe_sh, num_coeffs};
 
-use super::step2_probes::self_transfer;
+use super::setup::self_transfer;
 use super::*;
 use crate::patches::PatchSizing;
 use shrad_scene::{Material, Object, Scene};

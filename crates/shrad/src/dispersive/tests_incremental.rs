@@ -139,7 +139,7 @@ fn direct_cache_update_equals_a_full_recomputation() {
         .filter(|&i| world.patches.role(i as usize) == Role::Boundary)
         .collect();
     let mut cache = crate::direct::DirectCache::new(&world, boundary.clone(), 16);
-    let old = step1_direct::world_box(&world, block);
+    let old = setup::world_box(&world, block);
     let m = world.patches.world_from_local[block]
         * Affine3A::from_mat3(world.patches.local_from_object[block]);
     world
@@ -148,7 +148,7 @@ fn direct_cache_update_equals_a_full_recomputation() {
             Affine3A::from_translation(Vec3::new(8.0, 0.0, -10.0)) * m,
         )
         .unwrap();
-    let new = step1_direct::world_box(&world, block);
+    let new = setup::world_box(&world, block);
     let changed = cache.update(&world, &[old], &[new], |_| false);
     assert!(
         !changed.is_empty(),

@@ -34,13 +34,58 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::Aabb;
 
-use super::receives_as_boundary;
+use super::setup::receives_as_boundary;
+use super::{Changes, Dispersive};
 use crate::form_factors::{patch_rays, row_from_hits, some_patch_rays};
 use crate::sparse::SparseRows;
 use crate::World;
 
+/// At most `1 / WALL_RETRACE_SHARE` of the wall exchange's rays (boundary patches x
+/// `wall_rays`) are re-traced per frame where movers passed (whole rows at a time, so up to
+/// one row's rays more); the rest wait for the next frames. A 128th (7.7k rays at Cornell
+/// 20k, about 3 ms on 2 cores; a 32nd took 10-20 ms, which made a drag's frame half wall
+/// rows) keeps a frame with a mover near a static frame's cost; a ray marked while the budget
+/// is spent stays dirty, so the rows are exact again some frames after the motion stops.
+pub const WALL_RETRACE_SHARE: usize = 128;
+
+/// At most `1 / WALL_CHECK_SHARE` of the wall rows are checked against the movers per frame
+/// (`wall_rows.rs`: as exact as checking all of them, only later). Checking all of them took
+/// 16 ms a frame of a Cornell 20k drag on 2 cores (every row's rays span the box, so its
+/// bounds reject no mover); an eighth takes about 2 ms.
+pub const WALL_CHECK_SHARE: usize = 8;
+
+impl Dispersive {
+    /// Check an eighth of the wall rows against the objects that moved since each was last
+    /// checked ([`WALL_CHECK_SHARE`]), marking the rays a move may have changed (those that
+    /// hit a mover, those with a mover's box now in front of their hit, every ray of a moved
+    /// boundary object's rows: `wall_rows.rs`), and re-trace dirty rays, at most a 128th of
+    /// the boundary's rays per frame ([`WALL_RETRACE_SHARE`]), from cursors that go round:
+    /// the dispersive idea applied to the walls, the cost of a frame stays bounded and what
+    /// is left waits for the next frames.
+    pub(super) fn refresh_wall_rows(&mut self, world: &World, changes: &Changes) {
+        let Some(rows) = &mut self.wall_rows else {
+            return;
+        };
+        let n = self.boundary_patches.len();
+        let rays = self.options.wall_rays.max(1) as usize;
+        // Every object's box now (`swept_boxes` has just remembered the movers' new ones).
+        rows.mark(
+            world,
+            &self.boundary_patches,
+            &changes.moved,
+            &self.object_boxes,
+            n.div_ceil(WALL_CHECK_SHARE),
+        );
+        rows.retrace(
+            world,
+            &self.boundary_patches,
+            (n * rays).div_ceil(WALL_RETRACE_SHARE).max(1),
+        );
+    }
+}
+
 /// A row rebuilt from its rays: entries, box, mask of objects hit.
-type Rebuilt = (Vec<(u32, f32)>, Aabb, u64);
+type RebuiltRow = (Vec<(u32, f32)>, Aabb, u64);
 
 /// A ray that hit nothing.
 const MISS: u32 = u32::MAX;
@@ -361,7 +406,7 @@ impl WallRows {
     fn rebuild(&mut self, world: &World, boundary: &[u32], ks: &[usize]) {
         let rays = self.rays;
         let p = &world.patches;
-        let rebuilt: Vec<Rebuilt> = ks
+        let rebuilt: Vec<RebuiltRow> = ks
             .par_iter()
             .map(|&k| {
                 let i = boundary[k] as usize;

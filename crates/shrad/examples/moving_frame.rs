@@ -1,0 +1,85 @@
+//! Profile the moving frame (issue 24): the built-in room at `patches` patches with
+//! `objects` interior objects, converged, then its largest interior object moved back and
+//! forth along x before every frame (as `shrad bench` does), and then left still. Prints the
+//! medians of the frame and of each step, the rays cast, and the still frames after.
+//!
+//! `cargo run --release --example moving_frame [patches] [objects] [frames]`
+use glam::{Affine3A, Vec3};
+use shrad::engine::Engine;
+use shrad::frame::FrameStats;
+use shrad::scene::{room, Role, RoomParams};
+use shrad::solver::SolverChoice;
+use shrad::vis::Backend;
+use shrad::PatchSizing;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+fn report(label: &str, stats: &[FrameStats]) {
+    let d = |f: fn(&shrad::frame::DispersiveStats) -> f64| {
+        median(stats.iter().filter_map(|s| s.dispersive().map(f)).collect())
+    };
+    println!(
+        "{label}: frame {:.2} ms (max {:.2}), direct {:.2}, objects {:.2}, to boundary {:.2}, assemble {:.2}; rays {:.0}",
+        median(stats.iter().map(|s| s.frame_ms).collect()),
+        stats.iter().map(|s| s.frame_ms).fold(0.0, f64::max),
+        d(|s| s.direct_ms),
+        d(|s| s.objects_ms),
+        d(|s| s.to_boundary_ms),
+        d(|s| s.assemble_ms),
+        median(stats.iter().map(|s| s.rays_cast as f64).collect()),
+    );
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let patches: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(77_000);
+    let objects: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(8);
+    let frames: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(32);
+    let scene = room(&RoomParams {
+        objects,
+        patches,
+        big_object_patches: None,
+    });
+    let t = std::time::Instant::now();
+    let mut engine = Engine::new(
+        scene,
+        PatchSizing::Count(patches),
+        Backend::Auto,
+        SolverChoice::Dispersive(Default::default()),
+    )
+    .expect("engine");
+    println!(
+        "{} patches, set up in {:.2} s",
+        engine.world().patches.len(),
+        t.elapsed().as_secs_f64()
+    );
+    let p = &engine.world().patches;
+    let mover = (0..p.object_role.len())
+        .filter(|&o| p.object_role[o] == Role::Interior)
+        .max_by_key(|&o| p.range(o).len())
+        .expect("an interior object");
+    println!("mover: object {mover}, {} patches", p.range(mover).len());
+    engine.converge(2);
+    let rest = engine.transform(mover);
+    let reach = 0.05 * engine.world().scene.bounds().unwrap().size().x;
+    let moving: Vec<FrameStats> = (1..=frames)
+        .map(|k| {
+            let phase = (k as f32 * std::f32::consts::TAU / 16.0).sin();
+            engine
+                .set_transform(
+                    mover,
+                    Affine3A::from_translation(Vec3::X * reach * phase) * rest,
+                )
+                .unwrap();
+            engine.step()
+        })
+        .collect();
+    report("moving", &moving);
+    let still: Vec<FrameStats> = (0..frames).map(|_| engine.step()).collect();
+    report("still, first frames after", &still);
+    let still: Vec<FrameStats> = (0..frames).map(|_| engine.step()).collect();
+    report("still, later", &still);
+}

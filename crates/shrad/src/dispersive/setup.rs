@@ -1,0 +1,229 @@
+//! The dispersive solver's set-up, shared by the steps (paper 2.3.1, "初始化"): which
+//! patches are lit as the boundary, each object's world box, the outer sides of the
+//! enclosure, the boundary's neighbourhoods (Step 3's splat smoothing), each object's
+//! transfer vectors (Step 2) and emitter groups (Step 3). Computed once, when the solver is
+//! made (and, for boxes, when objects move); the step files read them and import nothing from
+//! one another.
+
+use glam::Vec3;
+use shrad_scene::{Aabb, Role};
+use shrad_sh::{eval_basis, num_coeffs};
+use shrad_vis::Hit;
+
+use crate::sparse::SparseRows;
+use crate::World;
+
+/// Whether patch `i` is lit like the boundary (Steps 1, 3, 4 and the wall exchange): the
+/// boundary's patches, and those of lights that also reflect (a lamp panel, an emissive
+/// card: the paper's lights only emit, but a reflective emitter near a wall otherwise
+/// loses the light it bounces back).
+pub(super) fn receives_as_boundary(world: &World, i: usize) -> bool {
+    match world.patches.role(i) {
+        Role::Boundary => true,
+        Role::Light => world.reflectance[i].max_element() > 0.0,
+        Role::Interior => false,
+    }
+}
+
+/// World bounding box of object `o` (its rest-frame mesh box, transformed).
+pub(super) fn world_box(world: &World, o: usize) -> Aabb {
+    match world.patches.shapes[o].bounds() {
+        Some(local) => local.transformed(world.patches.world_from_local[o]),
+        None => Aabb::new(Vec3::ZERO, Vec3::ZERO),
+    }
+}
+
+/// See `Dispersive::outer_side`.
+pub(super) fn outer_sides(world: &World) -> Vec<bool> {
+    let p = &world.patches;
+    let centre = world.scene.bounds().map_or(Vec3::ZERO, |b| b.centre());
+    (0..p.len())
+        .map(|i| {
+            p.role(i) == Role::Boundary
+                && p.twin[i] != crate::patches::NO_PATCH
+                && p.normal[i].dot(centre - p.centre[i]) < 0.0
+        })
+        .collect()
+}
+
+/// Rays per light patch for the energy meter's measure of what the lights absorb.
+pub(super) const LIGHT_METER_RAYS: usize = 16;
+
+/// Boundary patches around each boundary patch: those sharing one of its smooth-shading
+/// vertices (corners welded by position within the crease angle), itself first. Compressed
+/// rows over all patches; non-boundary patches have none.
+#[derive(Default)]
+pub(super) struct Neighbours {
+    /// Row `i`: patch `i` itself, then its neighbours (empty for a patch not on the
+    /// boundary).
+    rows: SparseRows<u32>,
+    /// 1 / the summed area of each patch's neighbourhood.
+    pub(super) inv_area: Vec<f32>,
+}
+
+impl Neighbours {
+    pub(super) fn of_boundary(world: &World) -> Neighbours {
+        let p = &world.patches;
+        let boundary = |i: usize| receives_as_boundary(world, i);
+        // Patches at each shading vertex, as compressed rows (no allocation per vertex:
+        // a 1M-patch scene has about as many vertices).
+        let corners = |i: usize| {
+            let mut v = p.corner_vertex[i];
+            v.sort_unstable();
+            (0..4)
+                .filter(move |&k| k == 0 || v[k - 1] != v[k])
+                .map(move |k| v[k])
+        };
+        let mut vertex_start = vec![0u32; p.shading_vertex_count + 1];
+        for i in (0..p.len()).filter(|&i| boundary(i)) {
+            for c in corners(i) {
+                vertex_start[c as usize + 1] += 1;
+            }
+        }
+        for v in 0..p.shading_vertex_count {
+            vertex_start[v + 1] += vertex_start[v];
+        }
+        let mut fill = vertex_start.clone();
+        let mut vertex_patches = vec![0u32; *vertex_start.last().unwrap_or(&0) as usize];
+        for i in (0..p.len()).filter(|&i| boundary(i)) {
+            for c in corners(i) {
+                vertex_patches[fill[c as usize] as usize] = i as u32;
+                fill[c as usize] += 1;
+            }
+        }
+        let at_vertex = |c: u32| {
+            &vertex_patches
+                [vertex_start[c as usize] as usize..vertex_start[c as usize + 1] as usize]
+        };
+        let mut rows = SparseRows::default();
+        let mut near = Vec::new();
+        for i in 0..p.len() {
+            near.clear();
+            if boundary(i) {
+                for &c in &p.corner_vertex[i] {
+                    near.extend(at_vertex(c).iter().filter(|&&k| k as usize != i));
+                }
+                near.sort_unstable();
+                near.dedup();
+                near.insert(0, i as u32);
+            }
+            rows.push_row(near.iter().copied());
+        }
+        let mut n = Neighbours {
+            rows,
+            inv_area: Vec::new(),
+        };
+        n.inv_area = (0..p.len())
+            .map(|i| {
+                let a: f32 = n.of(i).iter().map(|&k| p.area[k as usize]).sum();
+                if a > 0.0 {
+                    1.0 / a
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        n
+    }
+
+    pub(super) fn of(&self, i: usize) -> &[u32] {
+        self.rows.row(i)
+    }
+}
+
+/// Transfer vectors with self-visibility of object `o`'s patches, in the object frame:
+/// `T_i = (pi / M) sum_j V_self(w_j) Y(w_j)` over `M` cosine-distributed directions (the
+/// pdf `cos / pi` turns the cosine-weighted integral into this mean). Rays are cast in the
+/// world at rest with every other object transparent, so only the object itself occludes.
+pub(super) fn self_transfer(
+    world: &World,
+    o: usize,
+    bands: usize,
+    rays: u32,
+) -> (Vec<f32>, Vec<Vec<(u32, f32)>>) {
+    if rays == 0 {
+        return (Vec::new(), Vec::new());
+    }
+    let p = &world.patches;
+    let nc = num_coeffs(bands);
+    let rays = rays as usize;
+    let others: Vec<u32> = (0..p.object_role.len() as u32)
+        .filter(|&x| x as usize != o)
+        .collect();
+    let m = p.world_from_local[o];
+    let range = p.range(o);
+    let mut origins = vec![Vec3::ZERO; range.len() * rays];
+    let mut dirs_world = vec![Vec3::ZERO; range.len() * rays];
+    let mut dirs_local = vec![Vec3::ZERO; range.len() * rays];
+    for (k, i) in range.clone().enumerate() {
+        let shift = (
+            crate::sampling::unit(crate::sampling::hash(i as u32 ^ 0x5eed)),
+            0.25,
+        );
+        for j in 0..rays {
+            let (u, v) = crate::sampling::hammersley(j as u32, rays as u32, shift);
+            let local = crate::sampling::square_to_cosine_hemisphere(u, v, p.normal_local[i]);
+            dirs_local[k * rays + j] = local;
+            dirs_world[k * rays + j] = m.transform_vector3(local).normalize_or_zero();
+            origins[k * rays + j] = p.centre[i] + p.normal[i] * world.eps;
+        }
+    }
+    let mut hits = vec![Hit::MISS; origins.len()];
+    world
+        .vis
+        .closest(&origins, &dirs_world, 0.0, &others, &mut hits);
+    let mut transfer = vec![0f32; range.len() * nc];
+    let mut basis = [0f32; 64];
+    let w = std::f32::consts::PI / rays as f32;
+    let mut self_view = vec![Vec::new(); range.len()];
+    for (k, t) in transfer.chunks_mut(nc).enumerate() {
+        for j in 0..rays {
+            let h = &hits[k * rays + j];
+            if h.is_hit() {
+                if let Some(q) = world.seen_patch(h) {
+                    let row: &mut Vec<(u32, f32)> = &mut self_view[k];
+                    let q = (q - range.start) as u32;
+                    match row.iter_mut().find(|e| e.0 == q) {
+                        Some(e) => e.1 += 1.0 / rays as f32,
+                        None => row.push((q, 1.0 / rays as f32)),
+                    }
+                }
+                continue;
+            }
+            eval_basis(bands, dirs_local[k * rays + j], &mut basis[..nc]);
+            for c in 0..nc {
+                t[c] += w * basis[c];
+            }
+        }
+    }
+    (transfer, self_view)
+}
+
+/// The Step 3 emitters of object `o`: one at the box centre with every patch (the paper), or
+/// one per dominant normal axis (±x, ±y, ±z of the rest frame) at the area-weighted
+/// centroid of its patches.
+pub(super) fn emitter_groups(
+    p: &crate::Patches,
+    o: usize,
+    box_centre: Vec3,
+    per_face: bool,
+) -> Vec<(Vec3, Vec<u32>)> {
+    let range = p.range(o);
+    if !per_face {
+        return vec![(box_centre, (0..range.len() as u32).collect())];
+    }
+    let mut groups: Vec<(Vec3, f32, Vec<u32>)> = vec![(Vec3::ZERO, 0.0, Vec::new()); 6];
+    for (k, i) in range.enumerate() {
+        let n = p.normal_local[i];
+        let axis = n.abs().max_position();
+        let g = 2 * axis + usize::from(n[axis] < 0.0);
+        groups[g].0 += p.centre_local[i] * p.area[i];
+        groups[g].1 += p.area[i];
+        groups[g].2.push(k as u32);
+    }
+    groups
+        .into_iter()
+        .filter(|g| g.1 > 0.0)
+        .map(|(sum, area, members)| (sum / area, members))
+        .collect()
+}
