@@ -13,6 +13,7 @@
 //! mean seen radiosity is the irradiance (`E = pi * mean L` under cosine sampling).
 
 use glam::Vec3;
+use rayon::prelude::*;
 use shrad_vis::Hit;
 
 use crate::World;
@@ -108,6 +109,12 @@ pub struct IncidentMeter {
     rays: usize,
     /// The patch each ray sees (`u32::MAX`: nothing, or a single-sided back).
     seen: Vec<u32>,
+    /// Where each ray starts, and where its segment ends (its hit, or far beyond the scene
+    /// for a miss): what a mover must meet to change it.
+    from: Vec<Vec3>,
+    end: Vec<Vec3>,
+    /// The object each ray hit (`u32::MAX`: none).
+    hit_object: Vec<u32>,
 }
 
 impl IncidentMeter {
@@ -117,31 +124,93 @@ impl IncidentMeter {
             patches,
             rays: rays.max(1),
             seen: Vec::new(),
+            from: Vec::new(),
+            end: Vec::new(),
+            hit_object: Vec::new(),
         };
         m.retrace(world);
         m
     }
 
-    /// Trace the rays again (something moved).
+    /// Trace every ray again.
     pub fn retrace(&mut self, world: &World) {
         let n = self.patches.len() * self.rays;
+        self.seen = vec![u32::MAX; n];
+        self.from = vec![Vec3::ZERO; n];
+        self.end = vec![Vec3::ZERO; n];
+        self.hit_object = vec![u32::MAX; n];
+        let all: Vec<usize> = (0..self.patches.len()).collect();
+        self.trace_patches(world, &all);
+    }
+
+    /// Trace again only the rays that objects `moved` (now at their world `boxes`, indexed
+    /// by object) may have changed: those that hit one of them, and those whose segment
+    /// meets one's box now (a place a mover left cannot matter otherwise: had it been on the
+    /// segment, the ray would have hit it). The result is what [`IncidentMeter::retrace`]
+    /// gives; a light patch that moved itself is traced again whole. Returns the rays traced.
+    pub fn update(&mut self, world: &World, moved: &[usize], boxes: &[shrad_scene::Aabb]) -> usize {
+        if moved.is_empty() || self.patches.is_empty() {
+            return 0;
+        }
+        let p = &world.patches;
+        let padded: Vec<shrad_scene::Aabb> = moved
+            .iter()
+            .map(|&o| boxes[o])
+            .filter(|b| !b.is_empty())
+            .map(|b| b.padded(Vec3::splat(4.0 * world.eps + 1e-5 * b.diagonal())))
+            .collect();
+        let rays = self.rays;
+        let stale: Vec<usize> = (0..self.patches.len())
+            .into_par_iter()
+            .filter(|&k| {
+                let i = self.patches[k] as usize;
+                if moved.contains(&(p.object[i] as usize)) {
+                    return true;
+                }
+                (k * rays..(k + 1) * rays).any(|r| {
+                    let h = self.hit_object[r];
+                    (h != u32::MAX && moved.contains(&(h as usize)))
+                        || padded
+                            .iter()
+                            .any(|b| b.meets_segment(self.from[r], self.end[r]))
+                })
+            })
+            .collect();
+        self.trace_patches(world, &stale);
+        stale.len() * rays
+    }
+
+    /// Trace every ray of the metered patches `ks`.
+    fn trace_patches(&mut self, world: &World, ks: &[usize]) {
+        if ks.is_empty() {
+            return;
+        }
+        let rays = self.rays;
+        let n = ks.len() * rays;
         let mut origins = vec![Vec3::ZERO; n];
         let mut dirs = vec![Vec3::ZERO; n];
-        for (k, &i) in self.patches.iter().enumerate() {
-            let r = k * self.rays..(k + 1) * self.rays;
-            crate::form_factors::patch_rays(
-                world,
-                i as usize,
-                &mut origins[r.clone()],
-                &mut dirs[r],
-            );
-        }
+        origins
+            .par_chunks_mut(rays)
+            .zip(dirs.par_chunks_mut(rays))
+            .zip(ks)
+            .for_each(|((o, d), &k)| {
+                crate::form_factors::patch_rays(world, self.patches[k] as usize, o, d)
+            });
         let mut hits = vec![Hit::MISS; n];
         world.vis.closest(&origins, &dirs, 0.0, &[], &mut hits);
-        self.seen = hits
-            .iter()
-            .map(|h| world.seen_patch(h).map_or(u32::MAX, |j| j as u32))
-            .collect();
+        // A miss reaches any place a mover may go.
+        let far = 1e30;
+        for (c, &k) in ks.iter().enumerate() {
+            for j in 0..rays {
+                let (r, q) = (k * rays + j, c * rays + j);
+                let h = &hits[q];
+                self.seen[r] = world.seen_patch(h).map_or(u32::MAX, |j| j as u32);
+                self.from[r] = origins[q];
+                let t = if h.is_hit() { h.t } else { far };
+                self.end[r] = origins[q] + dirs[q] * t;
+                self.hit_object[r] = if h.is_hit() { h.object } else { u32::MAX };
+            }
+        }
     }
 
     /// Write the measured irradiance of the metered patches into `irradiance`.
@@ -228,6 +297,54 @@ impl LightHeld {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// After moves (a block slid, teleported, the light itself moved), the meter updated
+    /// incrementally sees what a meter traced afresh sees, ray by ray.
+    #[test]
+    fn meter_updated_after_moves_equals_a_fresh_one() {
+        use glam::Affine3A;
+        let scene = shrad_scene::cornell_box();
+        let mut world = World::new(
+            scene.clone(),
+            crate::PatchSizing::Count(2000),
+            shrad_vis::Backend::Auto,
+        )
+        .unwrap();
+        let find = |name: &str| scene.objects.iter().position(|o| o.name == name).unwrap();
+        let lights: Vec<u32> = (0..world.patches.len() as u32)
+            .filter(|&i| world.patches.role(i as usize) == shrad_scene::Role::Light)
+            .collect();
+        assert!(!lights.is_empty());
+        let mut meter = IncidentMeter::new(&world, lights.clone(), 16);
+        let moves = [
+            ("tall_block", Vec3::new(0.0, 300.0, 0.0)),
+            ("tall_block", Vec3::new(0.0, 120.0, 0.0)),
+            ("short_block", Vec3::new(-250.0, 0.0, 150.0)),
+            ("light", Vec3::new(30.0, -5.0, 20.0)),
+            ("tall_block", Vec3::ZERO),
+        ];
+        let mut traced = 0;
+        for (name, offset) in moves {
+            let o = find(name);
+            let m = Affine3A::from_translation(offset) * scene.objects[o].world_from_object;
+            world.move_object(o, m).unwrap();
+            let boxes: Vec<shrad_scene::Aabb> = (0..world.scene.objects.len())
+                .map(|o| {
+                    world.patches.shapes[o]
+                        .bounds()
+                        .unwrap()
+                        .transformed(world.patches.world_from_local[o])
+                })
+                .collect();
+            traced += meter.update(&world, &[o], &boxes);
+            let fresh = IncidentMeter::new(&world, lights.clone(), 16);
+            assert_eq!(meter.seen, fresh.seen, "after moving {name}");
+        }
+        assert!(
+            traced < 5 * lights.len() * 16,
+            "every move traced everything again: {traced} rays"
+        );
+    }
 
     #[test]
     fn bound_and_closure() {

@@ -109,6 +109,11 @@ pub struct DispersiveStats {
     pub probes_invalid: usize,
     /// Of those, repaired by moving.
     pub probes_repaired: usize,
+    /// Interior objects asleep after the frame (their light stopped changing:
+    /// `sleep_tolerance`).
+    pub objects_asleep: usize,
+    /// Everything slept: the frame traced nothing and swept nothing.
+    pub asleep: bool,
 }
 
 /// What the reference solve did.

@@ -58,6 +58,63 @@ pub(super) const MAX_STEP3_BYTES: usize = 24 << 20;
 /// 32^2 faces, 6.3 MB at the paper's 128^2, 25 MB at 256^2, which is not kept).
 pub(super) const MAX_PROBE_BYTES: usize = 8 << 20;
 
+/// Cached rays are grouped in chunks of this many (consecutive texels of a cube map, or
+/// consecutive boundary patches of a gather), each with the box of its segments, so a
+/// mover's box rejects a whole chunk with one box test before any ray is tested.
+pub(super) const CHUNK: usize = 64;
+
+/// The box of each chunk of [`CHUNK`] cached segments; a chunk with a segment of infinite
+/// length (a miss) has an infinite box and is always tested ray by ray.
+#[derive(Default)]
+pub(super) struct ChunkBounds {
+    pub(super) boxes: Vec<Aabb>,
+}
+
+impl ChunkBounds {
+    /// Bounds of `n` segments, `segment(i)` giving segment `i` (`None`: nothing cached).
+    pub(super) fn new(n: usize, segment: impl Fn(usize) -> Option<(Vec3, Vec3)> + Sync) -> Self {
+        let boxes = (0..n.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|c| chunk_box(c, n, &segment))
+            .collect();
+        ChunkBounds { boxes }
+    }
+
+    /// Recompute the boxes of the chunks holding segments `changed` (sorted or not).
+    pub(super) fn refresh(
+        &mut self,
+        n: usize,
+        changed: &[usize],
+        segment: impl Fn(usize) -> Option<(Vec3, Vec3)> + Sync,
+    ) {
+        let mut chunks: Vec<usize> = changed.iter().map(|&i| i / CHUNK).collect();
+        chunks.dedup();
+        for c in chunks {
+            self.boxes[c] = chunk_box(c, n, &segment);
+        }
+    }
+
+    /// Whether chunk `c` may meet one of `boxes`.
+    pub(super) fn may_meet(&self, c: usize, boxes: &[Aabb]) -> bool {
+        self.boxes
+            .get(c)
+            .is_none_or(|b| boxes.iter().any(|m| m.meets_box(b)))
+    }
+}
+
+fn chunk_box(c: usize, n: usize, segment: &impl Fn(usize) -> Option<(Vec3, Vec3)>) -> Aabb {
+    let mut b = Aabb::EMPTY;
+    for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+        if let Some((from, to)) = segment(i) {
+            if !(from.is_finite() && to.is_finite()) {
+                return Aabb::new(Vec3::NEG_INFINITY, Vec3::INFINITY);
+            }
+            b = b.grow(from).grow(to);
+        }
+    }
+    b
+}
+
 /// What a probe's capture at its current place saw.
 pub(super) struct ProbeHits {
     /// Where it was captured (world).
@@ -68,6 +125,8 @@ pub(super) struct ProbeHits {
     pub(super) t: Vec<f32>,
     /// Fraction of the sphere (by solid angle) that sees back faces.
     pub(super) back_fraction: f32,
+    /// The box of each chunk of texel segments.
+    pub(super) bounds: ChunkBounds,
 }
 
 /// Step 2's cache of one object.
@@ -90,6 +149,8 @@ pub(super) struct GatherEntries {
     pub(super) dir: [Vec<f32>; 3],
     /// [`RAY_UNKNOWN`], [`RAY_CLEAR`] or [`RAY_BLOCKED`].
     pub(super) ray: Vec<u8>,
+    /// The box of each chunk of segments from the entries' ray origins to the centre.
+    pub(super) bounds: ChunkBounds,
 }
 
 /// The texels of one splat emitter.
@@ -99,6 +160,8 @@ pub(super) struct SplatTexels {
     pub(super) seen: Vec<u32>,
     /// Per texel: the hit distance (infinite for a miss).
     pub(super) t: Vec<f32>,
+    /// The box of each chunk of traced texel segments.
+    pub(super) bounds: ChunkBounds,
 }
 
 /// How one emitter reaches the boundary.
@@ -209,9 +272,11 @@ impl Dispersive {
             }
             for probe in &mut ob.probe_cache.probes {
                 let stale = probe.as_ref().is_some_and(|h| {
-                    h.t.par_iter()
-                        .zip(dirs.par_iter())
-                        .any(|(&t, &d)| meets(h.origin, d, t))
+                    (0..h.t.len().div_ceil(CHUNK)).into_par_iter().any(|c| {
+                        h.bounds.may_meet(c, &boxes)
+                            && (c * CHUNK..((c + 1) * CHUNK).min(h.t.len()))
+                                .any(|t| meets(h.origin, dirs[t], h.t[t]))
+                    })
                 });
                 if stale {
                     *probe = None;
@@ -225,23 +290,38 @@ impl Dispersive {
                 match rays {
                     EmitterRays::Gather(g) => {
                         let c = g.centre;
-                        g.ray.par_iter_mut().zip(&g.patch).for_each(|(r, &j)| {
-                            let j = j as usize;
-                            let from = p.centre[j] + p.normal[j] * world.eps;
-                            if *r != RAY_UNKNOWN && meets(from, c - from, 1.0) {
-                                *r = RAY_UNKNOWN;
-                            }
-                        })
+                        let bounds = &g.bounds;
+                        g.ray
+                            .par_chunks_mut(CHUNK)
+                            .zip(g.patch.par_chunks(CHUNK))
+                            .enumerate()
+                            .filter(|(k, _)| bounds.may_meet(*k, &boxes))
+                            .for_each(|(_, (rs, js))| {
+                                for (r, &j) in rs.iter_mut().zip(js) {
+                                    let j = j as usize;
+                                    let from = p.centre[j] + p.normal[j] * world.eps;
+                                    if *r != RAY_UNKNOWN && meets(from, c - from, 1.0) {
+                                        *r = RAY_UNKNOWN;
+                                    }
+                                }
+                            })
                     }
                     EmitterRays::Splat(s) => {
                         let c = s.centre;
-                        s.seen.par_iter_mut().zip(&s.t).zip(emitter_dirs).for_each(
-                            |((seen, &t), &d)| {
-                                if *seen != UNKNOWN && meets(c, d, t) {
-                                    *seen = UNKNOWN;
+                        let bounds = &s.bounds;
+                        s.seen
+                            .par_chunks_mut(CHUNK)
+                            .zip(s.t.par_chunks(CHUNK))
+                            .zip(emitter_dirs.par_chunks(CHUNK))
+                            .enumerate()
+                            .filter(|(k, _)| bounds.may_meet(*k, &boxes))
+                            .for_each(|(_, ((seen, t), d))| {
+                                for ((seen, &t), &d) in seen.iter_mut().zip(t).zip(d) {
+                                    if *seen != UNKNOWN && meets(c, d, t) {
+                                        *seen = UNKNOWN;
+                                    }
                                 }
-                            },
-                        )
+                            })
                     }
                 }
             }

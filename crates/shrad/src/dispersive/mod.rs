@@ -43,6 +43,7 @@ mod object_state;
 mod options;
 mod scheduler;
 mod setup;
+mod sleep;
 mod step1_direct;
 mod step2_probes;
 mod step3_to_boundary;
@@ -116,6 +117,18 @@ pub struct Dispersive {
     /// Keep Steps 2 and 3's rays between updates (`caches.rs`); off only to test that they
     /// change nothing.
     caching: bool,
+    /// Sleep and wake (`DispersiveOptions::sleep_tolerance`): the boundary's relative
+    /// change summed over every frame so far (a sleeper wakes once it grew by more than the
+    /// tolerance since it fell asleep)...
+    drift: f64,
+    /// ... each object's relative change at its last update (aligned with `objects`) ...
+    object_change: Vec<f64>,
+    /// ... and the frames in a row in which nothing changed, no object was updated and the
+    /// walls' sweep changed the boundary by less than the tolerance: the walls sleep once
+    /// that covers a whole sweep.
+    quiet_frames: usize,
+    /// The energy balance of the last frame that ran, for the frames that sleep.
+    last_energy: EnergyBalance,
 }
 
 impl Dispersive {
@@ -143,6 +156,7 @@ impl Dispersive {
             .map(|o| world_box(world, o))
             .collect();
         let n = p.len();
+        let n_objects = objects.len();
         let radiosity = world.exitance.clone();
         Ok(Dispersive {
             options,
@@ -182,6 +196,10 @@ impl Dispersive {
             step_warnings: Vec::new(),
             outer_side: outer_sides(world),
             caching: true,
+            drift: 0.0,
+            object_change: vec![f64::INFINITY; n_objects],
+            quiet_frames: 0,
+            last_energy: EnergyBalance::default(),
         })
     }
 
@@ -245,37 +263,51 @@ impl Dispersive {
         let mut stats = FrameStats::new(self.frame, SolverStats::Dispersive(Default::default()));
         let mut steps = DispersiveStats::default();
         self.note_changes(world, changes);
+        if self.everything_sleeps(changes) {
+            return self.sleeping_frame(frame_start);
+        }
 
         // Step 1 (2.3.2), and the wall rows a mover passed through.
         let t = Instant::now();
         let swept = self.swept_boxes(world, changes);
+        let tt = Instant::now();
         self.direct_to_boundary(world, changes, &swept);
+        tr("direct_to_boundary", tt);
+        let tt = Instant::now();
         self.refresh_wall_rows(world, changes);
+        tr("refresh_wall_rows", tt);
         steps.direct_ms = ms(t);
 
         // Step 2 (2.3.3) for the objects the scheduler picks.
         let batch = self.scheduler.schedule(self.frame);
         let t = Instant::now();
+        let tt = Instant::now();
         self.forget_stale_caches(world, changes, &swept);
+        tr("forget_stale", tt);
         let lit = self.light_selected_objects(world, batch, &mut stats, &mut steps);
         steps.objects_ms = ms(t);
 
         // Step 3 (2.3.4).
         let t = Instant::now();
+        let updated = lit.clone();
         stats.energy.object_emitters = self.objects_to_boundary(world, lit);
         steps.to_boundary_ms = ms(t);
 
         // Step 4 (2.3.5): full wall sweeps when the light changed.
         let t = Instant::now();
         let sweeps = if changes.relit.is_empty() { 1 } else { 8 };
-        self.assemble(world, sweeps);
+        let change = self.assemble(world, sweeps);
         steps.assemble_ms = ms(t);
 
+        let tt = Instant::now();
         self.meter_and_guard(world, changes, &mut stats);
+        tr("meter_and_guard", tt);
+        self.note_settling(changes, &updated, change, &stats);
 
         stats.frame_ms = ms(frame_start);
         stats.stalest = self.scheduler.stalest(self.frame);
         stats.rays_cast = world.rays_cast() - rays_before;
+        steps.objects_asleep = self.scheduler.asleep();
         stats.solver = SolverStats::Dispersive(steps);
         self.frame += 1;
         stats
@@ -292,6 +324,12 @@ impl Dispersive {
                 s
             })
             .collect()
+    }
+}
+
+pub(super) fn tr(label: &str, t: Instant) {
+    if std::env::var_os("SHRAD_TRACE").is_some() {
+        eprintln!("  {label}: {:.2}", ms(t));
     }
 }
 

@@ -113,6 +113,14 @@ pub struct DispersiveOptions {
     /// flux: the splat's texels and the patches are about the same size, so a patch gets
     /// 0, 1 or 2 texels and the raw splat is noisy (the paper's texel pattern).
     pub splat_smoothing: bool,
+    /// Sleep and wake (beyond the paper, which updates some object every frame forever): an
+    /// object whose update changed its patches' radiosity by less than this fraction (area
+    /// weighted, over the object) sleeps, and is skipped by the scheduler until a light
+    /// changes, a mover comes near it, or the boundary's light drifts by more than this
+    /// fraction since it fell asleep; the walls (Step 4's exchange) sleep likewise once
+    /// their sweeps change the boundary by less than it, and a frame in which everything
+    /// sleeps costs no tracing and no sweep. 0: never sleep (the paper).
+    pub sleep_tolerance: f32,
 }
 
 impl DispersiveOptions {
@@ -137,6 +145,7 @@ impl DispersiveOptions {
             emitter_per_face: false,
             self_shadow_rays: 0,
             splat_smoothing: false,
+            sleep_tolerance: 0.0,
         }
     }
 
@@ -159,6 +168,7 @@ impl DispersiveOptions {
             emitter_per_face: true,
             self_shadow_rays: 64,
             splat_smoothing: true,
+            sleep_tolerance: 1e-4,
             ..Self::paper()
         }
     }

@@ -20,6 +20,10 @@ pub(super) struct Freshness {
     disturbed: f32,
     /// Measured ms of its last update.
     cost_ms: f64,
+    /// Asleep since its light stopped changing (see `DispersiveOptions::sleep_tolerance`):
+    /// the boundary's drift when it fell asleep. A sleeping object is never scheduled and is
+    /// never stale: its light is current.
+    asleep_at: Option<f64>,
 }
 
 /// The scheduler's state: the policy, each object's [`Freshness`] and the round robin's
@@ -40,6 +44,7 @@ impl Scheduler {
                     last_update: None,
                     disturbed: 1.0,
                     cost_ms: 0.0,
+                    asleep_at: None,
                 };
                 n
             ],
@@ -57,10 +62,11 @@ impl Scheduler {
         self.schedule
     }
 
-    /// Raise object `k`'s disturbance to at least `level`.
+    /// Raise object `k`'s disturbance to at least `level`; it wakes.
     pub(super) fn disturb(&mut self, k: usize, level: f32) {
-        let d = &mut self.objects[k].disturbed;
-        *d = d.max(level);
+        let o = &mut self.objects[k];
+        o.disturbed = o.disturbed.max(level);
+        o.asleep_at = None;
     }
 
     /// Object `k` was updated in `frame` at a cost of `cost_ms`.
@@ -69,14 +75,45 @@ impl Scheduler {
             last_update: Some(frame),
             disturbed: 1.0,
             cost_ms,
+            asleep_at: None,
         };
     }
 
-    /// Frames since the stalest object was updated, at `frame` (`frame + 1` for one never
-    /// updated; 0 without objects).
+    /// Object `k` sleeps, the boundary having drifted by `drift` so far (its update changed
+    /// nothing that matters; see [`Scheduler::wake_drifted`]).
+    pub(super) fn sleep(&mut self, k: usize, drift: f64) {
+        self.objects[k].asleep_at = Some(drift);
+    }
+
+    /// Wake the objects asleep since the boundary drifted by more than `tolerance`: what
+    /// their probes see has changed by more than the tolerance since.
+    pub(super) fn wake_drifted(&mut self, drift: f64, tolerance: f64) {
+        for o in &mut self.objects {
+            if o.asleep_at.is_some_and(|at| drift - at > tolerance) {
+                o.asleep_at = None;
+            }
+        }
+    }
+
+    /// Whether object `k` sleeps.
+    pub(super) fn is_asleep(&self, k: usize) -> bool {
+        self.objects[k].asleep_at.is_some()
+    }
+
+    /// Objects asleep.
+    pub(super) fn asleep(&self) -> usize {
+        self.objects
+            .iter()
+            .filter(|o| o.asleep_at.is_some())
+            .count()
+    }
+
+    /// Frames since the stalest awake object was updated, at `frame` (`frame + 1` for one
+    /// never updated; 0 without objects, or when all sleep).
     pub(super) fn stalest(&self, frame: u64) -> u64 {
         self.objects
             .iter()
+            .filter(|o| o.asleep_at.is_none())
             .map(|o| o.last_update.map_or(frame + 1, |f| frame - f))
             .max()
             .unwrap_or(0)
@@ -94,18 +131,26 @@ impl Scheduler {
         }
     }
 
-    /// The objects `frame` updates (spec 4.3).
+    /// The objects `frame` updates (spec 4.3), never a sleeping one.
     pub(super) fn schedule(&mut self, frame: u64) -> Batch {
         let n = self.objects.len();
-        if n == 0 {
+        let awake = n - self.asleep();
+        if awake == 0 {
             return Batch(Vec::new());
         }
         match self.schedule {
-            Schedule::Full => Batch((0..n).collect()),
+            Schedule::Full => Batch((0..n).filter(|&k| !self.is_asleep(k)).collect()),
             Schedule::RoundRobin { per_frame } => {
-                let k = per_frame.clamp(1, n);
-                let picked = (0..k).map(|j| (self.round_robin_next + j) % n).collect();
-                self.round_robin_next = (self.round_robin_next + k) % n;
+                let k = per_frame.clamp(1, awake);
+                let mut picked = Vec::with_capacity(k);
+                let mut next = self.round_robin_next;
+                while picked.len() < k {
+                    if !self.is_asleep(next % n) {
+                        picked.push(next % n);
+                    }
+                    next += 1;
+                }
+                self.round_robin_next = next % n;
                 Batch(picked)
             }
             Schedule::Priority {
@@ -145,6 +190,7 @@ impl Scheduler {
             .objects
             .iter()
             .enumerate()
+            .filter(|(_, o)| o.asleep_at.is_none())
             .map(|(i, o)| {
                 let s = staleness(o);
                 let forced = if s >= max_staleness as f64 { 1e12 } else { 0.0 };
@@ -184,6 +230,44 @@ mod tests {
         // More per frame than objects: each object once.
         let mut s = Scheduler::new(Schedule::RoundRobin { per_frame: 9 }, 3);
         assert_eq!(s.schedule(0).0, [0, 1, 2]);
+    }
+
+    /// A sleeping object is never picked and never stale; it wakes when disturbed or when
+    /// the boundary drifted past the tolerance since it fell asleep.
+    #[test]
+    fn sleepers_are_skipped_until_woken() {
+        for schedule in [
+            Schedule::RoundRobin { per_frame: 1 },
+            Schedule::Priority {
+                per_frame: 1,
+                max_staleness: 2,
+            },
+            Schedule::Full,
+        ] {
+            let mut s = Scheduler::new(schedule, 3);
+            run(&mut s, 3, |_| 1.0);
+            s.sleep(1, 0.5);
+            let picked: Vec<usize> = run(&mut s, 12, |_| 1.0).concat();
+            assert!(!picked.contains(&1), "{schedule:?}: a sleeper was picked");
+            assert!(picked.contains(&0) && picked.contains(&2), "{schedule:?}");
+            // Frames 0..12 updated objects 0 and 2 in turn: the stalest waited 2 frames at
+            // frame 12; the sleeper, last updated at frame 1, does not count.
+            assert!(
+                s.stalest(12) <= 2,
+                "{schedule:?}: a sleeper counted as stale: {}",
+                s.stalest(12)
+            );
+            s.wake_drifted(0.5 + 1e-4, 1e-3);
+            assert!(s.is_asleep(1), "{schedule:?}: woke below the tolerance");
+            s.wake_drifted(0.5 + 2e-3, 1e-3);
+            assert!(!s.is_asleep(1), "{schedule:?}: the drift did not wake it");
+            s.sleep(0, 0.0);
+            s.sleep(1, 0.0);
+            s.sleep(2, 0.0);
+            assert!(s.schedule(20).0.is_empty() && s.stalest(20) == 0);
+            s.disturb(2, 2.0);
+            assert_eq!(s.schedule(21).0, [2], "{schedule:?}: disturbing wakes");
+        }
     }
 
     #[test]

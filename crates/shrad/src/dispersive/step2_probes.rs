@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use shrad_sh::{cosine_lobe_sh, num_coeffs, ShRgb, MAX_COEFFS};
 use shrad_vis::Hit;
 
-use super::caches::{ProbeCache, ProbeHits, MAX_PROBE_BYTES, SEES_BACK, SEES_NOTHING};
+use super::caches::{ChunkBounds, ProbeCache, ProbeHits, MAX_PROBE_BYTES, SEES_BACK, SEES_NOTHING};
 use super::{ms, Batch, Dispersive, DispersiveStats, FrameStats, ProbeRepair};
 use crate::probes::Seen;
 use crate::World;
@@ -40,7 +40,10 @@ impl Dispersive {
             let ob = &self.objects[k];
             let o = ob.object;
             let m = p.world_from_local[o];
+            let tt = Instant::now();
             let (probes, scale) = self.capture_corner_probes(world, k, m, steps);
+            super::tr("capture_corner_probes", tt);
+            let tt = Instant::now();
             self.objects[k].probe_scale = scale;
             let range = p.range(o);
             let ob = &self.objects[k];
@@ -110,6 +113,8 @@ impl Dispersive {
                     (dot / sum_w).max(Vec3::ZERO) + own
                 })
                 .collect();
+            super::tr("interpolate", tt);
+            let tt = Instant::now();
             if self.objects[k].openness.len() != range.len() {
                 self.objects[k].openness = if self.options.contact_rays > 0 {
                     self.contact_openness(world, k)
@@ -117,7 +122,10 @@ impl Dispersive {
                     vec![1.0; range.len()]
                 };
             }
+            super::tr("openness", tt);
             let openness = &self.objects[k].openness;
+            // How much the update changed the object's light (`sleep.rs`).
+            let (mut changed, mut total) = (0f64, 0f64);
             for ((i, e), &v) in range.clone().zip(e).zip(openness) {
                 let e = e * v;
                 self.probe_irradiance[i] = e;
@@ -126,8 +134,19 @@ impl Dispersive {
                 } else {
                     Vec3::ZERO
                 };
-                self.radiosity[i] = world.exitance[i] + world.reflectance[i] * (e + direct);
+                let b = world.exitance[i] + world.reflectance[i] * (e + direct);
+                let a = p.area[i] as f64;
+                changed += a * (b - self.radiosity[i]).abs().element_sum() as f64;
+                total += a * b.element_sum() as f64;
+                self.radiosity[i] = b;
             }
+            self.object_change[k] = if total > 0.0 {
+                changed / total
+            } else if changed > 0.0 {
+                f64::INFINITY
+            } else {
+                0.0
+            };
             self.scheduler.updated(k, self.frame, ms(t));
             stats.objects_updated.push(o);
         }
@@ -163,14 +182,27 @@ impl Dispersive {
                     dir[j] = crate::sampling::square_to_cosine_hemisphere(u, v, n);
                 }
             });
-        let mut hits = vec![Hit::MISS; origins.len()];
+        // Only whether something lies within `reach` matters: short shadow rays over the
+        // segment (0, reach] of each ray (`occluded` shortens a segment by `eps` at both
+        // ends, so it is extended by `eps` on both sides), which stop at the first hit.
+        let eps = world.eps;
+        let from: Vec<Vec3> = origins
+            .par_iter()
+            .zip(&dirs)
+            .map(|(&o, &d)| o - d * eps)
+            .collect();
+        let to: Vec<Vec3> = origins
+            .par_iter()
+            .zip(&dirs)
+            .map(|(&o, &d)| o + d * (reach + eps))
+            .collect();
+        let mut blocked = vec![false; from.len()];
         world
             .vis
-            .closest(&origins, &dirs, 0.0, &[o as u32], &mut hits);
-        hits.chunks(rays)
-            .map(|h| {
-                h.iter().filter(|h| !(h.is_hit() && h.t <= reach)).count() as f32 / rays as f32
-            })
+            .occluded(&from, &to, eps, &[o as u32], &mut blocked);
+        blocked
+            .chunks(rays)
+            .map(|b| b.iter().filter(|&&b| !b).count() as f32 / rays as f32)
             .collect()
     }
 
@@ -289,15 +321,18 @@ impl Dispersive {
                         s
                     })
                     .collect();
-                let t = h
+                let t: Vec<f32> = h
                     .iter()
                     .map(|h| if h.is_hit() { h.t } else { f32::INFINITY })
                     .collect();
+                let dirs = &self.camera.cube.directions;
+                let bounds = ChunkBounds::new(t.len(), |i| Some((origin, origin + dirs[i] * t[i])));
                 ProbeHits {
                     origin,
                     seen,
                     t,
                     back_fraction: back / (4.0 * std::f32::consts::PI),
+                    bounds,
                 }
             })
             .collect()

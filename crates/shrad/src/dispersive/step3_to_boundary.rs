@@ -18,8 +18,8 @@ use shrad_sh::{cosine_lobe, eval_basis, num_coeffs, ShRgb};
 use shrad_vis::Hit;
 
 use super::caches::{
-    EmitterCache, EmitterRays, GatherEntries, SplatTexels, LANDS_NOWHERE, MAX_STEP3_BYTES,
-    RAY_BLOCKED, RAY_CLEAR, RAY_UNKNOWN, UNKNOWN,
+    ChunkBounds, EmitterCache, EmitterRays, GatherEntries, SplatTexels, LANDS_NOWHERE,
+    MAX_STEP3_BYTES, RAY_BLOCKED, RAY_CLEAR, RAY_UNKNOWN, UNKNOWN,
 };
 use super::setup::receives_as_boundary;
 use super::{Dispersive, ToBoundary};
@@ -55,9 +55,12 @@ impl Dispersive {
             // The geometry of its emitters, cached between updates (`caches.rs`).
             let mut cache = std::mem::take(&mut self.objects[k].emitter_cache);
             let ob = &self.objects[k];
+            let tt = std::time::Instant::now();
             if cache.key != Some(m) {
                 cache = self.emitter_geometry(world, k, m, method);
             }
+            super::tr("emitter_geometry", tt);
+            let tt = std::time::Instant::now();
             // Pieces (boundary patch, value), several per patch: irradiance from a gather,
             // flux from a splat.
             let mut pieces: Vec<(u32, Vec3)> = Vec::new();
@@ -91,6 +94,8 @@ impl Dispersive {
                     }
                 });
             }
+            super::tr("emit", tt);
+            let tt = std::time::Instant::now();
             // Kept unless the caches are off or it would be too large (then it is rebuilt at
             // every update, as the uncached code would).
             if self.caching && cache.bytes() <= MAX_STEP3_BYTES {
@@ -150,6 +155,7 @@ impl Dispersive {
                 flux_sent += (e * p.area[j as usize]).element_sum() as f64 / 3.0;
             }
             self.objects[k].to_boundary = contribution;
+            super::tr("sum_and_replace", tt);
         }
         flux_sent
     }
@@ -202,6 +208,7 @@ impl Dispersive {
                             centre,
                             seen: vec![UNKNOWN; n],
                             t: vec![f32::INFINITY; n],
+                            bounds: ChunkBounds::new(n, |_| None),
                         })
                     }
                 }
@@ -229,8 +236,14 @@ impl Dispersive {
                 (cos > 0.0).then_some((j, cos, r2, -towards_object))
             })
             .collect();
+        let from = |n: usize| {
+            let j = facing[n].0 as usize;
+            Some((p.centre[j] + p.normal[j] * world.eps, centre))
+        };
+        let bounds = ChunkBounds::new(facing.len(), from);
         GatherEntries {
             centre,
+            bounds,
             patch: facing.iter().map(|f| f.0).collect(),
             cos: facing.iter().map(|f| f.1).collect(),
             r2: facing.iter().map(|f| f.2).collect(),
@@ -276,6 +289,10 @@ impl Dispersive {
                 texels.seen[t] = world.seen_patch(h).map_or(LANDS_NOWHERE, |j| j as u32);
                 texels.t[t] = if h.is_hit() { h.t } else { f32::INFINITY };
             }
+            let (c, seen, dist) = (texels.centre, &texels.seen, &texels.t);
+            texels.bounds.refresh(seen.len(), &unknown, |t| {
+                (seen[t] != UNKNOWN).then(|| (c, c + cube.directions[t] * dist[t]))
+            });
         }
         flux.into_iter()
             .filter_map(|(t, f)| {

@@ -30,9 +30,10 @@ impl Dispersive {
         changes: &Changes,
         stats: &mut FrameStats,
     ) {
-        if !changes.moved.is_empty() {
-            self.light_meter.retrace(world);
-        }
+        // The meter's rays a mover may have changed (`object_boxes` holds every object's box
+        // now).
+        self.light_meter
+            .update(world, &changes.moved, &self.object_boxes);
         stats.energy = EnergyBalance {
             object_emitters: stats.energy.object_emitters,
             ..self.energy(world)
@@ -57,9 +58,13 @@ impl Dispersive {
     /// [`WALL_ROWS_PER_FRAME`] rows (a window that moves round the boundary, so the cost of a
     /// frame stays bounded on large scenes: the dispersive idea applied to the walls), or
     /// `sweeps` full sweeps when the light changed (the walls then converge in that frame).
-    pub(super) fn assemble(&mut self, world: &World, sweeps: usize) {
+    /// Returns the relative change of the boundary's radiosity over the frame (area
+    /// weighted, summed over the channels: `sum A |dB| / sum A B`), which tells the sleep
+    /// of the walls and objects (`sleep.rs`).
+    pub(super) fn assemble(&mut self, world: &World, sweeps: usize) -> f64 {
         let p = &world.patches;
         let n = self.boundary_patches.len();
+        let (mut changed, mut total) = (0f64, 0f64);
         for _ in 0..sweeps.max(1) {
             if let Some(rows) = &self.wall_rows {
                 let window = if sweeps > 1 {
@@ -90,10 +95,15 @@ impl Dispersive {
                     self.wall[self.boundary_patches[k] as usize] = w;
                 }
             }
+            (changed, total) = (0.0, 0.0);
             for &j in &self.boundary_patches {
                 let j = j as usize;
-                self.radiosity[j] = world.exitance[j]
+                let b = world.exitance[j]
                     + world.reflectance[j] * (self.direct[j] + self.indirect[j] + self.wall[j]);
+                let a = p.area[j] as f64;
+                changed += a * (b - self.radiosity[j]).abs().element_sum() as f64;
+                total += a * b.element_sum() as f64;
+                self.radiosity[j] = b;
             }
             if self.wall_rows.is_none() {
                 break;
@@ -106,6 +116,11 @@ impl Dispersive {
                     self.radiosity[i] = world.exitance[i];
                 }
             }
+        }
+        if total > 0.0 {
+            changed / total
+        } else {
+            0.0
         }
     }
 

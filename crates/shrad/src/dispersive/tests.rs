@@ -64,14 +64,16 @@ fn options_out_of_range_are_an_error_not_a_panic() {
             ..Default::default()
         },
     ] {
-        let e = Dispersive::new(&world, bad).err().expect("refused");
+        let e = crate::solver::Solver::new(&world, crate::solver::SolverChoice::Dispersive(bad))
+            .err()
+            .expect("refused");
         assert!(matches!(e, crate::Error::Invalid(_)), "{e}");
     }
     let grid = crate::grid::GridOptions {
         per_axis: 0,
         ..Default::default()
     };
-    assert!(crate::grid::Grid::new(&world, grid).is_err());
+    assert!(crate::solver::Solver::new(&world, crate::solver::SolverChoice::Grid(grid)).is_err());
 }
 
 #[test]
@@ -294,4 +296,95 @@ fn reflective_light_near_the_floor_bounces_light() {
     .0;
     let e = crate::metrics::relative_error(&world.patches, d.radiosity(), &reference);
     assert!(e.overall < 0.08, "{e:?}");
+}
+
+/// Sleep and wake (`sleep.rs`) on the Cornell box: the scene settles and then costs nothing
+/// (no ray, no update); a mover wakes what it disturbs; a light change wakes everyone; and
+/// the radiosity with sleep stays within the tolerance's reach of never sleeping, after an
+/// object moved and stopped.
+#[test]
+fn sleeping_scene_matches_a_never_sleeping_one_and_wakes() {
+    let scene = shrad_scene::cornell_box();
+    let find = |name: &str| scene.objects.iter().position(|o| o.name == name).unwrap();
+    let (block, light) = (find("short_block"), find("light"));
+    let make = |tolerance: f32| {
+        let world = World::new(scene.clone(), PatchSizing::Count(3000), Backend::Auto).unwrap();
+        let d = Dispersive::new(
+            &world,
+            DispersiveOptions {
+                sleep_tolerance: tolerance,
+                ..DispersiveOptions::improved()
+            },
+        )
+        .unwrap();
+        (world, d)
+    };
+    let (mut world, mut sleepy) = make(1e-4);
+    let (mut world_awake, mut awake) = make(0.0);
+    let still = Changes::default();
+    let moved = Changes {
+        moved: vec![block],
+        relit: vec![],
+    };
+    let run = |w: &World, d: &mut Dispersive, c: &Changes, frames: usize| -> Vec<FrameStats> {
+        (0..frames)
+            .map(|f| d.step(w, if f == 0 { c } else { &still }))
+            .collect()
+    };
+    // Settle, then move the block and let it settle again, in both.
+    let first = run(&world, &mut sleepy, &still, 300);
+    run(&world_awake, &mut awake, &still, 300);
+    let asleep = |s: &FrameStats| s.dispersive().unwrap().asleep;
+    let settled = first
+        .iter()
+        .position(asleep)
+        .expect("the still scene never fell asleep");
+    assert!(
+        first[settled..]
+            .iter()
+            .all(|s| asleep(s) && s.rays_cast == 0 && s.objects_updated.is_empty()),
+        "a sleeping frame traced or updated"
+    );
+    let m = Affine3A::from_translation(Vec3::new(60.0, 0.0, 40.0))
+        * scene.objects[block].world_from_object;
+    world.move_object(block, m).unwrap();
+    world_awake.move_object(block, m).unwrap();
+    let after = run(&world, &mut sleepy, &moved, 300);
+    run(&world_awake, &mut awake, &moved, 300);
+    assert!(
+        !asleep(&after[0]) && after[0].objects_updated.contains(&block),
+        "the mover did not wake"
+    );
+    assert!(
+        after.iter().any(asleep),
+        "the scene did not fall asleep again after the move"
+    );
+    // Within the tolerance's reach of never sleeping (area-weighted relative difference).
+    let p = &world.patches;
+    let diff = |a: &[Vec3], b: &[Vec3]| {
+        let (mut d, mut t) = (0f64, 0f64);
+        for i in 0..a.len() {
+            d += (p.area[i] * (a[i] - b[i]).abs().element_sum()) as f64;
+            t += (p.area[i] * b[i].element_sum()) as f64;
+        }
+        d / t
+    };
+    let gap = diff(sleepy.radiosity(), awake.radiosity());
+    assert!(
+        gap < 1e-3,
+        "sleeping differs from never sleeping by {gap:e}"
+    );
+    // A light change wakes every object.
+    world.set_emission(light, Vec3::splat(10.0)).unwrap();
+    let relit = Changes {
+        moved: vec![],
+        relit: vec![light],
+    };
+    let s = sleepy.step(&world, &relit);
+    assert!(!asleep(&s));
+    assert_eq!(
+        sleepy.scheduler.asleep(),
+        0,
+        "a light change left objects asleep"
+    );
 }

@@ -69,6 +69,7 @@ impl Dispersive {
         let n = self.boundary_patches.len();
         let rays = self.options.wall_rays.max(1) as usize;
         // Every object's box now (`swept_boxes` has just remembered the movers' new ones).
+        let tt = std::time::Instant::now();
         rows.mark(
             world,
             &self.boundary_patches,
@@ -76,11 +77,14 @@ impl Dispersive {
             &self.object_boxes,
             n.div_ceil(WALL_CHECK_SHARE),
         );
+        super::tr("  mark", tt);
+        let tt = std::time::Instant::now();
         rows.retrace(
             world,
             &self.boundary_patches,
             (n * rays).div_ceil(WALL_RETRACE_SHARE).max(1),
         );
+        super::tr("  retrace", tt);
     }
 }
 
@@ -202,6 +206,13 @@ impl WallRows {
     pub(super) fn unchecked_rows(&self) -> usize {
         let last = self.moved_at.iter().copied().max().unwrap_or(0);
         self.checked_at.iter().filter(|&&c| c < last).count()
+    }
+
+    /// No ray waits to be re-traced and every row has been checked against every move: the
+    /// rows are what a fresh trace gives.
+    pub(super) fn settled(&self) -> bool {
+        let last = self.moved_at.iter().copied().max().unwrap_or(0);
+        last <= self.checked_all && self.dirty.iter().all(|&w| w == 0)
     }
 
     fn set_all_dirty(&mut self, k: usize) {

@@ -96,6 +96,7 @@ impl Keyed for DispersiveOptions {
             "emitter_per_face" => Value::Bool(self.emitter_per_face),
             "self_shadow_rays" => Value::Int(self.self_shadow_rays.into()),
             "splat_smoothing" => Value::Bool(self.splat_smoothing),
+            "sleep_tolerance" => Value::Float(self.sleep_tolerance.into()),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
     }
@@ -176,6 +177,7 @@ impl Keyed for DispersiveOptions {
             "emitter_per_face" => self.emitter_per_face = as_bool(value),
             "self_shadow_rays" => self.self_shadow_rays = as_u32(value),
             "splat_smoothing" => self.splat_smoothing = as_bool(value),
+            "sleep_tolerance" => self.sleep_tolerance = as_f32(value),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
         Ok(())

@@ -194,6 +194,12 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
         "splat_smoothing",
         "spread each boundary patch's splatted flux over its edge neighbours, against the texel pattern",
     ),
+    float(
+        "sleep_tolerance",
+        0.0,
+        0.1,
+        "an object sleeps once an update changes its light by less than this fraction, and the walls once a sweep does; a change of light or a mover nearby wakes them (0: never sleep, the paper)",
+    ),
 ];
 
 /// The grid baseline's keys (fields of [`GridOptions`]).

@@ -1,0 +1,104 @@
+//! Sleep and wake (beyond the paper, which updates some object every frame forever): once
+//! the light stops changing, a frame should stop costing. Users of probe systems ask for an
+//! update rate that follows how much the light still changes (RTXGI's probe variability).
+//!
+//! - An **object** sleeps when its update changed its patches' radiosity by less than
+//!   `sleep_tolerance` (relative, area weighted): the scheduler skips it and it is never
+//!   stale. It wakes when it is disturbed (it moved, a mover came near it, a light changed:
+//!   `note_changes`) or when the boundary, which its probes see, has drifted by more than
+//!   the tolerance since it fell asleep (the drift is the sum of every frame's relative
+//!   change of the boundary's radiosity).
+//! - The **walls** (Step 4's exchange) sleep after a whole sweep of frames in which nothing
+//!   changed, no object was updated and each sweep changed the boundary by less than the
+//!   tolerance.
+//! - When every object and the walls sleep, nothing moved or changed, and the wall rows
+//!   hold no ray waiting to be re-traced, a frame does nothing: no tracing, no sweep, the
+//!   published state is the last one.
+//!
+//! The error stays within the tolerance of never sleeping (`tests.rs` checks it on the
+//! Cornell box with an object moving then stopping).
+
+use std::time::Instant;
+
+use super::{ms, Changes, Dispersive, DispersiveStats, FrameStats, WALL_ROWS_PER_FRAME};
+use crate::frame::SolverStats;
+
+impl Dispersive {
+    fn sleep_tolerance(&self) -> f64 {
+        self.options.sleep_tolerance as f64
+    }
+
+    /// Whether this frame can sleep whole (see the module's docs). Wakes the objects whose
+    /// surroundings drifted first.
+    pub(super) fn everything_sleeps(&mut self, changes: &Changes) -> bool {
+        let tolerance = self.sleep_tolerance();
+        if tolerance <= 0.0 {
+            return false;
+        }
+        self.scheduler.wake_drifted(self.drift, tolerance);
+        changes.moved.is_empty()
+            && changes.relit.is_empty()
+            && self.direct_valid
+            && self.scheduler.asleep() == self.objects.len()
+            && self.quiet_frames >= self.frames_per_wall_sweep()
+            && self.wall_rows.as_ref().is_none_or(|rows| rows.settled())
+    }
+
+    /// Frames of Step 4 windows that make one sweep over every wall row.
+    fn frames_per_wall_sweep(&self) -> usize {
+        match &self.wall_rows {
+            Some(_) => self
+                .boundary_patches
+                .len()
+                .div_ceil(WALL_ROWS_PER_FRAME)
+                .max(1),
+            None => 1,
+        }
+    }
+
+    /// A frame in which everything sleeps: the state stays as it is.
+    pub(super) fn sleeping_frame(&mut self, frame_start: Instant) -> FrameStats {
+        let mut stats = FrameStats::new(
+            self.frame,
+            SolverStats::Dispersive(DispersiveStats {
+                objects_asleep: self.objects.len(),
+                asleep: true,
+                ..Default::default()
+            }),
+        );
+        stats.energy = self.last_energy.clone();
+        stats.frame_ms = ms(frame_start);
+        self.frame += 1;
+        stats
+    }
+
+    /// After a frame that ran: put to sleep the objects `updated` whose light stopped
+    /// changing, add the boundary's `change` to the drift, and count quiet frames for the
+    /// walls.
+    pub(super) fn note_settling(
+        &mut self,
+        changes: &Changes,
+        updated: &[usize],
+        change: f64,
+        stats: &FrameStats,
+    ) {
+        self.last_energy = stats.energy.clone();
+        let tolerance = self.sleep_tolerance();
+        if tolerance <= 0.0 {
+            return;
+        }
+        self.drift += change;
+        let nothing_changed = changes.moved.is_empty() && changes.relit.is_empty();
+        for &k in updated {
+            if nothing_changed && self.object_change[k] < tolerance {
+                self.scheduler.sleep(k, self.drift);
+            }
+        }
+        let quiet = nothing_changed && updated.is_empty() && stats.diverged.is_none();
+        self.quiet_frames = if quiet && change < tolerance {
+            self.quiet_frames + 1
+        } else {
+            0
+        };
+    }
+}
