@@ -114,6 +114,9 @@ pub struct DispersiveStats {
     pub objects_asleep: usize,
     /// Everything slept: the frame traced nothing and swept nothing.
     pub asleep: bool,
+    /// Wall-exchange rows not built yet (a large scene builds them over its first frames;
+    /// until then the walls exchange only the light of the rows that are ready).
+    pub wall_rows_pending: usize,
 }
 
 /// What the reference solve did.

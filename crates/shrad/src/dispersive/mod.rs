@@ -129,6 +129,11 @@ pub struct Dispersive {
     quiet_frames: usize,
     /// The energy balance of the last frame that ran, for the frames that sleep.
     last_energy: EnergyBalance,
+    /// Measured at the last frame, for a budget's deadline: Step 4 and the meter (ms), the
+    /// meter alone (ms), and Step 4's cost per wall row (ms).
+    tail_ms: f64,
+    meter_ms: f64,
+    row_ms: f64,
 }
 
 impl Dispersive {
@@ -151,7 +156,7 @@ impl Dispersive {
         // Rays that pass where an object moves are re-traced then (`refresh_wall_rows`).
         let wall_rows = options
             .wall_exchange
-            .then(|| WallRows::trace(world, &boundary_patches, options.wall_rays));
+            .then(|| WallRows::new(world, &boundary_patches, options.wall_rays, false));
         let object_boxes = (0..world.scene.objects.len())
             .map(|o| world_box(world, o))
             .collect();
@@ -200,6 +205,9 @@ impl Dispersive {
             object_change: vec![f64::INFINITY; n_objects],
             quiet_frames: 0,
             last_energy: EnergyBalance::default(),
+            tail_ms: 0.0,
+            meter_ms: 0.0,
+            row_ms: 0.0,
         })
     }
 
@@ -266,6 +274,12 @@ impl Dispersive {
         if self.everything_sleeps(changes) {
             return self.sleeping_frame(frame_start);
         }
+        // A budget is a deadline for the whole frame; the wall rows may take a fifth of it.
+        let budget_ms = match self.scheduler.schedule_in_use() {
+            Schedule::Budget { ms, .. } => Some(ms as f64),
+            _ => None,
+        };
+        let at = |share: f64| budget_ms.map(|b| frame_start + secs(b * share));
 
         // Step 1 (2.3.2), and the wall rows a mover passed through.
         let t = Instant::now();
@@ -274,12 +288,14 @@ impl Dispersive {
         self.direct_to_boundary(world, changes, &swept);
         tr("direct_to_boundary", tt);
         let tt = Instant::now();
-        self.refresh_wall_rows(world, changes);
+        self.refresh_wall_rows(world, changes, at(0.2));
         tr("refresh_wall_rows", tt);
         steps.direct_ms = ms(t);
 
         // Step 2 (2.3.3) for the objects the scheduler picks.
-        let batch = self.scheduler.schedule(self.frame);
+        // What the objects may spend: the budget less what is spent and Step 4's expected cost.
+        let objects_ms = budget_ms.map(|b| b - ms(frame_start) - self.tail_ms);
+        let batch = self.scheduler.schedule(self.frame, objects_ms);
         let t = Instant::now();
         let tt = Instant::now();
         self.forget_stale_caches(world, changes, &swept);
@@ -295,12 +311,24 @@ impl Dispersive {
 
         // Step 4 (2.3.5): full wall sweeps when the light changed.
         let t = Instant::now();
-        let sweeps = if changes.relit.is_empty() { 1 } else { 8 };
-        let change = self.assemble(world, sweeps);
+        let sweeps = if changes.relit.is_empty() || budget_ms.is_some() {
+            1
+        } else {
+            8
+        };
+        let window = budget_ms.map(|b| {
+            // The rows that fit what is left, from the measured cost of a row (and the
+            // meter's share), at least a few.
+            let left = (b - ms(frame_start) - self.meter_ms).max(0.0);
+            ((left / self.row_ms.max(1e-6)) as usize).max(1024)
+        });
+        let change = self.assemble(world, sweeps, window);
         steps.assemble_ms = ms(t);
 
         let tt = Instant::now();
         self.meter_and_guard(world, changes, &mut stats);
+        self.meter_ms = ms(tt);
+        self.tail_ms = steps.assemble_ms + self.meter_ms;
         tr("meter_and_guard", tt);
         self.note_settling(changes, &updated, change, &stats);
 
@@ -308,6 +336,7 @@ impl Dispersive {
         stats.stalest = self.scheduler.stalest(self.frame);
         stats.rays_cast = world.rays_cast() - rays_before;
         steps.objects_asleep = self.scheduler.asleep();
+        steps.wall_rows_pending = self.wall_rows.as_ref().map_or(0, |r| r.pending_rows());
         stats.solver = SolverStats::Dispersive(steps);
         self.frame += 1;
         stats
@@ -331,6 +360,11 @@ pub(super) fn tr(label: &str, t: Instant) {
     if std::env::var_os("SHRAD_TRACE").is_some() {
         eprintln!("  {label}: {:.2}", ms(t));
     }
+}
+
+/// `ms` milliseconds as a duration (0 if negative).
+fn secs(ms: f64) -> std::time::Duration {
+    std::time::Duration::from_secs_f64(ms.max(0.0) * 1e-3)
 }
 
 /// Milliseconds since `t`.

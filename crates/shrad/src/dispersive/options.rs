@@ -21,9 +21,13 @@ pub enum Schedule {
         /// Staleness bound in frames.
         max_staleness: usize,
     },
-    /// As many objects (by priority) as fit in `ms` milliseconds; at least one.
+    /// A deadline: the whole frame (all four steps) within `ms` milliseconds. Objects are
+    /// taken by priority while their measured cost fits what is left after Steps 1 and 4's
+    /// expected cost (at least one, so the scene always progresses); the wall rows' checks
+    /// and re-traces and Step 4's window shrink to what is left; what does not fit waits for
+    /// the next frames (the staleness bound still holds).
     Budget {
-        /// Per-frame time budget for Steps 2 and 3.
+        /// Per-frame time budget for the whole frame (ms).
         ms: f32,
         /// Staleness bound in frames.
         max_staleness: usize,

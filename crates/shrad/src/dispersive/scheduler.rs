@@ -79,6 +79,12 @@ impl Scheduler {
         };
     }
 
+    /// Add `ms` to the measured cost of object `k`'s last update (its Step 3, measured after
+    /// its Step 2).
+    pub(super) fn add_cost(&mut self, k: usize, ms: f64) {
+        self.objects[k].cost_ms += ms;
+    }
+
     /// Object `k` sleeps, the boundary having drifted by `drift` so far (its update changed
     /// nothing that matters; see [`Scheduler::wake_drifted`]).
     pub(super) fn sleep(&mut self, k: usize, drift: f64) {
@@ -131,8 +137,9 @@ impl Scheduler {
         }
     }
 
-    /// The objects `frame` updates (spec 4.3), never a sleeping one.
-    pub(super) fn schedule(&mut self, frame: u64) -> Batch {
+    /// The objects `frame` updates (spec 4.3), never a sleeping one. A budget schedule
+    /// spends `objects_ms` at most (what the frame's budget leaves after Steps 1 and 4).
+    pub(super) fn schedule(&mut self, frame: u64, objects_ms: Option<f64>) -> Batch {
         let n = self.objects.len();
         let awake = n - self.asleep();
         if awake == 0 {
@@ -167,11 +174,12 @@ impl Scheduler {
             }
             Schedule::Budget { ms, max_staleness } => {
                 let order = self.by_priority(frame, max_staleness);
+                let budget = objects_ms.unwrap_or(ms as f64);
                 let mut spent = 0.0;
                 let mut picked = Vec::new();
                 for o in order {
                     let cost = self.objects[o].cost_ms.max(0.01);
-                    if !picked.is_empty() && spent + cost > ms as f64 {
+                    if !picked.is_empty() && spent + cost > budget {
                         break;
                     }
                     spent += cost;
@@ -210,7 +218,7 @@ mod tests {
     fn run(s: &mut Scheduler, frames: u64, cost: impl Fn(usize) -> f64) -> Vec<Vec<usize>> {
         (0..frames)
             .map(|frame| {
-                let batch = s.schedule(frame);
+                let batch = s.schedule(frame, None);
                 for &k in &batch.0 {
                     s.updated(k, frame, cost(k));
                 }
@@ -229,7 +237,7 @@ mod tests {
         assert_eq!(s.frames_per_pass(), 3);
         // More per frame than objects: each object once.
         let mut s = Scheduler::new(Schedule::RoundRobin { per_frame: 9 }, 3);
-        assert_eq!(s.schedule(0).0, [0, 1, 2]);
+        assert_eq!(s.schedule(0, None).0, [0, 1, 2]);
     }
 
     /// A sleeping object is never picked and never stale; it wakes when disturbed or when
@@ -264,19 +272,23 @@ mod tests {
             s.sleep(0, 0.0);
             s.sleep(1, 0.0);
             s.sleep(2, 0.0);
-            assert!(s.schedule(20).0.is_empty() && s.stalest(20) == 0);
+            assert!(s.schedule(20, None).0.is_empty() && s.stalest(20) == 0);
             s.disturb(2, 2.0);
-            assert_eq!(s.schedule(21).0, [2], "{schedule:?}: disturbing wakes");
+            assert_eq!(
+                s.schedule(21, None).0,
+                [2],
+                "{schedule:?}: disturbing wakes"
+            );
         }
     }
 
     #[test]
     fn full_updates_every_object_and_none_is_empty() {
         let mut s = Scheduler::new(Schedule::Full, 4);
-        assert_eq!(s.schedule(0).0, [0, 1, 2, 3]);
+        assert_eq!(s.schedule(0, None).0, [0, 1, 2, 3]);
         assert_eq!(s.frames_per_pass(), 1);
         let mut none = Scheduler::new(Schedule::Full, 0);
-        assert!(none.schedule(0).0.is_empty());
+        assert!(none.schedule(0, None).0.is_empty());
         assert_eq!(none.stalest(7), 0);
     }
 
@@ -312,7 +324,7 @@ mod tests {
         for frame in 3..40 {
             // Object 0 moves every frame: weight 4 against the others' 1.
             s.disturb(0, 4.0);
-            let batch = s.schedule(frame);
+            let batch = s.schedule(frame, None);
             assert_eq!(batch.0.len(), 1);
             let k = batch.0[0];
             s.updated(k, frame, 1.0);
@@ -336,7 +348,7 @@ mod tests {
         let mut count = [0; 3];
         for frame in 3..43 {
             s2.disturb(0, 4.0);
-            let k = s2.schedule(frame).0[0];
+            let k = s2.schedule(frame, None).0[0];
             s2.updated(k, frame, 1.0);
             count[k] += 1;
         }
@@ -358,7 +370,7 @@ mod tests {
         // Costs unknown (0, counted as 0.01 ms): the first frame takes everything.
         assert_eq!(run(&mut s, 1, cost), [vec![0, 1, 2, 3]]);
         // Now all equally stale: by index while the sum fits 8 ms (3 + 4; + 5 would not).
-        assert_eq!(s.schedule(1).0, [0, 1]);
+        assert_eq!(s.schedule(1, None).0, [0, 1]);
         // An object dearer than the whole budget still goes when it is first.
         let mut s = Scheduler::new(
             Schedule::Budget {
@@ -369,7 +381,7 @@ mod tests {
         );
         run(&mut s, 1, cost);
         s.disturb(3, 4.0);
-        assert_eq!(s.schedule(1).0, [3]);
+        assert_eq!(s.schedule(1, None).0, [3]);
         assert_eq!(s.frames_per_pass(), 4);
     }
 }

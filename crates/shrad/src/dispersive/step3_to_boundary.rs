@@ -35,6 +35,7 @@ impl Dispersive {
         let nc = num_coeffs(bands);
         let mut flux_sent = 0.0;
         for k in lit {
+            let started = std::time::Instant::now();
             let ob = &self.objects[k];
             let o = ob.object;
             let m = p.world_from_local[o];
@@ -155,6 +156,8 @@ impl Dispersive {
                 flux_sent += (e * p.area[j as usize]).element_sum() as f64 / 3.0;
             }
             self.objects[k].to_boundary = contribution;
+            // An object's cost, for a budget: its Step 2 and its Step 3.
+            self.scheduler.add_cost(k, super::ms(started));
             super::tr("sum_and_replace", tt);
         }
         flux_sent

@@ -16,10 +16,10 @@ use super::{Changes, Dispersive, Divergence, EnergyBalance, FrameStats};
 use crate::World;
 
 /// Wall-exchange rows gathered per frame (Step 4's Jacobi window): at most this many, so a
-/// frame's cost does not grow with the boundary beyond it (a 1M-patch room takes ~13 frames
-/// per full sweep). Re-tracing rows where a mover passed is bounded apart, by
-/// [`WALL_RETRACE_SHARE`].
-pub const WALL_ROWS_PER_FRAME: usize = 1 << 16;
+/// frame's cost does not grow with the boundary beyond it (the 77k room takes 2 frames per
+/// full sweep, a 1M-patch room 26). Re-tracing rows where a mover passed is bounded apart, by
+/// [`super::WALL_RETRACE_SHARE`] and [`super::wall_rows::WALL_RETRACE_MAX`].
+pub const WALL_ROWS_PER_FRAME: usize = 1 << 15;
 
 impl Dispersive {
     /// The energy meter, and the guard that never publishes a diverged state: fills
@@ -61,8 +61,11 @@ impl Dispersive {
     /// Returns the relative change of the boundary's radiosity over the frame (area
     /// weighted, summed over the channels: `sum A |dB| / sum A B`), which tells the sleep
     /// of the walls and objects (`sleep.rs`).
-    pub(super) fn assemble(&mut self, world: &World, sweeps: usize) -> f64 {
+    /// Under a budget's deadline the window is at most `window` rows (what fits).
+    pub(super) fn assemble(&mut self, world: &World, sweeps: usize, window: Option<usize>) -> f64 {
+        let start = std::time::Instant::now();
         let p = &world.patches;
+        let mut rows_gathered = 0;
         let n = self.boundary_patches.len();
         let (mut changed, mut total) = (0f64, 0f64);
         for _ in 0..sweeps.max(1) {
@@ -70,8 +73,9 @@ impl Dispersive {
                 let window = if sweeps > 1 {
                     n
                 } else {
-                    n.min(WALL_ROWS_PER_FRAME)
+                    n.min(WALL_ROWS_PER_FRAME).min(window.unwrap_or(usize::MAX))
                 };
+                rows_gathered += window;
                 let start = self.wall_cursor % n.max(1);
                 let ks: Vec<usize> = (0..window).map(|k| (start + k) % n).collect();
                 self.wall_cursor = (start + window) % n.max(1);
@@ -116,6 +120,9 @@ impl Dispersive {
                     self.radiosity[i] = world.exitance[i];
                 }
             }
+        }
+        if rows_gathered > 0 {
+            self.row_ms = super::ms(start) / rows_gathered as f64;
         }
         if total > 0.0 {
             changed / total

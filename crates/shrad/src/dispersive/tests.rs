@@ -388,3 +388,134 @@ fn sleeping_scene_matches_a_never_sleeping_one_and_wakes() {
         "a light change left objects asleep"
     );
 }
+
+/// Wall rows built lazily over the first frames (as a large scene builds them) give the same
+/// converged radiosity as rows traced when the solver is made.
+#[test]
+fn lazily_built_wall_rows_converge_to_the_eager_ones() {
+    let world = World::new(
+        shrad_scene::cornell_box(),
+        PatchSizing::Count(3000),
+        Backend::Auto,
+    )
+    .unwrap();
+    let options = DispersiveOptions {
+        sleep_tolerance: 0.0,
+        ..DispersiveOptions::improved()
+    };
+    let mut eager = Dispersive::new(&world, options).unwrap();
+    let mut lazy = Dispersive::new(&world, options).unwrap();
+    // The Cornell box is small enough to be traced when the solver is made: start the lazy
+    // one empty, and build it a few rows a frame.
+    let mut rows =
+        wall_rows::WallRows::new_unbuilt(&world, &lazy.boundary_patches, options.wall_rays);
+    assert_eq!(rows.pending_rows(), lazy.boundary_patches.len());
+    rows.build_per_frame = 4096;
+    lazy.wall_rows = Some(rows);
+    let still = Changes::default();
+    let first = lazy.step(&world, &still);
+    assert!(
+        first.dispersive().unwrap().wall_rows_pending > 0,
+        "built at once"
+    );
+    for _ in 0..200 {
+        eager.step(&world, &still);
+        lazy.step(&world, &still);
+    }
+    assert_eq!(lazy.wall_rows.as_ref().unwrap().pending_rows(), 0);
+    let p = &world.patches;
+    let (mut d, mut t) = (0f64, 0f64);
+    for (i, (a, b)) in lazy.radiosity().iter().zip(eager.radiosity()).enumerate() {
+        d += (p.area[i] * (*a - *b).abs().element_sum()) as f64;
+        t += (p.area[i] * b.element_sum()) as f64;
+    }
+    assert!(d / t < 1e-4, "lazy and eager rows differ by {:e}", d / t);
+}
+
+/// A budget far below one object's cost: every frame still updates exactly one object, the
+/// staleness bound holds while an object moves every frame, and the work that did not fit
+/// (wall rows to check and re-trace, Step 4's rows) is carried over, not lost: once the
+/// motion stops the solver reaches what an unbudgeted one reaches.
+#[test]
+fn a_budget_far_below_one_object_still_progresses_and_loses_nothing() {
+    let scene = shrad_scene::cornell_box();
+    let block = scene
+        .objects
+        .iter()
+        .position(|o| o.name == "short_block")
+        .unwrap();
+    let mut world = World::new(scene.clone(), PatchSizing::Count(3000), Backend::Auto).unwrap();
+    let max_staleness = 4;
+    let options = DispersiveOptions {
+        sleep_tolerance: 0.0,
+        schedule: Schedule::Budget {
+            ms: 0.01,
+            max_staleness,
+        },
+        ..DispersiveOptions::improved()
+    };
+    let mut budgeted = Dispersive::new(&world, options).unwrap();
+    let mut free = Dispersive::new(
+        &world,
+        DispersiveOptions {
+            schedule: Schedule::Priority {
+                per_frame: 1,
+                max_staleness,
+            },
+            ..options
+        },
+    )
+    .unwrap();
+    let rest = scene.objects[block].world_from_object;
+    for f in 0..40 {
+        let m = Affine3A::from_translation(Vec3::new(4.0 * f as f32, 0.0, 0.0)) * rest;
+        world.move_object(block, m).unwrap();
+        let moved = Changes {
+            moved: vec![block],
+            relit: vec![],
+        };
+        let s = budgeted.step(&world, &moved);
+        free.step(&world, &moved);
+        assert_eq!(
+            s.objects_updated.len(),
+            1,
+            "frame {f}: {:?}",
+            s.objects_updated
+        );
+        assert!(
+            s.stalest <= max_staleness as u64 + 1,
+            "frame {f}: stalest {}",
+            s.stalest
+        );
+    }
+    let rows = budgeted.wall_rows.as_ref().unwrap();
+    assert!(
+        !rows.settled(),
+        "the budget left no wall work for later: the test tests nothing"
+    );
+    let still = Changes::default();
+    for _ in 0..600 {
+        budgeted.step(&world, &still);
+        free.step(&world, &still);
+    }
+    assert!(
+        budgeted.wall_rows.as_ref().unwrap().settled(),
+        "carried work was lost"
+    );
+    let p = &world.patches;
+    let (mut d, mut t) = (0f64, 0f64);
+    for (i, (a, b)) in budgeted
+        .radiosity()
+        .iter()
+        .zip(free.radiosity())
+        .enumerate()
+    {
+        d += (p.area[i] * (*a - *b).abs().element_sum()) as f64;
+        t += (p.area[i] * b.element_sum()) as f64;
+    }
+    assert!(
+        d / t < 1e-3,
+        "budgeted and unbudgeted differ by {:e}",
+        d / t
+    );
+}

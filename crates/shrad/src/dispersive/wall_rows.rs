@@ -30,6 +30,8 @@
 //! Memory: 10 bytes a ray plus 40 a row and the rows themselves: 10 MB at Cornell 20k
 //! (15.3k boundary rows x 64 rays), about 50 MB at the 77k room.
 
+use std::time::Instant;
+
 use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::Aabb;
@@ -54,6 +56,24 @@ pub const WALL_RETRACE_SHARE: usize = 128;
 /// bounds reject no mover); an eighth takes about 2 ms.
 pub const WALL_CHECK_SHARE: usize = 8;
 
+/// And never more than this many rows checked, nor [`WALL_RETRACE_MAX`] rays re-traced, in
+/// one frame: the shares above grow with the boundary (a 77k room has 64k rows: an eighth is
+/// 8k rows, 512k segment tests, and a 128th of its rays 32k), so a frame with a mover would
+/// grow with the boundary too. Beyond these the rows only take more frames to be exact
+/// again; the Cornell box (15k rows) is within both.
+pub const WALL_CHECK_MAX: usize = 2048;
+/// See [`WALL_CHECK_MAX`].
+pub const WALL_RETRACE_MAX: usize = 8192;
+
+/// A scene with more wall-exchange rays than this (boundary patches x `wall_rays`: 7M at the
+/// 129k room, 54M at a 1M-patch room) builds its rows lazily: the solver is ready at once,
+/// and [`WALL_BUILD_PER_FRAME`] rays of rows not yet traced are traced each frame (the first
+/// frames use the rows that are ready; `DispersiveStats::wall_rows_pending` says how many
+/// are not). Below it the rows are traced when the solver is made, as before.
+pub const WALL_EAGER_RAYS: usize = 1 << 23;
+/// See [`WALL_EAGER_RAYS`].
+pub const WALL_BUILD_PER_FRAME: usize = 1 << 18;
+
 impl Dispersive {
     /// Check an eighth of the wall rows against the objects that moved since each was last
     /// checked ([`WALL_CHECK_SHARE`]), marking the rays a move may have changed (those that
@@ -62,28 +82,54 @@ impl Dispersive {
     /// the boundary's rays per frame ([`WALL_RETRACE_SHARE`]), from cursors that go round:
     /// the dispersive idea applied to the walls, the cost of a frame stays bounded and what
     /// is left waits for the next frames.
-    pub(super) fn refresh_wall_rows(&mut self, world: &World, changes: &Changes) {
+    pub(super) fn refresh_wall_rows(
+        &mut self,
+        world: &World,
+        changes: &Changes,
+        deadline: Option<Instant>,
+    ) {
         let Some(rows) = &mut self.wall_rows else {
             return;
         };
         let n = self.boundary_patches.len();
         let rays = self.options.wall_rays.max(1) as usize;
+        let past = || deadline.is_some_and(|d| Instant::now() >= d);
         // Every object's box now (`swept_boxes` has just remembered the movers' new ones).
-        let tt = std::time::Instant::now();
-        rows.mark(
-            world,
-            &self.boundary_patches,
-            &changes.moved,
-            &self.object_boxes,
-            n.div_ceil(WALL_CHECK_SHARE),
-        );
+        let tt = Instant::now();
+        rows.note_moves(&changes.moved);
+        let mut left = n.div_ceil(WALL_CHECK_SHARE).min(WALL_CHECK_MAX);
+        // Under a deadline a few rows at a time, so the checks stop when time is up.
+        let step = if deadline.is_some() { 256 } else { left };
+        while left > 0 && !past() {
+            let done = rows.check(
+                world,
+                &self.boundary_patches,
+                &self.object_boxes,
+                step.min(left),
+            );
+            if done == 0 {
+                break;
+            }
+            left = left.saturating_sub(done);
+        }
         super::tr("  mark", tt);
-        let tt = std::time::Instant::now();
-        rows.retrace(
-            world,
-            &self.boundary_patches,
-            (n * rays).div_ceil(WALL_RETRACE_SHARE).max(1),
-        );
+        let tt = Instant::now();
+        let mut left = if rows.pending_rows() > 0 {
+            rows.build_per_frame
+        } else {
+            (n * rays)
+                .div_ceil(WALL_RETRACE_SHARE)
+                .min(WALL_RETRACE_MAX)
+        }
+        .max(1);
+        let step = if deadline.is_some() { 1024 } else { left };
+        while left > 0 {
+            let done = rows.retrace(world, &self.boundary_patches, step.min(left));
+            left = left.saturating_sub(done);
+            if done == 0 || past() {
+                break;
+            }
+        }
         super::tr("  retrace", tt);
     }
 }
@@ -131,12 +177,20 @@ pub(super) struct WallRows {
     mark_cursor: usize,
     /// Every row has been checked against every move up to this frame.
     checked_all: u64,
+    /// Per row: traced at least once (rows built lazily start empty: [`WALL_EAGER_RAYS`]).
+    built: Vec<bool>,
+    /// Rows not built yet.
+    pending: usize,
+    /// Rays traced per frame while rows are pending ([`WALL_BUILD_PER_FRAME`]).
+    pub(super) build_per_frame: usize,
 }
 
 impl WallRows {
-    /// Trace every row: `rays` rays from each patch of `boundary`; every object occludes,
-    /// only boundary-to-boundary entries are kept (light via interior objects is Step 3's).
-    pub(super) fn trace(world: &World, boundary: &[u32], rays: u32) -> WallRows {
+    /// The rows of `rays` rays from each patch of `boundary`; every object occludes, only
+    /// boundary-to-boundary entries are kept (light via interior objects is Step 3's). Traced
+    /// now when `eager` (and always up to [`WALL_EAGER_RAYS`]), else empty and all dirty:
+    /// [`WallRows::retrace`] builds them over the next frames.
+    pub(super) fn new(world: &World, boundary: &[u32], rays: u32, eager: bool) -> WallRows {
         let rays = rays.max(1) as usize;
         let words = rays.div_ceil(64);
         let n = boundary.len();
@@ -163,15 +217,48 @@ impl WallRows {
             checked_at: vec![0; n],
             mark_cursor: 0,
             checked_all: 0,
+            built: vec![false; n],
+            pending: n,
+            build_per_frame: WALL_BUILD_PER_FRAME,
         };
-        // Everything is dirty: trace it all, a chunk of rays at a time.
+        // Everything is dirty: trace it all now, a chunk of rays at a time, or later.
         for k in 0..n {
             out.set_all_dirty(k);
         }
-        let chunk = ((1 << 20) / rays).max(1) * rays;
-        while out.retrace(world, boundary, chunk) > 0 {}
+        if eager || n * rays <= WALL_EAGER_RAYS {
+            let chunk = ((1 << 20) / rays).max(1) * rays;
+            while out.retrace(world, boundary, chunk) > 0 {}
+        }
         out.cursor = 0;
         out
+    }
+
+    /// The rows of [`WallRows::new`], none traced yet, whatever their size (for tests of the
+    /// lazy build on small scenes).
+    #[cfg(test)]
+    pub(super) fn new_unbuilt(world: &World, boundary: &[u32], rays: u32) -> WallRows {
+        let mut rows = WallRows::new(world, &boundary[..0], rays, false);
+        let n = boundary.len();
+        let r = rows.rays;
+        rows.rows = SparseRows::from_rows(vec![Vec::<(u32, f32)>::new(); n]);
+        rows.hit = vec![MISS; n * r];
+        rows.end = vec![[0; 3]; n * r];
+        rows.bounds = vec![Aabb::EMPTY; n];
+        rows.objects_hit = vec![0; n];
+        rows.leaves = vec![false; n];
+        rows.dirty = vec![0; n * rows.words];
+        rows.checked_at = vec![0; n];
+        rows.built = vec![false; n];
+        rows.pending = n;
+        for k in 0..n {
+            rows.set_all_dirty(k);
+        }
+        rows
+    }
+
+    /// Rows not traced yet (built lazily: [`WALL_EAGER_RAYS`]).
+    pub(super) fn pending_rows(&self) -> usize {
+        self.pending
     }
 
     /// Row `k` (aligned with the boundary patches): `(patch seen, F)`.
@@ -238,29 +325,34 @@ impl WallRows {
         [q.x as u16, q.y as u16, q.z as u16]
     }
 
-    /// Note this frame's movers (`moved`), then check up to `budget` rows that have not
+    /// Note this frame's movers (see [`WallRows::check`]). Once a frame.
+    pub(super) fn note_moves(&mut self, moved: &[usize]) {
+        self.frame += 1;
+        for &o in moved {
+            self.moved_at[o] = self.frame;
+        }
+    }
+
+    /// Check up to `budget` rows that have not
     /// been checked since an object moved, from a cursor that goes round: mark dirty the rays
     /// a move may have changed (see the module's docs): those that hit an object that moved
     /// since the row's last check, those whose segment meets such an object's box now
     /// (`boxes`: every object's world box at this frame), and every ray of the rows of
     /// patches on such an object (their origins moved). [`WallRows::retrace`] re-traces
     /// them.
-    pub(super) fn mark(
+    /// May run several times a frame (a deadline checks a few rows at a time); returns the
+    /// rows checked.
+    pub(super) fn check(
         &mut self,
         world: &World,
         boundary: &[u32],
-        moved: &[usize],
         boxes: &[Aabb],
         budget: usize,
-    ) {
-        self.frame += 1;
-        for &o in moved {
-            self.moved_at[o] = self.frame;
-        }
+    ) -> usize {
         let last = self.moved_at.iter().copied().max().unwrap_or(0);
         let n = boundary.len();
         if n == 0 || last <= self.checked_all {
-            return;
+            return 0;
         }
         // The rows to check this frame.
         let mut rows: Vec<usize> = Vec::new();
@@ -281,7 +373,7 @@ impl WallRows {
             self.checked_all = last;
         }
         if rows.is_empty() {
-            return;
+            return 0;
         }
         self.mark_cursor = next;
         let p = &world.patches;
@@ -374,6 +466,7 @@ impl WallRows {
         for &k in &rows {
             self.checked_at[k] = self.frame;
         }
+        rows.len()
     }
 
     /// Row `k`'s entries from its rays' hits.
@@ -527,6 +620,10 @@ impl WallRows {
             self.leaves[k] =
                 leaving[c] || !self.space.contains(centre) || (!all_traced && self.leaves[k]);
             self.dirty[k * words..(k + 1) * words].fill(0);
+            if !self.built[k] {
+                self.built[k] = true;
+                self.pending -= 1;
+            }
         }
         which.len()
     }
