@@ -71,7 +71,17 @@ impl Engine {
 
     /// An engine over an already patched world; `choice` is validated first.
     pub fn from_world(world: World, choice: SolverChoice) -> Result<Engine, Error> {
-        let solver = Solver::new(&world, choice)?;
+        Engine::from_world_with_progress(world, choice, &NoProgress)
+    }
+
+    /// [`Engine::from_world`], reporting the solver's set-up to `progress` (a large scene's
+    /// takes seconds).
+    pub fn from_world_with_progress(
+        world: World,
+        choice: SolverChoice,
+        progress: &dyn Progress,
+    ) -> Result<Engine, Error> {
+        let solver = Solver::new_with_progress(&world, choice, progress)?;
         Ok(Engine {
             world,
             solver,

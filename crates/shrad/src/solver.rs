@@ -35,10 +35,22 @@ impl Solver {
     /// Precompute for `world`; settings out of range are an error
     /// ([`SolverChoice::validate`]).
     pub fn new(world: &World, choice: SolverChoice) -> Result<Solver, crate::Error> {
+        Solver::new_with_progress(world, choice, &NoProgress)
+    }
+
+    /// [`Solver::new`], reporting the set-up's progress (the dispersive objects' transfer
+    /// vectors, the wall rows) to `progress`.
+    pub fn new_with_progress(
+        world: &World,
+        choice: SolverChoice,
+        progress: &dyn Progress,
+    ) -> Result<Solver, crate::Error> {
         choice.validate()?;
         Ok(match choice {
             SolverChoice::Reference(o) => Solver::Reference(o, world.exitance.clone(), 0),
-            SolverChoice::Dispersive(o) => Solver::Dispersive(Box::new(Dispersive::new(world, o)?)),
+            SolverChoice::Dispersive(o) => {
+                Solver::Dispersive(Box::new(Dispersive::new_with_progress(world, o, progress)?))
+            }
             SolverChoice::Grid(o) => Solver::Grid(Box::new(Grid::new(world, o)?)),
         })
     }

@@ -223,7 +223,7 @@ pub fn run(args: AnimateArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     // The engine plays the animation: it poses the scene at each frame's time and tells the
     // solver what moved.
     let names: Vec<String> = world.scene.objects.iter().map(|o| o.name.clone()).collect();
-    let mut engine = Engine::from_world(world, choice)?;
+    let mut engine = Engine::from_world_with_progress(world, choice, &*progress_for(quiet))?;
     engine.set_reference_options(reference);
     for _ in 0..args.warmup * engine.frames_to_converge(1) {
         let _ = engine.step();

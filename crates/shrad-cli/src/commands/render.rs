@@ -202,7 +202,7 @@ pub fn run(args: RenderArgs, scene: Scene, file: &FileSettings) -> Result<()> {
         }
     }
     let t = Instant::now();
-    let mut engine = Engine::from_world(world, choice)?;
+    let mut engine = Engine::from_world_with_progress(world, choice, &*progress_for(quiet))?;
     engine.set_reference_options(reference);
     solve(&mut engine, args.frames, quiet);
     if args.compare && !matches!(choice, SolverChoice::Reference(_)) {

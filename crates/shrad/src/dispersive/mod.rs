@@ -32,8 +32,6 @@ use shrad_scene::Role;
 use crate::energy::IncidentMeter;
 use crate::frame::SolverStats;
 use crate::probes::ProbeCamera;
-#[cfg(test)]
-use crate::NoProgress;
 use crate::World;
 
 mod caches;
@@ -143,20 +141,38 @@ impl Dispersive {
     /// against its range first (`SolverChoice::validate`, in `settings`, the layer above
     /// the solvers, so a solver never reaches back up to it); the presets are in range.
     pub fn new(world: &World, options: DispersiveOptions) -> Result<Dispersive, crate::Error> {
+        Dispersive::new_with_progress(world, options, &crate::NoProgress)
+    }
+
+    /// [`Dispersive::new`], reporting each object's set-up and the wall rows to `progress`.
+    pub fn new_with_progress(
+        world: &World,
+        options: DispersiveOptions,
+        progress: &dyn crate::Progress,
+    ) -> Result<Dispersive, crate::Error> {
         let p = &world.patches;
         let camera = ProbeCamera::new(options.cube_res, options.bands);
         let emitter_camera = ProbeCamera::new(options.emitter_res, options.bands);
-        let objects: Vec<ObjectProbes> = (0..world.scene.objects.len())
+        let interior: Vec<usize> = (0..world.scene.objects.len())
             .filter(|&o| p.object_role[o] == Role::Interior)
-            .map(|o| ObjectProbes::new(world, o, &options))
             .collect();
+        progress.begin("setting up objects", interior.len() as u64);
+        let objects: Vec<ObjectProbes> = interior
+            .into_iter()
+            .map(|o| {
+                let ob = ObjectProbes::new(world, o, &options);
+                progress.advance(1);
+                ob
+            })
+            .collect();
+        progress.end();
         let boundary_patches: Vec<u32> = (0..p.len() as u32)
             .filter(|&i| receives_as_boundary(world, i as usize))
             .collect();
         // Rays that pass where an object moves are re-traced then (`refresh_wall_rows`).
         let wall_rows = options
             .wall_exchange
-            .then(|| WallRows::new(world, &boundary_patches, options.wall_rays, false));
+            .then(|| WallRows::new(world, &boundary_patches, options.wall_rays, false, progress));
         let object_boxes = (0..world.scene.objects.len())
             .map(|o| world_box(world, o))
             .collect();

@@ -270,7 +270,7 @@ fn cornell_box_default_is_close_to_the_reference() {
     let reference = crate::reference::solve(
         &world,
         &crate::reference::ReferenceOptions::standard(),
-        &NoProgress,
+        &crate::NoProgress,
     )
     .0;
     let e = crate::metrics::relative_error(&world.patches, d.radiosity(), &reference);
@@ -291,7 +291,7 @@ fn reflective_light_near_the_floor_bounces_light() {
     let reference = crate::reference::solve(
         &world,
         &crate::reference::ReferenceOptions::standard(),
-        &NoProgress,
+        &crate::NoProgress,
     )
     .0;
     let e = crate::metrics::relative_error(&world.patches, d.radiosity(), &reference);

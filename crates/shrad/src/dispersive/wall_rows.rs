@@ -190,7 +190,13 @@ impl WallRows {
     /// boundary-to-boundary entries are kept (light via interior objects is Step 3's). Traced
     /// now when `eager` (and always up to [`WALL_EAGER_RAYS`]), else empty and all dirty:
     /// [`WallRows::retrace`] builds them over the next frames.
-    pub(super) fn new(world: &World, boundary: &[u32], rays: u32, eager: bool) -> WallRows {
+    pub(super) fn new(
+        world: &World,
+        boundary: &[u32],
+        rays: u32,
+        eager: bool,
+        progress: &dyn crate::Progress,
+    ) -> WallRows {
         let rays = rays.max(1) as usize;
         let words = rays.div_ceil(64);
         let n = boundary.len();
@@ -227,7 +233,15 @@ impl WallRows {
         }
         if eager || n * rays <= WALL_EAGER_RAYS {
             let chunk = ((1 << 20) / rays).max(1) * rays;
-            while out.retrace(world, boundary, chunk) > 0 {}
+            progress.begin("wall-exchange rows", n as u64);
+            loop {
+                let traced = out.retrace(world, boundary, chunk);
+                if traced == 0 {
+                    break;
+                }
+                progress.advance((traced / rays) as u64);
+            }
+            progress.end();
         }
         out.cursor = 0;
         out
@@ -237,7 +251,7 @@ impl WallRows {
     /// lazy build on small scenes).
     #[cfg(test)]
     pub(super) fn new_unbuilt(world: &World, boundary: &[u32], rays: u32) -> WallRows {
-        let mut rows = WallRows::new(world, &boundary[..0], rays, false);
+        let mut rows = WallRows::new(world, &boundary[..0], rays, false, &crate::NoProgress);
         let n = boundary.len();
         let r = rows.rays;
         rows.rows = SparseRows::from_rows(vec![Vec::<(u32, f32)>::new(); n]);
