@@ -1,10 +1,11 @@
-//! The engine's own thread: it applies the clients' requests between frames, steps, and
-//! publishes each frame into a latest-value slot (`tokio::sync::watch`). A client that reads
-//! slowly only ever sees the newest frame; nothing it does can make this thread wait.
+//! The engine's own thread: at the start of each frame it takes what the clients asked
+//! (the [`Inbox`]: the newest state of each object, light and setting, never a queue of
+//! older ones), applies it, steps, and publishes the frame into a latest-value slot
+//! (`tokio::sync::watch`). A client that reads slowly only ever sees the newest frame;
+//! nothing it does can make this thread wait.
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -14,9 +15,10 @@ use serde_json::{json, Value};
 use shrad::engine::Engine;
 use shrad::scene::Role;
 use shrad::view_data::{self, Channel, DisplayMesh};
-use tokio::sync::{mpsc, watch};
+use tokio::sync::watch;
 
-use crate::protocol::{self, Envelope, Request};
+use crate::inbox::{Batch, Inbox, Pending};
+use crate::protocol::{self, Request};
 use crate::solvers;
 
 /// Shadow rays per (patch, light) when the viewer computes the direct channel itself.
@@ -40,6 +42,8 @@ pub struct Shared {
     pub clients: AtomicUsize,
     /// Set when the server stops.
     pub stop: AtomicBool,
+    /// What the clients asked of the engine, waiting for the next frame.
+    pub inbox: Inbox,
 }
 
 impl Shared {
@@ -49,21 +53,9 @@ impl Shared {
             probe_clients: AtomicUsize::new(0),
             clients: AtomicUsize::new(0),
             stop: AtomicBool::new(false),
+            inbox: Inbox::default(),
         }
     }
-}
-
-/// What the clients ask of the engine thread.
-pub enum Command {
-    /// A request, with where to send the reply.
-    Request {
-        /// What the client asked.
-        envelope: Envelope,
-        /// The client's reply queue (bounded; a full queue loses the reply, never blocks).
-        reply: mpsc::Sender<String>,
-    },
-    /// Publish the current state again (a client wants a channel or the probes now).
-    Refresh,
 }
 
 /// One published frame: its statistics message and, per channel, its colour frame (only the
@@ -86,13 +78,30 @@ pub struct Intro {
     pub scene: String,
     /// The binary geometry message.
     pub geometry: Bytes,
+    /// The objects' names, by scene index (requests name objects either way).
+    pub objects: Vec<String>,
+}
+
+/// What the engine took from the inbox at the start of the frame being computed (the
+/// `steering` part of the `frame` message).
+#[derive(Clone, Copy, Default)]
+struct Steering {
+    /// Requests applied at the start of this frame.
+    applied: usize,
+    /// The most frames any of them waited: frames published between the server reading it
+    /// and the engine stepping the frame that has it (1 or 2 when all is well: the frame
+    /// being computed when it arrived, then the next one).
+    waited_frames: u64,
+    /// Requests that waited longer than that (0 when all is well).
+    backlog: usize,
+    /// The longest any of them waited (ms).
+    queued_ms: f64,
 }
 
 /// The engine loop's state.
 pub struct EngineLoop {
     engine: Engine,
     mesh: DisplayMesh,
-    commands: Receiver<Command>,
     frames: watch::Sender<Arc<Frame>>,
     shared: Arc<Shared>,
     seq: u64,
@@ -120,6 +129,7 @@ pub struct EngineLoop {
     publish_ms: f64,
     loop_ms: f64,
     last_step: Option<Instant>,
+    steering: Steering,
 }
 
 impl EngineLoop {
@@ -128,7 +138,6 @@ impl EngineLoop {
         engine: Engine,
         solver_name: String,
         preset: String,
-        commands: Receiver<Command>,
         shared: Arc<Shared>,
     ) -> (EngineLoop, Intro, watch::Receiver<Arc<Frame>>) {
         let mesh = DisplayMesh::new(engine.world());
@@ -138,7 +147,6 @@ impl EngineLoop {
         let me = EngineLoop {
             engine,
             mesh,
-            commands,
             frames,
             shared,
             seq: 0,
@@ -162,10 +170,19 @@ impl EngineLoop {
             publish_ms: 0.0,
             loop_ms: 0.0,
             last_step: None,
+            steering: Steering::default(),
         };
         let intro = Intro {
             scene: me.scene_message(&probe_triangles),
             geometry: Bytes::from(protocol::geometry(&me.mesh)),
+            objects: me
+                .engine
+                .world()
+                .scene
+                .objects
+                .iter()
+                .map(|o| o.name.clone())
+                .collect(),
         };
         (me, intro, rx)
     }
@@ -217,6 +234,7 @@ impl EngineLoop {
                 "limits": {
                     "max_message_bytes": protocol::MAX_MESSAGE_BYTES,
                     "max_wire_bytes": protocol::MAX_WIRE_BYTES,
+                    "max_in_flight_bytes": protocol::MAX_IN_FLIGHT_BYTES,
                 },
             }),
         )
@@ -227,25 +245,22 @@ impl EngineLoop {
         while !self.shared.stop.load(Ordering::Relaxed) {
             let idle = self.shared.clients.load(Ordering::Relaxed) == 0
                 || (!self.playing && !self.continuous && self.converged());
-            if idle {
+            // The newest state the clients asked for, all of it, at the start of the frame.
+            let batch = if idle {
                 // Nothing to compute: wait for a request (or look at the stop flag again).
-                match self.commands.recv_timeout(Duration::from_millis(100)) {
-                    Ok(c) => self.apply(c),
-                    Err(RecvTimeoutError::Timeout) => {
-                        // Probes asked for after the scene settled still get captured.
-                        if self.shared.probe_clients.load(Ordering::Relaxed) > 0
-                            && self.probes_due()
-                        {
-                            self.publish(None);
-                        }
-                        continue;
+                let batch = self.shared.inbox.wait(Duration::from_millis(100));
+                if batch.requests.is_empty() && !batch.refresh {
+                    // Probes asked for after the scene settled still get captured.
+                    if self.shared.probe_clients.load(Ordering::Relaxed) > 0 && self.probes_due() {
+                        self.publish(None);
                     }
-                    Err(RecvTimeoutError::Disconnected) => break,
+                    continue;
                 }
-            }
-            while let Ok(c) = self.commands.try_recv() {
-                self.apply(c);
-            }
+                batch
+            } else {
+                self.shared.inbox.take()
+            };
+            self.apply(batch);
             if self.playing {
                 let now = Instant::now();
                 let dt = now.duration_since(self.last_tick).as_secs_f64() * self.speed;
@@ -267,6 +282,7 @@ impl EngineLoop {
             self.note_change_of_radiosity();
             self.publish(Some(&stats));
         }
+        self.shared.inbox.close();
     }
 
     /// Every object updated twice since the last change, and a whole pass of frames in which
@@ -372,6 +388,15 @@ impl EngineLoop {
                 "publish_ms": self.publish_ms,
                 // Wall time between the starts of the last two frames.
                 "loop_ms": self.loop_ms,
+                // What the engine applied at the start of this frame, and what waits now.
+                "steering": {
+                    "applied": self.steering.applied,
+                    "waited_frames": self.steering.waited_frames,
+                    "queued_ms": self.steering.queued_ms,
+                    "backlog": self.steering.backlog,
+                    "pending": self.shared.inbox.len(),
+                    "superseded": self.shared.inbox.counts().superseded,
+                },
                 "stats": stats_json,
                 "error": self.last_error,
             }),
@@ -418,16 +443,39 @@ impl EngineLoop {
         protocol::message("probes", json!({ "frame": self.seq, "probes": list }))
     }
 
-    fn apply(&mut self, command: Command) {
-        let (envelope, reply) = match command {
-            Command::Request { envelope, reply } => (envelope, reply),
-            Command::Refresh => {
-                if self.seq > 0 {
-                    self.publish(None);
-                }
-                return;
-            }
-        };
+    /// Apply what the clients asked since the last frame (in order: each key's newest).
+    fn apply(&mut self, batch: Batch) {
+        if batch.refresh && self.seq > 0 {
+            self.publish(None);
+        }
+        let frame = self.seq + 1;
+        let mut steering = Steering::default();
+        for p in batch.requests {
+            let waited = frame.saturating_sub(p.received_at_frame);
+            steering.applied += 1;
+            steering.waited_frames = steering.waited_frames.max(waited);
+            steering.backlog += usize::from(waited > 2);
+            let queued_ms = p.received.elapsed().as_secs_f64() * 1e3;
+            steering.queued_ms = steering.queued_ms.max(queued_ms);
+            self.apply_one(p, queued_ms);
+        }
+        self.steering = steering;
+    }
+
+    fn apply_one(&mut self, p: Pending, queued_ms: f64) {
+        let Pending {
+            envelope,
+            reply,
+            received_at_frame,
+            ..
+        } = p;
+        if matches!(envelope.request, Request::SetTransform { .. }) {
+            self.shared
+                .inbox
+                .counters
+                .transforms_applied
+                .fetch_add(1, Ordering::Relaxed);
+        }
         let id = envelope.id;
         let kind = envelope.request.kind();
         let answer = match self.handle(envelope.request) {
@@ -438,6 +486,10 @@ impl EngineLoop {
                     m.insert("request".into(), json!(kind));
                     // The first frame that shows the change.
                     m.insert("frame".into(), json!(self.seq + 1));
+                    // The newest frame when the server read the request, and how long it
+                    // waited for this frame to start.
+                    m.insert("received_at_frame".into(), json!(received_at_frame));
+                    m.insert("queued_ms".into(), json!(queued_ms));
                 }
                 protocol::message(if kind == "ping" { "pong" } else { "ok" }, body)
             }
@@ -561,7 +613,9 @@ impl EngineLoop {
             }
             Request::Ping {} => Ok(json!({})),
             // Handled by the client's own task; never sent here.
-            Request::SetChannel { .. } | Request::Probes { .. } => Ok(json!({})),
+            Request::SetChannel { .. } | Request::Probes { .. } | Request::Ack { .. } => {
+                Ok(json!({}))
+            }
         }
     }
 }

@@ -25,6 +25,12 @@ pub const MAX_MESSAGE_BYTES: usize = 64 * 1024;
 /// with status 1009 (message too big). Between the two limits the reply is an error.
 pub const MAX_WIRE_BYTES: usize = 1024 * 1024;
 
+/// Bytes of frame messages (`frame`, `probes`, colour frames) a client may have received
+/// from the server and not yet acknowledged (`ack`); one frame is always allowed, however
+/// large. Frames that cannot go are not queued: the client gets the newest once it has
+/// caught up.
+pub const MAX_IN_FLIGHT_BYTES: usize = 1024 * 1024;
+
 /// "SHRV", little-endian.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"SHRV");
 
@@ -109,6 +115,13 @@ pub enum Request {
     },
     /// Answered by `pong` with the same `id`.
     Ping {},
+    /// Flow control (no reply): the client has received `received` frame messages
+    /// (`frame`, `probes` and colour frames) since it connected. The server keeps at most
+    /// [`MAX_IN_FLIGHT_BYTES`] of them unacknowledged per client (and always one).
+    Ack {
+        /// Frame messages received so far.
+        received: u64,
+    },
 }
 
 impl Request {
@@ -126,6 +139,7 @@ impl Request {
             Request::Probes { .. } => "probes",
             Request::Run { .. } => "run",
             Request::Ping {} => "ping",
+            Request::Ack { .. } => "ack",
         }
     }
 }
