@@ -121,9 +121,28 @@ async function dragBy(page, from, dx, dy, steps, ms) {
   await page.mouse.up();
 }
 
-/** GI updates per second and drag latency while an object is dragged back and forth. */
-async function measure(page, name, seconds, pixels) {
-  await shrad(page, () => { const s = window.__shrad.state; s.latencies.length = 0; s.moveLatencies.length = 0; s.receiveLatencies.length = 0; s.dispatchLatencies.length = 0; s.replyLatencies.length = 0; s.steps.length = 0; });
+/** Pointer moves dispatched by the page itself at `hz` for `seconds` (after a real mouse
+ * down): their rate does not depend on how fast playwright's round trips are on a loaded
+ * machine, so they can outpace the engine, as a person's hand does. */
+async function inPageMoves(page, from, seconds, pixels, hz) {
+  await shrad(page, ([x, y, secs, px, rate]) => new Promise((resolve) => {
+    const el = window.__shrad.renderer.domElement;
+    const n = Math.round(secs * rate);
+    let i = 0;
+    const timer = setInterval(() => {
+      i++;
+      const phase = Math.sin((i / n) * 2 * Math.PI * Math.max(1, secs / 2));
+      el.dispatchEvent(new PointerEvent('pointermove', { clientX: x + px * phase, clientY: y, bubbles: true, pointerId: 1, isPrimary: true, buttons: 1 }));
+      if (i >= n) { clearInterval(timer); resolve(); }
+    }, 1000 / rate);
+  }), [from.x, from.y, seconds, pixels, hz]);
+}
+
+/** GI updates per second and drag latency while an object is dragged back and forth: with
+ * real mouse moves at 30 per second (as fast as playwright manages), or with `hz` pointer
+ * moves per second dispatched in the page. */
+async function measure(page, name, seconds, pixels, hz = 0) {
+  await shrad(page, () => { const s = window.__shrad.state; s.latencies.length = 0; s.moveLatencies.length = 0; s.receiveLatencies.length = 0; s.dispatchLatencies.length = 0; s.replyLatencies.length = 0; if (s.steps) s.steps.length = 0; });
   const from = await shrad(page, (n) => window.__shrad.screenOf(n), name);
   const f0 = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now() }));
   const engineRates = [];
@@ -131,8 +150,9 @@ async function measure(page, name, seconds, pixels) {
   const backlog = [];
   await page.mouse.move(from.x, from.y);
   await page.mouse.down();
+  const moving = hz > 0 ? inPageMoves(page, from, seconds, pixels, hz) : null;
   const steps = Math.round(seconds * 30);
-  for (let i = 1; i <= steps; i++) {
+  for (let i = 1; i <= steps && !moving; i++) {
     const phase = Math.sin((i / steps) * 2 * Math.PI * Math.max(1, seconds / 2));
     await page.mouse.move(from.x + pixels * phase, from.y);
     await sleep(1000 / 30);
@@ -143,8 +163,22 @@ async function measure(page, name, seconds, pixels) {
       backlog.push(f.backlog);
     }
   }
+  if (moving) {
+    // Sample the engine while the page moves the object.
+    let done = false;
+    moving.then(() => { done = true; });
+    while (!done) {
+      await sleep(500);
+      const f = await shrad(page, () => { const m = window.__shrad.state.lastFrame; return { rate: m.gi_updates_per_s, ms: m.stats?.frame_ms, backlog: m.steering?.backlog }; });
+      engineRates.push(f.rate);
+      engineMs.push(f.ms);
+      backlog.push(f.backlog);
+    }
+  }
   await page.mouse.up();
-  const f1 = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now(), latencies: window.__shrad.state.latencies.slice(), moves: window.__shrad.state.moveLatencies.slice(), received: window.__shrad.state.receiveLatencies.slice(), dispatched: window.__shrad.state.dispatchLatencies.slice(), replied: window.__shrad.state.replyLatencies.slice(), drawMs: window.__shrad.state.drawMs.slice(), steps: window.__shrad.state.steps.filter((x) => x.drawn !== undefined) }));
+  // The last moves' frames, drawn (bounded wait: they are counted when they are drawn).
+  await page.waitForFunction(() => window.__shrad.state.awaitingFrame.length === 0 && window.__shrad.state.pendingSteer.size === 0, null, { timeout: 60_000, polling: 50 }).catch(() => {});
+  const f1 = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now(), latencies: window.__shrad.state.latencies.slice(), moves: window.__shrad.state.moveLatencies.slice(), received: window.__shrad.state.receiveLatencies.slice(), dispatched: window.__shrad.state.dispatchLatencies.slice(), replied: window.__shrad.state.replyLatencies.slice(), drawMs: window.__shrad.state.drawMs.slice(), steps: (window.__shrad.state.steps || []).filter((x) => x.drawn !== undefined), sent: window.__shrad.state.dispatchLatencies.length }));
   const secs = (f1.t - f0.t) / 1000;
   const quantiles = (xs) => {
     const v = xs.slice().sort((a, b) => a - b);
@@ -153,6 +187,7 @@ async function measure(page, name, seconds, pixels) {
   };
   return {
     seconds: secs,
+    moves_sent: f1.sent,
     drawn_per_s: (f1.drawn - f0.drawn) / secs,
     engine_frames_per_s: (f1.engine - f0.engine) / secs,
     engine_reported_per_s: engineRates,
@@ -182,7 +217,7 @@ async function measure(page, name, seconds, pixels) {
     },
     engine_frame_ms_while_dragging: quantiles(engineMs.filter((x) => x !== undefined)),
     // The steering backlog the engine reported while dragging (0 when nothing queued).
-    backlog_max: Math.max(...backlog.filter((x) => x !== undefined)),
+    backlog_max: backlog.some((x) => x !== undefined) ? Math.max(...backlog.filter((x) => x !== undefined)) : null,
   };
 }
 
@@ -326,6 +361,7 @@ test('shrad view in a real browser: lit, drag, solver, channels, probes, perform
     // Performance at 20k patches: steady stepping, then a sustained drag.
     result.steady = await steady(page, 5);
     result.dragging = await measure(page, 'tall_block', 4, 60);
+    result.dragging_fast = await measure(page, 'tall_block', 4, 60, 30);
     result.errors = errors;
     writeFileSync(path.join(output, `perf-cornell-${patches}.json`), JSON.stringify(result, null, 2));
     console.log('cornell 20k:', JSON.stringify(result));
@@ -355,6 +391,7 @@ test('the 77k-patch room (SHRAD_VIEW_PERF=1)', { timeout: 900_000, skip: process
     await shot(page, 'room-77k.png');
     result.steady = await steady(page, 5);
     result.dragging = await measure(page, name, 4, 40);
+    result.dragging_fast = await measure(page, name, 4, 40, 30);
     result.errors = errors;
     writeFileSync(path.join(output, 'perf-room-77k.json'), JSON.stringify(result, null, 2));
     console.log('room 77k:', JSON.stringify(result));

@@ -690,3 +690,81 @@ fn steering_requests_do_what_they_say() {
     });
     s.stop().unwrap();
 }
+
+#[test]
+fn a_client_that_does_not_acknowledge_is_sent_a_bounded_number_of_bytes_and_still_gets_its_replies()
+{
+    let s = server();
+    runtime().block_on(async {
+        let mut quiet = connect_raw(&s).await;
+        let mut ws = connect(&s).await;
+        let keep_stepping = json!({"v": 1, "type": "run", "continuous": true, "id": 0});
+        assert_eq!(ask(&mut ws, keep_stepping).await["type"], "ok");
+        // The engine steps 300 frames for the client that acknowledges them.
+        let (f0, _) = colour_frame(&mut ws).await;
+        let mut f = f0;
+        while f < f0 + 300 {
+            f = colour_frame(&mut ws).await.0;
+        }
+        // The other has acknowledged nothing: all it was sent before the reply to a ping
+        // is within the bound (and one frame beyond it: one frame always goes).
+        let ping = json!({"v": 1, "type": "ping", "id": 7}).to_string();
+        quiet.send(Message::Text(ping.into())).await.unwrap();
+        let (mut frame_bytes, mut largest, mut messages) = (0usize, 0usize, 0u64);
+        let deadline = Instant::now() + Duration::from_secs(60);
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let m = tokio::time::timeout(left, quiet.next())
+                .await
+                .expect("no pong within 60 s")
+                .expect("connection closed")
+                .expect("read error");
+            if is_frame_message(&m) {
+                let n = match &m {
+                    Message::Text(t) => t.len(),
+                    Message::Binary(b) => b.len(),
+                    _ => 0,
+                };
+                frame_bytes += n;
+                largest = largest.max(n);
+                messages += 1;
+            } else if let Message::Text(t) = &m {
+                let v: Value = serde_json::from_str(t.as_str()).unwrap();
+                if v["type"] == "pong" {
+                    assert_eq!(v["id"], 7);
+                    break;
+                }
+            }
+        }
+        let bound = shrad_view::protocol::MAX_IN_FLIGHT_BYTES;
+        assert!(messages > 0, "not even one frame was sent");
+        // (300 frames are several times the bound: it was reached.)
+        assert!(
+            frame_bytes + 2 * largest >= bound,
+            "only {frame_bytes} bytes of frames were sent: the bound of {bound} was not reached"
+        );
+        assert!(
+            frame_bytes <= bound + 2 * largest,
+            "{frame_bytes} bytes of frames unacknowledged (bound {bound}, largest message {largest})"
+        );
+        // An acknowledgement of more than was sent is refused; of what was received, it
+        // lets the newest frame through.
+        let too_many = json!({"v": 1, "type": "ack", "received": messages + 1_000_000, "id": 8});
+        quiet
+            .send(Message::Text(too_many.to_string().into()))
+            .await
+            .unwrap();
+        let mut quiet = Ws {
+            inner: quiet,
+            received: messages,
+        };
+        let r = reply(&mut quiet).await;
+        assert_eq!(r["type"], "error", "{r}");
+        assert!(r["message"].as_str().unwrap().starts_with("ack:"), "{r}");
+        let ack = json!({"v": 1, "type": "ack", "received": messages});
+        quiet.send(Message::Text(ack.to_string().into())).await.unwrap();
+        let (g, _) = colour_frame(&mut quiet).await;
+        assert!(g >= f, "after the acknowledgement: frame {g}, older than {f}");
+    });
+    s.stop().unwrap();
+}
