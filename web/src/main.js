@@ -766,5 +766,16 @@ window.__shrad = {
   },
   /** The canvas's size in CSS pixels. */
   canvasSize() { const r = renderer.domElement.getBoundingClientRect(); return [Math.round(r.width), Math.round(r.height)]; },
+  /** Sum over every vertex of the linear radiance (RGB) the page draws now: the halves of the
+   * last colour frame of the channel it shows, under that frame's scale. */
+  radianceSum() {
+    const sum = [0, 0, 0];
+    for (const ob of state.objects) {
+      const a = ob.mesh.geometry.getAttribute('color').array;
+      const scale = ob.mesh.material.color.r;
+      for (let i = 0; i < a.length; i++) sum[i % 3] += THREE.DataUtils.fromHalfFloat(a[i]) * scale;
+    }
+    return sum;
+  },
 };
 resize();

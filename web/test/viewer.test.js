@@ -178,6 +178,7 @@ async function measure(page, name, seconds, pixels, hz = 0) {
   await page.mouse.up();
   // The last moves' frames, drawn (bounded wait: they are counted when they are drawn).
   await page.waitForFunction(() => window.__shrad.state.awaitingFrame.length === 0 && window.__shrad.state.pendingSteer.size === 0, null, { timeout: 60_000, polling: 50 }).catch(() => {});
+  const undrawn = await shrad(page, () => window.__shrad.state.awaitingFrame.length + window.__shrad.state.pendingSteer.size);
   const f1 = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now(), latencies: window.__shrad.state.latencies.slice(), moves: window.__shrad.state.moveLatencies.slice(), received: window.__shrad.state.receiveLatencies.slice(), dispatched: window.__shrad.state.dispatchLatencies.slice(), replied: window.__shrad.state.replyLatencies.slice(), drawMs: window.__shrad.state.drawMs.slice(), steps: (window.__shrad.state.steps || []).filter((x) => x.drawn !== undefined), sent: window.__shrad.state.dispatchLatencies.length }));
   const secs = (f1.t - f0.t) / 1000;
   const quantiles = (xs) => {
@@ -188,6 +189,8 @@ async function measure(page, name, seconds, pixels, hz = 0) {
   return {
     seconds: secs,
     moves_sent: f1.sent,
+    // Moves whose light the page had not drawn 60 s after the drag (0: every one was).
+    undrawn,
     drawn_per_s: (f1.drawn - f0.drawn) / secs,
     engine_frames_per_s: (f1.engine - f0.engine) / secs,
     engine_reported_per_s: engineRates,
@@ -335,15 +338,26 @@ test('shrad view in a real browser: lit, drag, solver, channels, probes, perform
     await page.waitForFunction(() => window.__shrad.state.error && window.__shrad.state.error.overall >= 0, null, { timeout: 120_000 });
     result.error_vs_reference = await shrad(page, () => window.__shrad.state.error);
 
-    // Channels.
+    // Channels: what the page draws for each adds up to the total (the scene is converged,
+    // so the three frames are of one state): direct + indirect = total, within the half
+    // floats' rounding and the clamp of the indirect part at 0, and each a real part of it.
+    const sums = { total: await shrad(page, () => window.__shrad.radianceSum()) };
     for (const c of ['direct', 'indirect']) {
       await page.selectOption('#channel', c);
       await page.waitForFunction((k) => window.__shrad.state.lastChannel === k, c === 'direct' ? 1 : 2);
+      sums[c] = await shrad(page, () => window.__shrad.radianceSum());
       await sleep(200);
       await shot(page, `cornell-${c}.png`);
     }
     await page.selectOption('#channel', 'total');
     await page.waitForFunction(() => window.__shrad.state.lastChannel === 0);
+    for (let k = 0; k < 3; k++) {
+      const [t, d, i] = [sums.total[k], sums.direct[k], sums.indirect[k]];
+      assert.ok(d > 0.05 * t && d < t, `channel ${k}: direct ${d} is not a part of the total ${t}`);
+      assert.ok(i > 0.05 * t && i < t, `channel ${k}: indirect ${i} is not a part of the total ${t}`);
+      assert.ok(Math.abs(d + i - t) <= 0.01 * t, `channel ${k}: direct ${d} + indirect ${i} = ${d + i}, not the total ${t}`);
+    }
+    result.channels = sums;
 
     // Probes: 8 per interior object, shaded, repaired/invalid marked.
     await page.check('#probes');
@@ -365,6 +379,11 @@ test('shrad view in a real browser: lit, drag, solver, channels, probes, perform
     result.errors = errors;
     writeFileSync(path.join(output, `perf-cornell-${patches}.json`), JSON.stringify(result, null, 2));
     console.log('cornell 20k:', JSON.stringify(result));
+    // The light followed the object: every move's frame was drawn, in both drags.
+    for (const k of ['dragging', 'dragging_fast']) {
+      assert.equal(result[k].undrawn, 0, `${k}: the light of ${result[k].undrawn} moves was never drawn`);
+      assert.ok(result[k].latency_ms.samples > 0, `${k}: no move's light was drawn`);
+    }
     assert.deepEqual(errors, [], `the page reported errors: ${errors.join('; ')}`);
   } finally {
     await browser.close();
@@ -395,6 +414,11 @@ test('the 77k-patch room (SHRAD_VIEW_PERF=1)', { timeout: 900_000, skip: process
     result.errors = errors;
     writeFileSync(path.join(output, 'perf-room-77k.json'), JSON.stringify(result, null, 2));
     console.log('room 77k:', JSON.stringify(result));
+    // The light followed the object: every move's frame was drawn, in both drags.
+    for (const k of ['dragging', 'dragging_fast']) {
+      assert.equal(result[k].undrawn, 0, `${k}: the light of ${result[k].undrawn} moves was never drawn`);
+      assert.ok(result[k].latency_ms.samples > 0, `${k}: no move's light was drawn`);
+    }
   } finally {
     await browser.close();
     await stopServer(server);
