@@ -376,6 +376,8 @@ mod tests {
         };
         let a = affine_from_columns(&matrix).unwrap();
         assert_eq!(a.translation, glam::Vec3A::new(5.0, 0.0, 0.0));
+        let e = parse(r#"{"v":1,"type":"ack","received":12}"#).unwrap();
+        assert_eq!(e.request, Request::Ack { received: 12 });
         for (text, needle) in [
             ("nope", "not JSON"),
             ("[1]", "JSON object"),
@@ -386,6 +388,9 @@ mod tests {
             (r#"{"v":1,"type":"ping","x":1}"#, "unknown field"),
             (r#"{"v":1,"type":"set_time"}"#, "missing field"),
             (r#"{"v":1,"type":"ping","id":-1}"#, "\"id\""),
+            (r#"{"v":1,"type":"ack"}"#, "missing field"),
+            (r#"{"v":1,"type":"ack","received":-3}"#, "bad message"),
+            (r#"{"v":1,"type":"ack","received":1.5}"#, "bad message"),
         ] {
             let r = parse(text).unwrap_err();
             assert!(r.message.contains(needle), "{text}: {}", r.message);
