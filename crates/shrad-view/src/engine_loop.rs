@@ -19,15 +19,12 @@ use tokio::sync::watch;
 
 use crate::inbox::{Batch, Inbox, Pending};
 use crate::protocol::{self, Request};
-use crate::solvers;
+use crate::{probe_sphere, solvers};
 
 /// Shadow rays per (patch, light) when the viewer computes the direct channel itself.
 const DIRECT_SAMPLES: u32 = 16;
 /// Probes are captured again at most this often while a client shows them.
 const PROBE_PERIOD: Duration = Duration::from_millis(400);
-/// Unit directions of the probe spheres (an octahedron split twice, normalised): each
-/// probe's irradiance is sent at these.
-pub const PROBE_SPHERE_SPLITS: u32 = 2;
 /// A frame is calm when the radiosity changed by less than this fraction (sum over patches
 /// and channels of the absolute change over the sum of the values).
 const CALM: f64 = 2e-4;
@@ -143,7 +140,7 @@ impl EngineLoop {
         let mesh = DisplayMesh::new(engine.world());
         let (frames, rx) = watch::channel(Arc::new(Frame::default()));
         let duration = engine.world().scene.duration() as f64;
-        let (probe_dirs, probe_triangles) = probe_sphere(PROBE_SPHERE_SPLITS);
+        let (probe_dirs, probe_triangles) = probe_sphere::probe_sphere(probe_sphere::SPLITS);
         let me = EngineLoop {
             engine,
             mesh,
@@ -199,7 +196,7 @@ impl EngineLoop {
                 let lfo = glam::Affine3A::from_mat3(p.local_from_object[o]);
                 json!({
                     "name": object.name,
-                    "role": role_name(p.object_role[o]),
+                    "role": p.object_role[o].name(),
                     "local_from_object": protocol::columns(lfo),
                     "emission": object.material.emitted_radiance.to_array(),
                     "patches": p.range(o).len(),
@@ -367,7 +364,9 @@ impl EngineLoop {
         });
         if self.shared.probe_clients.load(Ordering::Relaxed) > 0 && self.probes_due() {
             self.probes_at = Some(now);
-            self.probes = Some((self.seq, Arc::new(self.probe_message())));
+            let message =
+                probe_sphere::message(&self.engine, &self.probe_dirs, self.seq, &self.solver_name);
+            self.probes = Some((self.seq, Arc::new(message)));
         }
         let stats_json = stats.map_or(Value::Null, |s| {
             serde_json::to_value(s).unwrap_or(Value::Null)
@@ -409,38 +408,6 @@ impl EngineLoop {
             probes: self.probes.clone(),
         };
         self.frames.send_replace(Arc::new(frame));
-    }
-
-    fn probe_message(&self) -> String {
-        let Some(probes) = view_data::probes(&self.engine) else {
-            return protocol::message(
-                "probes",
-                json!({ "frame": self.seq, "probes": [], "note": format!("the {} solver has no per-object probes", self.solver_name) }),
-            );
-        };
-        let list: Vec<Value> = probes
-            .iter()
-            .map(|q| {
-                let irradiance: Vec<f32> = self
-                    .probe_dirs
-                    .iter()
-                    .flat_map(|&d| {
-                        // As the radiance of a white diffuse surface facing `d`.
-                        (shrad_sh::irradiance(&q.sh, d) * std::f32::consts::FRAC_1_PI)
-                            .max(Vec3::ZERO)
-                            .to_array()
-                    })
-                    .collect();
-                json!({
-                    "object": q.object,
-                    "corner": q.corner,
-                    "position": q.position.to_array(),
-                    "state": q.state,
-                    "radiance": irradiance,
-                })
-            })
-            .collect();
-        protocol::message("probes", json!({ "frame": self.seq, "probes": list }))
     }
 
     /// Apply what the clients asked since the last frame (in order: each key's newest).
@@ -518,7 +485,7 @@ impl EngineLoop {
                     return Err(format!(
                         "object '{}' is {}: only interior objects can be moved",
                         self.engine.world().scene.objects[o].name,
-                        role_name(role)
+                        role.name()
                     ));
                 }
                 let m = protocol::affine_from_columns(&matrix)?;
@@ -618,47 +585,4 @@ impl EngineLoop {
             }
         }
     }
-}
-
-/// The role's name in messages.
-pub fn role_name(r: Role) -> &'static str {
-    match r {
-        Role::Boundary => "boundary",
-        Role::Interior => "interior",
-        Role::Light => "light",
-    }
-}
-
-/// A unit sphere: an octahedron whose faces are split `splits` times (each split makes four
-/// triangles of one), its vertices pushed onto the sphere.
-pub fn probe_sphere(splits: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let mut v = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
-    let mut t: Vec<[u32; 3]> = vec![
-        [0, 2, 4],
-        [2, 1, 4],
-        [1, 3, 4],
-        [3, 0, 4],
-        [2, 0, 5],
-        [1, 2, 5],
-        [3, 1, 5],
-        [0, 3, 5],
-    ];
-    for _ in 0..splits {
-        let mut mid = std::collections::HashMap::new();
-        let mut next = Vec::with_capacity(4 * t.len());
-        let mut middle = |a: u32, b: u32, v: &mut Vec<Vec3>| {
-            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                v.push((v[a as usize] + v[b as usize]).normalize());
-                v.len() as u32 - 1
-            })
-        };
-        for [a, b, c] in t {
-            let ab = middle(a, b, &mut v);
-            let bc = middle(b, c, &mut v);
-            let ca = middle(c, a, &mut v);
-            next.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
-        }
-        t = next;
-    }
-    (v, t)
 }

@@ -37,6 +37,7 @@ mod client;
 mod engine_loop;
 mod http;
 pub mod inbox;
+mod probe_sphere;
 pub mod protocol;
 pub mod solvers;
 
