@@ -66,7 +66,10 @@ const state = {
   lastDrawnFrame: 0,
   selected: -1,
   nextId: 1,
-  pendingSteer: new Map(), // id -> event time
+  pendingSteer: new Map(), // id -> mouse-event times of the moves it stands for (its own and those it superseded)
+  frameMs: new Map(), // frame -> the engine's ms for it (recent frames)
+  received: 0, // frame messages received (acknowledged to the server: flow control)
+  steps: [], // per applied move: the breakdown of its latency (see onOk)
   awaitingFrame: [], // [{frame, t}] steering to see drawn
   latencies: [], // ms from the mouse event to the drawn engine frame that shows its GI
   moveLatencies: [], // ms from the mouse event to the drawn frame that shows the object there
@@ -91,12 +94,25 @@ ws.onopen = () => setStatus('connected', true);
 ws.onclose = (e) => { state.connected = false; setStatus(`disconnected (${e.code}${e.reason ? ': ' + e.reason : ''})`, false); };
 ws.onmessage = (e) => {
   try {
-    if (typeof e.data === 'string') onText(JSON.parse(e.data));
-    else onBinary(e.data);
+    if (typeof e.data === 'string') {
+      const m = JSON.parse(e.data);
+      if (m.type === 'frame' || m.type === 'probes') acknowledge();
+      onText(m);
+    } else {
+      if (header(e.data).kind === KIND_COLOURS) acknowledge();
+      onBinary(e.data);
+    }
   } catch (err) {
     note(`bad message from the server: ${err.message}`, true);
   }
 };
+
+/** Tell the server one more frame message has arrived: it keeps a bounded number of bytes
+ * unacknowledged, so frames never queue up in the socket ahead of newer ones. */
+function acknowledge() {
+  state.received++;
+  send('ack', { received: state.received });
+}
 
 function send(type, body = {}, withId = false) {
   if (ws.readyState !== WebSocket.OPEN) return undefined;
@@ -215,7 +231,11 @@ function onGeometry(objects) {
 function onFrame(m) {
   state.lastFrame = m;
   if (m.error) state.error = m.error;
-  if (m.stats) plot.push(stat(m.stats, 'frame_ms') ?? 0, m.gi_updates_per_s);
+  if (m.stats) {
+    plot.push(m.stats.frame_ms ?? 0, m.gi_updates_per_s);
+    state.frameMs.set(m.frame, m.stats.frame_ms);
+    if (state.frameMs.size > 300) state.frameMs.delete(state.frameMs.keys().next().value);
+  }
   // The panel is redrawn a few times a second, not per frame: with software compositing
   // its layout and paint cost the engine and the canvas CPU time.
   const now = performance.now();
@@ -247,7 +267,14 @@ function onColours(c) {
   state.lastChannel = c.channel;
   // What the engine and the network take, before the page draws.
   const now = performance.now();
-  for (const a of state.awaitingFrame) if (c.frame >= a.frame && !a.received) { a.received = true; state.receiveLatencies.push(now - a.t); }
+  for (const a of state.awaitingFrame) {
+    if (c.frame >= a.frame && !a.received) {
+      a.received = true;
+      state.receiveLatencies.push(now - a.t);
+      a.step.received = now - a.t;
+      a.step.computeMs = state.frameMs.get(a.frame);
+    }
+  }
   requestDraw();
 }
 
@@ -291,7 +318,7 @@ function pollFences() {
     state.drawMs.push(now - f.start);
     if (state.drawMs.length > 60) state.drawMs.shift();
     for (const t of f.moves) state.moveLatencies.push(now - t);
-    for (const t of f.gi) state.latencies.push(now - t);
+    for (const a of f.gi) { state.latencies.push(now - a.t); a.step.drawn = now - a.t; }
   }
   if (fences.length) setTimeout(pollFences, 2);
   else if (drawWanted) { drawWanted = false; requestDraw(); }
@@ -326,7 +353,7 @@ function draw() {
     state.drawnTimes.push(now);
     // Steering that this frame shows: the latency from its mouse event.
     state.awaitingFrame = state.awaitingFrame.filter((a) => {
-      if (f >= a.frame) { done.gi.push(a.t); return false; }
+      if (f >= a.frame) { done.gi.push(a); return false; }
       return true;
     });
   }
@@ -340,11 +367,28 @@ function localMoveOf(id) {
 }
 
 function onOk(m) {
+  if (m.superseded) {
+    // A newer move of the same object replaced this one before the engine applied it: its
+    // mouse events are shown by the frame that has the newer one.
+    const times = state.pendingSteer.get(m.id);
+    state.pendingSteer.delete(m.id);
+    const newer = state.pendingSteer.get(m.superseded_by);
+    if (times && newer) newer.push(...times);
+    return;
+  }
   const moved = localMoveOf(m.id);
   if (moved) moved.local.untilFrame = m.frame;
   if (m.id !== undefined && state.pendingSteer.has(m.id)) {
-    state.replyLatencies.push(performance.now() - state.pendingSteer.get(m.id));
-    state.awaitingFrame.push({ frame: m.frame, t: state.pendingSteer.get(m.id) });
+    const now = performance.now();
+    for (const t of state.pendingSteer.get(m.id)) {
+      state.replyLatencies.push(now - t);
+      // Where the time goes, from the mouse event (ms): the reply is sent when the engine
+      // applies the move, before it steps the frame that has it.
+      const step = { t, replied: now - t, queued: m.queued_ms, frame: m.frame };
+      state.steps.push(step);
+      if (state.steps.length > 4000) state.steps.splice(0, 1000);
+      state.awaitingFrame.push({ frame: m.frame, t, step });
+    }
     state.pendingSteer.delete(m.id);
   }
   if (m.request === 'compute_error') { state.error = m; showStats(state.lastFrame); }
@@ -356,35 +400,35 @@ function onOk(m) {
 const median = (xs) => { if (!xs.length) return undefined; const v = xs.slice().sort((a, b) => a - b); return v[Math.floor(v.length / 2)]; };
 const fmt = (x, d = 1) => (x === undefined || x === null || Number.isNaN(x) ? '–' : Number(x).toFixed(d));
 
-/** A field of FrameStats whether it sits at the top level or in its common part. */
-function stat(s, key) {
-  if (!s) return undefined;
-  if (s[key] !== undefined) return s[key];
-  if (s.common && s.common[key] !== undefined) return s.common[key];
-  return undefined;
+/** The engine's steering backlog: requests that waited more than the one frame they must
+ * (0 when all is well), what waits now, and how long the last ones waited. */
+function steeringText(st) {
+  if (!st) return '–';
+  return `${st.backlog} · ${st.pending} waiting · last applied after ${st.waited_frames} frame${st.waited_frames === 1 ? '' : 's'} (${fmt(st.queued_ms, 0)} ms)`;
 }
 
 function showStats(m) {
   if (!m) return;
   const s = m.stats || {};
-  const energy = stat(s, 'energy') || {};
-  const updated = stat(s, 'objects_updated') || [];
+  const energy = s.energy || {};
+  const updated = s.objects_updated || [];
   const names = updated.map((o) => (state.scene ? state.scene.objects[o]?.name : o)).join(', ');
   const pageRate = state.drawnTimes.length;
   const e = state.error;
   const rows = [
     ['solver', `${m.solver} (${m.preset})`],
     ['frame', `${m.frame}${m.converged ? ' · converged' : ''}`],
-    ['ms per step', `${fmt(stat(s, 'frame_ms'), 2)} (server loop ${fmt(m.loop_ms, 1)}, publish ${fmt(m.publish_ms, 1)})`],
+    ['ms per step', `${fmt(s.frame_ms, 2)} (server loop ${fmt(m.loop_ms, 1)}, publish ${fmt(m.publish_ms, 1)})`],
+    ['backlog', steeringText(m.steering)],
     ['objects updated', `${updated.length}${names ? ' (' + names + ')' : ''}`],
-    ['stalest', `${stat(s, 'stalest') ?? '–'} frames`],
+    ['stalest', `${s.stalest ?? '–'} frames`],
     ['energy', energy.emitted ? `absorbed/emitted ${fmt(energy.absorbed / energy.emitted, 3)} · reflected/bound ${fmt(energy.reflected / energy.reflected_bound, 3)}` : '–'],
     ['GI updates/s', `${m.gi_updates_per_s} engine · ${pageRate} drawn`],
     ['page draw', `${fmt(median(state.drawMs), 1)} ms at ${Math.round(100 * state.pixelRatio)} % resolution`],
     ['error', e ? `${fmt(100 * e.overall, 2)} % (boundary ${fmt(100 * e.boundary, 2)}, interior ${fmt(100 * e.interior, 2)}) at frame ${e.at_frame}, ${e.solver}` : 'not computed'],
   ];
   if (state.moveLatencies.length) rows.push(['drag to screen', `${fmt(median(state.moveLatencies.slice(-20)), 0)} ms (object) · ${fmt(median(state.latencies.slice(-20)), 0)} ms (its light)`]);
-  if (stat(s, 'diverged')) rows.push(['diverged', stat(s, 'diverged').message]);
+  if (s.diverged) rows.push(['diverged', s.diverged.message]);
   const table = $('stats');
   table.replaceChildren(...rows.map(([k, v]) => {
     const tr = document.createElement('tr');
@@ -601,7 +645,7 @@ function steer(o, matrix, t) {
   const id = send('set_transform', { object: o, matrix: Array.from(matrix.elements) }, true);
   if (id === undefined) return;
   state.dispatchLatencies.push(performance.now() - t);
-  state.pendingSteer.set(id, t);
+  state.pendingSteer.set(id, [t]);
   const ob = state.objects[o];
   const worldFromLocal = matrix.clone().multiply(ob.localFromObject.clone().invert());
   ob.local = { id, worldFromLocal, untilFrame: undefined };
@@ -722,5 +766,16 @@ window.__shrad = {
   },
   /** The canvas's size in CSS pixels. */
   canvasSize() { const r = renderer.domElement.getBoundingClientRect(); return [Math.round(r.width), Math.round(r.height)]; },
+  /** Sum over every vertex of the linear radiance (RGB) the page draws now: the halves of the
+   * last colour frame of the channel it shows, under that frame's scale. */
+  radianceSum() {
+    const sum = [0, 0, 0];
+    for (const ob of state.objects) {
+      const a = ob.mesh.geometry.getAttribute('color').array;
+      const scale = ob.mesh.material.color.r;
+      for (let i = 0; i < a.length; i++) sum[i % 3] += THREE.DataUtils.fromHalfFloat(a[i]) * scale;
+    }
+    return sum;
+  },
 };
 resize();

@@ -2,12 +2,15 @@
 // playwright-core. It starts the server, loads the page, checks that the scene is lit, drags
 // an object with real mouse events and watches the pixels where its shadow and colour
 // bleeding fall change and settle, switches the solver, shows the channels and the probes,
-// saves screenshots into docs/images/viewer/ and measures GI updates per second and drag
-// latency (written to web/test-output/perf-*.json).
+// saves screenshots and measures GI updates per second and drag latency, with where the
+// light's latency goes (written to web/test-output/perf-*.json and printed; no figure of
+// speed is asserted: the machine may be shared).
 //
 // SHRAD_VIEW_CMD: the server command (JSON array; default: the release shrad-view binary).
 // SHRAD_VIEW_PERF=1 also measures the 77k-patch room; SHRAD_VIEW_PATCHES sets the Cornell
-// box's patch count (default 20000).
+// box's patch count (default 20000). SHRAD_VIEW_SHOTS: the screenshots' folder (default
+// target/viewer-shots, so that a test run leaves the work tree as it was;
+// scripts/refresh-viewer-images points it at docs/images/viewer).
 
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
@@ -20,11 +23,12 @@ import { chromium } from 'playwright-core';
 
 const here = path.dirname(fileURLToPath(import.meta.url));
 const repo = path.resolve(here, '../..');
-const shots = path.join(repo, 'docs/images/viewer');
+const target = process.env.CARGO_TARGET_DIR || path.join(repo, 'target');
+const shots = path.resolve(process.env.SHRAD_VIEW_SHOTS || path.join(target, 'viewer-shots'));
 const output = path.join(repo, 'web/test-output');
 const command = process.env.SHRAD_VIEW_CMD
   ? JSON.parse(process.env.SHRAD_VIEW_CMD)
-  : [path.join(process.env.CARGO_TARGET_DIR || path.join(repo, 'target'), 'release/shrad-view')];
+  : [path.join(target, 'release/shrad-view')];
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
 /** Start the server on a free port; resolves with its URL and process. */
@@ -117,23 +121,65 @@ async function dragBy(page, from, dx, dy, steps, ms) {
   await page.mouse.up();
 }
 
-/** GI updates per second and drag latency while an object is dragged back and forth. */
-async function measure(page, name, seconds, pixels) {
-  await shrad(page, () => { const s = window.__shrad.state; s.latencies.length = 0; s.moveLatencies.length = 0; s.receiveLatencies.length = 0; s.dispatchLatencies.length = 0; s.replyLatencies.length = 0; });
+/** Pointer moves dispatched by the page itself at `hz` for `seconds` (after a real mouse
+ * down): their rate does not depend on how fast playwright's round trips are on a loaded
+ * machine, so they can outpace the engine, as a person's hand does. */
+async function inPageMoves(page, from, seconds, pixels, hz) {
+  await shrad(page, ([x, y, secs, px, rate]) => new Promise((resolve) => {
+    const el = window.__shrad.renderer.domElement;
+    const n = Math.round(secs * rate);
+    let i = 0;
+    const timer = setInterval(() => {
+      i++;
+      const phase = Math.sin((i / n) * 2 * Math.PI * Math.max(1, secs / 2));
+      el.dispatchEvent(new PointerEvent('pointermove', { clientX: x + px * phase, clientY: y, bubbles: true, pointerId: 1, isPrimary: true, buttons: 1 }));
+      if (i >= n) { clearInterval(timer); resolve(); }
+    }, 1000 / rate);
+  }), [from.x, from.y, seconds, pixels, hz]);
+}
+
+/** GI updates per second and drag latency while an object is dragged back and forth: with
+ * real mouse moves at 30 per second (as fast as playwright manages), or with `hz` pointer
+ * moves per second dispatched in the page. */
+async function measure(page, name, seconds, pixels, hz = 0) {
+  await shrad(page, () => { const s = window.__shrad.state; s.latencies.length = 0; s.moveLatencies.length = 0; s.receiveLatencies.length = 0; s.dispatchLatencies.length = 0; s.replyLatencies.length = 0; if (s.steps) s.steps.length = 0; });
   const from = await shrad(page, (n) => window.__shrad.screenOf(n), name);
   const f0 = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now() }));
   const engineRates = [];
+  const engineMs = [];
+  const backlog = [];
   await page.mouse.move(from.x, from.y);
   await page.mouse.down();
+  const moving = hz > 0 ? inPageMoves(page, from, seconds, pixels, hz) : null;
   const steps = Math.round(seconds * 30);
-  for (let i = 1; i <= steps; i++) {
+  for (let i = 1; i <= steps && !moving; i++) {
     const phase = Math.sin((i / steps) * 2 * Math.PI * Math.max(1, seconds / 2));
     await page.mouse.move(from.x + pixels * phase, from.y);
     await sleep(1000 / 30);
-    if (i % 15 === 0) engineRates.push(await shrad(page, () => window.__shrad.state.lastFrame.gi_updates_per_s));
+    if (i % 15 === 0) {
+      const f = await shrad(page, () => { const m = window.__shrad.state.lastFrame; return { rate: m.gi_updates_per_s, ms: m.stats?.frame_ms, backlog: m.steering?.backlog }; });
+      engineRates.push(f.rate);
+      engineMs.push(f.ms);
+      backlog.push(f.backlog);
+    }
+  }
+  if (moving) {
+    // Sample the engine while the page moves the object.
+    let done = false;
+    moving.then(() => { done = true; });
+    while (!done) {
+      await sleep(500);
+      const f = await shrad(page, () => { const m = window.__shrad.state.lastFrame; return { rate: m.gi_updates_per_s, ms: m.stats?.frame_ms, backlog: m.steering?.backlog }; });
+      engineRates.push(f.rate);
+      engineMs.push(f.ms);
+      backlog.push(f.backlog);
+    }
   }
   await page.mouse.up();
-  const f1 = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now(), latencies: window.__shrad.state.latencies.slice(), moves: window.__shrad.state.moveLatencies.slice(), received: window.__shrad.state.receiveLatencies.slice(), dispatched: window.__shrad.state.dispatchLatencies.slice(), replied: window.__shrad.state.replyLatencies.slice(), drawMs: window.__shrad.state.drawMs.slice(), ms: window.__shrad.state.lastFrame.stats.frame_ms ?? window.__shrad.state.lastFrame.stats.common?.frame_ms }));
+  // The last moves' frames, drawn (bounded wait: they are counted when they are drawn).
+  await page.waitForFunction(() => window.__shrad.state.awaitingFrame.length === 0 && window.__shrad.state.pendingSteer.size === 0, null, { timeout: 60_000, polling: 50 }).catch(() => {});
+  const undrawn = await shrad(page, () => window.__shrad.state.awaitingFrame.length + window.__shrad.state.pendingSteer.size);
+  const f1 = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now(), latencies: window.__shrad.state.latencies.slice(), moves: window.__shrad.state.moveLatencies.slice(), received: window.__shrad.state.receiveLatencies.slice(), dispatched: window.__shrad.state.dispatchLatencies.slice(), replied: window.__shrad.state.replyLatencies.slice(), drawMs: window.__shrad.state.drawMs.slice(), steps: (window.__shrad.state.steps || []).filter((x) => x.drawn !== undefined), sent: window.__shrad.state.dispatchLatencies.length }));
   const secs = (f1.t - f0.t) / 1000;
   const quantiles = (xs) => {
     const v = xs.slice().sort((a, b) => a - b);
@@ -142,6 +188,9 @@ async function measure(page, name, seconds, pixels) {
   };
   return {
     seconds: secs,
+    moves_sent: f1.sent,
+    // Moves whose light the page had not drawn 60 s after the drag (0: every one was).
+    undrawn,
     drawn_per_s: (f1.drawn - f0.drawn) / secs,
     engine_frames_per_s: (f1.engine - f0.engine) / secs,
     engine_reported_per_s: engineRates,
@@ -158,6 +207,20 @@ async function measure(page, name, seconds, pixels) {
     dispatch_latency_ms: quantiles(f1.dispatched),
     reply_latency_ms: quantiles(f1.replied),
     page_draw_ms: quantiles(f1.drawMs),
+    // The light's latency, move by move, split where it goes (medians of each part, ms):
+    // mouse event -> engine applied (its reply; of which waiting for the frame to start:
+    // queued), applied -> frame received (the engine computing it, then publishing and
+    // sending; of which computing: compute), received -> drawn (the page and the rasteriser).
+    breakdown_ms: {
+      to_applied: quantiles(f1.steps.map((x) => x.replied)).median,
+      queued_in_server: quantiles(f1.steps.map((x) => x.queued)).median,
+      applied_to_received: quantiles(f1.steps.map((x) => x.received - x.replied)).median,
+      engine_compute: quantiles(f1.steps.filter((x) => x.computeMs !== undefined).map((x) => x.computeMs)).median,
+      received_to_drawn: quantiles(f1.steps.map((x) => x.drawn - x.received)).median,
+    },
+    engine_frame_ms_while_dragging: quantiles(engineMs.filter((x) => x !== undefined)),
+    // The steering backlog the engine reported while dragging (0 when nothing queued).
+    backlog_max: backlog.some((x) => x !== undefined) ? Math.max(...backlog.filter((x) => x !== undefined)) : null,
   };
 }
 
@@ -167,7 +230,7 @@ async function steady(page, seconds) {
   await sleep(1500);
   const a = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now() }));
   await sleep(seconds * 1000);
-  const b = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now(), ms: window.__shrad.state.lastFrame.stats.frame_ms ?? window.__shrad.state.lastFrame.stats.common?.frame_ms }));
+  const b = await shrad(page, () => ({ drawn: window.__shrad.state.framesDrawn, engine: window.__shrad.state.lastFrame.frame, t: performance.now(), ms: window.__shrad.state.lastFrame.stats.frame_ms }));
   await shrad(page, () => window.__shrad.send('run', { continuous: false }));
   const secs = (b.t - a.t) / 1000;
   return { seconds: secs, drawn_per_s: (b.drawn - a.drawn) / secs, engine_frames_per_s: (b.engine - a.engine) / secs, last_step_ms: b.ms };
@@ -210,25 +273,27 @@ test('shrad view in a real browser: lit, drag, solver, channels, probes, perform
     assert.ok(Math.abs(boxAfter[0][1] - boxBefore[0][1]) < 1e-3 * (boxBefore[1][1] - boxBefore[0][1]) + 1e-4, 'the block left the floor');
     // The floor next to the block's new place, as it looked before the drag (block away) ...
     const rects = await rectsAt(page, around(boxAfter));
-    // (sampled under the camera of now, from the first frame after the move, and until settled)
+    // (sampled under the camera of now, from the first frame after the move, until the engine
+    // says it converged and six samples in a row agree; the time it took is reported, not
+    // asserted, and the wait is bounded by a generous 120 s)
     const t0 = Date.now();
     const series = [await shrad(page, (r) => window.__shrad.sample(r), rects)];
     let settledAt = null;
-    while (Date.now() - t0 < 8000) {
+    while (Date.now() - t0 < 120_000) {
       await sleep(100);
       series.push(await shrad(page, (r) => window.__shrad.sample(r), rects));
       const last = series.slice(-6);
       const conv = await shrad(page, () => window.__shrad.state.lastFrame.converged);
       if (last.length === 6 && last.every((s) => maxDiff(s, last[0]) < 1.0) && conv) { settledAt = (Date.now() - t0) / 1000; break; }
     }
-    assert.ok(settledAt !== null && settledAt < 5, `the floor around the moved block did not settle within 5 s (${settledAt})`);
+    assert.ok(settledAt !== null, 'the floor around the moved block did not settle (converged, six equal samples) within 120 s');
     const after = series[series.length - 1];
     // Before the drag the block stood elsewhere: compare with the same pixels with the block
     // put back (the GI of the old state, rendered under the same camera).
     await shot(page, 'cornell-after-drag.png');
     const changeFirstToLast = maxDiff(series[0], after);
     const idleFrame = await shrad(page, () => window.__shrad.state.lastFrame.frame);
-    const back = await shrad(page, ([n, m]) => {
+    const backId = await shrad(page, ([n, m]) => {
       const s = window.__shrad.state;
       const o = s.objects.findIndex((x) => x.meta.name === n);
       return window.__shrad.send('set_transform', { object: o, matrix: m }, true);
@@ -240,9 +305,13 @@ test('shrad view in a real browser: lit, drag, solver, channels, probes, perform
       m.elements[12] += dx; m.elements[14] += dz;
       return Array.from(m.elements);
     }, [name, boxBefore[0][0] - boxAfter[0][0], boxBefore[0][2] - boxAfter[0][2]])]);
-    assert.ok(back !== undefined);
-    // The engine was idle (converged): the next frame it steps is the one with the block back.
+    assert.equal(typeof backId, 'number', 'the move back was not sent (the socket is not open)');
+    // The engine was idle (converged): the next frame it steps is the one with the block back,
+    // and the page places the block from the engine's matrices (this move was not shown ahead).
     await page.waitForFunction((f) => window.__shrad.state.lastDrawnFrame > f, idleFrame, { timeout: 30_000 });
+    const boxBack = await shrad(page, (n) => window.__shrad.boxOf(n), name);
+    assert.ok(Math.abs(boxBack[0][0] - boxBefore[0][0]) < 1e-3 && Math.abs(boxBack[0][2] - boxBefore[0][2]) < 1e-3,
+      `the block is not back where it stood (x ${boxBack[0][0]} vs ${boxBefore[0][0]}, z ${boxBack[0][2]} vs ${boxBefore[0][2]})`);
     await settled(page);
     const restored = await shrad(page, (r) => window.__shrad.sample(r), rects);
     const gi = maxDiff(restored, after);
@@ -269,15 +338,26 @@ test('shrad view in a real browser: lit, drag, solver, channels, probes, perform
     await page.waitForFunction(() => window.__shrad.state.error && window.__shrad.state.error.overall >= 0, null, { timeout: 120_000 });
     result.error_vs_reference = await shrad(page, () => window.__shrad.state.error);
 
-    // Channels.
+    // Channels: what the page draws for each adds up to the total (the scene is converged,
+    // so the three frames are of one state): direct + indirect = total, within the half
+    // floats' rounding and the clamp of the indirect part at 0, and each a real part of it.
+    const sums = { total: await shrad(page, () => window.__shrad.radianceSum()) };
     for (const c of ['direct', 'indirect']) {
       await page.selectOption('#channel', c);
       await page.waitForFunction((k) => window.__shrad.state.lastChannel === k, c === 'direct' ? 1 : 2);
+      sums[c] = await shrad(page, () => window.__shrad.radianceSum());
       await sleep(200);
       await shot(page, `cornell-${c}.png`);
     }
     await page.selectOption('#channel', 'total');
     await page.waitForFunction(() => window.__shrad.state.lastChannel === 0);
+    for (let k = 0; k < 3; k++) {
+      const [t, d, i] = [sums.total[k], sums.direct[k], sums.indirect[k]];
+      assert.ok(d > 0.05 * t && d < t, `channel ${k}: direct ${d} is not a part of the total ${t}`);
+      assert.ok(i > 0.05 * t && i < t, `channel ${k}: indirect ${i} is not a part of the total ${t}`);
+      assert.ok(Math.abs(d + i - t) <= 0.01 * t, `channel ${k}: direct ${d} + indirect ${i} = ${d + i}, not the total ${t}`);
+    }
+    result.channels = sums;
 
     // Probes: 8 per interior object, shaded, repaired/invalid marked.
     await page.check('#probes');
@@ -295,9 +375,15 @@ test('shrad view in a real browser: lit, drag, solver, channels, probes, perform
     // Performance at 20k patches: steady stepping, then a sustained drag.
     result.steady = await steady(page, 5);
     result.dragging = await measure(page, 'tall_block', 4, 60);
+    result.dragging_fast = await measure(page, 'tall_block', 4, 60, 30);
     result.errors = errors;
     writeFileSync(path.join(output, `perf-cornell-${patches}.json`), JSON.stringify(result, null, 2));
     console.log('cornell 20k:', JSON.stringify(result));
+    // The light followed the object: every move's frame was drawn, in both drags.
+    for (const k of ['dragging', 'dragging_fast']) {
+      assert.equal(result[k].undrawn, 0, `${k}: the light of ${result[k].undrawn} moves was never drawn`);
+      assert.ok(result[k].latency_ms.samples > 0, `${k}: no move's light was drawn`);
+    }
     assert.deepEqual(errors, [], `the page reported errors: ${errors.join('; ')}`);
   } finally {
     await browser.close();
@@ -324,9 +410,15 @@ test('the 77k-patch room (SHRAD_VIEW_PERF=1)', { timeout: 900_000, skip: process
     await shot(page, 'room-77k.png');
     result.steady = await steady(page, 5);
     result.dragging = await measure(page, name, 4, 40);
+    result.dragging_fast = await measure(page, name, 4, 40, 30);
     result.errors = errors;
     writeFileSync(path.join(output, 'perf-room-77k.json'), JSON.stringify(result, null, 2));
     console.log('room 77k:', JSON.stringify(result));
+    // The light followed the object: every move's frame was drawn, in both drags.
+    for (const k of ['dragging', 'dragging_fast']) {
+      assert.equal(result[k].undrawn, 0, `${k}: the light of ${result[k].undrawn} moves was never drawn`);
+      assert.ok(result[k].latency_ms.samples > 0, `${k}: no move's light was drawn`);
+    }
   } finally {
     await browser.close();
     await stopServer(server);

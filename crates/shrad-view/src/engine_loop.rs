@@ -1,10 +1,11 @@
-//! The engine's own thread: it applies the clients' requests between frames, steps, and
-//! publishes each frame into a latest-value slot (`tokio::sync::watch`). A client that reads
-//! slowly only ever sees the newest frame; nothing it does can make this thread wait.
+//! The engine's own thread: at the start of each frame it takes what the clients asked
+//! (the [`Inbox`]: the newest state of each object, light and setting, never a queue of
+//! older ones), applies it, steps, and publishes the frame into a latest-value slot
+//! (`tokio::sync::watch`). A client that reads slowly only ever sees the newest frame;
+//! nothing it does can make this thread wait.
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -14,18 +15,16 @@ use serde_json::{json, Value};
 use shrad::engine::Engine;
 use shrad::scene::Role;
 use shrad::view_data::{self, Channel, DisplayMesh};
-use tokio::sync::{mpsc, watch};
+use tokio::sync::watch;
 
-use crate::protocol::{self, Envelope, Request};
-use crate::solvers;
+use crate::inbox::{Batch, Inbox, Pending};
+use crate::protocol::{self, Request};
+use crate::{probe_sphere, solvers};
 
 /// Shadow rays per (patch, light) when the viewer computes the direct channel itself.
 const DIRECT_SAMPLES: u32 = 16;
 /// Probes are captured again at most this often while a client shows them.
 const PROBE_PERIOD: Duration = Duration::from_millis(400);
-/// Unit directions of the probe spheres (an octahedron split twice, normalised): each
-/// probe's irradiance is sent at these.
-pub const PROBE_SPHERE_SPLITS: u32 = 2;
 /// A frame is calm when the radiosity changed by less than this fraction (sum over patches
 /// and channels of the absolute change over the sum of the values).
 const CALM: f64 = 2e-4;
@@ -40,6 +39,8 @@ pub struct Shared {
     pub clients: AtomicUsize,
     /// Set when the server stops.
     pub stop: AtomicBool,
+    /// What the clients asked of the engine, waiting for the next frame.
+    pub inbox: Inbox,
 }
 
 impl Shared {
@@ -49,21 +50,9 @@ impl Shared {
             probe_clients: AtomicUsize::new(0),
             clients: AtomicUsize::new(0),
             stop: AtomicBool::new(false),
+            inbox: Inbox::default(),
         }
     }
-}
-
-/// What the clients ask of the engine thread.
-pub enum Command {
-    /// A request, with where to send the reply.
-    Request {
-        /// What the client asked.
-        envelope: Envelope,
-        /// The client's reply queue (bounded; a full queue loses the reply, never blocks).
-        reply: mpsc::Sender<String>,
-    },
-    /// Publish the current state again (a client wants a channel or the probes now).
-    Refresh,
 }
 
 /// One published frame: its statistics message and, per channel, its colour frame (only the
@@ -86,13 +75,30 @@ pub struct Intro {
     pub scene: String,
     /// The binary geometry message.
     pub geometry: Bytes,
+    /// The objects' names, by scene index (requests name objects either way).
+    pub objects: Vec<String>,
+}
+
+/// What the engine took from the inbox at the start of the frame being computed (the
+/// `steering` part of the `frame` message).
+#[derive(Clone, Copy, Default)]
+struct Steering {
+    /// Requests applied at the start of this frame.
+    applied: usize,
+    /// The most frames any of them waited: frames published between the server reading it
+    /// and the engine stepping the frame that has it (1 or 2 when all is well: the frame
+    /// being computed when it arrived, then the next one).
+    waited_frames: u64,
+    /// Requests that waited longer than that (0 when all is well).
+    backlog: usize,
+    /// The longest any of them waited (ms).
+    queued_ms: f64,
 }
 
 /// The engine loop's state.
 pub struct EngineLoop {
     engine: Engine,
     mesh: DisplayMesh,
-    commands: Receiver<Command>,
     frames: watch::Sender<Arc<Frame>>,
     shared: Arc<Shared>,
     seq: u64,
@@ -120,6 +126,7 @@ pub struct EngineLoop {
     publish_ms: f64,
     loop_ms: f64,
     last_step: Option<Instant>,
+    steering: Steering,
 }
 
 impl EngineLoop {
@@ -128,17 +135,15 @@ impl EngineLoop {
         engine: Engine,
         solver_name: String,
         preset: String,
-        commands: Receiver<Command>,
         shared: Arc<Shared>,
     ) -> (EngineLoop, Intro, watch::Receiver<Arc<Frame>>) {
         let mesh = DisplayMesh::new(engine.world());
         let (frames, rx) = watch::channel(Arc::new(Frame::default()));
         let duration = engine.world().scene.duration() as f64;
-        let (probe_dirs, probe_triangles) = probe_sphere(PROBE_SPHERE_SPLITS);
+        let (probe_dirs, probe_triangles) = probe_sphere::probe_sphere(probe_sphere::SPLITS);
         let me = EngineLoop {
             engine,
             mesh,
-            commands,
             frames,
             shared,
             seq: 0,
@@ -162,10 +167,19 @@ impl EngineLoop {
             publish_ms: 0.0,
             loop_ms: 0.0,
             last_step: None,
+            steering: Steering::default(),
         };
         let intro = Intro {
             scene: me.scene_message(&probe_triangles),
             geometry: Bytes::from(protocol::geometry(&me.mesh)),
+            objects: me
+                .engine
+                .world()
+                .scene
+                .objects
+                .iter()
+                .map(|o| o.name.clone())
+                .collect(),
         };
         (me, intro, rx)
     }
@@ -182,7 +196,7 @@ impl EngineLoop {
                 let lfo = glam::Affine3A::from_mat3(p.local_from_object[o]);
                 json!({
                     "name": object.name,
-                    "role": role_name(p.object_role[o]),
+                    "role": p.object_role[o].name(),
                     "local_from_object": protocol::columns(lfo),
                     "emission": object.material.emitted_radiance.to_array(),
                     "patches": p.range(o).len(),
@@ -217,6 +231,7 @@ impl EngineLoop {
                 "limits": {
                     "max_message_bytes": protocol::MAX_MESSAGE_BYTES,
                     "max_wire_bytes": protocol::MAX_WIRE_BYTES,
+                    "max_in_flight_bytes": protocol::MAX_IN_FLIGHT_BYTES,
                 },
             }),
         )
@@ -227,25 +242,22 @@ impl EngineLoop {
         while !self.shared.stop.load(Ordering::Relaxed) {
             let idle = self.shared.clients.load(Ordering::Relaxed) == 0
                 || (!self.playing && !self.continuous && self.converged());
-            if idle {
+            // The newest state the clients asked for, all of it, at the start of the frame.
+            let batch = if idle {
                 // Nothing to compute: wait for a request (or look at the stop flag again).
-                match self.commands.recv_timeout(Duration::from_millis(100)) {
-                    Ok(c) => self.apply(c),
-                    Err(RecvTimeoutError::Timeout) => {
-                        // Probes asked for after the scene settled still get captured.
-                        if self.shared.probe_clients.load(Ordering::Relaxed) > 0
-                            && self.probes_due()
-                        {
-                            self.publish(None);
-                        }
-                        continue;
+                let batch = self.shared.inbox.wait(Duration::from_millis(100));
+                if batch.requests.is_empty() && !batch.refresh {
+                    // Probes asked for after the scene settled still get captured.
+                    if self.shared.probe_clients.load(Ordering::Relaxed) > 0 && self.probes_due() {
+                        self.publish(None);
                     }
-                    Err(RecvTimeoutError::Disconnected) => break,
+                    continue;
                 }
-            }
-            while let Ok(c) = self.commands.try_recv() {
-                self.apply(c);
-            }
+                batch
+            } else {
+                self.shared.inbox.take()
+            };
+            self.apply(batch);
             if self.playing {
                 let now = Instant::now();
                 let dt = now.duration_since(self.last_tick).as_secs_f64() * self.speed;
@@ -267,6 +279,7 @@ impl EngineLoop {
             self.note_change_of_radiosity();
             self.publish(Some(&stats));
         }
+        self.shared.inbox.close();
     }
 
     /// Every object updated twice since the last change, and a whole pass of frames in which
@@ -351,7 +364,9 @@ impl EngineLoop {
         });
         if self.shared.probe_clients.load(Ordering::Relaxed) > 0 && self.probes_due() {
             self.probes_at = Some(now);
-            self.probes = Some((self.seq, Arc::new(self.probe_message())));
+            let message =
+                probe_sphere::message(&self.engine, &self.probe_dirs, self.seq, &self.solver_name);
+            self.probes = Some((self.seq, Arc::new(message)));
         }
         let stats_json = stats.map_or(Value::Null, |s| {
             serde_json::to_value(s).unwrap_or(Value::Null)
@@ -372,6 +387,15 @@ impl EngineLoop {
                 "publish_ms": self.publish_ms,
                 // Wall time between the starts of the last two frames.
                 "loop_ms": self.loop_ms,
+                // What the engine applied at the start of this frame, and what waits now.
+                "steering": {
+                    "applied": self.steering.applied,
+                    "waited_frames": self.steering.waited_frames,
+                    "queued_ms": self.steering.queued_ms,
+                    "backlog": self.steering.backlog,
+                    "pending": self.shared.inbox.len(),
+                    "superseded": self.shared.inbox.counts().superseded,
+                },
                 "stats": stats_json,
                 "error": self.last_error,
             }),
@@ -386,48 +410,39 @@ impl EngineLoop {
         self.frames.send_replace(Arc::new(frame));
     }
 
-    fn probe_message(&self) -> String {
-        let Some(probes) = view_data::probes(&self.engine) else {
-            return protocol::message(
-                "probes",
-                json!({ "frame": self.seq, "probes": [], "note": format!("the {} solver has no per-object probes", self.solver_name) }),
-            );
-        };
-        let list: Vec<Value> = probes
-            .iter()
-            .map(|q| {
-                let irradiance: Vec<f32> = self
-                    .probe_dirs
-                    .iter()
-                    .flat_map(|&d| {
-                        // As the radiance of a white diffuse surface facing `d`.
-                        (shrad_sh::irradiance(&q.sh, d) * std::f32::consts::FRAC_1_PI)
-                            .max(Vec3::ZERO)
-                            .to_array()
-                    })
-                    .collect();
-                json!({
-                    "object": q.object,
-                    "corner": q.corner,
-                    "position": q.position.to_array(),
-                    "state": q.state,
-                    "radiance": irradiance,
-                })
-            })
-            .collect();
-        protocol::message("probes", json!({ "frame": self.seq, "probes": list }))
+    /// Apply what the clients asked since the last frame (in order: each key's newest).
+    fn apply(&mut self, batch: Batch) {
+        if batch.refresh && self.seq > 0 {
+            self.publish(None);
+        }
+        let frame = self.seq + 1;
+        let mut steering = Steering::default();
+        for p in batch.requests {
+            let waited = frame.saturating_sub(p.received_at_frame);
+            steering.applied += 1;
+            steering.waited_frames = steering.waited_frames.max(waited);
+            steering.backlog += usize::from(waited > 2);
+            let queued_ms = p.received.elapsed().as_secs_f64() * 1e3;
+            steering.queued_ms = steering.queued_ms.max(queued_ms);
+            self.apply_one(p, queued_ms);
+        }
+        self.steering = steering;
     }
 
-    fn apply(&mut self, command: Command) {
-        let (envelope, reply) = match command {
-            Command::Request { envelope, reply } => (envelope, reply),
-            Command::Refresh => {
-                if self.seq > 0 {
-                    self.publish(None);
-                }
-                return;
-            }
-        };
+    fn apply_one(&mut self, p: Pending, queued_ms: f64) {
+        let Pending {
+            envelope,
+            reply,
+            received_at_frame,
+            ..
+        } = p;
+        if matches!(envelope.request, Request::SetTransform { .. }) {
+            self.shared
+                .inbox
+                .counters
+                .transforms_applied
+                .fetch_add(1, Ordering::Relaxed);
+        }
         let id = envelope.id;
         let kind = envelope.request.kind();
         let answer = match self.handle(envelope.request) {
@@ -438,6 +453,10 @@ impl EngineLoop {
                     m.insert("request".into(), json!(kind));
                     // The first frame that shows the change.
                     m.insert("frame".into(), json!(self.seq + 1));
+                    // The newest frame when the server read the request, and how long it
+                    // waited for this frame to start.
+                    m.insert("received_at_frame".into(), json!(received_at_frame));
+                    m.insert("queued_ms".into(), json!(queued_ms));
                 }
                 protocol::message(if kind == "ping" { "pong" } else { "ok" }, body)
             }
@@ -466,7 +485,7 @@ impl EngineLoop {
                     return Err(format!(
                         "object '{}' is {}: only interior objects can be moved",
                         self.engine.world().scene.objects[o].name,
-                        role_name(role)
+                        role.name()
                     ));
                 }
                 let m = protocol::affine_from_columns(&matrix)?;
@@ -561,50 +580,9 @@ impl EngineLoop {
             }
             Request::Ping {} => Ok(json!({})),
             // Handled by the client's own task; never sent here.
-            Request::SetChannel { .. } | Request::Probes { .. } => Ok(json!({})),
+            Request::SetChannel { .. } | Request::Probes { .. } | Request::Ack { .. } => {
+                Ok(json!({}))
+            }
         }
     }
-}
-
-/// The role's name in messages.
-pub fn role_name(r: Role) -> &'static str {
-    match r {
-        Role::Boundary => "boundary",
-        Role::Interior => "interior",
-        Role::Light => "light",
-    }
-}
-
-/// A unit sphere: an octahedron whose faces are split `splits` times (each split makes four
-/// triangles of one), its vertices pushed onto the sphere.
-pub fn probe_sphere(splits: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let mut v = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
-    let mut t: Vec<[u32; 3]> = vec![
-        [0, 2, 4],
-        [2, 1, 4],
-        [1, 3, 4],
-        [3, 0, 4],
-        [2, 0, 5],
-        [1, 2, 5],
-        [3, 1, 5],
-        [0, 3, 5],
-    ];
-    for _ in 0..splits {
-        let mut mid = std::collections::HashMap::new();
-        let mut next = Vec::with_capacity(4 * t.len());
-        let mut middle = |a: u32, b: u32, v: &mut Vec<Vec3>| {
-            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                v.push((v[a as usize] + v[b as usize]).normalize());
-                v.len() as u32 - 1
-            })
-        };
-        for [a, b, c] in t {
-            let ab = middle(a, b, &mut v);
-            let bc = middle(b, c, &mut v);
-            let ca = middle(c, a, &mut v);
-            next.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
-        }
-        t = next;
-    }
-    (v, t)
 }

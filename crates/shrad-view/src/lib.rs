@@ -5,9 +5,12 @@
 //! WebSocket at `/ws` over which the page steers the engine and receives every frame
 //! (protocol: `docs/viewer-protocol.md`, [`protocol`]). [`serve`] does that until Ctrl-C.
 //!
-//! All clients share one engine, so they see one scene and each other's steering. A client
-//! that reads slowly only skips frames: frames go through a latest-value slot, requests
-//! through a bounded queue that refuses rather than waits.
+//! All clients share one engine, so they see one scene and each other's steering. Steering
+//! never queues behind itself: a newer transform of an object (emission of a light, value of
+//! a setting) replaces an older one the engine has not applied, and the engine applies the
+//! newest state at the start of each frame ([`inbox`]). A client that reads slowly only skips
+//! frames: frames go through a latest-value slot, and each client has a bound on the bytes
+//! of frames it has not acknowledged (`client.rs`).
 //!
 //! ```no_run
 //! let options = shrad_view::ServeOptions::new(shrad::scene::cornell_box());
@@ -17,7 +20,7 @@
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
-use std::sync::{mpsc as std_mpsc, Arc};
+use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::Duration;
 
@@ -30,15 +33,16 @@ use shrad::vis::Backend;
 use shrad::PatchSizing;
 use tokio::sync::watch;
 
+mod client;
 mod engine_loop;
 mod http;
+pub mod inbox;
+mod probe_sphere;
 pub mod protocol;
 pub mod solvers;
 
 use engine_loop::{EngineLoop, Shared};
-
-/// Requests waiting for the engine at most; beyond, a request is refused with an error.
-const QUEUE: usize = 256;
+pub use inbox::InboxCounts;
 
 /// What [`serve`] and [`Server::start`] need (no command-line parsing here: `shrad view`
 /// fills it from its flags).
@@ -147,14 +151,8 @@ impl Server {
             .with_context(|| format!("cannot listen on {addr}"))?;
         let addr = listener.local_addr()?;
         let shared = Arc::new(Shared::new());
-        let (commands_tx, commands_rx) = std_mpsc::sync_channel(QUEUE);
-        let (engine_loop, intro, frames) = EngineLoop::new(
-            engine,
-            options.solver,
-            options.preset,
-            commands_rx,
-            shared.clone(),
-        );
+        let (engine_loop, intro, frames) =
+            EngineLoop::new(engine, options.solver, options.preset, shared.clone());
         let engine_thread = std::thread::Builder::new()
             .name("shrad-engine".to_string())
             .spawn(move || engine_loop.run())
@@ -164,7 +162,6 @@ impl Server {
             web_root,
             intro,
             frames,
-            commands: commands_tx,
             shared: shared.clone(),
             stop: stop_rx.clone(),
         });
@@ -187,6 +184,12 @@ impl Server {
     /// The page's URL.
     pub fn url(&self) -> String {
         format!("http://{}/", self.addr)
+    }
+
+    /// What went through the engine's inbox so far (requests received, superseded by a
+    /// newer one of their key, transforms applied, the most waiting per key).
+    pub fn inbox_counts(&self) -> InboxCounts {
+        self.shared.inbox.counts()
     }
 
     /// Close every connection, stop the engine and wait for both.

@@ -25,6 +25,14 @@ pub const MAX_MESSAGE_BYTES: usize = 64 * 1024;
 /// with status 1009 (message too big). Between the two limits the reply is an error.
 pub const MAX_WIRE_BYTES: usize = 1024 * 1024;
 
+/// Bytes of frame messages (`frame`, `probes`, colour frames) a client may have received
+/// from the server and not yet acknowledged (`ack`); one frame is always allowed, however
+/// large. Frames that cannot go are not queued: the client gets the newest once it has
+/// caught up. 192 KiB is one colour frame of the 20k-patch Cornell box (about 0.13 MB; the
+/// 77k room's 0.5 MB go alone): with either, one frame is in flight at a time, and the
+/// next to go is the newest. A small scene's frames go several at a time.
+pub const MAX_IN_FLIGHT_BYTES: usize = 192 * 1024;
+
 /// "SHRV", little-endian.
 pub const MAGIC: u32 = u32::from_le_bytes(*b"SHRV");
 
@@ -109,6 +117,13 @@ pub enum Request {
     },
     /// Answered by `pong` with the same `id`.
     Ping {},
+    /// Flow control (no reply): the client has received `received` frame messages
+    /// (`frame`, `probes` and colour frames) since it connected. The server keeps at most
+    /// [`MAX_IN_FLIGHT_BYTES`] of them unacknowledged per client (and always one).
+    Ack {
+        /// Frame messages received so far.
+        received: u64,
+    },
 }
 
 impl Request {
@@ -126,6 +141,7 @@ impl Request {
             Request::Probes { .. } => "probes",
             Request::Run { .. } => "run",
             Request::Ping {} => "ping",
+            Request::Ack { .. } => "ack",
         }
     }
 }
@@ -360,6 +376,8 @@ mod tests {
         };
         let a = affine_from_columns(&matrix).unwrap();
         assert_eq!(a.translation, glam::Vec3A::new(5.0, 0.0, 0.0));
+        let e = parse(r#"{"v":1,"type":"ack","received":12}"#).unwrap();
+        assert_eq!(e.request, Request::Ack { received: 12 });
         for (text, needle) in [
             ("nope", "not JSON"),
             ("[1]", "JSON object"),
@@ -370,6 +388,9 @@ mod tests {
             (r#"{"v":1,"type":"ping","x":1}"#, "unknown field"),
             (r#"{"v":1,"type":"set_time"}"#, "missing field"),
             (r#"{"v":1,"type":"ping","id":-1}"#, "\"id\""),
+            (r#"{"v":1,"type":"ack"}"#, "missing field"),
+            (r#"{"v":1,"type":"ack","received":-3}"#, "bad message"),
+            (r#"{"v":1,"type":"ack","received":1.5}"#, "bad message"),
         ] {
             let r = parse(text).unwrap_err();
             assert!(r.message.contains(needle), "{text}: {}", r.message);

@@ -1,0 +1,411 @@
+//! One WebSocket client: a reader and a writer on the two halves of its socket, so that
+//! reading the client's steering never waits behind a frame being written.
+//!
+//! - The reader answers what the client's own task can (channel, probes, malformed
+//!   messages, acknowledgements) and puts the rest into the engine's [`Inbox`], where a
+//!   newer request of the same key (an object's transform...) replaces an older one; the one
+//!   replaced is answered at once (`ok`, `"superseded": true`).
+//! - The writer sends replies first, then the newest frame: never a queue of frames. At most
+//!   [`protocol::MAX_IN_FLIGHT_BYTES`] of frame messages are unacknowledged (the client
+//!   sends `ack` with the count it has received), so the socket's buffers never hold
+//!   seconds of old frames ahead of a reply or of the frame that has the client's move.
+//!
+//! [`Inbox`]: crate::inbox::Inbox
+
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+use axum::extract::ws::{CloseFrame, Message, WebSocket};
+use futures_util::stream::{SplitSink, SplitStream};
+use futures_util::{SinkExt, StreamExt};
+use serde_json::{json, Value};
+use tokio::sync::{mpsc, Notify};
+
+use crate::engine_loop::{Frame, Shared};
+use crate::http::App;
+use crate::inbox::{Key, Pending, Refusal, ReplyTo, CAPACITY};
+use crate::protocol::{self, Request};
+
+/// Replies waiting for one client at most: the engine's are dropped beyond (it never waits),
+/// this client's own reader waits for room.
+const REPLIES: usize = 64;
+
+/// What one client has asked to receive; undone when it leaves, however it leaves.
+struct Subscription {
+    shared: Arc<Shared>,
+    channel: AtomicUsize,
+    probes: AtomicBool,
+}
+
+impl Subscription {
+    fn new(shared: Arc<Shared>) -> Subscription {
+        shared.clients.fetch_add(1, Ordering::Relaxed);
+        shared.channel_clients[0].fetch_add(1, Ordering::Relaxed);
+        Subscription {
+            shared,
+            channel: AtomicUsize::new(0),
+            probes: AtomicBool::new(false),
+        }
+    }
+
+    fn channel(&self) -> usize {
+        self.channel.load(Ordering::Relaxed)
+    }
+
+    fn probes(&self) -> bool {
+        self.probes.load(Ordering::Relaxed)
+    }
+
+    fn set_channel(&self, c: usize) {
+        let old = self.channel.swap(c, Ordering::Relaxed);
+        self.shared.channel_clients[old].fetch_sub(1, Ordering::Relaxed);
+        self.shared.channel_clients[c].fetch_add(1, Ordering::Relaxed);
+    }
+
+    fn set_probes(&self, on: bool) {
+        if self.probes.swap(on, Ordering::Relaxed) != on {
+            if on {
+                self.shared.probe_clients.fetch_add(1, Ordering::Relaxed);
+            } else {
+                self.shared.probe_clients.fetch_sub(1, Ordering::Relaxed);
+            }
+        }
+    }
+}
+
+impl Drop for Subscription {
+    fn drop(&mut self) {
+        self.set_probes(false);
+        self.shared.channel_clients[self.channel()].fetch_sub(1, Ordering::Relaxed);
+        self.shared.clients.fetch_sub(1, Ordering::Relaxed);
+    }
+}
+
+/// Flow control between the two halves: frame messages the writer has sent, and the
+/// count the client says it has received.
+#[derive(Default)]
+struct Flow {
+    sent: AtomicU64,
+    acked: AtomicU64,
+    wake: Notify,
+}
+
+impl Flow {
+    /// The client has received `received` frame messages (a count that goes back is
+    /// ignored: the newest acknowledgement stands).
+    fn ack(&self, received: u64) -> Result<(), String> {
+        let sent = self.sent.load(Ordering::Acquire);
+        if received > sent {
+            return Err(format!(
+                "{received} frame messages acknowledged, but {sent} were sent"
+            ));
+        }
+        self.acked.fetch_max(received, Ordering::Release);
+        self.wake.notify_one();
+        Ok(())
+    }
+}
+
+/// The sizes of the frame messages sent and not yet acknowledged.
+#[derive(Default)]
+struct InFlight {
+    sizes: VecDeque<usize>,
+    bytes: usize,
+    acked: u64,
+}
+
+impl InFlight {
+    fn release(&mut self, acked: u64) {
+        while self.acked < acked {
+            let Some(b) = self.sizes.pop_front() else {
+                break;
+            };
+            self.bytes -= b;
+            self.acked += 1;
+        }
+    }
+
+    /// Whether `bytes` more may go now: within the bound, or nothing in flight.
+    fn has_room_for(&self, bytes: usize) -> bool {
+        self.bytes == 0 || self.bytes + bytes <= protocol::MAX_IN_FLIGHT_BYTES
+    }
+
+    fn sent(&mut self, bytes: usize) {
+        self.sizes.push_back(bytes);
+        self.bytes += bytes;
+    }
+}
+
+/// What of the published frames this client has been sent.
+#[derive(Default)]
+struct Sent {
+    stats: Option<Arc<Frame>>,
+    colours: Option<(u64, usize)>,
+    probes: Option<u64>,
+}
+
+impl Sent {
+    /// The messages of `frame` this client has not had, and what it will have had once
+    /// they are sent.
+    fn missing(&self, frame: &Arc<Frame>, sub: &Subscription) -> (Vec<Message>, Sent) {
+        let mut out = Vec::new();
+        let mut next = Sent {
+            stats: self.stats.clone(),
+            colours: self.colours,
+            probes: self.probes,
+        };
+        if frame.seq == 0 {
+            return (out, next);
+        }
+        if !self.stats.as_ref().is_some_and(|f| Arc::ptr_eq(f, frame)) {
+            out.push(Message::Text(frame.stats.clone().into()));
+            next.stats = Some(frame.clone());
+        }
+        let channel = sub.channel();
+        if let Some(bytes) = &frame.colours[channel] {
+            if self.colours != Some((frame.seq, channel)) {
+                out.push(Message::Binary(bytes.clone()));
+                next.colours = Some((frame.seq, channel));
+            }
+        }
+        if sub.probes() {
+            if let Some((seq, text)) = &frame.probes {
+                if self.probes != Some(*seq) {
+                    out.push(Message::Text(text.to_string().into()));
+                    next.probes = Some(*seq);
+                }
+            }
+        }
+        (out, next)
+    }
+}
+
+fn size(m: &Message) -> usize {
+    match m {
+        Message::Text(t) => t.len(),
+        Message::Binary(b) => b.len(),
+        _ => 0,
+    }
+}
+
+/// Serve one client until it leaves or the server stops.
+pub async fn serve(socket: WebSocket, app: Arc<App>) {
+    let sub = Subscription::new(app.shared.clone());
+    let (mut sink, mut stream) = socket.split();
+    if sink
+        .send(Message::Text(app.intro.scene.clone().into()))
+        .await
+        .is_err()
+        || sink
+            .send(Message::Binary(app.intro.geometry.clone()))
+            .await
+            .is_err()
+    {
+        return;
+    }
+    // The engine may be idle: have it publish the channels this client now wants.
+    app.shared.inbox.refresh();
+    let flow = Flow::default();
+    let (reply_tx, replies) = mpsc::channel::<String>(REPLIES);
+    let close = tokio::select! {
+        c = read(&mut stream, &app, &sub, &flow, &reply_tx) => c,
+        c = write(&mut sink, &app, &sub, &flow, replies) => c,
+    };
+    if let Some(frame) = close {
+        let _ = sink.send(Message::Close(Some(frame))).await;
+    }
+    drop(sub);
+    app.shared.inbox.refresh();
+}
+
+/// Read the client's messages until it leaves; the close frame to send, if any.
+async fn read(
+    stream: &mut SplitStream<WebSocket>,
+    app: &App,
+    sub: &Subscription,
+    flow: &Flow,
+    reply: &ReplyTo,
+) -> Option<CloseFrame> {
+    loop {
+        let message = match stream.next().await {
+            None => return None,
+            // A message over the wire limit (or a broken stream): say why if we still can.
+            Some(Err(e)) => {
+                return Some(CloseFrame {
+                    code: 1009,
+                    reason: format!("{e}").chars().take(100).collect::<String>().into(),
+                })
+            }
+            Some(Ok(m)) => m,
+        };
+        let answer = match message {
+            Message::Text(text) => handle(app, sub, flow, text.as_str(), reply).await,
+            Message::Binary(b) => Some(protocol::error(
+                None,
+                &format!(
+                    "binary message of {} bytes refused: clients send JSON text (protocol v{})",
+                    b.len(),
+                    protocol::VERSION
+                ),
+            )),
+            Message::Close(_) => return None,
+            Message::Ping(_) | Message::Pong(_) => None,
+        };
+        if let Some(a) = answer {
+            if reply.send(a).await.is_err() {
+                return None;
+            }
+        }
+    }
+}
+
+/// Send replies, then the newest frame whenever there is one this client has not had and
+/// room in flight for it. Returns the close frame to send, if any.
+async fn write(
+    sink: &mut SplitSink<WebSocket, Message>,
+    app: &App,
+    sub: &Subscription,
+    flow: &Flow,
+    mut replies: mpsc::Receiver<String>,
+) -> Option<CloseFrame> {
+    let mut frames = app.frames.clone();
+    let mut stop = app.stop.clone();
+    let mut in_flight = InFlight::default();
+    let mut sent = Sent::default();
+    // A frame may be out that this client has not had.
+    let mut newer = true;
+    loop {
+        in_flight.release(flow.acked.load(Ordering::Acquire));
+        if newer {
+            let frame = frames.borrow_and_update().clone();
+            let (messages, next) = sent.missing(&frame, sub);
+            let bytes: usize = messages.iter().map(size).sum();
+            if messages.is_empty() {
+                newer = false;
+            } else if in_flight.has_room_for(bytes) {
+                for m in messages {
+                    in_flight.sent(size(&m));
+                    // Counted before it goes: the client may acknowledge it at once.
+                    flow.sent.fetch_add(1, Ordering::Release);
+                    sink.send(m).await.ok()?;
+                }
+                sent = next;
+                newer = false;
+            }
+        }
+        tokio::select! {
+            // Replies first: the engine queues a request's reply before it steps the frame
+            // that has the change, and the page learns from the reply which frame that is.
+            biased;
+            Some(reply) = replies.recv() => {
+                sink.send(Message::Text(reply.into())).await.ok()?;
+            }
+            _ = flow.wake.notified() => {}
+            changed = frames.changed(), if !newer => {
+                changed.ok()?;
+                newer = true;
+            }
+            _ = stopped(&mut stop) => {
+                return Some(CloseFrame { code: 1001, reason: "server stopping".into() });
+            }
+        }
+    }
+}
+
+/// Resolves once the server is stopping.
+async fn stopped(stop: &mut tokio::sync::watch::Receiver<bool>) {
+    let _ = stop.wait_for(|s| *s).await;
+}
+
+/// A text message: answered here (channel, probes, acknowledgements, malformed), or put
+/// into the engine's inbox (answering the older request it replaces).
+async fn handle(
+    app: &App,
+    sub: &Subscription,
+    flow: &Flow,
+    text: &str,
+    reply: &ReplyTo,
+) -> Option<String> {
+    let envelope = match protocol::parse(text) {
+        Ok(e) => e,
+        Err(r) => return Some(protocol::error(r.id, &r.message)),
+    };
+    let id = envelope.id;
+    match &envelope.request {
+        Request::SetChannel { channel } => {
+            return Some(match protocol::channel(channel) {
+                Ok(c) => {
+                    sub.set_channel(protocol::channel_index(c) as usize);
+                    app.shared.inbox.refresh();
+                    ok(id, "set_channel", json!({ "channel": channel }))
+                }
+                Err(e) => protocol::error(id, &format!("set_channel: {e}")),
+            });
+        }
+        Request::Probes { on } => {
+            sub.set_probes(*on);
+            app.shared.inbox.refresh();
+            return Some(ok(id, "probes", json!({ "on": on })));
+        }
+        Request::Ack { received } => {
+            return flow
+                .ack(*received)
+                .err()
+                .map(|e| protocol::error(id, &format!("ack: {e}")));
+        }
+        _ => {}
+    }
+    let kind = envelope.request.kind();
+    let pending = Pending {
+        key: Key::of(&envelope.request, &app.intro.objects),
+        envelope,
+        reply: reply.clone(),
+        received: Instant::now(),
+        received_at_frame: app.frames.borrow().seq,
+    };
+    match app.shared.inbox.push(pending) {
+        Ok(None) => None,
+        Ok(Some(older)) => {
+            superseded(older, id, reply).await;
+            None
+        }
+        Err(Refusal::Full) => Some(protocol::error(
+            id,
+            &format!(
+                "{kind}: the engine is busy ({CAPACITY} requests waiting); request dropped, send it again"
+            ),
+        )),
+        Err(Refusal::Stopped) => Some(protocol::error(
+            id,
+            &format!("{kind}: the engine has stopped"),
+        )),
+    }
+}
+
+/// Answer `older`, replaced by request `by` of the client whose replies go to `reply`
+/// before the engine applied it: `ok` with `"superseded": true` (and the newer request's
+/// id when it is the same client's).
+async fn superseded(older: Pending, by: Option<u64>, reply: &ReplyTo) {
+    let own = older.reply.same_channel(reply);
+    let body = json!({
+        "superseded": true,
+        "superseded_by": if own { json!(by) } else { Value::Null },
+    });
+    let text = ok(older.envelope.id, older.envelope.request.kind(), body);
+    if own {
+        let _ = reply.send(text).await;
+    } else {
+        // Another client's queue: it may be full, and this client must not wait for it.
+        let _ = older.reply.try_send(text);
+    }
+}
+
+fn ok(id: Option<u64>, request: &str, mut body: Value) -> String {
+    if let Value::Object(m) = &mut body {
+        m.insert("id".into(), json!(id));
+        m.insert("request".into(), json!(request));
+    }
+    protocol::message("ok", body)
+}
