@@ -21,6 +21,7 @@ mod write_atomic;
 pub use aabb::Aabb;
 pub use builtin::{box_mesh, builtin, builtin_names, cornell_box, quad, room, RoomParams};
 pub use error::SceneError;
+pub use gltf_io::builder as gltf_builder;
 pub use gltf_io::write_gltf;
 pub use load::{load, LoadOptions};
 pub use model::*;
