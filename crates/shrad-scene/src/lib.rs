@@ -31,4 +31,4 @@ pub use node_anim::{
 pub use obj_io::write_obj;
 pub use roles::infer_roles;
 pub use texture::{srgb_to_linear, Filter, Texture, TextureImage, UvTransform, Wrap};
-pub use write_atomic::{write_atomic, WriteError};
+pub use write_atomic::{staged_path, write_atomic, StagedFiles, WriteError};
