@@ -5,7 +5,7 @@ use std::path::Path;
 use glam::{Affine3A, Mat4};
 use serde_json::{json, Value};
 
-use super::builder::{bounds, BufferAt, FinishedBuffer, GltfBuffer, TRIANGLES};
+use super::builder::{bounds, BufferAt, GltfBuffer, TRIANGLES};
 use crate::{Camera, Object, Scene, SceneError};
 
 /// An f32 as the JSON number with the same shortest decimal form (559.2, not 559.2000122).
@@ -58,12 +58,7 @@ fn build(scene: &Scene, embed: bool) -> (Value, Vec<u8>) {
     } else {
         BufferAt::Glb
     };
-    let FinishedBuffer {
-        accessors,
-        buffer_views,
-        buffers,
-        bin,
-    } = buffer.finish(at);
+    let buffer = buffer.finish(at);
     let mut root = json!({
         "asset": {"version": "2.0", "generator": "shrad"},
         "scene": 0,
@@ -71,9 +66,9 @@ fn build(scene: &Scene, embed: bool) -> (Value, Vec<u8>) {
         "nodes": nodes,
         "meshes": meshes,
         "materials": materials,
-        "accessors": accessors,
-        "bufferViews": buffer_views,
-        "buffers": buffers,
+        "accessors": buffer.accessors,
+        "bufferViews": buffer.buffer_views,
+        "buffers": buffer.buffers,
     });
     if let Some(cam) = &scene.camera {
         root["cameras"] = json!([camera(scene, cam)]);
@@ -81,7 +76,7 @@ fn build(scene: &Scene, embed: bool) -> (Value, Vec<u8>) {
     if uses_strength {
         root["extensionsUsed"] = json!(["KHR_materials_emissive_strength"]);
     }
-    (root, bin)
+    (root, buffer.bin)
 }
 
 /// An object's material, and whether it needs `KHR_materials_emissive_strength`.
