@@ -21,6 +21,7 @@ mod write_atomic;
 pub use aabb::Aabb;
 pub use builtin::{box_mesh, builtin, builtin_names, cornell_box, quad, room, RoomParams};
 pub use error::SceneError;
+pub use gltf_io::builder as gltf_builder;
 pub use gltf_io::write_gltf;
 pub use load::{load, LoadOptions};
 pub use model::*;
@@ -30,4 +31,4 @@ pub use node_anim::{
 pub use obj_io::write_obj;
 pub use roles::infer_roles;
 pub use texture::{srgb_to_linear, Filter, Texture, TextureImage, UvTransform, Wrap};
-pub use write_atomic::{write_atomic, WriteError};
+pub use write_atomic::{staged_path, write_atomic, StagedFiles, WriteError};

@@ -1,5 +1,7 @@
 //! Whole files or nothing: every output of shrad (scenes, images, CSV, plots) is written to a
-//! temporary file beside its destination and renamed into place.
+//! temporary file beside its destination and renamed into place ([`write_atomic`]); a set of
+//! files that belong together (a `.gltf` and its `.bin`, a baked sequence) is all or nothing
+//! ([`StagedFiles`]).
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -49,6 +51,88 @@ pub fn write_atomic(
         let _ = std::fs::remove_file(&tmp);
         fail(e)
     })
+}
+
+/// The hidden name [`StagedFiles`] writes `dest` under until it commits: in the same folder
+/// (so the rename into place is atomic), `.out_0003.glb.staged-PID`.
+pub fn staged_path(dest: &Path) -> PathBuf {
+    let name = dest
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    dest.with_file_name(format!(".{name}.staged-{}", std::process::id()))
+}
+
+/// Several files all or nothing, the companion of [`write_atomic`]. Each is written whole
+/// (through [`write_atomic`]) under its [`staged_path`]; only [`StagedFiles::commit`], once
+/// every file is staged, renames them into place, in the order they were staged. Dropped
+/// without a commit (an error partway, a panic), it removes the staged files: no file of the
+/// set is left on disk, and files of an earlier set at those names stay as they were.
+#[derive(Debug, Default)]
+#[must_use = "staged files are removed unless committed"]
+pub struct StagedFiles {
+    /// (staged name, destination), in staging order.
+    files: Vec<(PathBuf, PathBuf)>,
+}
+
+impl StagedFiles {
+    /// No file staged yet.
+    pub fn new() -> StagedFiles {
+        StagedFiles::default()
+    }
+
+    /// Write `dest`'s staged name with `write` (given the path to fill, as for
+    /// [`write_atomic`]). The error names `dest`.
+    pub fn stage(
+        &mut self,
+        dest: &Path,
+        write: impl FnOnce(&Path) -> Result<(), String>,
+    ) -> Result<(), WriteError> {
+        let staged = staged_path(dest);
+        write_atomic(&staged, write).map_err(|e| WriteError {
+            path: dest.to_path_buf(),
+            message: e.message,
+        })?;
+        self.files.push((staged, dest.to_path_buf()));
+        Ok(())
+    }
+
+    /// [`StagedFiles::stage`] of `bytes`.
+    pub fn stage_bytes(&mut self, dest: &Path, bytes: &[u8]) -> Result<(), WriteError> {
+        self.stage(dest, |t| {
+            std::fs::write(t, bytes).map_err(|e| e.to_string())
+        })
+    }
+
+    /// Rename every staged file into place, in order. When a rename fails (rare: each is in
+    /// its destination's folder), the files not yet renamed are removed, and so are those
+    /// already renamed: what was at their names before is gone, but no part of the set stays.
+    pub fn commit(mut self) -> Result<(), WriteError> {
+        let files = std::mem::take(&mut self.files);
+        for (i, (staged, dest)) in files.iter().enumerate() {
+            if let Err(e) = std::fs::rename(staged, dest) {
+                for (later, _) in &files[i..] {
+                    let _ = std::fs::remove_file(later);
+                }
+                for (_, done) in &files[..i] {
+                    let _ = std::fs::remove_file(done);
+                }
+                return Err(WriteError {
+                    path: dest.clone(),
+                    message: e.to_string(),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Drop for StagedFiles {
+    fn drop(&mut self) {
+        for (staged, _) in &self.files {
+            let _ = std::fs::remove_file(staged);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -112,5 +196,45 @@ mod tests {
         assert!(e.message.contains("does not exist"), "{e}");
         let e = write_atomic(Path::new("/"), |_| Ok(())).unwrap_err();
         assert_eq!(e.message, "not a file path");
+    }
+
+    #[test]
+    fn staged_files_are_all_or_nothing() {
+        let d = dir("staged");
+        let (a, b) = (d.join("a.gltf"), d.join("a.bin"));
+        std::fs::write(&a, b"old").unwrap();
+        // Dropped before the commit: nothing new, the old file as it was.
+        let mut set = StagedFiles::new();
+        set.stage_bytes(&b, b"bin").unwrap();
+        set.stage_bytes(&a, b"json").unwrap();
+        assert_eq!(entries(&d).len(), 3, "a.gltf and two staged files");
+        drop(set);
+        assert_eq!(entries(&d), ["a.gltf"]);
+        assert_eq!(std::fs::read(&a).unwrap(), b"old");
+        // A file that cannot be staged (a folder holds its staged name) names its destination.
+        std::fs::create_dir(staged_path(&b)).unwrap();
+        let mut set = StagedFiles::new();
+        set.stage_bytes(&a, b"json").unwrap();
+        let e = set.stage_bytes(&b, b"bin").unwrap_err();
+        assert_eq!(e.path, b);
+        drop(set);
+        std::fs::remove_dir(staged_path(&b)).unwrap();
+        assert_eq!(entries(&d), ["a.gltf"]);
+        // A rename that fails (a folder at the second name) takes the first back out.
+        std::fs::create_dir(&b).unwrap();
+        let mut set = StagedFiles::new();
+        set.stage_bytes(&a, b"json").unwrap();
+        set.stage_bytes(&b, b"bin").unwrap();
+        let e = set.commit().unwrap_err();
+        assert_eq!(e.path, b);
+        assert_eq!(entries(&d), ["a.bin"]);
+        std::fs::remove_dir(&b).unwrap();
+        // Committed: both in place, nothing staged left.
+        let mut set = StagedFiles::new();
+        set.stage_bytes(&b, b"bin").unwrap();
+        set.stage_bytes(&a, b"json").unwrap();
+        set.commit().unwrap();
+        assert_eq!(entries(&d), ["a.bin", "a.gltf"]);
+        assert_eq!(std::fs::read(&a).unwrap(), b"json");
     }
 }

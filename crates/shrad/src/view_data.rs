@@ -39,6 +39,8 @@ pub struct DisplayMesh {
     pub objects: Vec<DisplayObject>,
     /// Display vertex -> shading vertex (`Patches::corner_vertex` numbering).
     vertex_ids: Vec<u32>,
+    /// Display vertex -> the first patch (in patch order) with a corner there.
+    vertex_patches: Vec<u32>,
 }
 
 impl DisplayMesh {
@@ -47,6 +49,7 @@ impl DisplayMesh {
         let p = &world.patches;
         let mut local_of = vec![u32::MAX; p.shading_vertex_count];
         let mut vertex_ids = Vec::with_capacity(p.shading_vertex_count);
+        let mut vertex_patches = Vec::with_capacity(p.shading_vertex_count);
         let mut objects = Vec::with_capacity(p.object_ranges.len());
         for (o, object) in world.scene.objects.iter().enumerate() {
             let first_vertex = vertex_ids.len() as u32;
@@ -61,6 +64,7 @@ impl DisplayMesh {
                         local_of[v] = positions.len() as u32;
                         positions.push(p.corners[i][k]);
                         vertex_ids.push(v as u32);
+                        vertex_patches.push(i as u32);
                     }
                     local[k] = local_of[v];
                 }
@@ -80,6 +84,7 @@ impl DisplayMesh {
         DisplayMesh {
             objects,
             vertex_ids,
+            vertex_patches,
         }
     }
 
@@ -98,6 +103,16 @@ impl DisplayMesh {
                     .copied()
                     .unwrap_or(Vec3::ZERO)
             })
+            .collect()
+    }
+
+    /// A per-patch value in display-vertex order: at each vertex, that of the first patch
+    /// with a corner there (`Patches::normal` gives each vertex the normal of a patch of
+    /// its own, as the shading vertices are welded within the crease angle).
+    pub fn gather_patches(&self, per_patch: &[Vec3]) -> Vec<Vec3> {
+        self.vertex_patches
+            .iter()
+            .map(|&i| per_patch.get(i as usize).copied().unwrap_or(Vec3::ZERO))
             .collect()
     }
 }

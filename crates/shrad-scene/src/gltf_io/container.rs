@@ -97,8 +97,9 @@ pub(super) fn split_glb(bytes: &[u8]) -> Result<Chunks<'_>, String> {
     Ok(Chunks { json, bin, warning })
 }
 
-/// A GLB of the glTF JSON `json` and the binary buffer `bin` (padded to 4 bytes).
-pub(super) fn join_glb(json: Vec<u8>, bin: Vec<u8>) -> Result<Vec<u8>, String> {
+/// A GLB of the glTF JSON `json` and the binary buffer `bin` (padded to 4 bytes): the one
+/// GLB packer (scenes and bakes); an error when it would pass the format's 4 GiB.
+pub fn join_glb(json: Vec<u8>, bin: Vec<u8>) -> Result<Vec<u8>, String> {
     // Header, two chunk headers, the JSON padded to 4 bytes, the buffer.
     let total = 28 + json.len().next_multiple_of(4) + bin.len();
     if u32::try_from(total).is_err() {

@@ -12,10 +12,12 @@
 //! - `anim`: the animations, into a node graph;
 //! - `walk`, `mesh`, `material`: the default scene's nodes walked into objects.
 //!
-//! `write` is the exporter.
+//! `write` is the exporter, on `builder` (accessors, buffer and GLB container), which
+//! `shrad::bake` writes its lit meshes with too.
 
 mod anim;
 mod buffers;
+pub mod builder;
 mod container;
 mod material;
 mod mesh;
