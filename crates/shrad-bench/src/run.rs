@@ -451,6 +451,24 @@ fn ratio_line(records: &[Record]) -> Option<String> {
     ))
 }
 
+/// The objects scenes' ratio for the log: the moving frame with the most objects over that
+/// with the fewest, from (interior objects, moving frame ms) pairs; None with fewer than
+/// two counts or a zero frame.
+fn objects_ratio(points: &[(usize, f64)]) -> Option<String> {
+    let fewest = points.iter().min_by_key(|p| p.0)?;
+    let most = points.iter().max_by_key(|p| p.0)?;
+    (most.0 > fewest.0 && fewest.1 > 0.0).then(|| {
+        format!(
+            "objects: the moving frame with {} objects over that with {}: {:.1}x ({:.1} against {:.1} ms; issue 24 asks at most 1.5x)",
+            most.0,
+            fewest.0,
+            most.1 / fewest.1,
+            most.1,
+            fewest.1
+        )
+    })
+}
+
 /// The speed-ups of one scene's records over grid5 and grid5-r32, still and moving.
 fn set_speedups(records: &mut [Record]) {
     let still = |k| {
@@ -574,6 +592,14 @@ pub fn run(
             moved_reference_seconds: scene.moved.seconds,
         });
     }
+    let objects: Vec<(usize, f64)> = records
+        .iter()
+        .filter(|r| r.table == Table::Objects)
+        .filter_map(|r| Some((r.interior_objects, r.moving.as_ref()?.frame_ms_median)))
+        .collect();
+    if let Some(line) = objects_ratio(&objects) {
+        log(&line);
+    }
     progress.end();
     Ok(BenchReport {
         machine: machine.unwrap_or_else(|| Machine::detect("none")),
@@ -594,6 +620,18 @@ mod tests {
         assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
         assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
         assert_eq!(median(&[]), 0.0);
+    }
+
+    #[test]
+    fn the_objects_ratio_is_the_most_over_the_fewest() {
+        let line = objects_ratio(&[(32, 90.0), (128, 150.0), (8, 50.0)]).unwrap();
+        assert!(
+            line.contains("with 128 objects over that with 8: 3.0x"),
+            "{line}"
+        );
+        assert!(objects_ratio(&[(8, 50.0)]).is_none());
+        assert!(objects_ratio(&[(8, 0.0), (128, 1.0)]).is_none());
+        assert!(objects_ratio(&[]).is_none());
     }
 
     #[test]
