@@ -17,6 +17,12 @@
 //!   and after the same solver time: the sum of `frame_ms` of grid5's first
 //!   [`BenchOptions::same_time_grid5_frames`] frames in the same scene (each solver runs
 //!   until its own summed `frame_ms` reaches it);
+//! - then one object moves before every frame (the largest; Table 3: the grown one; the
+//!   objects scenes: the smallest box) and those frames are timed too, with the error of the
+//!   last of them against a reference solve of that moved state, and their rays against the
+//!   scene's ray floor (the backend's rate measured once per scene, [`rays`]);
+//! - the objects scenes (40k patches, 8 / 32 / 128 interior objects, [`object_scenes`]) run
+//!   the dispersive default only: does a moving frame grow with the number of objects?
 //! - memory: the process's resident-set growth while the solver was built and warmed up, and
 //!   the process's high-water mark ([`machine`]);
 //! - the first line of the log is the machine the run is on.
@@ -27,8 +33,10 @@
 
 pub mod machine;
 mod markdown;
+pub mod moving;
 mod output;
 pub mod plots;
+pub mod rays;
 mod report;
 mod run;
 mod scenes;
@@ -36,8 +44,12 @@ mod solvers;
 
 pub use machine::Machine;
 pub use markdown::{markdown, summary};
+pub use moving::{moved_transform, moving_frames, MOVE_PERIOD_FRAMES, MOVE_REACH};
 pub use output::write_outputs;
-pub use report::{BenchReport, Errors, Record, SceneInfo, StepMs, TracePoint};
+pub use rays::{measure_ray_rate, RayRate};
+pub use report::{BenchReport, Errors, Moving, Record, SceneInfo, StepMs, TracePoint};
 pub use run::{check_radiosity, median, run, BenchOptions};
-pub use scenes::{build_world, scenes, SceneSpec, Table};
+pub use scenes::{
+    build_world, object_scenes, scenes, SceneSpec, Table, OBJECTS_PATCHES, OBJECT_COUNTS,
+};
 pub use solvers::SolverKind;

@@ -1,5 +1,6 @@
-//! The plots of a run: the paper's Figures 2 and 3 (time per frame against patches) and the
-//! error against solver time, each as CSV (through the `csv` crate, always) and PNG
+//! The plots of a run: the paper's Figures 2 and 3 (time per frame against patches), the
+//! moving frame against the number of objects (`time_vs_objects`) and the error against
+//! solver time, each as CSV (through the `csv` crate, always) and PNG
 //! (plotters, with a DejaVu/Liberation/FreeSans font found at run time; without one the
 //! picture has no text and a warning says so). One series per [`SolverKind`], in its colour.
 
@@ -76,6 +77,23 @@ fn moving<'a>(records: &[&'a Record]) -> Vec<&'a Record> {
         .collect()
 }
 
+/// The moving frame against the number of interior objects (the objects scenes' records
+/// with a moving window); None without any.
+fn objects_plot(records: &[&Record]) -> Option<Plot> {
+    (!records.is_empty()).then(|| Plot {
+        name: "time_vs_objects".into(),
+        title: "Moving frame against interior objects (40k patches, one small box moving)".into(),
+        x_label: "interior objects".into(),
+        y_label: "moving frame time (ms)".into(),
+        series: series_by_solver(
+            records,
+            |r| r.interior_objects as f64,
+            |r| r.moving.as_ref().map_or(f64::NAN, |m| m.frame_ms_median),
+        ),
+        x_axis: XAxis::Log,
+    })
+}
+
 /// The plots of `report`: Figure 2 (Tables 1-2 scenes), Figure 3 (Table 3 scenes), and the
 /// error against time on the Tables 1-2 scene nearest 75k patches and on the largest scene.
 pub fn plots(report: &BenchReport) -> Vec<Plot> {
@@ -105,6 +123,7 @@ pub fn plots(report: &BenchReport) -> Vec<Plot> {
             x_axis: XAxis::Linear,
         });
     }
+    plots.extend(objects_plot(&moving(&of(Table::Objects))));
     if !big.is_empty() {
         plots.push(Plot {
             name: "time_vs_object_patches".into(),

@@ -8,6 +8,7 @@ use shrad::frame::SolverStats;
 use shrad::metrics::RelativeError;
 
 use crate::machine::Machine;
+use crate::rays::RayRate;
 use crate::scenes::Table;
 use crate::solvers::SolverKind;
 
@@ -48,10 +49,14 @@ impl StepMs {
     }
 }
 
-/// The frames timed with one object (the largest; Table 3: the grown one) moved before
-/// each (see [`crate::run::MOVE_REACH`]).
-#[derive(Clone, Copy, Debug, Default, Serialize)]
+/// The frames timed with one object (the largest; Table 3: the grown one; the objects
+/// table: the smallest box) moved before each (see [`crate::moving::MOVE_REACH`]).
+#[derive(Clone, Debug, Default, Serialize)]
 pub struct Moving {
+    /// The object moved (its name in the scene).
+    pub object: String,
+    /// Its patches.
+    pub object_patches: usize,
     /// Median `frame_ms`.
     pub frame_ms_median: f64,
     /// The longest frame (ms).
@@ -62,6 +67,20 @@ pub struct Moving {
     pub frames: usize,
     /// grid5's median moving frame / this solver's (same scene, same run).
     pub speedup_vs_grid5: Option<f64>,
+    /// grid5-r32's median moving frame / this solver's (same scene, same run): the speed-up
+    /// at equal probe resolution.
+    pub speedup_vs_grid5_r32: Option<f64>,
+    /// The error of the last moving frame against a reference solve of that moved state
+    /// (the object where the last frame put it, at its farthest from rest).
+    pub error: RelativeError,
+    /// Median `rays_cast` of the moving frames.
+    pub rays_median: f64,
+    /// The time `rays_median` rays take at the scene's measured floor rate
+    /// ([`crate::rays::RayRate::floor_rays_per_s`]), ms; NaN when it was not measured.
+    pub ray_floor_ms: f64,
+    /// `frame_ms_median / ray_floor_ms`: how far the frame is above its rays' floor (NaN
+    /// without a floor or without rays).
+    pub over_ray_floor: f64,
 }
 
 /// Errors after the same frames and after the same time.
@@ -90,7 +109,7 @@ pub struct TracePoint {
 pub struct Record {
     /// Scene name.
     pub scene: String,
-    /// `Scaling` (Tables 1-2) or `BigObject` (Table 3).
+    /// `Scaling` (Tables 1-2), `BigObject` (Table 3) or `Objects` (the object count grows).
     pub table: Table,
     /// Patches of the scene.
     pub patches: usize,
@@ -123,6 +142,8 @@ pub struct Record {
     pub same_time_frames: usize,
     /// grid5's median frame time / this solver's (same scene, same run).
     pub speedup_vs_grid5: Option<f64>,
+    /// grid5-r32's median frame time / this solver's (same scene, same run).
+    pub speedup_vs_grid5_r32: Option<f64>,
     /// Time to build the solver (precomputation), ms.
     pub setup_ms: f64,
     /// Process high-water mark (VmHWM) at the end of this solver's run, MiB. When
@@ -166,6 +187,14 @@ pub struct SceneInfo {
     pub reference_converged: bool,
     /// World build time (s).
     pub world_seconds: f64,
+    /// The visibility backend's measured ray rates in this scene (all zero when not
+    /// measured).
+    pub ray_rate: RayRate,
+    /// Reference solves of moved states (the error while moving): how many, and their
+    /// summed time (s).
+    pub moved_references: usize,
+    /// Their summed time (s).
+    pub moved_reference_seconds: f64,
 }
 
 /// Everything a run produced.

@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use glam::{Affine3A, Vec3};
+use glam::Vec3;
 use shrad::dispersive::FrameStats;
 use shrad::engine::Engine;
 use shrad::metrics::relative_error;
@@ -13,7 +13,9 @@ use shrad::vis::Backend;
 use shrad::{Error, NoProgress, Progress, World};
 
 use crate::machine::{memory_mib, reset_peak, Machine};
-use crate::report::{BenchReport, Errors, Moving, Record, SceneInfo, StepMs, TracePoint};
+use crate::moving::{mover, moving_frames, moving_window, MovedReferences};
+use crate::rays::{measure_ray_rate, RayRate, RAY_RATE_BATCH, RAY_RATE_RAYS};
+use crate::report::{BenchReport, Errors, Record, SceneInfo, StepMs, TracePoint};
 use crate::scenes::{build_world, scenes, SceneSpec, Table};
 use crate::solvers::SolverKind;
 
@@ -49,13 +51,13 @@ pub struct BenchOptions {
     pub grid_moving: usize,
     /// Dispersive: passes timed with one object moving every frame.
     pub dispersive_moving_passes: usize,
+    /// The objects scenes ([`Table::Objects`]): frames timed with the smallest box moving
+    /// (a fixed count, not passes: a pass of 128 objects would be 128 moving frames).
+    pub objects_moving_frames: usize,
+    /// Rays of each kind cast once per scene to measure the backend's rate (the ray floor,
+    /// [`crate::rays`]); 0: not measured.
+    pub ray_rate_rays: usize,
 }
-
-/// How far the moving object goes either side of where it rests, as a fraction of the
-/// scene's extent along x (0.4 m in the 8 m room).
-pub const MOVE_REACH: f32 = 0.05;
-/// Frames of one back-and-forth of the moving object.
-pub const MOVE_PERIOD_FRAMES: usize = 16;
 
 impl BenchOptions {
     /// The default protocol over [`scenes`]`(quick)`.
@@ -79,7 +81,19 @@ impl BenchOptions {
             error_bound: 1.0,
             grid_moving: 3,
             dispersive_moving_passes: 2,
+            objects_moving_frames: if quick { 12 } else { 36 },
+            ray_rate_rays: RAY_RATE_RAYS,
         }
+    }
+
+    /// The solvers run on `spec`: all of [`BenchOptions::solvers`], or on the objects scenes
+    /// only the dispersive default.
+    pub fn solvers_for(&self, spec: &SceneSpec) -> Vec<SolverKind> {
+        self.solvers
+            .iter()
+            .copied()
+            .filter(|&k| spec.table != Table::Objects || k == SolverKind::Dispersive)
+            .collect()
     }
 
     /// Keep only `solvers` (any order, repeats ignored), run in [`SolverKind::ALL`]'s order
@@ -137,13 +151,29 @@ struct SceneRun<'a> {
     spec: &'a SceneSpec,
     reference: &'a [Vec3],
     world_rss_mib: f64,
+    /// The backend's ray rates in this scene (the ray floor).
+    ray_rate: RayRate,
+    /// The reference solves of moved states (the error while moving).
+    moved: MovedReferences,
+}
+
+impl<'a> SceneRun<'a> {
+    fn new(spec: &'a SceneSpec, reference: &'a [Vec3], world_rss_mib: f64) -> Self {
+        SceneRun {
+            spec,
+            reference,
+            world_rss_mib,
+            ray_rate: RayRate::default(),
+            moved: MovedReferences::default(),
+        }
+    }
 }
 
 /// Run one solver on an engine over `world` and hand the world back. `budget_ms`: the
 /// same-time budget (None for grid5, which sets it from its own first frames and returns it).
 fn run_solver(
     world: World,
-    scene: &SceneRun<'_>,
+    scene: &mut SceneRun<'_>,
     kind: SolverKind,
     options: &BenchOptions,
     budget_ms: Option<f64>,
@@ -156,8 +186,11 @@ fn run_solver(
     // Table 3: the grown object (the first interior one); else the largest.
     let largest_object = match spec.table {
         Table::BigObject => interior.first().copied(),
-        Table::Scaling => interior.iter().copied().max_by_key(|&o| p.range(o).len()),
+        Table::Scaling | Table::Objects => {
+            interior.iter().copied().max_by_key(|&o| p.range(o).len())
+        }
     };
+    let mover = mover(&world, spec.table, &interior);
     let largest = largest_object.map_or(0, |o| p.range(o).len());
     let n_obj = interior.len().max(1);
     let same_frames = if options.same_frames > 0 {
@@ -267,20 +300,30 @@ fn run_solver(
     // The case the paper is about: an object moving every frame. The static frames above
     // are cheap once the exact caches of Steps 1-3 hold; these frames pay for the object's
     // light, its shadows and its neighbours again.
-    let moving_frames = if kind.is_grid() {
+    let asked = if spec.table == Table::Objects {
+        options.objects_moving_frames
+    } else if kind.is_grid() {
         options.grid_moving
     } else {
         options.dispersive_moving_passes * n_obj
     };
-    let mover = largest_object.filter(|_| moving_frames > 0);
+    let moving_frames = moving_frames(asked);
+    let mover = mover.filter(|_| moving_frames > 0);
     let rest = mover.map(|o| (o, engine.world().patches.world_from_local[o]));
-    let moving_stats = match mover {
-        Some(o) => time_moving(&mut engine, o, moving_frames).map_err(|e| {
-            Error::Invalid(format!("{kind} on {} with a moving object: {e}", spec.name))
-        })?,
-        None => Vec::new(),
+    let moving = match mover {
+        Some(o) => Some(
+            moving_window(
+                &mut engine,
+                o,
+                moving_frames,
+                &mut scene.moved,
+                &options.reference,
+                &scene.ray_rate,
+            )
+            .map_err(|e| Error::Invalid(format!("{kind} on {}: {e}", spec.name)))?,
+        ),
+        None => None,
     };
-    let moving = (!moving_stats.is_empty()).then(|| medians(&moving_stats));
     let frame_ms: Vec<f64> = timed_stats.iter().map(|s| s.frame_ms).collect();
     // The paper's Table 3 column: the frames that update the largest object.
     let largest_frames: Vec<f64> = timed_stats
@@ -313,6 +356,7 @@ fn run_solver(
         same_time_budget_ms: budget.unwrap_or(0.0),
         same_time_frames,
         speedup_vs_grid5: None,
+        speedup_vs_grid5_r32: None,
         setup_ms,
         peak_mib: hwm,
         peak_is_per_solver: peak_reset,
@@ -335,35 +379,8 @@ fn run_solver(
     Ok((record, world))
 }
 
-/// Step `frames` frames, moving object `o` before each: back and forth along x by
-/// [`MOVE_REACH`] of the scene's extent, one period in [`MOVE_PERIOD_FRAMES`] frames. The
-/// radiosity is checked after the last frame.
-fn time_moving(engine: &mut Engine, o: usize, frames: usize) -> Result<Vec<FrameStats>, String> {
-    let rest = engine.transform(o);
-    let size = engine
-        .world()
-        .scene
-        .bounds()
-        .ok_or_else(|| "the scene is empty".to_string())?
-        .size();
-    let reach = MOVE_REACH * size.x;
-    let mut stats = Vec::with_capacity(frames);
-    for k in 1..=frames {
-        let phase = (k as f32 * std::f32::consts::TAU / MOVE_PERIOD_FRAMES as f32).sin();
-        engine
-            .set_transform(
-                o,
-                Affine3A::from_translation(Vec3::X * reach * phase) * rest,
-            )
-            .map_err(|e| e.to_string())?;
-        stats.push(engine.step());
-    }
-    check_radiosity(engine.world(), engine.radiosity())?;
-    Ok(stats)
-}
-
 /// The median of each step over `stats`, taken separately.
-fn step_medians(stats: &[FrameStats]) -> StepMs {
+pub(crate) fn step_medians(stats: &[FrameStats]) -> StepMs {
     let steps: Vec<StepMs> = stats.iter().map(StepMs::of).collect();
     let step = |f: fn(&StepMs) -> f64| median(&steps.iter().map(f).collect::<Vec<_>>());
     StepMs {
@@ -374,21 +391,10 @@ fn step_medians(stats: &[FrameStats]) -> StepMs {
     }
 }
 
-/// The medians of a window of frames with an object moving.
-fn medians(stats: &[FrameStats]) -> Moving {
-    Moving {
-        frame_ms_median: median(&stats.iter().map(|s| s.frame_ms).collect::<Vec<_>>()),
-        frame_ms_max: stats.iter().map(|s| s.frame_ms).fold(0.0, f64::max),
-        step_ms: step_medians(stats),
-        frames: stats.len(),
-        speedup_vs_grid5: None,
-    }
-}
-
 /// One line per solver for the log.
 fn record_line(r: &Record) -> String {
     format!(
-        "  {:<10} frame {:>9.2} ms (direct {:.2}, objects {:.2}, to boundary {:.2}, assemble {:.2}), error {:.1} % after {} frames, {:.1} % after {} frames in {:.0} ms{}{}",
+        "  {:<10} frame {:>9.2} ms (direct {:.2}, objects {:.2}, to boundary {:.2}, assemble {:.2}), error {:.1} % after {} frames{}{}{}",
         r.solver.label(),
         r.frame_ms_median,
         r.step_ms.direct,
@@ -397,15 +403,101 @@ fn record_line(r: &Record) -> String {
         r.step_ms.assemble,
         100.0 * r.error.same_frames.overall,
         r.same_frames,
-        100.0 * r.error.same_time.overall,
-        r.same_time_frames,
-        r.same_time_budget_ms,
+        if r.same_time_budget_ms > 0.0 {
+            format!(
+                ", {:.1} % after {} frames in {:.0} ms",
+                100.0 * r.error.same_time.overall,
+                r.same_time_frames,
+                r.same_time_budget_ms
+            )
+        } else {
+            String::new()
+        },
         r.moving.as_ref().map_or(String::new(), |m| format!(
-            "; moving {:.2} ms (direct {:.2}, objects {:.2}, to boundary {:.2}, assemble {:.2}; longest {:.1})",
-            m.frame_ms_median, m.step_ms.direct, m.step_ms.objects, m.step_ms.to_boundary, m.step_ms.assemble, m.frame_ms_max
+            "; moving {:.2} ms (direct {:.2}, objects {:.2}, to boundary {:.2}, assemble {:.2}; longest {:.1}), error while moving {:.1} / {:.1} / {:.1} %, {:.0} rays a frame = {:.2} ms at the floor rate ({:.1}x the floor)",
+            m.frame_ms_median, m.step_ms.direct, m.step_ms.objects, m.step_ms.to_boundary, m.step_ms.assemble, m.frame_ms_max,
+            100.0 * m.error.overall, 100.0 * m.error.boundary, 100.0 * m.error.interior,
+            m.rays_median, m.ray_floor_ms, m.over_ray_floor
         )),
         if r.check == "ok" { String::new() } else { format!(", CHECK: {}", r.check) }
     )
+}
+
+/// The moving ratios of one scene for the log: the dispersive default's moving frame
+/// against grid5's and grid5-r32's (issue 24 reads them from `--quick`). None without a
+/// dispersive moving record or without either grid.
+fn ratio_line(records: &[Record]) -> Option<String> {
+    let moving = |k| {
+        records
+            .iter()
+            .find(|r| r.solver == k)
+            .and_then(|r| r.moving.as_ref())
+    };
+    let d = moving(SolverKind::Dispersive)?;
+    if d.speedup_vs_grid5.is_none() && d.speedup_vs_grid5_r32.is_none() {
+        return None;
+    }
+    let against = |k: SolverKind, x: Option<f64>| {
+        moving(k).zip(x).map_or(format!("- vs {k}"), |(g, x)| {
+            format!("{x:.1}x vs {k} ({:.1} ms)", g.frame_ms_median)
+        })
+    };
+    Some(format!(
+        "{} moving: dispersive {:.1} ms: {}, {}",
+        records[0].scene,
+        d.frame_ms_median,
+        against(SolverKind::Grid5, d.speedup_vs_grid5),
+        against(SolverKind::Grid5DefaultRes, d.speedup_vs_grid5_r32),
+    ))
+}
+
+/// The objects scenes' ratio for the log: the moving frame with the most objects over that
+/// with the fewest, from (interior objects, moving frame ms) pairs; None with fewer than
+/// two counts or a zero frame.
+fn objects_ratio(points: &[(usize, f64)]) -> Option<String> {
+    let fewest = points.iter().min_by_key(|p| p.0)?;
+    let most = points.iter().max_by_key(|p| p.0)?;
+    (most.0 > fewest.0 && fewest.1 > 0.0).then(|| {
+        format!(
+            "objects: the moving frame with {} objects over that with {}: {:.1}x ({:.1} against {:.1} ms; issue 24 asks at most 1.5x)",
+            most.0,
+            fewest.0,
+            most.1 / fewest.1,
+            most.1,
+            fewest.1
+        )
+    })
+}
+
+/// The speed-ups of one scene's records over grid5 and grid5-r32, still and moving.
+fn set_speedups(records: &mut [Record]) {
+    let still = |k| {
+        records
+            .iter()
+            .find(|r| r.solver == k)
+            .map(|r| r.frame_ms_median)
+    };
+    let moving = |k| {
+        records
+            .iter()
+            .find(|r| r.solver == k)
+            .and_then(|r| r.moving.as_ref())
+            .map(|m| m.frame_ms_median)
+    };
+    let ratio = |g: Option<f64>, t: f64| g.filter(|_| t > 0.0).map(|g| g / t);
+    let (g5, r32) = (still(SolverKind::Grid5), still(SolverKind::Grid5DefaultRes));
+    let (g5m, r32m) = (
+        moving(SolverKind::Grid5),
+        moving(SolverKind::Grid5DefaultRes),
+    );
+    for r in records {
+        r.speedup_vs_grid5 = ratio(g5, r.frame_ms_median);
+        r.speedup_vs_grid5_r32 = ratio(r32, r.frame_ms_median);
+        if let Some(m) = r.moving.as_mut() {
+            m.speedup_vs_grid5 = ratio(g5m, m.frame_ms_median);
+            m.speedup_vs_grid5_r32 = ratio(r32m, m.frame_ms_median);
+        }
+    }
 }
 
 /// Run the whole benchmark. `log` receives one line per finished step, the machine's first.
@@ -418,9 +510,19 @@ pub fn run(
     let mut records: Vec<Record> = Vec::new();
     let mut infos = Vec::new();
     let mut machine = None;
-    let units = options.scenes.len() as u64 * (2 + options.solvers.len() as u64);
+    let units: u64 = options
+        .scenes
+        .iter()
+        .map(|s| options.solvers_for(s).len() as u64)
+        .filter(|&n| n > 0)
+        .map(|n| 2 + n)
+        .sum();
     progress.begin("bench", units);
     for spec in &options.scenes {
+        let kinds = options.solvers_for(spec);
+        if kinds.is_empty() {
+            continue;
+        }
         let (rss0, _) = memory_mib();
         let t = Instant::now();
         let mut world = build_world(spec, options.backend)?;
@@ -451,24 +553,21 @@ pub fn run(
             stats.iterations,
             if stats.converged { "" } else { ", NOT converged" }
         ));
-        infos.push(SceneInfo {
-            scene: spec.name.clone(),
-            patches: world.patches.len(),
-            by_role,
-            reference_seconds,
-            reference_converged: stats.converged,
-            world_seconds,
-        });
+        // The ray floor: the backend's rate in this scene, before any solver.
+        let mut scene = SceneRun::new(spec, &reference, world_rss_mib);
+        if options.ray_rate_rays > 0 {
+            scene.ray_rate = measure_ray_rate(&world, options.ray_rate_rays, RAY_RATE_BATCH);
+            log(&format!(
+                "{}: ray rate {}",
+                spec.name,
+                scene.ray_rate.line()
+            ));
+        }
         progress.advance(1);
-        let scene = SceneRun {
-            spec,
-            reference: &reference,
-            world_rss_mib,
-        };
         let mut budget = None;
         let first = records.len();
-        for &kind in &options.solvers {
-            let (r, back) = run_solver(world, &scene, kind, options, budget)?;
+        for &kind in &kinds {
+            let (r, back) = run_solver(world, &mut scene, kind, options, budget)?;
             world = back;
             if kind == SolverKind::Grid5 {
                 budget = Some(r.same_time_budget_ms);
@@ -477,33 +576,29 @@ pub fn run(
             records.push(r);
             progress.advance(1);
         }
-        // Speed-ups within the scene.
-        let grid5 = records[first..]
-            .iter()
-            .find(|r| r.solver == SolverKind::Grid5)
-            .map(|r| r.frame_ms_median);
-        if let Some(g) = grid5 {
-            for r in &mut records[first..] {
-                if r.frame_ms_median > 0.0 {
-                    r.speedup_vs_grid5 = Some(g / r.frame_ms_median);
-                }
-            }
+        set_speedups(&mut records[first..]);
+        if let Some(line) = ratio_line(&records[first..]) {
+            log(&line);
         }
-        let grid5_moving = records[first..]
-            .iter()
-            .find(|r| r.solver == SolverKind::Grid5)
-            .and_then(|r| r.moving.as_ref())
-            .map(|m| m.frame_ms_median);
-        if let Some(g) = grid5_moving {
-            for m in records[first..]
-                .iter_mut()
-                .filter_map(|r| r.moving.as_mut())
-            {
-                if m.frame_ms_median > 0.0 {
-                    m.speedup_vs_grid5 = Some(g / m.frame_ms_median);
-                }
-            }
-        }
+        infos.push(SceneInfo {
+            scene: spec.name.clone(),
+            patches: world.patches.len(),
+            by_role,
+            reference_seconds,
+            reference_converged: stats.converged,
+            world_seconds,
+            ray_rate: scene.ray_rate,
+            moved_references: scene.moved.solves,
+            moved_reference_seconds: scene.moved.seconds,
+        });
+    }
+    let objects: Vec<(usize, f64)> = records
+        .iter()
+        .filter(|r| r.table == Table::Objects)
+        .filter_map(|r| Some((r.interior_objects, r.moving.as_ref()?.frame_ms_median)))
+        .collect();
+    if let Some(line) = objects_ratio(&objects) {
+        log(&line);
     }
     progress.end();
     Ok(BenchReport {
@@ -528,6 +623,18 @@ mod tests {
     }
 
     #[test]
+    fn the_objects_ratio_is_the_most_over_the_fewest() {
+        let line = objects_ratio(&[(32, 90.0), (128, 150.0), (8, 50.0)]).unwrap();
+        assert!(
+            line.contains("with 128 objects over that with 8: 3.0x"),
+            "{line}"
+        );
+        assert!(objects_ratio(&[(8, 50.0)]).is_none());
+        assert!(objects_ratio(&[(8, 0.0), (128, 1.0)]).is_none());
+        assert!(objects_ratio(&[]).is_none());
+    }
+
+    #[test]
     fn solvers_run_in_the_canonical_order() {
         let mut o = BenchOptions::new(true);
         o.set_solvers(&[SolverKind::Paper, SolverKind::Grid5, SolverKind::Paper]);
@@ -536,21 +643,16 @@ mod tests {
 
     #[test]
     fn small_room_runs_every_solver() {
-        let spec = SceneSpec {
-            name: "tiny".into(),
-            table: Table::Scaling,
-            params: RoomParams {
-                objects: 2,
-                patches: 1500,
-                big_object_patches: None,
-            },
-        };
+        let mut objects = tiny_spec(Table::Objects, 3, 1500);
+        objects.name = "tiny-objects".into();
         let mut options = BenchOptions::new(true);
-        options.scenes = vec![spec];
+        options.scenes = vec![tiny_spec(Table::Scaling, 2, 1500), objects];
         options.reference = ReferenceOptions::fast();
         options.grid_timed = 2;
         options.grid_warmup = 1;
         options.same_time_grid5_frames = 2;
+        options.objects_moving_frames = 4;
+        options.ray_rate_rays = 20_000;
         // The kinds fix the paper's settings (cube maps of 128): keep it to one scene of
         // 1500 patches.
         let lines = std::sync::Mutex::new(Vec::new());
@@ -558,7 +660,13 @@ mod tests {
             lines.lock().unwrap().push(l.to_string())
         })
         .unwrap();
-        assert_eq!(report.records.len(), SolverKind::ALL.len());
+        // Every solver on the room, the dispersive default alone on the objects scene.
+        assert_eq!(report.records.len(), SolverKind::ALL.len() + 1);
+        let (room, objects): (Vec<&Record>, Vec<&Record>) =
+            report.records.iter().partition(|r| r.scene == "tiny");
+        assert_eq!(objects.len(), 1);
+        assert_eq!(objects[0].solver, SolverKind::Dispersive);
+        assert_eq!(objects[0].interior_objects, 3);
         for r in &report.records {
             assert!(r.frame_ms_median > 0.0, "{r:?}");
             assert!(r.error.same_frames.overall.is_finite(), "{r:?}");
@@ -566,17 +674,135 @@ mod tests {
             assert!(r.same_time_frames >= 1);
             assert_eq!(r.check, "ok");
         }
-        assert!(report.records.iter().all(|r| r.speedup_vs_grid5.is_some()));
-        // Every solver also timed frames with an object moving.
+        assert!(room.iter().all(|r| r.speedup_vs_grid5.is_some()));
+        assert!(room.iter().all(|r| r.speedup_vs_grid5_r32.is_some()));
+        // Every solver also timed frames with an object moving, with the error of the last
+        // and its rays against the floor.
         for r in &report.records {
             let m = r.moving.as_ref().expect("a moving window");
             assert!(m.frames >= 1 && m.frame_ms_median > 0.0, "{r:?}");
-            assert!(m.speedup_vs_grid5.is_some(), "{r:?}");
+            assert!(m.error.overall.is_finite(), "{r:?}");
+            assert!(m.ray_floor_ms > 0.0 && m.over_ray_floor > 0.0, "{r:?}");
         }
-        // The machine comes first in the log.
-        assert!(lines.lock().unwrap()[0].starts_with("machine: CPU "));
+        for r in &room {
+            let m = r.moving.as_ref().unwrap();
+            assert!(m.speedup_vs_grid5.is_some(), "{r:?}");
+            assert!(m.speedup_vs_grid5_r32.is_some(), "{r:?}");
+        }
+        assert!(report
+            .scenes
+            .iter()
+            .all(|i| i.ray_rate.closest_rays == 20_000));
+        assert!(report.scenes.iter().all(|i| i.moved_references >= 1));
+        let lines = lines.lock().unwrap();
+        // The machine comes first in the log, and the moving ratios are said.
+        assert!(lines[0].starts_with("machine: CPU "));
+        assert!(
+            lines
+                .iter()
+                .any(|l| l.starts_with("tiny moving: dispersive ")
+                    && l.contains("x vs grid5 (")
+                    && l.contains("x vs grid5-r32 (")),
+            "{lines:?}"
+        );
+        assert!(lines.iter().any(|l| l.contains("error while moving")));
         let md = crate::markdown(&report, "test");
         assert!(md.contains("| tiny |"));
+        assert!(
+            md.contains("faster than the G = 5 grid at 32^2 (grid5-r32)"),
+            "{md}"
+        );
+        assert!(
+            md.contains("## Objects") && md.contains("| tiny-objects |"),
+            "{md}"
+        );
+        assert!(md.contains("## While moving"), "{md}");
+        // Every table's rows have as many cells as its header.
+        let mut cells = None;
+        for l in md.lines() {
+            if l.starts_with('|') {
+                let n = l.matches('|').count();
+                assert_eq!(*cells.get_or_insert(n), n, "{l}");
+            } else {
+                cells = None;
+            }
+        }
+        let plots = crate::plots::plots(&report);
+        let by_objects = plots.iter().find(|p| p.name == "time_vs_objects").unwrap();
+        assert_eq!(by_objects.series.len(), 1);
+        assert_eq!(by_objects.series[0].points.len(), 1);
+        assert_eq!(by_objects.series[0].points[0].0, 3.0);
+        // moving.csv: a header and one row of every column per moving record.
+        let dir = std::env::temp_dir().join(format!("shrad-bench-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        crate::write_outputs(&report, &dir, "test", &|_| {}).unwrap();
+        let csv = std::fs::read_to_string(dir.join("moving.csv")).unwrap();
+        let rows: Vec<&str> = csv.lines().collect();
+        assert_eq!(rows.len(), 1 + report.records.len(), "{csv}");
+        assert!(rows[0].starts_with("scene,table,solver,") && rows[0].contains("error_overall"));
+        let columns = rows[0].split(',').count();
+        assert!(
+            rows.iter().all(|r| r.split(',').count() == columns),
+            "{csv}"
+        );
+        assert!(dir.join("time_vs_objects.csv").exists());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    fn tiny_spec(table: Table, objects: usize, patches: usize) -> SceneSpec {
+        SceneSpec {
+            name: "tiny".into(),
+            table,
+            params: RoomParams {
+                objects,
+                patches,
+                big_object_patches: None,
+            },
+        }
+    }
+
+    /// Through `run_solver`: the moved reference is of a moved state (not of the rest the
+    /// object goes back to) and two solvers whose windows end at the same place share it.
+    #[test]
+    fn run_solver_measures_the_error_while_moving() {
+        let spec = tiny_spec(Table::Scaling, 2, 1200);
+        let world = build_world(&spec, Backend::Auto).unwrap();
+        let mut options = BenchOptions::new(true);
+        options.reference = ReferenceOptions::fast();
+        let (reference, _) = solve(&world, &options.reference, &NoProgress);
+        let mut scene = SceneRun::new(&spec, &reference, 0.0);
+        scene.ray_rate = measure_ray_rate(&world, 20_000, 4_096);
+        let (record, world) = run_solver(
+            world,
+            &mut scene,
+            SolverKind::Dispersive,
+            &options,
+            Some(1.0),
+        )
+        .unwrap();
+        let m = record.moving.expect("a moving window");
+        assert!(
+            m.error.overall.is_finite() && m.error.overall > 0.0,
+            "{m:?}"
+        );
+        assert!(m.object.starts_with("box_") || m.object.starts_with("sphere_"));
+        assert!(m.rays_median > 0.0 && m.ray_floor_ms > 0.0, "{m:?}");
+        assert!((m.over_ray_floor - m.frame_ms_median / m.ray_floor_ms).abs() < 1e-9);
+        let moved = scene.moved.last.as_ref().expect("a moved reference");
+        assert_ne!(
+            moved.world_from_local, world.patches.world_from_local[moved.object],
+            "the reference was solved at rest"
+        );
+        assert!(moved
+            .radiosity
+            .iter()
+            .zip(&reference)
+            .any(|(a, b)| (*a - *b).abs().max_element() > 1e-4));
+        assert_eq!(scene.moved.solves, 1);
+        // The paper preset ends its window at the same place: the reference is shared.
+        let (_, _world) =
+            run_solver(world, &mut scene, SolverKind::Paper, &options, Some(1.0)).unwrap();
+        assert_eq!(scene.moved.solves, 1);
     }
 
     #[test]
@@ -594,17 +820,21 @@ mod tests {
         let centres = world.patches.centre.clone();
         let normals = world.patches.normal.clone();
         let (reference, _) = solve(&world, &ReferenceOptions::fast(), &NoProgress);
-        let scene = SceneRun {
-            spec: &spec,
-            reference: &reference,
-            world_rss_mib: 0.0,
-        };
+        let mut scene = SceneRun::new(&spec, &reference, 0.0);
         let mut options = BenchOptions::new(true);
+        options.reference = ReferenceOptions::fast();
         options.dispersive_moving_passes = 3;
-        let (record, world) =
-            run_solver(world, &scene, SolverKind::Dispersive, &options, Some(1.0)).unwrap();
+        let (record, world) = run_solver(
+            world,
+            &mut scene,
+            SolverKind::Dispersive,
+            &options,
+            Some(1.0),
+        )
+        .unwrap();
         let m = record.moving.expect("a moving window");
-        assert_eq!(m.frames, 6);
+        // 3 passes of 2 objects, run on to the sweep's next turning point.
+        assert_eq!(m.frames, moving_frames(6));
         assert!(m.frame_ms_max >= m.frame_ms_median);
         assert_eq!(world.patches.centre, centres);
         assert_eq!(world.patches.normal, normals);

@@ -92,9 +92,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
         let name = if embree { "embree" } else { "bvh" };
         eprintln!("visibility: {}", describe_backend(name, BackendArg::Auto));
         eprintln!(
-            "shrad bench: {} scenes x {} solvers; reference with {} rays per patch; grids: {} warm-up + {} timed frames; dispersive: {} warm-up + {} timed passes (1 pass = 1 frame per interior object)",
+            "shrad bench: {} scenes, {} solver runs; reference with {} rays per patch; grids: {} warm-up + {} timed frames; dispersive: {} warm-up + {} timed passes (1 pass = 1 frame per interior object)",
             options.scenes.len(),
-            options.solvers.len(),
+            options
+                .scenes
+                .iter()
+                .map(|s| options.solvers_for(s).len())
+                .sum::<usize>(),
             options.reference.rays_per_patch,
             options.grid_warmup,
             options.grid_timed,
