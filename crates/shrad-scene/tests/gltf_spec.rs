@@ -1313,3 +1313,78 @@ fn texture_limits_and_formats() {
         s.objects[0].material.reflectance
     );
 }
+
+/// `EXT_texture_webp` (a texture whose only source is the extension's WebP image) decodes;
+/// `KHR_texture_basisu` (KTX2, which shrad cannot decode) falls back to the factor with a
+/// warning naming the texture, as does a texture without any source.
+#[test]
+fn webp_and_ktx2_textures() {
+    let dir = temp_dir("webp");
+    let red =
+        image::DynamicImage::ImageRgb8(image::RgbImage::from_pixel(2, 2, image::Rgb([255, 0, 0])));
+    let mut webp = Vec::new();
+    red.write_to(
+        &mut std::io::Cursor::new(&mut webp),
+        image::ImageFormat::WebP,
+    )
+    .unwrap();
+    let with_texture = |uri: String, texture: Value, ext: &str| {
+        let ext = ext.to_string();
+        quad_with(move |v| {
+            v["extensionsUsed"] = json!([ext]);
+            v["images"] = json!([{ "uri": uri }]);
+            v["textures"] = json!([texture]);
+            v["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": 0});
+        })
+    };
+    let mut root = with_texture(
+        format!("data:image/webp;base64,{}", b64(&webp)),
+        json!({"extensions": {"EXT_texture_webp": {"source": 0}}}),
+        "EXT_texture_webp",
+    );
+    root["extensionsRequired"] = json!(["EXT_texture_webp"]);
+    let s = load_no_panic(&write_json(&dir, "webp.gltf", &root)).unwrap();
+    // The quad has no TEXCOORD_0: the texture is averaged into the factor (red).
+    let r = s.objects[0].material.reflectance;
+    assert!(
+        r.x > 0.1 && r.y == 0.0 && r.z == 0.0,
+        "{r} {:?}",
+        s.warnings
+    );
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("cannot be loaded")),
+        "{:?}",
+        s.warnings
+    );
+
+    let ktx2 = b"\xABKTX 20\xBB\r\n\x1A\n\0\0\0\0";
+    let root = with_texture(
+        format!("data:image/ktx2;base64,{}", b64(ktx2)),
+        json!({"extensions": {"KHR_texture_basisu": {"source": 0}}}),
+        "KHR_texture_basisu",
+    );
+    let s = load_no_panic(&write_json(&dir, "ktx2.gltf", &root)).unwrap();
+    assert!(s.objects[0].material.base_color_texture.is_none());
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("base colour image 0") && w.contains("KTX2 / Basis Universal")),
+        "{:?}",
+        s.warnings
+    );
+    // No source at all (allowed when an extension shrad ignores provides the image).
+    let root = with_texture(
+        "unused.png".into(),
+        json!({"extensions": {"EXT_made_up_images": {"source": 0}}}),
+        "EXT_made_up_images",
+    );
+    let s = load_no_panic(&write_json(&dir, "nosource.gltf", &root)).unwrap();
+    assert!(s.objects[0].material.base_color_texture.is_none());
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("texture 0 has no image shrad can read")),
+        "{:?}",
+        s.warnings
+    );
+}
