@@ -16,8 +16,11 @@
 //! meshoptimizer's decoders, whose C++ is fuzzed upstream; it returns an error, not a panic,
 //! on a truncated or malformed stream (its remaining asserts are on the caller's sizes, which
 //! are checked here first). draco-oxide-decoder (Re:Earth, the PLATEAU 3D city models'
-//! pipeline) decodes Draco 2.2 meshes, the only bitstream glTF encoders write, and refuses a
-//! stream that declares more than it can allocate. The C++ bindings (`meshopt`, `draco-rs`)
+//! pipeline) decodes Draco 2.2 meshes (what Draco 1.3 and later write, gltf-pipeline and
+//! Blender included; an older 2.0 / 2.1 stream is an error saying "unsupported bitstream
+//! version"), and refuses a stream that declares more than it can allocate. It is an alpha,
+//! and flipping bytes of a stream found a panic in it, so it runs behind its own guard
+//! (`draco.rs`). The C++ bindings (`meshopt`, `draco-rs`)
 //! would need a C++ build on every machine and CI, and `draco_decoder` calls itself work in
 //! progress.
 //!
