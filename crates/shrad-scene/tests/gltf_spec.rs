@@ -585,6 +585,8 @@ fn camera_parameters() {
         "{:?}",
         s.warnings
     );
+    let yfov = s.camera.as_ref().unwrap().yfov;
+    assert!((yfov - 179f32.to_radians()).abs() < 1e-6, "{yfov}");
     for (name, cam, fault) in cases {
         assert_refused(&dir, &format!("{name}.gltf"), &with_camera(cam), &[fault]);
     }

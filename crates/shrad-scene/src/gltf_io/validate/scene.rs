@@ -132,7 +132,7 @@ impl JsonCheck<'_> {
                 if yfov >= std::f64::consts::PI {
                     // The specification says SHOULD be below pi, not must.
                     self.warnings.push(format!(
-                        "{here}.yfov: {yfov} radians is not below pi (180 degrees): the camera cannot show it as a perspective picture"
+                        "{here}.yfov: {yfov} radians is not below pi (180 degrees): pictures use 179 degrees"
                     ));
                 }
                 if znear <= 0.0 {
