@@ -2,7 +2,8 @@
 //! that was fixed (`fuzz/regressions/<target>/*`) through `shrad_scene::load`, the way the
 //! fuzz targets in `fuzz/fuzz_targets/` feed them, and asserts that nothing panics: neither
 //! out of `load` nor inside it (the readers' own `catch_unwind` guards would hide a panic,
-//! so a panic hook counts every panic on this thread). An `Err` is fine. See fuzz/README.md.
+//! so a panic hook counts every panic on this thread, except those inside
+//! draco-oxide-decoder, which the Draco step catches on purpose). An `Err` is fine. See fuzz/README.md.
 
 use std::cell::Cell;
 use std::path::{Path, PathBuf};
@@ -19,8 +20,16 @@ fn count_panics() {
     HOOK.call_once(|| {
         let default = std::panic::take_hook();
         std::panic::set_hook(Box::new(move |info| {
-            PANICS.with(|p| p.set(p.get() + 1));
-            default(info);
+            // draco-oxide-decoder (an alpha) panics on some corrupt streams (with debug
+            // assertions: a shift by a quantization bit count >= 64); the Draco step catches
+            // those and refuses the stream (`gltf_io/unpack/draco.rs`). They are not shrad's.
+            let in_draco = std::backtrace::Backtrace::force_capture()
+                .to_string()
+                .contains("draco_oxide_decoder::");
+            if !in_draco {
+                PANICS.with(|p| p.set(p.get() + 1));
+                default(info);
+            }
         }));
     });
 }

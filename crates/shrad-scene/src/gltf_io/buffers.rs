@@ -19,25 +19,34 @@ use crate::SceneError;
 /// been: the unused low bits of the last symbol are not checked.
 const BASE64: base64::Config = base64::STANDARD.decode_allow_trailing_bits(true);
 
-/// The data of every buffer of `doc`: buffer 0 of a GLB from its BIN chunk `blob`, the others
-/// from their URIs (relative to `base`). Each must hold at least its `byteLength` bytes.
+/// The data of every buffer of the raw JSON `root`: buffer 0 of a GLB without `uri` from its
+/// BIN chunk `blob`, the others from their URIs (relative to `base`), each at least its
+/// `byteLength` bytes. A buffer without `uri` that has no BIN chunk to refer to is a
+/// placeholder (as `EXT_meshopt_compression` fallbacks are) and gets no data: a buffer view
+/// that reads it is refused where it is read.
 pub(super) fn load_buffers(
     path: &Path,
     base: &Path,
-    doc: &gltf::Document,
+    root: &serde_json::Value,
     mut blob: Option<Vec<u8>>,
-) -> Result<Vec<gltf::buffer::Data>, SceneError> {
+) -> Result<Vec<Vec<u8>>, SceneError> {
     let mut out = Vec::new();
-    for b in doc.buffers() {
-        let i = b.index();
-        let data = match b.source() {
-            gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
-                SceneError::invalid(
-                    path,
-                    format!("buffers[{i}]: has no uri and there is no GLB BIN chunk"),
-                )
-            })?,
-            gltf::buffer::Source::Uri(uri) => read(base, uri).map_err(|e| match e {
+    let buffers = root["buffers"].as_array().map_or(&[][..], Vec::as_slice);
+    for (i, b) in buffers.iter().enumerate() {
+        let length = b["byteLength"].as_u64().unwrap_or(0) as usize;
+        let data = match b["uri"].as_str() {
+            None if i == 0 => match blob.take() {
+                Some(data) => data,
+                None => {
+                    out.push(Vec::new());
+                    continue;
+                }
+            },
+            None => {
+                out.push(Vec::new());
+                continue;
+            }
+            Some(uri) => read(base, uri).map_err(|e| match e {
                 UriError::Unreadable(m, kind) => SceneError::Unreadable {
                     path: path.to_path_buf(),
                     message: format!("buffers[{i}].uri: {m}"),
@@ -46,17 +55,16 @@ pub(super) fn load_buffers(
                 UriError::Invalid(m) => SceneError::invalid(path, format!("buffers[{i}].uri: {m}")),
             })?,
         };
-        if data.len() < b.length() {
+        if data.len() < length {
             return Err(SceneError::invalid(
                 path,
                 format!(
-                    "buffers[{i}]: has {} bytes but declares byteLength {} (truncated file?)",
+                    "buffers[{i}]: has {} bytes but declares byteLength {length} (truncated file?)",
                     data.len(),
-                    b.length()
                 ),
             ));
         }
-        out.push(gltf::buffer::Data(data));
+        out.push(data);
     }
     Ok(out)
 }
@@ -84,13 +92,18 @@ pub(super) fn read_uri(base: &Path, uri: &str) -> Result<Vec<u8>, String> {
 
 fn read(base: &Path, uri: &str) -> Result<Vec<u8>, UriError> {
     if let Some(rest) = uri.strip_prefix("data:") {
-        let Some((_, data)) = rest.split_once(";base64,") else {
+        // RFC 2397: `data:[<mediatype>][;base64],<data>`, the data percent-encoded unless
+        // it is base64.
+        let Some((header, data)) = rest.split_once(',') else {
             return Err(UriError::Invalid(
-                "data URI is not base64 (shrad reads ';base64,' data URIs only)".into(),
+                "data URI has no ',' before its data (RFC 2397)".into(),
             ));
         };
-        return base64::decode_config(data, BASE64)
-            .map_err(|e| UriError::Invalid(format!("data URI: invalid base64 ({e})")));
+        if header.ends_with(";base64") {
+            return base64::decode_config(data, BASE64)
+                .map_err(|e| UriError::Invalid(format!("data URI: invalid base64 ({e})")));
+        }
+        return Ok(urlencoding::decode_binary(data.as_bytes()).into_owned());
     }
     if uri.contains("://") && !uri.starts_with("file://") {
         return Err(UriError::Invalid(format!(
@@ -143,8 +156,14 @@ mod tests {
         assert_eq!(read_uri(base, &uri("TWF=")).unwrap(), b"Ma");
         let e = read_uri(base, &uri("AA*A")).unwrap_err();
         assert!(e.starts_with("data URI: invalid base64"), "{e}");
-        let e = read_uri(base, "data:application/octet-stream,%00").unwrap_err();
-        assert!(e.starts_with("data URI is not base64"), "{e}");
+        // Not base64: percent-encoded (RFC 2397).
+        assert_eq!(
+            read_uri(base, "data:application/gltf-buffer,0%00%ff").unwrap(),
+            b"0\0\xff"
+        );
+        assert_eq!(read_uri(base, "data:,A").unwrap(), b"A");
+        let e = read_uri(base, "data:application/octet-stream").unwrap_err();
+        assert!(e.starts_with("data URI has no ','"), "{e}");
     }
 
     #[test]

@@ -159,6 +159,12 @@ impl Walk<'_> {
         } else {
             return Err("image has neither uri nor bufferView".into());
         };
+        if bytes.starts_with(b"\xABKTX 20\xBB\r\n\x1A\n") {
+            return Err(
+                "it is a KTX2 / Basis Universal image (KHR_texture_basisu), which shrad cannot decode"
+                    .into(),
+            );
+        }
         let (w, h) = TextureImage::declared_size(&bytes)?;
         let texels = u64::from(w) * u64::from(h);
         if texels > self.texels_left {

@@ -80,9 +80,8 @@ impl Walk<'_> {
                 continue;
             }
             let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
-                return Err(bad(format!(
-                    "{who}{inst}: primitive has no POSITION attribute"
-                )));
+                // Warned about once per primitive by `validate`.
+                continue;
             };
             if pos_acc.count() == 0 || prim.indices().is_some_and(|a| a.count() == 0) {
                 self.scene

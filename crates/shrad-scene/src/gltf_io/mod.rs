@@ -9,6 +9,8 @@
 //! - `validate`: the raw JSON checked against the specification before the gltf crate sees
 //!   it (every index, length, enum and factor), so that crate has nothing to trip on;
 //! - `buffers`: the buffers loaded (GLB BIN chunk, data URIs, files);
+//! - `unpack`: compressed (meshopt, Draco), quantized and implicit (zero) data decoded into
+//!   plain buffer views of one new buffer, so the gltf crate reads only what it can;
 //! - `anim`: the animations, into a node graph;
 //! - `walk`, `mesh`, `material`: the default scene's nodes walked into objects.
 //!
@@ -21,6 +23,7 @@ pub mod builder;
 mod container;
 mod material;
 mod mesh;
+mod unpack;
 mod validate;
 mod walk;
 mod write;
@@ -93,6 +96,113 @@ fn fill_position_bounds(root: &mut Value) {
     }
 }
 
+/// JSON numbers written as floats with an integral value (`1.0`) made integers: JSON has one
+/// number type, and the glTF schema's integers are numbers with an integral value, which
+/// serde (and so the gltf crate) refuses as a float where it expects an integer. A float
+/// property (a factor, a matrix entry) reads an integer as the same float.
+fn integral_floats_to_integers(v: &mut Value) {
+    match v {
+        Value::Number(n) if n.is_f64() => {
+            if let Some(x) = n.as_f64() {
+                if x.fract() == 0.0 && x.abs() < 9.0e15 {
+                    *v = json!(x as i64);
+                }
+            }
+        }
+        Value::Array(a) => a.iter_mut().for_each(integral_floats_to_integers),
+        Value::Object(o) => o.values_mut().for_each(integral_floats_to_integers),
+        _ => {}
+    }
+}
+
+/// What the gltf crate refuses though the specification allows it, or which shrad has
+/// already done: the extensions `unpack` decoded (and the texture extensions, whose images
+/// the material reader picks) out of `extensionsRequired` / `extensionsUsed` (the crate
+/// refuses a required extension it does not know); a scene without `nodes` given an empty
+/// list (optional in the specification, required by the crate); primitives without
+/// POSITION removed.
+fn crate_compatible(root: &mut Value) {
+    const DONE: &[&str] = &[
+        "KHR_mesh_quantization",
+        "EXT_meshopt_compression",
+        "KHR_draco_mesh_compression",
+        "EXT_texture_webp",
+        "KHR_texture_basisu",
+    ];
+    for key in ["extensionsRequired", "extensionsUsed"] {
+        if let Some(list) = root.get_mut(key).and_then(Value::as_array_mut) {
+            list.retain(|e| !e.as_str().is_some_and(|e| DONE.contains(&e)));
+        }
+    }
+    // A primitive without POSITION is skipped (warned about by `validate`); the crate
+    // requires POSITION.
+    for m in root
+        .get_mut("meshes")
+        .and_then(Value::as_array_mut)
+        .into_iter()
+        .flatten()
+    {
+        if let Some(p) = m.get_mut("primitives").and_then(Value::as_array_mut) {
+            p.retain(|p| p["attributes"].get("POSITION").is_some());
+        }
+    }
+    for s in root
+        .get_mut("scenes")
+        .and_then(Value::as_array_mut)
+        .into_iter()
+        .flatten()
+    {
+        if s.get("nodes").is_none_or(Value::is_null) {
+            s["nodes"] = json!([]);
+        }
+    }
+}
+
+/// The image each texture reads: `EXT_texture_webp`'s (shrad decodes WebP), else the core
+/// `source`, else `KHR_texture_basisu`'s (which shrad cannot decode: the material then warns
+/// and uses its factor). A texture may have none (the specification requires `source` only
+/// when no extension provides the image): the material then warns and uses its factor.
+fn choose_texture_sources(root: &mut Value) {
+    for t in root
+        .get_mut("textures")
+        .and_then(Value::as_array_mut)
+        .into_iter()
+        .flatten()
+    {
+        let ext = |name: &str| t.pointer(&format!("/extensions/{name}/source")).cloned();
+        let chosen = ext("EXT_texture_webp")
+            .filter(Value::is_u64)
+            .or_else(|| t.get("source").filter(|s| s.is_u64()).cloned())
+            .or_else(|| ext("KHR_texture_basisu").filter(Value::is_u64));
+        if let Some(s) = chosen {
+            t["source"] = s;
+        }
+    }
+}
+
+/// The gltf crate requires a `source` on every texture: one without is pointed at an empty
+/// placeholder image, which is never decoded (the material reader reads each texture's
+/// source from the raw JSON kept before this).
+fn placeholder_sources(root: &mut Value) {
+    let missing = |t: &Value| !t["source"].is_u64();
+    let any = root["textures"]
+        .as_array()
+        .is_some_and(|t| t.iter().any(missing));
+    let Some(obj) = root.as_object_mut().filter(|_| any) else {
+        return;
+    };
+    let Value::Array(images) = obj.entry("images").or_insert_with(|| json!([])) else {
+        return;
+    };
+    images.push(json!({ "name": "placeholder for a texture without a source" }));
+    let placeholder = images.len() - 1;
+    if let Some(textures) = root.get_mut("textures").and_then(Value::as_array_mut) {
+        for t in textures.iter_mut().filter(|t| missing(t)) {
+            t["source"] = json!(placeholder);
+        }
+    }
+}
+
 fn read_bytes(
     path: &Path,
     bytes: &[u8],
@@ -107,9 +217,25 @@ fn read_bytes(
     } else {
         (bytes, None)
     };
-    let value: Value =
+    let mut value: Value =
         serde_json::from_slice(json_bytes).map_err(|e| bad(format!("invalid glTF: JSON: {e}")))?;
+    integral_floats_to_integers(&mut value);
     validate::check_json(&value, blob.map(<[u8]>::len), &mut warnings).map_err(bad)?;
+    if value["meshes"].as_array().is_none_or(Vec::is_empty) {
+        return Err(bad(
+            "the file has no mesh (shrad lights triangle meshes, and this glTF defines none)"
+                .into(),
+        ));
+    }
+    let base = path.parent().unwrap_or(Path::new("."));
+    let mut buffers = buffers::load_buffers(path, base, &value, blob.map(<[u8]>::to_vec))?;
+    let decoded = unpack::unpack(&mut value, &buffers).map_err(bad)?;
+    if !decoded.is_empty() {
+        buffers.push(decoded);
+    }
+    validate::check_views_have_data(&value, &buffers).map_err(bad)?;
+    validate::check_sparse_indices(&value, &buffers).map_err(bad)?;
+    choose_texture_sources(&mut value);
     // Animations are read by `anim` and skins are not read; both are left out of what
     // the gltf crate sees, which would refuse some valid ones (an animation channel without
     // a target node, as the specification allows).
@@ -141,12 +267,13 @@ fn read_bytes(
         }
     }
     fill_position_bounds(&mut for_crate);
+    placeholder_sources(&mut for_crate);
+    crate_compatible(&mut for_crate);
+    // The gltf crate's own messages begin "invalid glTF: " already.
     let root: gltf::json::Root =
         serde_json::from_value(for_crate).map_err(|e| bad(format!("invalid glTF: {e}")))?;
-    let doc = gltf::Document::from_json(root).map_err(|e| bad(format!("invalid glTF: {e}")))?;
-    let base = path.parent().unwrap_or(Path::new("."));
-    let buffers = buffers::load_buffers(path, base, &doc, blob.map(<[u8]>::to_vec))?;
-    validate::check_sparse_indices(&kept, &buffers).map_err(bad)?;
+    let doc = gltf::Document::from_json(root).map_err(|e| bad(e.to_string()))?;
+    let buffers: Vec<gltf::buffer::Data> = buffers.into_iter().map(gltf::buffer::Data).collect();
     let animations =
         anim::read(&raw_animations, &doc, &buffers, animation, &mut warnings).map_err(bad)?;
     let mut cx = walk::Walk {
@@ -185,10 +312,11 @@ fn read_bytes(
     for node in roots {
         cx.node(node, Mat4::IDENTITY, 0)?;
     }
-    if doc.meshes().len() > 0 && cx.scene.objects.is_empty() {
-        cx.scene
-            .warnings
-            .push("no node of the scene instances a triangle mesh".into());
+    if cx.scene.objects.is_empty() {
+        return Err(bad(format!(
+            "no node of the scene instances a triangle mesh (the file has {} mesh(es)): nothing to light",
+            doc.meshes().len()
+        )));
     }
     Ok((cx.scene, cx.names))
 }

@@ -98,7 +98,9 @@ impl Walk<'_> {
                                 r.normalize(),
                                 t,
                             ),
-                            yfov: p.yfov(),
+                            // A yfov of pi or more is allowed (warned about by
+                            // `validate`); a perspective picture needs less.
+                            yfov: p.yfov().min(179f32.to_radians()),
                             aspect_ratio: p.aspect_ratio(),
                         });
                         self.animate_camera(node.index());

@@ -17,23 +17,16 @@ impl JsonCheck<'_> {
                 return Err(format!("{at}.byteLength: must be at least 1"));
             }
             match b.get("uri") {
+                // Buffer 0 of a GLB is its BIN chunk; any other buffer without uri is a
+                // placeholder without data (EXT_meshopt_compression's fallback buffers are):
+                // a buffer view that is read from one is refused when it is read.
                 None | Some(Value::Null) => match glb_bin {
-                    _ if i > 0 => {
-                        return Err(format!(
-                            "{at}: has no uri (only buffer 0 of a GLB may refer to its BIN chunk)"
-                        ))
-                    }
-                    None => {
-                        return Err(format!(
-                            "{at}: has no uri, and there is no GLB BIN chunk it could refer to"
-                        ))
-                    }
-                    Some(n) if (n as u64) < len => {
+                    Some(n) if i == 0 && (n as u64) < len => {
                         return Err(format!(
                             "{at}: declares byteLength {len} but the GLB BIN chunk has {n} bytes (truncated file?)"
                         ))
                     }
-                    Some(_) => {}
+                    _ => {}
                 },
                 Some(Value::String(_)) => {}
                 Some(v) => return Err(format!("{at}.uri: {v} is not a string")),
@@ -155,9 +148,16 @@ impl JsonCheck<'_> {
                         Some(s) => s,
                         None => elem,
                     };
+                    // The last element needs no padding after its last matrix column.
+                    let last = match (ty, size) {
+                        ("MAT2", 1) => 6,
+                        ("MAT3", 1) => 11,
+                        ("MAT3", 2) => 22,
+                        _ => elem,
+                    };
                     let need = u128::from(offset)
                         + u128::from(stride) * u128::from(count - 1)
-                        + u128::from(elem);
+                        + u128::from(last);
                     if need > u128::from(view_len) {
                         return Err(format!(
                             "{at}: {count} elements of {elem} bytes (stride {stride}) from byte {offset} need {need} bytes, but bufferView {v} has {view_len}"
@@ -273,37 +273,55 @@ impl JsonCheck<'_> {
                     let a = self.required(&prim["attributes"], name, &attrs_at, "accessors")?;
                     counts.push((name.clone(), a, accessors[a].count));
                 }
-                let Some(&(_, pos, n)) = counts.iter().find(|c| c.0 == "POSITION") else {
-                    return Err(format!(
-                        "{attrs_at}.POSITION: missing (shrad needs positions)"
-                    ));
-                };
-                let info = &accessors[pos];
-                if info.ty != "VEC3" || info.component_type != 5126 || info.normalized {
-                    return Err(format!(
-                        "{attrs_at}.POSITION: accessor {pos} is {}, but positions must be VEC3 FLOAT (quantized positions need KHR_mesh_quantization, which shrad does not implement)",
-                        info.describe()
-                    ));
-                }
-                let pos_json = &self.root["accessors"][pos];
-                // The specification requires min and max on POSITION, but some exporters
-                // leave them out and three.js and Blender load such files: shrad does not
-                // use them (it bounds the vertices it reads, and refuses non-finite ones),
-                // so a missing pair is a warning, once per accessor.
-                if (pos_json.get("min").is_none_or(Value::is_null)
-                    || pos_json.get("max").is_none_or(Value::is_null))
-                    && !unbounded.contains(&pos)
-                {
-                    unbounded.push(pos);
+                let position = counts
+                    .iter()
+                    .find(|c| c.0 == "POSITION")
+                    .map(|c| (c.1, c.2));
+                if let Some((pos, _)) = position {
+                    let info = &accessors[pos];
+                    let quantized = self.quantized;
+                    let pos_ok = info.ty == "VEC3"
+                        && ((info.component_type == 5126 && !info.normalized)
+                            || (quantized && matches!(info.component_type, 5120..=5123)));
+                    if !pos_ok {
+                        return Err(format!(
+                            "{attrs_at}.POSITION: accessor {pos} is {}, but positions must be VEC3 FLOAT{}",
+                            info.describe(),
+                            if quantized {
+                                ", or (KHR_mesh_quantization) BYTE, UNSIGNED_BYTE, SHORT or UNSIGNED_SHORT"
+                            } else {
+                                " (integer positions need KHR_mesh_quantization in extensionsUsed)"
+                            }
+                        ));
+                    }
+                    let pos_json = &self.root["accessors"][pos];
+                    // The specification requires min and max on POSITION, but some exporters
+                    // leave them out and three.js and Blender load such files: shrad does not
+                    // use them (it bounds the vertices it reads, and refuses non-finite ones),
+                    // so a missing pair is a warning, once per accessor.
+                    if (pos_json.get("min").is_none_or(Value::is_null)
+                        || pos_json.get("max").is_none_or(Value::is_null))
+                        && !unbounded.contains(&pos)
+                    {
+                        unbounded.push(pos);
+                        self.warnings.push(format!(
+                            "{attrs_at}.POSITION: accessor {pos} has no min and max (the specification requires them); bounds computed from the vertices"
+                        ));
+                    }
+                } else {
+                    // glTF 2.0, "Meshes": without positions a client SHOULD skip the primitive.
                     self.warnings.push(format!(
-                        "{attrs_at}.POSITION: accessor {pos} has no min and max (the specification requires them); bounds computed from the vertices"
+                        "{at}: primitive without POSITION skipped (nothing to draw)"
                     ));
                 }
                 for (name, a, _) in &counts {
                     let info = &accessors[*a];
                     let (ty, c, norm) = (info.ty.as_str(), info.component_type, info.normalized);
                     let ok = if name.starts_with("TEXCOORD_") {
-                        ty == "VEC2" && (c == 5126 || (norm && matches!(c, 5121 | 5123)))
+                        ty == "VEC2"
+                            && (c == 5126
+                                || (norm && matches!(c, 5121 | 5123))
+                                || (self.quantized && matches!(c, 5120..=5123)))
                     } else if name.starts_with("COLOR_") {
                         matches!(ty, "VEC3" | "VEC4")
                             && (c == 5126 || (norm && matches!(c, 5121 | 5123)))
@@ -319,7 +337,12 @@ impl JsonCheck<'_> {
                         ));
                     }
                 }
-                if let Some((name, a, c)) = counts.iter().find(|c| c.2 != n) {
+                if let Some((name, a, c, n)) = position.and_then(|(_, n)| {
+                    counts
+                        .iter()
+                        .find(|c| c.2 != n)
+                        .map(|c| (&c.0, c.1, c.2, n))
+                }) {
                     return Err(format!(
                         "{attrs_at}.{name}: accessor {a} has {c} elements but POSITION has {n} (all attributes of a primitive have the same count)"
                     ));

@@ -13,8 +13,14 @@ mod scene;
 use serde_json::Value;
 
 /// Extensions shrad implements: the only ones a file may require.
-const IMPLEMENTED_EXTENSIONS: &[&str] =
-    &["KHR_materials_emissive_strength", "KHR_texture_transform"];
+const IMPLEMENTED_EXTENSIONS: &[&str] = &[
+    "KHR_materials_emissive_strength",
+    "KHR_texture_transform",
+    "KHR_mesh_quantization",
+    "EXT_meshopt_compression",
+    "KHR_draco_mesh_compression",
+    "EXT_texture_webp",
+];
 
 /// What shrad loses when it ignores an extension the file only uses (the specification
 /// says a file must then still load without it).
@@ -22,12 +28,10 @@ fn ignored_extension_note(name: &str) -> &'static str {
     match name {
         "KHR_materials_unlit" => "unlit materials are read as diffuse reflectors",
         "KHR_lights_punctual" => "punctual lights are ignored: only emissive surfaces emit",
-        "KHR_draco_mesh_compression" | "EXT_meshopt_compression" => {
-            "the uncompressed fallback data is read"
+        "KHR_texture_basisu" => {
+            "KTX2 / Basis Universal images are not decoded: the fallback image is used, else the factor alone"
         }
-        "KHR_texture_basisu" | "EXT_texture_webp" | "MSFT_texture_dds" => {
-            "the fallback image is used"
-        }
+        "MSFT_texture_dds" => "the fallback image is used",
         "KHR_materials_variants" => "the default material of each primitive is used",
         n if n.starts_with("KHR_materials_") => {
             "only the diffuse base colour and emission are used"
@@ -161,6 +165,9 @@ struct JsonCheck<'v> {
     warnings: &'v mut Vec<String>,
     /// Parent of each node (filled by `nodes`).
     parents: Vec<Option<usize>>,
+    /// `KHR_mesh_quantization` is in `extensionsUsed`: integer positions and texture
+    /// coordinates are allowed.
+    quantized: bool,
 }
 
 impl JsonCheck<'_> {
@@ -383,16 +390,62 @@ pub(super) fn check_json(
         root,
         warnings,
         parents: Vec::new(),
+        quantized: root["extensionsUsed"]
+            .as_array()
+            .is_some_and(|e| e.iter().any(|e| e == "KHR_mesh_quantization")),
     }
     .run(glb_bin)
 }
 
+/// The bytes of buffer view `v` of `root`, or why there are none.
+fn view_data<'b>(root: &Value, buffers: &'b [Vec<u8>], v: usize) -> Result<&'b [u8], String> {
+    let view = &root["bufferViews"][v];
+    let b = view["buffer"].as_u64().unwrap_or(0) as usize;
+    let start = view["byteOffset"].as_u64().unwrap_or(0) as usize;
+    let len = view["byteLength"].as_u64().unwrap_or(0) as usize;
+    let data = buffers.get(b).map_or(&[][..], Vec::as_slice);
+    if data.is_empty() {
+        return Err(format!(
+            "bufferView {v} reads buffer {b}, which has no data (no uri, and not a GLB's BIN chunk)"
+        ));
+    }
+    data.get(start..start.saturating_add(len)).ok_or_else(|| {
+        format!(
+            "bufferView {v} lies outside buffer {b} ({} bytes)",
+            data.len()
+        )
+    })
+}
+
+/// Every buffer view an accessor (sparse parts included) or an image reads has its bytes:
+/// a placeholder buffer (no uri, no BIN chunk) may only be referred to by views nothing
+/// reads, or by compressed views already decoded.
+pub(super) fn check_views_have_data(root: &Value, buffers: &[Vec<u8>]) -> Result<(), String> {
+    let view = |v: &Value| v["bufferView"].as_u64().map(|v| v as usize);
+    for (i, a) in array(root, "accessors", "")?.iter().enumerate() {
+        let at = format!("accessors[{i}]");
+        for (part, v) in [
+            ("", view(a)),
+            (".sparse.indices", view(&a["sparse"]["indices"])),
+            (".sparse.values", view(&a["sparse"]["values"])),
+        ] {
+            if let Some(v) = v {
+                view_data(root, buffers, v).map_err(|e| format!("{at}{part}: {e}"))?;
+            }
+        }
+    }
+    for (i, im) in array(root, "images", "")?.iter().enumerate() {
+        if let Some(v) = view(im) {
+            view_data(root, buffers, v).map_err(|e| format!("images[{i}]: {e}"))?;
+        }
+    }
+    Ok(())
+}
+
 /// Sparse accessor indices strictly increasing and below the accessor's count (the gltf
-/// crate's reader would silently drop the others). Lengths were checked by [`check_json`].
-pub(super) fn check_sparse_indices(
-    root: &Value,
-    buffers: &[gltf::buffer::Data],
-) -> Result<(), String> {
+/// crate's reader would silently drop the others). Lengths were checked by [`check_json`],
+/// data by [`check_views_have_data`].
+pub(super) fn check_sparse_indices(root: &Value, buffers: &[Vec<u8>]) -> Result<(), String> {
     for (i, a) in array(root, "accessors", "")?.iter().enumerate() {
         let Some(sp) = a.get("sparse").filter(|v| !v.is_null()) else {
             continue;
@@ -406,14 +459,16 @@ pub(super) fn check_sparse_indices(
             Some(5123) => 2,
             _ => 4,
         };
-        let view = &root["bufferViews"][ind["bufferView"].as_u64().unwrap_or(0) as usize];
-        let buffer = view["buffer"].as_u64().unwrap_or(0) as usize;
-        let start = view["byteOffset"].as_u64().unwrap_or(0) as usize
-            + ind["byteOffset"].as_u64().unwrap_or(0) as usize;
-        let bytes = buffers
-            .get(buffer)
-            .and_then(|b| b.0.get(start..start + n * size))
-            .ok_or_else(|| format!("{at}: outside its buffer"))?;
+        let data = view_data(
+            root,
+            buffers,
+            ind["bufferView"].as_u64().unwrap_or(0) as usize,
+        )
+        .map_err(|e| format!("{at}: {e}"))?;
+        let start = ind["byteOffset"].as_u64().unwrap_or(0) as usize;
+        let bytes = data
+            .get(start..start.saturating_add(n.saturating_mul(size)))
+            .ok_or_else(|| format!("{at}: outside its buffer view"))?;
         let mut last: Option<u64> = None;
         for (k, c) in bytes.chunks_exact(size).enumerate() {
             let v = c.iter().rev().fold(0u64, |acc, &b| acc << 8 | u64::from(b));

@@ -53,6 +53,11 @@ impl JsonCheck<'_> {
         for (i, t) in array(self.root, "textures", "")?.iter().enumerate() {
             let at = format!("textures[{i}]");
             self.reference(t, "source", &at, "images")?;
+            for ext in ["EXT_texture_webp", "KHR_texture_basisu"] {
+                if let Some(x) = t.pointer(&format!("/extensions/{ext}")) {
+                    self.reference(x, "source", &format!("{at}.extensions.{ext}"), "images")?;
+                }
+            }
             self.reference(t, "sampler", &at, "samplers")?;
         }
         for (i, s) in array(self.root, "samplers", "")?.iter().enumerate() {
@@ -121,8 +126,14 @@ impl JsonCheck<'_> {
             let zfar = number(p, "zfar", &here)?;
             if ty == "perspective" {
                 let yfov = need("yfov")?;
-                if !(yfov > 0.0 && yfov < std::f64::consts::PI) {
-                    return Err(format!("{here}.yfov: {yfov} must be in (0, pi) radians"));
+                if yfov <= 0.0 {
+                    return Err(format!("{here}.yfov: {yfov} must be > 0 radians"));
+                }
+                if yfov >= std::f64::consts::PI {
+                    // The specification says SHOULD be below pi, not must.
+                    self.warnings.push(format!(
+                        "{here}.yfov: {yfov} radians is not below pi (180 degrees): pictures use 179 degrees"
+                    ));
                 }
                 if znear <= 0.0 {
                     return Err(format!("{here}.znear: {znear} must be > 0"));

@@ -1,0 +1,190 @@
+//! Quantized and compressed meshes, as the glTF ecosystem's two optimisers write them, load
+//! as the file they were made from: `scenes/cornell.gltf` rewritten by
+//!
+//! - `gltfpack -kn -km -ke` (1.3, npm): `KHR_mesh_quantization` (UNSIGNED_SHORT positions,
+//!   a dequantizing parent node) → `cornell-quant.glb`;
+//! - the same with `-c -ce ext` and `-cc -ce ext`: plus `EXT_meshopt_compression` →
+//!   `cornell-meshopt.glb`, `cornell-meshopt-cc.glb`;
+//! - `gltf-pipeline -d` (4.3, npm): `KHR_draco_mesh_compression` → `cornell-draco.glb`, and
+//!   with `-s` (separate .bin) → `cornell-draco-gltf/`.
+//!
+//! Each object keeps its name, triangle count, material and emission, and its world-space
+//! area and bounds within what quantization allows (gltfpack's 14-bit positions and
+//! gltf-pipeline's 11-bit ones move a vertex by at most half a step of the scene's extent
+//! over 2^bits). The renders are compared in docs/results.md ("Compressed glTF").
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use shrad_scene::{load, LoadOptions, Scene};
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/compressed")
+        .join(name)
+}
+
+fn original() -> Scene {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell.gltf");
+    load(&p, &LoadOptions::default()).unwrap()
+}
+
+/// World-space area of every triangle of object `o` of `s`.
+fn area(s: &Scene, o: usize) -> f32 {
+    let ob = &s.objects[o];
+    ob.mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let p = t.map(|i| {
+                ob.world_from_object
+                    .transform_point3(ob.mesh.positions[i as usize])
+            });
+            0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
+        })
+        .sum()
+}
+
+fn world_bounds(s: &Scene, o: usize) -> (Vec3, Vec3) {
+    let ob = &s.objects[o];
+    ob.mesh.positions.iter().fold(
+        (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
+        |(lo, hi), &p| {
+            let p = ob.world_from_object.transform_point3(p);
+            (lo.min(p), hi.max(p))
+        },
+    )
+}
+
+/// `file` loads as the original, within `bits` of position quantization.
+fn matches_original(file: &str, bits: u32) {
+    let a = original();
+    let b = load(&data(file), &LoadOptions::default()).unwrap_or_else(|e| panic!("{file}: {e}"));
+    assert_eq!(a.objects.len(), b.objects.len(), "{file}: object count");
+    let (lo, hi) = a.bounds().map(|b| (b.min, b.max)).unwrap();
+    let step = (hi - lo).max_element() / (1u32 << bits) as f32;
+    for (i, oa) in a.objects.iter().enumerate() {
+        // gltfpack moves each mesh to an unnamed child of its named node (the child holds
+        // the dequantizing transform), so objects are matched by name where they keep it,
+        // else by order.
+        let j = b
+            .objects
+            .iter()
+            .position(|o| o.name == oa.name)
+            .unwrap_or(i);
+        let ob = &b.objects[j];
+        assert_eq!(
+            oa.mesh.triangles.len(),
+            ob.mesh.triangles.len(),
+            "{file}: {} triangles",
+            oa.name
+        );
+        assert!(
+            oa.material
+                .reflectance
+                .abs_diff_eq(ob.material.reflectance, 1e-6),
+            "{file}: {} reflectance",
+            oa.name
+        );
+        assert!(
+            oa.material
+                .emitted_radiance
+                .abs_diff_eq(ob.material.emitted_radiance, 1e-4),
+            "{file}: {} emission",
+            oa.name
+        );
+        let (la, ha) = world_bounds(&a, i);
+        let (lb, hb) = world_bounds(&b, j);
+        assert!(
+            la.abs_diff_eq(lb, step) && ha.abs_diff_eq(hb, step),
+            "{file}: {} bounds {la}..{ha} vs {lb}..{hb} (step {step})",
+            oa.name
+        );
+        let (aa, ab) = (area(&a, i), area(&b, j));
+        assert!(
+            (aa - ab).abs() <= 1e-3 * aa,
+            "{file}: {} area {aa} vs {ab}",
+            oa.name
+        );
+    }
+}
+
+#[test]
+fn gltfpack_quantized() {
+    matches_original("cornell-quant.glb", 14);
+}
+
+#[test]
+fn gltfpack_meshopt() {
+    matches_original("cornell-meshopt.glb", 14);
+    matches_original("cornell-meshopt-cc.glb", 14);
+}
+
+#[test]
+fn gltf_pipeline_draco() {
+    matches_original("cornell-draco.glb", 11);
+    matches_original("cornell-draco-gltf/cornell-draco.gltf", 11);
+}
+
+thread_local! {
+    static PANICS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+    /// Panics inside draco-oxide-decoder, which the reader catches (see `unpack/draco.rs`).
+    static DRACO_PANICS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// Every byte of each compressed file's BIN chunk (the meshopt and Draco streams) flipped in
+/// turn: each load is an error or a scene, never a panic (a hook counts panics even where the
+/// reader's guard catches them), except inside draco-oxide-decoder, whose panics on a corrupt
+/// stream the Draco step catches and reports as a malformed stream; they are counted apart.
+#[test]
+fn corrupt_streams_never_panic() {
+    static HOOK: std::sync::Once = std::sync::Once::new();
+    HOOK.call_once(|| {
+        let default = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            let in_draco = std::backtrace::Backtrace::force_capture()
+                .to_string()
+                .contains("draco_oxide_decoder::");
+            if in_draco {
+                DRACO_PANICS.with(|p| p.set(p.get() + 1));
+            } else {
+                PANICS.with(|p| p.set(p.get() + 1));
+                default(info);
+            }
+        }));
+    });
+    let dir = std::env::temp_dir().join(format!("shrad-compressed-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut loads = 0;
+    for file in [
+        "cornell-meshopt.glb",
+        "cornell-meshopt-cc.glb",
+        "cornell-draco.glb",
+    ] {
+        let bytes = std::fs::read(data(file)).unwrap();
+        let json_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        let bin = 20 + json_len + 8;
+        let p = dir.join(file);
+        let mut try_load = |b: &[u8]| {
+            std::fs::write(&p, b).unwrap();
+            let before = PANICS.with(std::cell::Cell::get);
+            let _ = load(&p, &LoadOptions::default());
+            assert_eq!(
+                PANICS.with(std::cell::Cell::get),
+                before,
+                "{file}: a corrupt stream panicked"
+            );
+            loads += 1;
+        };
+        for i in bin..bytes.len() {
+            let mut b = bytes.clone();
+            b[i] ^= 0xA5;
+            try_load(&b);
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    let draco = DRACO_PANICS.with(std::cell::Cell::get);
+    println!(
+        "{loads} corrupt loads, 0 panics in shrad, {draco} inside draco-oxide-decoder (caught: an error)"
+    );
+}
