@@ -407,6 +407,14 @@ function steeringText(st) {
   return `${st.backlog} · ${st.pending} waiting · last applied after ${st.waited_frames} frame${st.waited_frames === 1 ? '' : 's'} (${fmt(st.queued_ms, 0)} ms)`;
 }
 
+/** How much of the dispersive solver sleeps (its light stopped changing: no work). */
+function sleepText(solver) {
+  if (!solver || solver.kind !== 'dispersive') return '–';
+  if (solver.asleep) return `everything (${solver.objects_asleep} objects): the frame costs nothing`;
+  const pending = solver.wall_rows_pending ? ` · ${solver.wall_rows_pending} wall rows still building` : '';
+  return `${solver.objects_asleep} object${solver.objects_asleep === 1 ? '' : 's'}${pending}`;
+}
+
 function showStats(m) {
   if (!m) return;
   const s = m.stats || {};
@@ -422,6 +430,7 @@ function showStats(m) {
     ['backlog', steeringText(m.steering)],
     ['objects updated', `${updated.length}${names ? ' (' + names + ')' : ''}`],
     ['stalest', `${s.stalest ?? '–'} frames`],
+    ['asleep', sleepText(s.solver)],
     ['energy', energy.emitted ? `absorbed/emitted ${fmt(energy.absorbed / energy.emitted, 3)} · reflected/bound ${fmt(energy.reflected / energy.reflected_bound, 3)}` : '–'],
     ['GI updates/s', `${m.gi_updates_per_s} engine · ${pageRate} drawn`],
     ['page draw', `${fmt(median(state.drawMs), 1)} ms at ${Math.round(100 * state.pixelRatio)} % resolution`],

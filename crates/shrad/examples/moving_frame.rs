@@ -78,6 +78,44 @@ fn main() {
         })
         .collect();
     report("moving", &moving);
+    // The backend's rate on this scene: rays from random boundary patches in random
+    // directions (closest hit), and shadow rays between random patch pairs.
+    let world = engine.world();
+    let n = world.patches.len();
+    let mut h = 0x9e3779b9u32;
+    let mut rnd = || {
+        h ^= h << 13;
+        h ^= h >> 17;
+        h ^= h << 5;
+        h
+    };
+    let m = 400_000;
+    let origins: Vec<Vec3> = (0..m)
+        .map(|_| world.patches.centre[rnd() as usize % n])
+        .collect();
+    let dirs: Vec<Vec3> = (0..m)
+        .map(|_| {
+            Vec3::new(rnd() as f32, rnd() as f32, rnd() as f32)
+                .map(|x| x / u32::MAX as f32 - 0.5)
+                .normalize_or(Vec3::X)
+        })
+        .collect();
+    let mut hits = vec![shrad::vis::Hit::MISS; m];
+    let t = std::time::Instant::now();
+    world.vis.closest(&origins, &dirs, 1e-3, &[], &mut hits);
+    let closest = m as f64 / t.elapsed().as_secs_f64() / 1e6;
+    let to: Vec<Vec3> = (0..m)
+        .map(|_| world.patches.centre[rnd() as usize % n])
+        .collect();
+    let mut blocked = vec![false; m];
+    let t = std::time::Instant::now();
+    world.vis.occluded(&origins, &to, 1e-3, &[], &mut blocked);
+    let occluded = m as f64 / t.elapsed().as_secs_f64() / 1e6;
+    let rays = median(moving.iter().map(|s| s.rays_cast as f64).collect());
+    println!(
+        "backend: {closest:.1} Mrays/s closest, {occluded:.1} Mrays/s occluded; the moving frame's rays at the closest rate: {:.2} ms",
+        rays / closest / 1e3
+    );
     let still: Vec<FrameStats> = (0..frames).map(|_| engine.step()).collect();
     report("still, first frames after", &still);
     let still: Vec<FrameStats> = (0..frames).map(|_| engine.step()).collect();
