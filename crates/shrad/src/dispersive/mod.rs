@@ -372,8 +372,11 @@ impl Dispersive {
     }
 }
 
+/// With `SHRAD_TRACE` set, print the time since `t` of a part of the frame to stderr (the
+/// per-function table of docs/results.md §5 comes from `examples/moving_frame.rs` run so).
 pub(super) fn tr(label: &str, t: Instant) {
-    if std::env::var_os("SHRAD_TRACE").is_some() {
+    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    if *ON.get_or_init(|| std::env::var_os("SHRAD_TRACE").is_some()) {
         eprintln!("  {label}: {:.2}", ms(t));
     }
 }

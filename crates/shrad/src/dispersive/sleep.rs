@@ -66,7 +66,7 @@ impl Dispersive {
                 ..Default::default()
             }),
         );
-        stats.energy = self.last_energy.clone();
+        stats.energy = self.last_energy;
         stats.frame_ms = ms(frame_start);
         self.frame += 1;
         stats
@@ -82,7 +82,7 @@ impl Dispersive {
         change: f64,
         stats: &FrameStats,
     ) {
-        self.last_energy = stats.energy.clone();
+        self.last_energy = stats.energy;
         let tolerance = self.sleep_tolerance();
         if tolerance <= 0.0 {
             return;
