@@ -63,56 +63,70 @@ pub(super) const MAX_PROBE_BYTES: usize = 8 << 20;
 /// mover's box rejects a whole chunk with one box test before any ray is tested.
 pub(super) const CHUNK: usize = 64;
 
-/// The box of each chunk of [`CHUNK`] cached segments; a chunk with a segment of infinite
-/// length (a miss) has an infinite box and is always tested ray by ray.
+/// The cone of directions of each chunk of [`CHUNK`] rays that share an apex (a probe's
+/// texels from its centre, an emitter's texels or gather entries from the emitter): a
+/// mover's bounding sphere outside every chunk's cone meets none of its rays, one test for
+/// 64 rays. Rays that converge to or leave one point are far better bounded by a cone than
+/// by a box (a row of texels spans the room, so its box meets almost every mover).
 #[derive(Default)]
-pub(super) struct ChunkBounds {
-    pub(super) boxes: Vec<Aabb>,
+pub(super) struct ChunkCones {
+    /// Per chunk: the cone's axis and half-angle (radians; `PI` when it covers everything).
+    axis: Vec<Vec3>,
+    half_angle: Vec<f32>,
 }
 
-impl ChunkBounds {
-    /// Bounds of `n` segments, `segment(i)` giving segment `i` (`None`: nothing cached).
-    pub(super) fn new(n: usize, segment: impl Fn(usize) -> Option<(Vec3, Vec3)> + Sync) -> Self {
-        let boxes = (0..n.div_ceil(CHUNK))
+/// A mover's bounding sphere seen from an apex: direction and angular radius, or `None`
+/// when the apex is inside it (every chunk may meet it).
+pub(super) type SeenSphere = Option<(Vec3, f32)>;
+
+impl ChunkCones {
+    /// The cones of `n` directions, `dir(i)` giving direction `i` (any length).
+    pub(super) fn new(n: usize, dir: impl Fn(usize) -> Vec3 + Sync) -> Self {
+        let cones: Vec<(Vec3, f32)> = (0..n.div_ceil(CHUNK))
             .into_par_iter()
-            .map(|c| chunk_box(c, n, &segment))
+            .map(|c| {
+                let range = c * CHUNK..((c + 1) * CHUNK).min(n);
+                let sum: Vec3 = range.clone().map(|i| dir(i).normalize_or_zero()).sum();
+                let axis = sum.normalize_or_zero();
+                if axis == Vec3::ZERO {
+                    return (Vec3::Z, std::f32::consts::PI);
+                }
+                let min_cos = range
+                    .map(|i| axis.dot(dir(i).normalize_or_zero()))
+                    .fold(1f32, f32::min);
+                // A little slack against rounding.
+                (axis, min_cos.clamp(-1.0, 1.0).acos() + 1e-4)
+            })
             .collect();
-        ChunkBounds { boxes }
-    }
-
-    /// Recompute the boxes of the chunks holding segments `changed` (sorted or not).
-    pub(super) fn refresh(
-        &mut self,
-        n: usize,
-        changed: &[usize],
-        segment: impl Fn(usize) -> Option<(Vec3, Vec3)> + Sync,
-    ) {
-        let mut chunks: Vec<usize> = changed.iter().map(|&i| i / CHUNK).collect();
-        chunks.dedup();
-        for c in chunks {
-            self.boxes[c] = chunk_box(c, n, &segment);
+        ChunkCones {
+            axis: cones.iter().map(|c| c.0).collect(),
+            half_angle: cones.iter().map(|c| c.1).collect(),
         }
     }
 
-    /// Whether chunk `c` may meet one of `boxes`.
-    pub(super) fn may_meet(&self, c: usize, boxes: &[Aabb]) -> bool {
-        self.boxes
-            .get(c)
-            .is_none_or(|b| boxes.iter().any(|m| m.meets_box(b)))
+    /// `spheres` (centre, radius) as seen from `apex`.
+    pub(super) fn seen_from(apex: Vec3, spheres: &[(Vec3, f32)]) -> Vec<SeenSphere> {
+        spheres
+            .iter()
+            .map(|&(c, r)| {
+                let v = c - apex;
+                let d = v.length();
+                (d > r).then(|| (v / d, (r / d).clamp(0.0, 1.0).asin()))
+            })
+            .collect()
     }
-}
 
-fn chunk_box(c: usize, n: usize, segment: &impl Fn(usize) -> Option<(Vec3, Vec3)>) -> Aabb {
-    let mut b = Aabb::EMPTY;
-    for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
-        if let Some((from, to)) = segment(i) {
-            if !(from.is_finite() && to.is_finite()) {
-                return Aabb::new(Vec3::NEG_INFINITY, Vec3::INFINITY);
+    /// Whether a ray of chunk `c` may meet one of the `seen` spheres.
+    pub(super) fn may_meet(&self, c: usize, seen: &[SeenSphere]) -> bool {
+        let (axis, half) = (self.axis[c], self.half_angle[c]);
+        seen.iter().any(|s| match *s {
+            None => true,
+            Some((u, alpha)) => {
+                let reach = half + alpha;
+                reach >= std::f32::consts::PI || u.dot(axis) >= reach.cos()
             }
-            b = b.grow(from).grow(to);
-        }
+        })
     }
-    b
 }
 
 /// What a probe's capture at its current place saw.
@@ -125,8 +139,6 @@ pub(super) struct ProbeHits {
     pub(super) t: Vec<f32>,
     /// Fraction of the sphere (by solid angle) that sees back faces.
     pub(super) back_fraction: f32,
-    /// The box of each chunk of texel segments.
-    pub(super) bounds: ChunkBounds,
 }
 
 /// Step 2's cache of one object.
@@ -149,8 +161,8 @@ pub(super) struct GatherEntries {
     pub(super) dir: [Vec<f32>; 3],
     /// [`RAY_UNKNOWN`], [`RAY_CLEAR`] or [`RAY_BLOCKED`].
     pub(super) ray: Vec<u8>,
-    /// The box of each chunk of segments from the entries' ray origins to the centre.
-    pub(super) bounds: ChunkBounds,
+    /// The cone of each chunk of entries' directions from the centre.
+    pub(super) cones: ChunkCones,
 }
 
 /// The texels of one splat emitter.
@@ -160,8 +172,6 @@ pub(super) struct SplatTexels {
     pub(super) seen: Vec<u32>,
     /// Per texel: the hit distance (infinite for a miss).
     pub(super) t: Vec<f32>,
-    /// The box of each chunk of traced texel segments.
-    pub(super) bounds: ChunkBounds,
 }
 
 /// How one emitter reaches the boundary.
@@ -264,6 +274,8 @@ impl Dispersive {
         };
         let dirs = &self.camera.cube.directions;
         let emitter_dirs = &self.emitter_camera.cube.directions;
+        let sphere_list: Vec<(Vec3, f32)> = boxes.iter().map(Aabb::bounding_sphere).collect();
+        let (probe_cones, emitter_cones) = (&self.probe_cones, &self.emitter_cones);
         for ob in &mut self.objects {
             if changes.moved.contains(&ob.object) {
                 ob.probe_cache = ProbeCache::default();
@@ -272,8 +284,9 @@ impl Dispersive {
             }
             for probe in &mut ob.probe_cache.probes {
                 let stale = probe.as_ref().is_some_and(|h| {
+                    let seen = ChunkCones::seen_from(h.origin, &sphere_list);
                     (0..h.t.len().div_ceil(CHUNK)).into_par_iter().any(|c| {
-                        h.bounds.may_meet(c, &boxes)
+                        probe_cones.may_meet(c, &seen)
                             && (c * CHUNK..((c + 1) * CHUNK).min(h.t.len()))
                                 .any(|t| meets(h.origin, dirs[t], h.t[t]))
                     })
@@ -290,12 +303,12 @@ impl Dispersive {
                 match rays {
                     EmitterRays::Gather(g) => {
                         let c = g.centre;
-                        let bounds = &g.bounds;
+                        let (cones, seen) = (&g.cones, ChunkCones::seen_from(c, &sphere_list));
                         g.ray
                             .par_chunks_mut(CHUNK)
                             .zip(g.patch.par_chunks(CHUNK))
                             .enumerate()
-                            .filter(|(k, _)| bounds.may_meet(*k, &boxes))
+                            .filter(|(k, _)| cones.may_meet(*k, &seen))
                             .for_each(|(_, (rs, js))| {
                                 for (r, &j) in rs.iter_mut().zip(js) {
                                     let j = j as usize;
@@ -308,13 +321,13 @@ impl Dispersive {
                     }
                     EmitterRays::Splat(s) => {
                         let c = s.centre;
-                        let bounds = &s.bounds;
+                        let seen_spheres = ChunkCones::seen_from(c, &sphere_list);
                         s.seen
                             .par_chunks_mut(CHUNK)
                             .zip(s.t.par_chunks(CHUNK))
                             .zip(emitter_dirs.par_chunks(CHUNK))
                             .enumerate()
-                            .filter(|(k, _)| bounds.may_meet(*k, &boxes))
+                            .filter(|(k, _)| emitter_cones.may_meet(*k, &seen_spheres))
                             .for_each(|(_, ((seen, t), d))| {
                                 for ((seen, &t), &d) in seen.iter_mut().zip(t).zip(d) {
                                     if *seen != UNKNOWN && meets(c, d, t) {
@@ -335,6 +348,41 @@ mod tests {
     use super::*;
     use crate::patches::PatchSizing;
     use shrad_vis::Backend;
+
+    /// A chunk's cone never rejects a sphere that one of its rays meets (random directions
+    /// and spheres), and it does reject spheres well away from every ray.
+    #[test]
+    fn chunk_cones_reject_only_what_no_ray_meets() {
+        let mut h = 0x2545f491u32;
+        let mut rnd = || {
+            h ^= h << 13;
+            h ^= h >> 17;
+            h ^= h << 5;
+            h as f32 / u32::MAX as f32
+        };
+        let camera = crate::probes::ProbeCamera::new(8, 2);
+        let dirs = &camera.cube.directions;
+        let cones = ChunkCones::new(dirs.len(), |t| dirs[t]);
+        let apex = Vec3::new(0.3, -0.2, 0.1);
+        let mut rejected = 0;
+        for _ in 0..2000 {
+            let c = Vec3::new(rnd(), rnd(), rnd()) * 8.0 - 4.0;
+            let r = 0.05 + 0.5 * rnd();
+            let b = Aabb::new(c - Vec3::splat(r), c + Vec3::splat(r));
+            let seen = ChunkCones::seen_from(apex, &[b.bounding_sphere()]);
+            for chunk in 0..dirs.len().div_ceil(CHUNK) {
+                let any_ray = (chunk * CHUNK..((chunk + 1) * CHUNK).min(dirs.len()))
+                    .any(|t| b.meets_ray_within(apex, dirs[t], f32::INFINITY));
+                let may = cones.may_meet(chunk, &seen);
+                assert!(may || !any_ray, "a cone rejected a box its rays meet");
+                rejected += usize::from(!may);
+            }
+        }
+        assert!(
+            rejected > 2000,
+            "the cones reject almost nothing: {rejected}"
+        );
+    }
 
     /// One frame's change to the Cornell box.
     enum Event {

@@ -70,6 +70,9 @@ pub struct Dispersive {
     camera: ProbeCamera,
     /// Step 3's splat from each emitter.
     emitter_camera: ProbeCamera,
+    /// The cones of each chunk of the two cameras' texel directions (`caches.rs`).
+    probe_cones: caches::ChunkCones,
+    emitter_cones: caches::ChunkCones,
     objects: Vec<ObjectProbes>,
     /// Which objects a frame updates; what it knows of each (aligned with `objects`).
     scheduler: Scheduler,
@@ -179,10 +182,16 @@ impl Dispersive {
         let n = p.len();
         let n_objects = objects.len();
         let radiosity = world.exitance.clone();
+        let probe_cones = caches::ChunkCones::new(camera.texels(), |t| camera.cube.directions[t]);
+        let emitter_cones = caches::ChunkCones::new(emitter_camera.texels(), |t| {
+            emitter_camera.cube.directions[t]
+        });
         Ok(Dispersive {
             options,
             camera,
             emitter_camera,
+            probe_cones,
+            emitter_cones,
             scheduler: Scheduler::new(options.schedule, objects.len()),
             objects,
             radiosity,

@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use shrad_sh::{cosine_lobe_sh, num_coeffs, ShRgb, MAX_COEFFS};
 use shrad_vis::Hit;
 
-use super::caches::{ChunkBounds, ProbeCache, ProbeHits, MAX_PROBE_BYTES, SEES_BACK, SEES_NOTHING};
+use super::caches::{ProbeCache, ProbeHits, MAX_PROBE_BYTES, SEES_BACK, SEES_NOTHING};
 use super::{ms, Batch, Dispersive, DispersiveStats, FrameStats, ProbeRepair};
 use crate::probes::Seen;
 use crate::World;
@@ -325,14 +325,11 @@ impl Dispersive {
                     .iter()
                     .map(|h| if h.is_hit() { h.t } else { f32::INFINITY })
                     .collect();
-                let dirs = &self.camera.cube.directions;
-                let bounds = ChunkBounds::new(t.len(), |i| Some((origin, origin + dirs[i] * t[i])));
                 ProbeHits {
                     origin,
                     seen,
                     t,
                     back_fraction: back / (4.0 * std::f32::consts::PI),
-                    bounds,
                 }
             })
             .collect()

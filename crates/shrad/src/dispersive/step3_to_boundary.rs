@@ -18,7 +18,7 @@ use shrad_sh::{cosine_lobe, eval_basis, num_coeffs, ShRgb};
 use shrad_vis::Hit;
 
 use super::caches::{
-    ChunkBounds, EmitterCache, EmitterRays, GatherEntries, SplatTexels, LANDS_NOWHERE,
+    ChunkCones, EmitterCache, EmitterRays, GatherEntries, SplatTexels, LANDS_NOWHERE,
     MAX_STEP3_BYTES, RAY_BLOCKED, RAY_CLEAR, RAY_UNKNOWN, UNKNOWN,
 };
 use super::setup::receives_as_boundary;
@@ -211,7 +211,6 @@ impl Dispersive {
                             centre,
                             seen: vec![UNKNOWN; n],
                             t: vec![f32::INFINITY; n],
-                            bounds: ChunkBounds::new(n, |_| None),
                         })
                     }
                 }
@@ -239,14 +238,14 @@ impl Dispersive {
                 (cos > 0.0).then_some((j, cos, r2, -towards_object))
             })
             .collect();
-        let from = |n: usize| {
+        // The entries' shadow rays all end at the centre: one cone of directions a chunk.
+        let cones = ChunkCones::new(facing.len(), |n| {
             let j = facing[n].0 as usize;
-            Some((p.centre[j] + p.normal[j] * world.eps, centre))
-        };
-        let bounds = ChunkBounds::new(facing.len(), from);
+            p.centre[j] + p.normal[j] * world.eps - centre
+        });
         GatherEntries {
             centre,
-            bounds,
+            cones,
             patch: facing.iter().map(|f| f.0).collect(),
             cos: facing.iter().map(|f| f.1).collect(),
             r2: facing.iter().map(|f| f.2).collect(),
@@ -292,10 +291,6 @@ impl Dispersive {
                 texels.seen[t] = world.seen_patch(h).map_or(LANDS_NOWHERE, |j| j as u32);
                 texels.t[t] = if h.is_hit() { h.t } else { f32::INFINITY };
             }
-            let (c, seen, dist) = (texels.centre, &texels.seen, &texels.t);
-            texels.bounds.refresh(seen.len(), &unknown, |t| {
-                (seen[t] != UNKNOWN).then(|| (c, c + cube.directions[t] * dist[t]))
-            });
         }
         flux.into_iter()
             .filter_map(|(t, f)| {
