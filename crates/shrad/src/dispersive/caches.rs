@@ -276,16 +276,18 @@ impl Dispersive {
         let emitter_dirs = &self.emitter_camera.cube.directions;
         let sphere_list: Vec<(Vec3, f32)> = boxes.iter().map(Aabb::bounding_sphere).collect();
         let (probe_cones, emitter_cones) = (&self.probe_cones, &self.emitter_cones);
-        for ob in &mut self.objects {
+        // One task an object (hundreds of objects: a task a probe or an emitter would cost
+        // more in scheduling than the tests it runs).
+        self.objects.par_iter_mut().for_each(|ob| {
             if changes.moved.contains(&ob.object) {
                 ob.probe_cache = ProbeCache::default();
                 ob.emitter_cache = EmitterCache::default();
-                continue;
+                return;
             }
             for probe in &mut ob.probe_cache.probes {
                 let stale = probe.as_ref().is_some_and(|h| {
                     let seen = ChunkCones::seen_from(h.origin, &sphere_list);
-                    (0..h.t.len().div_ceil(CHUNK)).into_par_iter().any(|c| {
+                    (0..h.t.len().div_ceil(CHUNK)).any(|c| {
                         probe_cones.may_meet(c, &seen)
                             && (c * CHUNK..((c + 1) * CHUNK).min(h.t.len()))
                                 .any(|t| meets(h.origin, dirs[t], h.t[t]))
@@ -297,7 +299,7 @@ impl Dispersive {
             }
             if boundary_moved {
                 ob.emitter_cache = EmitterCache::default();
-                continue;
+                return;
             }
             for rays in &mut ob.emitter_cache.rays {
                 match rays {
@@ -305,8 +307,8 @@ impl Dispersive {
                         let c = g.centre;
                         let (cones, seen) = (&g.cones, ChunkCones::seen_from(c, &sphere_list));
                         g.ray
-                            .par_chunks_mut(CHUNK)
-                            .zip(g.patch.par_chunks(CHUNK))
+                            .chunks_mut(CHUNK)
+                            .zip(g.patch.chunks(CHUNK))
                             .enumerate()
                             .filter(|(k, _)| cones.may_meet(*k, &seen))
                             .for_each(|(_, (rs, js))| {
@@ -323,9 +325,9 @@ impl Dispersive {
                         let c = s.centre;
                         let seen_spheres = ChunkCones::seen_from(c, &sphere_list);
                         s.seen
-                            .par_chunks_mut(CHUNK)
-                            .zip(s.t.par_chunks(CHUNK))
-                            .zip(emitter_dirs.par_chunks(CHUNK))
+                            .chunks_mut(CHUNK)
+                            .zip(s.t.chunks(CHUNK))
+                            .zip(emitter_dirs.chunks(CHUNK))
                             .enumerate()
                             .filter(|(k, _)| emitter_cones.may_meet(*k, &seen_spheres))
                             .for_each(|(_, ((seen, t), d))| {
@@ -338,7 +340,7 @@ impl Dispersive {
                     }
                 }
             }
-        }
+        });
     }
 }
 
