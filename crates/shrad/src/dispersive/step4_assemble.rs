@@ -42,7 +42,7 @@ impl Dispersive {
             message: std::mem::take(&mut self.step_warnings).join("; "),
             non_finite: 0,
         });
-        if let Some(d) = self.guard(world, &stats.energy, earlier) {
+        if let Some(d) = self.guard(world, &stats.energy, earlier, &stats.objects_updated) {
             stats.energy = EnergyBalance {
                 object_emitters: stats.energy.object_emitters,
                 ..self.energy(world)
@@ -156,12 +156,14 @@ impl Dispersive {
     /// Reset non-finite values and damp a state that breaks the energy bound (spec 2): the
     /// reflected part of every radiosity, and every irradiance that feeds it, is scaled back
     /// to the bound. Returns what diverged, with the largest object emitter named, merged
-    /// with `earlier` (what Step 3's own guard found this frame).
+    /// with `earlier` (what Step 3's own guard found this frame). `updated`: the objects
+    /// (scene indices) updated this frame, whose shares are checked for non-finite values.
     pub(super) fn guard(
         &mut self,
         world: &World,
         balance: &EnergyBalance,
         earlier: Option<Divergence>,
+        updated: &[usize],
     ) -> Option<Divergence> {
         let mut non_finite = 0;
         for v in [
@@ -173,7 +175,9 @@ impl Dispersive {
         ] {
             non_finite += crate::energy::reset_non_finite(v);
         }
-        for ob in &mut self.objects {
+        // Only the objects updated this frame sent new light (the others were checked when
+        // they were: a scene of many objects must not cost a pass over all their shares).
+        for ob in self.objects.iter_mut().filter(|ob| updated.contains(&ob.object)) {
             for (_, e) in &mut ob.to_boundary {
                 if !e.is_finite() {
                     *e = Vec3::ZERO;
