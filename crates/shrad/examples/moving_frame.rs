@@ -38,6 +38,9 @@ fn main() {
     let patches: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(77_000);
     let objects: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(8);
     let frames: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(32);
+    // With a budget (ms), the moving frames are `Engine::step_within` it, and their 95th
+    // percentile is printed against it.
+    let budget: Option<f32> = args.next().and_then(|s| s.parse().ok());
     let scene = room(&RoomParams {
         objects,
         patches,
@@ -74,10 +77,23 @@ fn main() {
                     Affine3A::from_translation(Vec3::X * reach * phase) * rest,
                 )
                 .unwrap();
-            engine.step()
+            match budget {
+                Some(ms) => engine.step_within(ms).unwrap(),
+                None => engine.step(),
+            }
         })
         .collect();
     report("moving", &moving);
+    if let Some(ms) = budget {
+        let mut t: Vec<f64> = moving.iter().map(|s| s.frame_ms).collect();
+        t.sort_by(f64::total_cmp);
+        let p95 = t[(t.len() * 95 / 100).min(t.len() - 1)];
+        let stalest = moving.iter().map(|s| s.stalest).max().unwrap_or(0);
+        println!(
+            "budget {ms} ms: 95th percentile frame {p95:.2} ms ({:.2}x the budget), stalest {stalest} frames",
+            p95 / ms as f64
+        );
+    }
     // The backend's rate on this scene: rays from random boundary patches in random
     // directions (closest hit), and shadow rays between random patch pairs.
     let world = engine.world();

@@ -177,7 +177,11 @@ impl Dispersive {
         }
         // Only the objects updated this frame sent new light (the others were checked when
         // they were: a scene of many objects must not cost a pass over all their shares).
-        for ob in self.objects.iter_mut().filter(|ob| updated.contains(&ob.object)) {
+        for ob in self
+            .objects
+            .iter_mut()
+            .filter(|ob| updated.contains(&ob.object))
+        {
             for (_, e) in &mut ob.to_boundary {
                 if !e.is_finite() {
                     *e = Vec3::ZERO;
