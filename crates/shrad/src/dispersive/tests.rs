@@ -11,6 +11,17 @@ use crate::patches::PatchSizing;
 use shrad_scene::{Material, Object, Scene};
 use shrad_vis::Backend;
 
+/// The area-weighted relative difference of two radiosities, `sum A |a - b| / sum A b`.
+fn relative_difference(world: &World, a: &[Vec3], b: &[Vec3]) -> f64 {
+    let p = &world.patches;
+    let (mut d, mut t) = (0f64, 0f64);
+    for (i, (a, b)) in a.iter().zip(b).enumerate() {
+        d += (p.area[i] * (*a - *b).abs().element_sum()) as f64;
+        t += (p.area[i] * b.element_sum()) as f64;
+    }
+    d / t
+}
+
 /// A closed room (six inward walls) around one interior sphere.
 fn sphere_in_a_room() -> Scene {
     let mut room = shrad_scene::room(&shrad_scene::RoomParams {
@@ -360,16 +371,7 @@ fn sleeping_scene_matches_a_never_sleeping_one_and_wakes() {
         "the scene did not fall asleep again after the move"
     );
     // Within the tolerance's reach of never sleeping (area-weighted relative difference).
-    let p = &world.patches;
-    let diff = |a: &[Vec3], b: &[Vec3]| {
-        let (mut d, mut t) = (0f64, 0f64);
-        for i in 0..a.len() {
-            d += (p.area[i] * (a[i] - b[i]).abs().element_sum()) as f64;
-            t += (p.area[i] * b[i].element_sum()) as f64;
-        }
-        d / t
-    };
-    let gap = diff(sleepy.radiosity(), awake.radiosity());
+    let gap = relative_difference(&world, sleepy.radiosity(), awake.radiosity());
     assert!(
         gap < 1e-3,
         "sleeping differs from never sleeping by {gap:e}"
@@ -423,13 +425,8 @@ fn lazily_built_wall_rows_converge_to_the_eager_ones() {
         lazy.step(&world, &still);
     }
     assert_eq!(lazy.wall_rows.as_ref().unwrap().pending_rows(), 0);
-    let p = &world.patches;
-    let (mut d, mut t) = (0f64, 0f64);
-    for (i, (a, b)) in lazy.radiosity().iter().zip(eager.radiosity()).enumerate() {
-        d += (p.area[i] * (*a - *b).abs().element_sum()) as f64;
-        t += (p.area[i] * b.element_sum()) as f64;
-    }
-    assert!(d / t < 1e-4, "lazy and eager rows differ by {:e}", d / t);
+    let gap = relative_difference(&world, lazy.radiosity(), eager.radiosity());
+    assert!(gap < 1e-4, "lazy and eager rows differ by {gap:e}");
 }
 
 /// A budget far below one object's cost: every frame still updates exactly one object, the
@@ -502,20 +499,6 @@ fn a_budget_far_below_one_object_still_progresses_and_loses_nothing() {
         budgeted.wall_rows.as_ref().unwrap().settled(),
         "carried work was lost"
     );
-    let p = &world.patches;
-    let (mut d, mut t) = (0f64, 0f64);
-    for (i, (a, b)) in budgeted
-        .radiosity()
-        .iter()
-        .zip(free.radiosity())
-        .enumerate()
-    {
-        d += (p.area[i] * (*a - *b).abs().element_sum()) as f64;
-        t += (p.area[i] * b.element_sum()) as f64;
-    }
-    assert!(
-        d / t < 1e-3,
-        "budgeted and unbudgeted differ by {:e}",
-        d / t
-    );
+    let gap = relative_difference(&world, budgeted.radiosity(), free.radiosity());
+    assert!(gap < 1e-3, "budgeted and unbudgeted differ by {gap:e}");
 }
