@@ -43,7 +43,7 @@ if [ "$what" = static ] || [ "$what" = all ]; then
       echo "$scene,20000,$preset,$(echo "$out" | errline),$ms" >> "$F/static_errors.csv"
     done
     for g in 4 5; do
-      out=$($S render "$scene" --patches 20000 --solver grid --grid $g --compare \
+      out=$($S render "$scene" --patches 20000 --solver grid --set per_axis=$g --compare \
         -o "$F/${name}_grid$g.png" --width 320 --height 320 --spp 4 --exposure "$exposure" 2>&1)
       ms=$(echo "$out" | sed -n 's/.*last frame \([0-9.]*\) ms.*/\1/p')
       echo "$scene,20000,grid$g,$(echo "$out" | errline),$ms" >> "$F/static_errors.csv"
@@ -57,24 +57,24 @@ if [ "$what" = static ] || [ "$what" = all ]; then
     echo "$label,$(echo "$out" | errline)" >> "$F/ablation.csv"
   done <<'VARIANTS'
 paper (all off)|--preset paper
-+ probe margin and repair|--preset paper --probe-margin 0.01 --repair move
-+ wall exchange|--preset paper --probe-margin 0.01 --repair move --wall-exchange true
-+ see through self|--preset paper --probe-margin 0.01 --repair move --wall-exchange true --see-through-self true
-+ direct on interior|--preset paper --probe-margin 0.01 --repair move --wall-exchange true --see-through-self true --direct-interior true
-+ contact openness|--preset paper --probe-margin 0.01 --repair move --wall-exchange true --see-through-self true --direct-interior true --contact-rays 8
-+ emitter per face and gather (all on; R 128; round robin)|--preset paper --probe-margin 0.01 --repair move --wall-exchange true --see-through-self true --direct-interior true --contact-rays 8 --emitter-per-face true --to-boundary auto
++ probe margin and repair|--preset paper --set probe_margin=0.01 --set repair=move_inward
++ wall exchange|--preset paper --set probe_margin=0.01 --set repair=move_inward --set wall_exchange=true
++ see through self|--preset paper --set probe_margin=0.01 --set repair=move_inward --set wall_exchange=true --set see_through_self=true
++ direct on interior|--preset paper --set probe_margin=0.01 --set repair=move_inward --set wall_exchange=true --set see_through_self=true --set direct_on_interior=true
++ contact openness|--preset paper --set probe_margin=0.01 --set repair=move_inward --set wall_exchange=true --set see_through_self=true --set direct_on_interior=true --set contact_rays=8
++ emitter per face and gather (all on; R 128; round robin)|--preset paper --set probe_margin=0.01 --set repair=move_inward --set wall_exchange=true --set see_through_self=true --set direct_on_interior=true --set contact_rays=8 --set emitter_per_face=true --set to_boundary=auto
 default (probes R 32, splat R 64; priority)|
-default: repair drop|--repair drop
-default: no repair|--repair none
-default: no wall exchange|--wall-exchange false
-default: own texels black|--see-through-self false
-default: no contact openness|--contact-rays 0
-default: one emitter at the centre|--emitter-per-face false
-default: splat|--to-boundary splat
-default: splat without smoothing|--to-boundary splat --splat-smoothing false
-default: 9 coefficients|--bands 3
-default: probes R 64|--cube-res 64
-default: probes R 128|--cube-res 128
+default: repair drop|--set repair=drop
+default: no repair|--set repair=none
+default: no wall exchange|--set wall_exchange=false
+default: own texels black|--set see_through_self=false
+default: no contact openness|--set contact_rays=0
+default: one emitter at the centre|--set emitter_per_face=false
+default: splat|--set to_boundary=splat
+default: splat without smoothing|--set to_boundary=splat --set splat_smoothing=false
+default: 9 coefficients|--set bands=3
+default: probes R 64|--set cube_res=64
+default: probes R 128|--set cube_res=128
 VARIANTS
 fi
 
@@ -88,8 +88,8 @@ if [ "$what" = concave ] || [ "$what" = all ]; then
     echo "$label,$(echo "$out" | errline)" >> "$F/concave.csv"
   done <<'VARIANTS'
 default (transfer vectors: 64 rays)|
-default without transfer vectors|--self-shadow-rays 0
-default: own texels black instead of see-through|--see-through-self false --self-shadow-rays 0
+default without transfer vectors|--set self_shadow_rays=0
+default: own texels black instead of see-through|--set see_through_self=false --set self_shadow_rays=0
 paper|--preset paper
 VARIANTS
 fi
@@ -97,13 +97,13 @@ fi
 if [ "$what" = moving ] || [ "$what" = all ]; then
   # A box sliding across the Cornell box floor over 120 frames, the light switching colour
   # half way: per-frame error for K = 1 round robin and for motion priority.
-  $S animate scenes/moving_box.toml --solver dispersive --schedule round-robin --frames 120 --fps 30 \
+  $S animate scenes/moving_box.toml --solver dispersive --set schedule=round-robin --frames 120 --fps 30 \
     --error-every 2 --patches 10000 --rays-per-patch 128 --width 256 --height 256 -q -o /tmp/shrad_moving_single
   cp /tmp/shrad_moving_single/stats.csv "$F/moving_single_stats.csv"
   cp /tmp/shrad_moving_single/animation.gif "$F/moving_box.gif"
   # The same motion among four static objects, where the scheduler has a choice.
   for sched in round-robin priority; do
-    $S animate scenes/moving_box_scene.toml --solver dispersive --schedule $sched --frames 120 --fps 30 \
+    $S animate scenes/moving_box_scene.toml --solver dispersive --set schedule=$sched --frames 120 --fps 30 \
       --error-every 2 --patches 10000 --rays-per-patch 128 --width 256 --height 256 -q -o "/tmp/shrad_moving_$sched"
     cp "/tmp/shrad_moving_$sched/stats.csv" "$F/moving_${sched}_stats.csv"
   done
@@ -137,11 +137,11 @@ if [ "$what" = timing ] || [ "$what" = all ]; then
     echo "$tag,$label,$(echo "$out" | errline)" >> "$F/timing_room75k_errors.csv"
   done <<'VARIANTS'
 default|default: probes R 32; splat R 64 smoothed|
-probes64|probes R 64|--cube-res 64
-raw|splat not smoothed|--splat-smoothing false
-splat32|splat R 32|--emitter-res 32
-gather|gather instead of splat|--to-boundary gather
-paperres|probes and emitters R 128 (gathers: 2 x 6 x 128^2 > boundary)|--cube-res 128 --emitter-res 128
+probes64|probes R 64|--set cube_res=64
+raw|splat not smoothed|--set splat_smoothing=false
+splat32|splat R 32|--set emitter_res=32
+gather|gather instead of splat|--set to_boundary=gather
+paperres|probes and emitters R 128 (gathers: 2 x 6 x 128^2 > boundary)|--set cube_res=128 --set emitter_res=128
 VARIANTS
   $PY docs/plot.py timing "$F"
 fi

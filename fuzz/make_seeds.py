@@ -120,6 +120,46 @@ put("gltf", "fan_noindex_noscene.gltf", json.dumps(tri_doc(mode=6, indexed=False
 put("gltf", "texture.gltf", json.dumps(textured(tri_doc(), False)))
 put("gltf", "minimal.gltf", '{"asset":{"version":"2.0"}}')
 
+# The compressed and quantized fixtures (gltfpack, gltf-pipeline; see docs/results.md §11):
+# as they are for glb, and as .gltf text with the BIN chunk as a data URI for gltf.
+COMPRESSED = os.path.join(HERE, "..", "crates", "shrad-scene", "tests", "data", "compressed")
+
+
+def glb_to_gltf(data):
+    """The JSON of a GLB with its BIN chunk as buffer 0's data URI."""
+    n = struct.unpack("<I", data[12:16])[0]
+    doc = json.loads(data[20:20 + n])
+    rest = data[20 + n:]
+    bin_ = rest[8:8 + struct.unpack("<I", rest[:4])[0]] if len(rest) >= 8 else b""
+    doc["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64.b64encode(bin_).decode()
+    return doc
+
+
+for name in ["cornell-quant.glb", "cornell-meshopt.glb", "cornell-meshopt-cc.glb", "cornell-draco.glb"]:
+    with open(os.path.join(COMPRESSED, name), "rb") as f:
+        data = f.read()
+    put("glb", name, data)
+    put("gltf", name.replace(".glb", ".gltf"), json.dumps(glb_to_gltf(data), separators=(",", ":")))
+
+# What the specification allows and files from the validator's suite do: no scene and no
+# node (a library of meshes), positions as an accessor without bufferView (zeros) with
+# sparse values on top, an accessor of a type glTF 2.0 does not define (unused), version 2.1.
+sp_idx = struct.pack("<3H", 0, 1, 2) + b"\0\0"
+sp_val = struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0)
+data = sp_idx + sp_val
+put("gltf", "library_sparse_zeros.gltf", json.dumps({
+    "asset": {"version": "2.1", "minVersion": "2.0"},
+    "buffers": [{"byteLength": len(data),
+                 "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode()}],
+    "bufferViews": [{"buffer": 0, "byteLength": 6}, {"buffer": 0, "byteOffset": 8, "byteLength": 36}],
+    "accessors": [{"componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0],
+                   "sparse": {"count": 3, "indices": {"bufferView": 0, "componentType": 5123},
+                              "values": {"bufferView": 1}}},
+                  {"componentType": 5126, "count": 2, "type": "NotaVEC3"}],
+    "materials": [{"emissiveFactor": [1, 1, 1]}],
+    "meshes": [{"name": "m", "primitives": [{"attributes": {"POSITION": 0}, "material": 0, "mode": 6}]}],
+}))
+
 # GLB (binary)
 put("glb", "cornell.glb", glb(cornell, from_data_uri(cornell)))
 for name, doc in [("tri.glb", tri_doc()), ("strip.glb", tri_doc(mode=5, emissive=True)),

@@ -65,11 +65,19 @@ async function loadInThree(file, bytes) {
         maxRadiosity,
         material: o.material.type,
         vertexColors: o.material.vertexColors,
+        uv1: g.getAttribute('uv1') ? g.getAttribute('uv1').itemSize : 0,
+        mapChannel: o.material.map ? o.material.map.channel : null,
       });
     }
   });
   return { meshes };
 }
+
+// Images in node: GLTFLoader decodes them with createImageBitmap (a browser's); a stub that
+// gives a 1x1 bitmap lets it build the textures (their pixels are checked in the browser test,
+// web/test/lightmap-example.test.js), so the meshes, their uv1 and their maps are checked here.
+globalThis.self ??= globalThis;
+globalThis.createImageBitmap ??= async () => ({ width: 1, height: 1, close() {} });
 
 // three's FileLoader reports progress with the browser's ProgressEvent, which node lacks.
 globalThis.ProgressEvent ??= class ProgressEvent extends Event {

@@ -325,6 +325,9 @@ test('shrad view in a real browser: lit, drag, solver, channels, probes, perform
     await page.click('#apply-solver');
     await page.waitForFunction(() => window.__shrad.state.lastFrame.solver === 'grid', null, { timeout: 60_000 });
     await page.waitForFunction(() => window.__shrad.state.lastDrawnFrame >= window.__shrad.state.lastFrame.frame);
+    // The panel repaints five times a second, not per frame; and the switch now precomputes
+    // beside the frames, so the grid's first frame may come just after a repaint.
+    await page.waitForFunction(() => /grid/.test(document.getElementById('stats').innerText), null, { timeout: 10_000 });
     const gridText = await statsText();
     assert.notEqual(gridText, before);
     assert.match(gridText, /grid/);
@@ -389,6 +392,35 @@ test('shrad view in a real browser: lit, drag, solver, channels, probes, perform
     await browser.close();
     const r = await stopServer(server);
     assert.ok(r && (r.code === 0), `the server did not exit cleanly on SIGINT: ${JSON.stringify(r)}\n${server.stderr()}`);
+  }
+});
+
+test('sharing: the token from the page address into its socket, one steerer and a watcher that takes over', { timeout: 300_000 }, async () => {
+  const token = 'browser-test-token-0123456789';
+  const server = await startServer(['cornell', '--patches', '2000', '--token', token]);
+  const browser = await launch();
+  try {
+    // Without the token (or with a wrong one) the page itself is refused.
+    assert.equal((await fetch(server.url)).status, 401);
+    assert.equal((await fetch(`${server.url}?token=wrong-token-0123456789`)).status, 401);
+    // With it, the page loads its modules (the cookie) and its socket (the URL), and steers.
+    const { page, errors } = await openPage(browser.context, `${server.url}?token=${token}`);
+    await page.waitForFunction(() => document.getElementById('role').textContent.startsWith('you steer'));
+    // A second page watches; once the first hands over, it takes steering.
+    const second = await browser.context.newPage();
+    await second.goto(`${server.url}?token=${token}`);
+    await second.waitForFunction(() => window.__shrad && window.__shrad.state.framesDrawn > 0, null, { timeout: 120_000 });
+    await second.waitForFunction(() => document.getElementById('role').textContent.startsWith('you watch (another'));
+    assert.equal(await second.isHidden('#take-steering'), true, 'take steering offered while another steers');
+    await page.click('#release-steering');
+    await second.waitForSelector('#take-steering', { state: 'visible' });
+    await second.click('#take-steering');
+    await second.waitForFunction(() => document.getElementById('role').textContent.startsWith('you steer'));
+    await page.waitForFunction(() => document.getElementById('role').textContent.startsWith('you watch'));
+    assert.deepEqual(errors, []);
+  } finally {
+    await browser.close();
+    await stopServer(server);
   }
 });
 

@@ -123,6 +123,16 @@ fn projection(c: &mut Criterion) {
     g.bench_function("R=128, 16 coeffs, RGB (texels)", |b| {
         b.iter(|| black_box(projector.project(black_box(&radiance))))
     });
+    // As a probe projects: each texel's radiance looked up by the id of what it sees.
+    let palette: Vec<Vec3> = (0..1000).map(|i| Vec3::splat(i as f32)).collect();
+    let ids: Vec<usize> = (0..radiance.len()).map(|t| (t * 7919) % 1000).collect();
+    let mut out = ShRgb::zeros(4);
+    g.bench_function("R=128, 16 coeffs, RGB (palette by texel id)", |b| {
+        b.iter(|| {
+            projector.project_with_into(|t| palette[ids[t]], &mut out);
+            black_box(&out);
+        })
+    });
     g.finish();
 }
 

@@ -94,8 +94,9 @@ fn objects_plot(records: &[&Record]) -> Option<Plot> {
     })
 }
 
-/// The plots of `report`: Figure 2 (Tables 1-2 scenes), Figure 3 (Table 3 scenes), and the
-/// error against time on the Tables 1-2 scene nearest 75k patches and on the largest scene.
+/// The plots of `report`: the paper's Figure 3 (every solver on the Tables 1-2 scenes), its
+/// Figure 2 (its Table 3 plotted: the Table 3 scenes), and the error against time on the
+/// Tables 1-2 scene nearest 75k patches and on the largest scene.
 pub fn plots(report: &BenchReport) -> Vec<Plot> {
     let of =
         |t: Table| -> Vec<&Record> { report.records.iter().filter(|r| r.table == t).collect() };
@@ -104,7 +105,7 @@ pub fn plots(report: &BenchReport) -> Vec<Plot> {
     if !scaling.is_empty() {
         plots.push(Plot {
             name: "time_vs_patches".into(),
-            title: "Time per frame against patches (Figure 2; 8 objects)".into(),
+            title: "Time per frame against patches (paper's Figure 3; 8 objects)".into(),
             x_label: "patches".into(),
             y_label: "frame time (ms)".into(),
             series: series_by_solver(&scaling, |r| r.patches as f64, |r| r.frame_ms_median),
@@ -127,13 +128,13 @@ pub fn plots(report: &BenchReport) -> Vec<Plot> {
     if !big.is_empty() {
         plots.push(Plot {
             name: "time_vs_object_patches".into(),
-            title: "Time per frame against the largest object's patches (Figure 3)".into(),
+            title: "Time per frame against the largest object's patches (paper's Figure 2)".into(),
             x_label: "patches of the largest object".into(),
             y_label: "frame time (ms)".into(),
             series: series_by_solver(
                 &big,
                 |r| r.largest_object_patches as f64,
-                // The paper's Figure 3: the frame that updates the grown object.
+                // The paper's Figure 2 (Table 3): the frame that updates the grown object.
                 |r| {
                     if r.largest_object_frame_ms.is_finite() {
                         r.largest_object_frame_ms

@@ -11,9 +11,9 @@ use shrad::{Error, PatchSizing, World};
 /// Which table of the paper a scene belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub enum Table {
-    /// Tables 1-2 (and Figure 2): 8 interior objects, growing patch count.
+    /// Tables 1-2 (and the paper's Figure 3): 8 interior objects, growing patch count.
     Scaling,
-    /// Table 3 (and Figure 3): one interior object grows.
+    /// Table 3 (and the paper's Figure 2): one interior object grows.
     BigObject,
     /// Not in the paper: [`OBJECTS_PATCHES`] patches, [`OBJECT_COUNTS`] interior objects,
     /// the smallest box moving; the dispersive default only.

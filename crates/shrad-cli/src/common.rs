@@ -21,13 +21,28 @@ pub struct SceneArgs {
     /// Target total patch count [default: the scene file's, else 20000].
     #[arg(long)]
     pub patches: Option<usize>,
-    /// Skip zero-area triangles (with a warning) instead of rejecting the file.
+    /// OBJ and scene files: skip zero-area triangles (with a warning) instead of rejecting
+    /// the file (glTF files always drop them, with a warning).
     #[arg(long)]
     pub drop_degenerate: bool,
     /// glTF: play only this animation, by name or index [default: every animation of the
     /// file at once, on one timeline].
     #[arg(long, value_name = "NAME|INDEX")]
     pub animation: Option<String>,
+    /// A uniform sky of this linear radiance (W / (m^2 sr)), e.g. 0.5,0.6,0.8 (replaces the
+    /// scene file's [environment]).
+    #[arg(long, value_name = "R,G,B", conflicts_with = "env")]
+    pub sky: Option<String>,
+    /// A sky from an equirectangular map: linear OpenEXR (.exr) or Radiance (.hdr), top row
+    /// +Y (replaces the scene file's [environment]).
+    #[arg(long, value_name = "FILE")]
+    pub env: Option<std::path::PathBuf>,
+    /// Turn the sky's map about +Y by this many degrees [default: the scene file's, else 0].
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    pub env_rotate: Option<f32>,
+    /// Scale the sky's radiance [default: the scene file's, else 1].
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    pub env_scale: Option<f32>,
     /// Visibility backend.
     #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
     pub backend: BackendArg,
@@ -76,10 +91,45 @@ pub fn load_scene(args: &SceneArgs) -> Result<Scene> {
             animation: args.animation.clone(),
         },
     )?;
+    let mut scene = scene;
+    apply_sky(args, &mut scene)?;
+    if scene.has_emitter() {
+        scene.warnings.retain(|w| !w.contains("has no emitter"));
+    }
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
     Ok(scene)
+}
+
+/// The command line's sky (`--sky`, `--env`, `--env-rotate`, `--env-scale`) on `scene`.
+pub fn apply_sky(args: &SceneArgs, scene: &mut Scene) -> Result<()> {
+    if let Some(text) = &args.sky {
+        let v: Vec<f32> = text
+            .split(',')
+            .map(|c| c.trim().parse::<f32>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| anyhow::anyhow!("--sky {text}: expected three numbers R,G,B"))?;
+        let [r, g, b] = v[..] else {
+            bail!("--sky {text}: expected three numbers R,G,B");
+        };
+        scene.environment = Some(shrad_scene::Environment::uniform(glam::Vec3::new(r, g, b)));
+    }
+    if let Some(path) = &args.env {
+        let map = shrad_scene::EnvMap::load(path)?;
+        scene.environment = Some(shrad_scene::Environment::from_map(map));
+    }
+    if args.env_rotate.is_some() || args.env_scale.is_some() {
+        let Some(env) = scene.environment.as_mut() else {
+            bail!("--env-rotate and --env-scale need a sky (--sky, --env or the scene's [environment])");
+        };
+        env.rotate_deg = args.env_rotate.unwrap_or(env.rotate_deg);
+        env.scale = args.env_scale.unwrap_or(env.scale);
+    }
+    if let Some(why) = scene.environment.as_ref().and_then(|e| e.problem()) {
+        bail!("{why}");
+    }
+    Ok(())
 }
 
 /// `value` must be a finite number above 0; the error names the option.
@@ -90,23 +140,14 @@ pub fn check_positive(name: &str, value: f32) -> Result<()> {
     Ok(())
 }
 
-/// The patch sizing: the command line's, else the scene file's, else 20000 patches.
+/// The patch sizing: the command line's, else the scene file's, else the library's default.
 pub fn sizing(args: &SceneArgs, scene: &Scene) -> Result<PatchSizing> {
-    if let Some(h) = args.patch_size {
-        check_positive("--patch-size", h)?;
-        return Ok(PatchSizing::Size(h));
-    }
-    if let Some(n) = args.patches {
-        if n == 0 || n > 50_000_000 {
-            bail!("--patches must be between 1 and 50000000, got {n}");
-        }
-        return Ok(PatchSizing::Count(n));
-    }
-    Ok(match (scene.settings.patch_size, scene.settings.patches) {
-        (Some(h), _) => PatchSizing::Size(h),
-        (None, Some(n)) => PatchSizing::Count(n),
-        (None, None) => PatchSizing::Count(20_000),
-    })
+    Ok(PatchSizing::choose(
+        args.patch_size,
+        args.patches,
+        &scene.settings,
+        ["--patch-size", "--patches"],
+    )?)
 }
 
 /// Patch the scene and build its visibility, saying what it made unless `quiet`.
@@ -153,10 +194,20 @@ pub fn describe_backend(name: &str, requested: BackendArg) -> String {
 }
 
 /// The energy meter's line (spec 2): what the lights emit, what all patches absorb (lights
-/// included), and the reflected flux against the most a steady state can reflect.
-pub fn print_energy(e: &shrad::energy::EnergyBalance) {
+/// included), what leaves through the openings (`escaped`, when measured and not nil), and
+/// the reflected flux against the most a steady state can reflect.
+pub fn print_energy(e: &shrad::energy::EnergyBalance, escaped: Option<f64>) {
+    let open = escaped.filter(|&x| x > 1e-4 * e.emitted);
+    let left = match open {
+        Some(x) => format!(
+            "; left through the openings {x:.4e} ({:.1} %; absorbed + left {:.1} % of emitted, 100 % at rest)",
+            100.0 * x / e.emitted.max(f64::MIN_POSITIVE),
+            100.0 * (e.absorbed + x) / e.emitted.max(f64::MIN_POSITIVE)
+        ),
+        None => " (100 % in a closed scene at rest)".to_string(),
+    };
     eprintln!(
-        "energy: emitted {:.4e}, absorbed {:.4e} ({:.1} % of emitted; 100 % in a closed scene at rest), reflected {:.4e} ({:.0} % of the bound {:.4e})",
+        "energy: emitted {:.4e}, absorbed {:.4e} ({:.1} % of emitted){left}, reflected {:.4e} ({:.0} % of the bound {:.4e})",
         e.emitted,
         e.absorbed,
         100.0 * e.closure(),

@@ -10,8 +10,8 @@ use anyhow::{bail, Result};
 use shrad::settings::SOLVERS;
 use shrad::solver::SolverChoice;
 
-/// Names that scene files used before the keys were the library's.
-const OLD_NAMES: [(&str, &str); 4] = [
+/// Names that scene files used before the keys were the library's: an error naming the key.
+const RENAMED: [(&str, &str); 4] = [
     ("objects_per_frame", "per_frame"),
     ("method", "solver"),
     ("direct_interior", "direct_on_interior"),
@@ -62,10 +62,10 @@ pub fn from_file(source: &str, solver: &BTreeMap<String, String>) -> Result<File
     };
     for (written, value) in solver {
         let norm = written.trim().to_ascii_lowercase().replace('-', "_");
-        let key = OLD_NAMES
-            .iter()
-            .find(|(old, _)| *old == norm)
-            .map_or(norm.as_str(), |(_, new)| new);
+        if let Some((_, new)) = RENAMED.iter().find(|(old, _)| *old == norm) {
+            bail!("{source}: [settings.solver] {written}: renamed {new}");
+        }
+        let key = norm.as_str();
         match key {
             "solver" => file.solver = Some(value.trim().to_string()),
             "preset" => file.preset = Some(value.trim().to_string()),
@@ -134,11 +134,11 @@ mod tests {
     }
 
     #[test]
-    fn file_keys_are_the_library_keys_with_the_old_names() {
+    fn file_keys_are_the_library_keys() {
         let map: BTreeMap<String, String> = [
-            ("method", "dispersive"),
+            ("solver", "dispersive"),
             ("cube-res", "8"),
-            ("objects-per-frame", "2"),
+            ("per-frame", "2"),
         ]
         .into_iter()
         .map(|(k, v)| (k.to_string(), v.to_string()))
@@ -150,5 +150,8 @@ mod tests {
         let bad: BTreeMap<String, String> = [("cube_rez".to_string(), "8".to_string())].into();
         let e = from_file("s.toml", &bad).err().unwrap().to_string();
         assert!(e.contains("did you mean cube_res?"), "{e}");
+        let old: BTreeMap<String, String> = [("method".to_string(), "grid".to_string())].into();
+        let e = from_file("s.toml", &old).err().unwrap().to_string();
+        assert_eq!(e, "s.toml: [settings.solver] method: renamed solver");
     }
 }

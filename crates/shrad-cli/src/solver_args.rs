@@ -1,11 +1,13 @@
 //! The solver options of `render` and `animate`: `--solver`, `--preset`, a repeatable
-//! `--set key=value`, and the older per-setting flags kept as aliases of keys
-//! (`--cube-res 64` is `--set cube_res=64`). Keys, ranges, defaults and docs all come from
+//! `--set key=value`, and the reference's `--rays-per-patch` and `--direct-samples` (which
+//! also set the reference that `--compare` measures against). A per-setting flag of before
+//! `--set` (`--cube-res 64`) is an error naming its key. Keys, ranges, defaults and docs all come from
 //! the library (`shrad::settings`); nothing here states a default or checks a range.
 //! `shrad options [SOLVER]` lists the keys.
 
 use anyhow::{anyhow, bail, Result};
 use clap::builder::PossibleValuesParser;
+use clap::error::ErrorKind;
 use clap::{Arg, ArgMatches, Args, Command, FromArgMatches};
 use shrad::reference::ReferenceOptions;
 use shrad::settings::SOLVERS;
@@ -13,100 +15,59 @@ use shrad::solver::SolverChoice;
 
 use crate::settings::FileSettings;
 
-/// Which settings an alias flag sets.
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum Target {
-    /// The chosen solver's key.
-    Solver,
-    /// The reference's key: the reference solver's, and the reference that `--compare` and
-    /// `--error-every` measure against.
-    Reference,
-}
-
-/// An older flag that is now an alias of a key: (flag, key, target).
-const ALIASES: &[(&str, &str, Target)] = &[
-    ("cube-res", "cube_res", Target::Solver),
-    ("emitter-res", "emitter_res", Target::Solver),
-    ("bands", "bands", Target::Solver),
-    ("schedule", "schedule", Target::Solver),
-    ("per-frame", "per_frame", Target::Solver),
-    ("max-staleness", "max_staleness", Target::Solver),
-    ("budget-ms", "budget_ms", Target::Solver),
-    ("repair", "repair", Target::Solver),
-    ("wall-exchange", "wall_exchange", Target::Solver),
-    ("see-through-self", "see_through_self", Target::Solver),
-    ("direct-interior", "direct_on_interior", Target::Solver),
-    ("to-boundary", "to_boundary", Target::Solver),
-    ("contact-rays", "contact_rays", Target::Solver),
-    ("emitter-per-face", "emitter_per_face", Target::Solver),
-    ("self-shadow-rays", "self_shadow_rays", Target::Solver),
-    ("splat-smoothing", "splat_smoothing", Target::Solver),
-    ("probe-margin", "probe_margin", Target::Solver),
-    ("grid", "per_axis", Target::Solver),
-    ("rays-per-patch", "rays_per_patch", Target::Reference),
-    ("direct-samples", "direct_samples", Target::Reference),
+/// Flags that set one solver key each before `--set` (shrad 0.1): each is now an error
+/// naming its key, `(flag, key)`.
+const REMOVED: &[(&str, &str)] = &[
+    ("cube-res", "cube_res"),
+    ("emitter-res", "emitter_res"),
+    ("bands", "bands"),
+    ("schedule", "schedule"),
+    ("per-frame", "per_frame"),
+    ("max-staleness", "max_staleness"),
+    ("budget-ms", "budget_ms"),
+    ("repair", "repair"),
+    ("wall-exchange", "wall_exchange"),
+    ("see-through-self", "see_through_self"),
+    ("direct-interior", "direct_on_interior"),
+    ("to-boundary", "to_boundary"),
+    ("contact-rays", "contact_rays"),
+    ("emitter-per-face", "emitter_per_face"),
+    ("self-shadow-rays", "self_shadow_rays"),
+    ("splat-smoothing", "splat_smoothing"),
+    ("probe-margin", "probe_margin"),
+    ("grid", "per_axis"),
 ];
 
-const ALIAS_HEADING: &str = "Aliases of --set (shrad options lists every key)";
+/// The removed flags, hidden: given, they are an error that names `--set KEY=VALUE`.
+#[derive(Clone, Default)]
+pub struct RemovedFlags;
 
-/// A value in the spelling of the flags before the keys (`--repair move`).
-fn old_spelling<'a>(key: &str, value: &'a str) -> &'a str {
-    match (key, value.trim()) {
-        ("repair", "move") => "move_inward",
-        _ => value,
-    }
-}
-
-/// The first solver (dispersive, grid, reference) that has `key`, with the key's doc.
-fn doc_of(key: &str) -> (&'static str, &'static str) {
-    for solver in SOLVERS {
-        if let Ok(keys) = SolverChoice::keys_of(solver) {
-            if let Some(spec) = keys.iter().find(|s| s.name == key) {
-                return (solver, spec.doc);
+impl FromArgMatches for RemovedFlags {
+    fn from_arg_matches(m: &ArgMatches) -> Result<Self, clap::Error> {
+        for &(flag, key) in REMOVED {
+            if let Some(v) = m.get_one::<String>(flag) {
+                return Err(clap::Error::raw(
+                    ErrorKind::UnknownArgument,
+                    format!("--{flag} is no longer a flag: use --set {key}={v}\n"),
+                ));
             }
         }
-    }
-    ("", "")
-}
-
-/// The alias flags given, in the table's order: (flag, key, target, value).
-#[derive(Clone, Default)]
-pub struct Aliases(Vec<(&'static str, &'static str, Target, String)>);
-
-impl FromArgMatches for Aliases {
-    fn from_arg_matches(m: &ArgMatches) -> Result<Self, clap::Error> {
-        let mut a = Aliases::default();
-        a.update_from_arg_matches(m)?;
-        Ok(a)
+        Ok(RemovedFlags)
     }
     fn update_from_arg_matches(&mut self, m: &ArgMatches) -> Result<(), clap::Error> {
-        for &(flag, key, target) in ALIASES {
-            if let Some(v) = m.get_one::<String>(flag) {
-                self.0.retain(|(f, ..)| *f != flag);
-                self.0.push((flag, key, target, v.clone()));
-            }
-        }
+        *self = Self::from_arg_matches(m)?;
         Ok(())
     }
 }
 
-impl Args for Aliases {
+impl Args for RemovedFlags {
     fn augment_args(mut cmd: Command) -> Command {
-        for &(flag, key, target) in ALIASES {
-            let (solver, doc) = doc_of(key);
-            let help = match target {
-                Target::Solver => format!("Alias of --set {key}=VALUE ({solver}: {doc})"),
-                Target::Reference => format!(
-                    "Alias of --set {key}=VALUE for the reference: the reference solver, and the reference --compare and --error-every measure against ({doc})"
-                ),
-            };
+        for &(flag, _) in REMOVED {
             cmd = cmd.arg(
                 Arg::new(flag)
                     .long(flag)
-                    .value_name("VALUE")
-                    .allow_negative_numbers(true)
-                    .help(help)
-                    .help_heading(ALIAS_HEADING),
+                    .hide(true)
+                    .allow_negative_numbers(true),
             );
         }
         cmd
@@ -131,8 +92,15 @@ pub struct SolverArgs {
     /// with its default, range and doc.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
+    /// Rays per patch of the reference: the reference solver's (`--set rays_per_patch=N`)
+    /// and the reference that `--compare` and `--error-every` measure against.
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    pub rays_per_patch: Option<String>,
+    /// Direct-light samples of the reference, as `--rays-per-patch`.
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    pub direct_samples: Option<String>,
     #[command(flatten)]
-    pub aliases: Aliases,
+    pub removed: RemovedFlags,
 }
 
 /// One setting to apply and where it came from, for messages.
@@ -162,19 +130,30 @@ fn apply(choice: &mut SolverChoice, pending: &[Pending]) -> Result<()> {
 }
 
 impl SolverArgs {
-    /// The `--set` pairs and the aliases of `target` (the solver's, or also the
-    /// reference's when the solver is the reference), as given.
+    /// The reference's flags (`--rays-per-patch`, `--direct-samples`) as settings.
+    fn reference_flags(&self) -> Vec<Pending> {
+        [
+            ("rays-per-patch", "rays_per_patch", &self.rays_per_patch),
+            ("direct-samples", "direct_samples", &self.direct_samples),
+        ]
+        .into_iter()
+        .filter_map(|(flag, key, value)| {
+            value.as_ref().map(|value| Pending {
+                key: key.to_string(),
+                value: value.clone(),
+                origin: format!("--{flag} {value}"),
+            })
+        })
+        .collect()
+    }
+
+    /// The `--set` pairs, after the reference's flags when the solver is the reference.
     fn command_line(&self, reference_too: bool) -> Result<Vec<Pending>> {
-        let mut v = Vec::new();
-        for &(flag, key, target, ref value) in &self.aliases.0 {
-            if target == Target::Solver || reference_too {
-                v.push(Pending {
-                    key: key.to_string(),
-                    value: old_spelling(key, value).to_string(),
-                    origin: format!("--{flag} {value}"),
-                });
-            }
-        }
+        let mut v = if reference_too {
+            self.reference_flags()
+        } else {
+            Vec::new()
+        };
         for s in &self.set {
             let (key, value) = s
                 .split_once('=')
@@ -190,8 +169,8 @@ impl SolverArgs {
 
     /// The solver and its settings: the preset, then the scene file's keys the command line
     /// does not set, then the command line's. Keys of another solver in the file are
-    /// skipped (with a note unless `quiet`); on the command line they are errors. The
-    /// reference aliases set the reference solver too.
+    /// skipped (with a note unless `quiet`); on the command line they are errors.
+    /// `--rays-per-patch` and `--direct-samples` set the reference solver too.
     pub fn choice(&self, file: &FileSettings, quiet: bool) -> Result<SolverChoice> {
         let solver = self
             .solver
@@ -253,17 +232,7 @@ impl SolverArgs {
     /// starts from the fast reference, to answer in seconds).
     pub fn reference_over(&self, base: ReferenceOptions) -> Result<ReferenceOptions> {
         let mut choice = SolverChoice::Reference(base);
-        let pending: Vec<Pending> = self
-            .aliases
-            .0
-            .iter()
-            .filter(|(.., target, _)| *target == Target::Reference)
-            .map(|(flag, key, _, value)| Pending {
-                key: key.to_string(),
-                value: value.clone(),
-                origin: format!("--{flag} {value}"),
-            })
-            .collect();
+        let pending = self.reference_flags();
         apply(&mut choice, &pending)?;
         let SolverChoice::Reference(r) = choice else {
             bail!("the reference settings became another solver's");

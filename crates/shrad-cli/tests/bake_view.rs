@@ -106,6 +106,47 @@ fn bake_bad_input_fails_cleanly_and_writes_nothing() {
         &["cornell", "-o", out, "--exposure", "-1"],
         "--exposure",
     );
+    // The reference (bake's default) has no per-object probes: refused before solving.
+    bake_fails(
+        &dir,
+        &["cornell", "-o", out, "--probes", "corners"],
+        "--solver dispersive",
+    );
+}
+
+#[test]
+fn bake_probes_corners_writes_them_in_three_js_order_beside_the_file() {
+    let dir = temp_dir("probes");
+    let out = dir.join("c.glb");
+    let o = shrad(&[
+        "bake",
+        "cornell",
+        "--patches",
+        "400",
+        "--solver",
+        "dispersive",
+        "--probes",
+        "corners",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(dir.join("c.probes.json")).unwrap();
+    // (No JSON parser in this crate's tests: the fields, as text.)
+    for needle in [
+        "\"format\": \"shrad-probes\"",
+        "\"bands\": 3",
+        "\"object\": \"short_block\"",
+        "\"object\": \"tall_block\"",
+        "\"irradiance_coefficients\"",
+    ] {
+        assert!(text.contains(needle), "{needle} not in {text}");
+    }
+    assert_eq!(
+        text.matches("\"corner\"").count(),
+        16,
+        "8 probes per interior object"
+    );
 }
 
 #[test]
@@ -120,6 +161,9 @@ fn view_help_and_missing_scene() {
         "--set",
         "--patches",
         "--web",
+        "--token",
+        "--max-clients",
+        "--watch-only",
     ] {
         assert!(help.contains(flag), "{flag} not in: {help}");
     }

@@ -89,13 +89,13 @@ fn unknown_option_values_and_absurd_parameters() {
     fails_cleanly(cornell, &["--patch-size", "NaN"], "--patch-size");
     fails_cleanly(
         cornell,
-        &["--solver", "dispersive", "--bands", "12"],
-        "--bands",
+        &["--solver", "dispersive", "--set", "bands=12"],
+        "--set bands=",
     );
     fails_cleanly(
         cornell,
-        &["--solver", "dispersive", "--emitter-res", "0"],
-        "--emitter-res",
+        &["--solver", "dispersive", "--set", "emitter_res=0"],
+        "--set emitter_res=",
     );
     // clap rejects unknown values itself (exit code 2).
     let o = shrad(&["render", "cornell", "--solver", "magic"]);
@@ -211,8 +211,8 @@ fn animate_writes_frames_gif_and_stats() {
         "24",
         "--solver",
         "dispersive",
-        "--cube-res",
-        "8",
+        "--set",
+        "cube_res=8",
         "--error-every",
         "2",
         "--rays-per-patch",
@@ -281,21 +281,29 @@ fn patch_csv(scene: &Path, extra: &[&str]) -> Result<String, Output> {
 #[test]
 fn scene_file_solver_settings_apply_and_the_command_line_wins() {
     let dir = temp_dir("settings");
-    // Kebab, snake and the example scene's old name (`method` for --solver) all work.
+    // Kebab and snake case both work.
     let file = scene_with_settings(
         &dir,
         "file.toml",
-        "method = \"dispersive\"\ncube_res = 8\nbands = 2\nper-frame = 1",
+        "solver = \"dispersive\"\ncube_res = 8\nbands = 2\nper-frame = 1",
     );
     let plain = scene_with_settings(&dir, "plain.toml", "");
     let from_file = patch_csv(&file, &[]).unwrap();
     let from_flags = patch_csv(
         &plain,
-        &["--solver", "dispersive", "--cube-res", "8", "--bands", "2"],
+        &[
+            "--solver",
+            "dispersive",
+            "--set",
+            "cube_res=8",
+            "--set",
+            "bands=2",
+        ],
     )
     .unwrap();
     assert_eq!(from_file, from_flags, "the file's settings are not applied");
-    let other_bands = patch_csv(&plain, &["--solver", "dispersive", "--cube-res", "8"]).unwrap();
+    let other_bands =
+        patch_csv(&plain, &["--solver", "dispersive", "--set", "cube_res=8"]).unwrap();
     assert_ne!(from_file, other_bands, "--bands does not change the result");
     // A value the file gets wrong is overridden by the command line, so never checked.
     let bad = scene_with_settings(
@@ -303,7 +311,7 @@ fn scene_file_solver_settings_apply_and_the_command_line_wins() {
         "bad.toml",
         "solver = \"dispersive\"\ncube-res = 8\nbands = 9",
     );
-    assert_eq!(patch_csv(&bad, &["--bands", "2"]).unwrap(), from_file);
+    assert_eq!(patch_csv(&bad, &["--set", "bands=2"]).unwrap(), from_file);
 }
 
 #[test]
@@ -378,7 +386,7 @@ fn quiet_is_quiet_on_every_command() {
     render.extend(["-o", png.to_str().unwrap()]);
     quiet_run(&render);
     let mut dispersive = render.clone();
-    dispersive.extend(["--solver", "dispersive", "--cube-res", "8", "--compare"]);
+    dispersive.extend(["--solver", "dispersive", "--set", "cube_res=8", "--compare"]);
     quiet_run(&dispersive);
     quiet_run(&["info", "cornell", "-q", "--patches", "300"]);
     let moving = repo().join("scenes/moving_box.toml");
@@ -393,8 +401,8 @@ fn quiet_is_quiet_on_every_command() {
         "2",
         "--solver",
         "dispersive",
-        "--cube-res",
-        "8",
+        "--set",
+        "cube_res=8",
         "-o",
         anim.to_str().unwrap(),
     ];
@@ -430,15 +438,19 @@ fn option_values_that_would_abort_are_errors() {
     fails_cleanly(cornell, &["--patch-size", "1e-7"], "--patch-size");
     fails_cleanly(
         cornell,
-        &["--solver", "dispersive", "--cube-res", "0"],
-        "--cube-res",
+        &["--solver", "dispersive", "--set", "cube_res=0"],
+        "--set cube_res=",
     );
     fails_cleanly(
         cornell,
-        &["--solver", "grid", "--cube-res", "0"],
-        "--cube-res",
+        &["--solver", "grid", "--set", "cube_res=0"],
+        "--set cube_res=",
     );
-    fails_cleanly(cornell, &["--solver", "grid", "--bands", "9"], "--bands");
+    fails_cleanly(
+        cornell,
+        &["--solver", "grid", "--set", "bands=9"],
+        "--set bands=",
+    );
     fails_cleanly(cornell, &["--exposure", "-1"], "--exposure");
     fails_cleanly(
         cornell,
@@ -575,7 +587,7 @@ fn info_lists_gltf_animations_and_animate_plays_all_of_it() {
 }
 
 #[test]
-fn set_applies_keys_like_their_aliases_and_the_preset() {
+fn set_applies_keys_and_the_preset_and_old_flags_name_their_key() {
     let dir = temp_dir("set");
     let plain = scene_with_settings(&dir, "plain.toml", "");
     let by_set = patch_csv(
@@ -590,12 +602,14 @@ fn set_applies_keys_like_their_aliases_and_the_preset() {
         ],
     )
     .unwrap();
-    let by_alias = patch_csv(
-        &plain,
-        &["--solver", "dispersive", "--cube-res", "8", "--bands", "2"],
-    )
-    .unwrap();
-    assert_eq!(by_set, by_alias);
+    // A flag of before `--set` is an error that names the key to set.
+    let old = patch_csv(&plain, &["--solver", "dispersive", "--cube-res", "8"]).unwrap_err();
+    let stderr = String::from_utf8_lossy(&old.stderr);
+    assert!(!old.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("--cube-res is no longer a flag: use --set cube_res=8"),
+        "{stderr}"
+    );
     // `-` stands for `_`, and the schedule is set before its parameters whatever the order.
     let scheduled = patch_csv(
         &plain,

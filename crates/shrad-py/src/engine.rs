@@ -5,7 +5,7 @@
 use std::sync::{Mutex, MutexGuard};
 
 use glam::Vec3;
-use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike2};
+use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike2, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -269,6 +269,66 @@ impl PyEngine {
             .map_err(to_py_err)
     }
 
+    /// Set the sky: ``radiance`` a uniform linear RGB radiance, or ``file`` an equirectangular
+    /// map (linear ``.exr`` or ``.hdr``, top row +Y) turned ``rotate_deg`` about +Y and scaled
+    /// by ``scale``; neither removes the sky. A light change: every object wakes.
+    #[pyo3(signature = (radiance=None, file=None, rotate_deg=0.0, scale=1.0))]
+    fn set_sky(
+        &self,
+        py: Python<'_>,
+        radiance: Option<[f32; 3]>,
+        file: Option<std::path::PathBuf>,
+        rotate_deg: f32,
+        scale: f32,
+    ) -> PyResult<()> {
+        let env = crate::scene_dict::environment(radiance, file, rotate_deg, scale)?;
+        self.with(py, move |e| e.set_sky(env)).map_err(to_py_err)
+    }
+
+    /// Move punctual light ``light`` (a name or an index) and set its colour and intensity:
+    /// ``matrix`` a 4x4 world-from-light matrix (it shines along that frame's -Z; ``None``
+    /// keeps its place), ``rgb`` linear colour and ``intensity`` photometric, candela (point,
+    /// spot) or lux (directional), 683 lm/W (``None`` keeps each as it is).
+    #[pyo3(signature = (light, matrix=None, rgb=None, intensity=None))]
+    fn set_light(
+        &self,
+        py: Python<'_>,
+        light: ObjRef,
+        matrix: Option<&Bound<'_, PyAny>>,
+        rgb: Option<[f32; 3]>,
+        intensity: Option<f32>,
+    ) -> PyResult<()> {
+        let l = match &light {
+            ObjRef::Index(i) => *i,
+            ObjRef::Name(name) => self.with(py, |e| e.light(name)).map_err(to_py_err)?,
+        };
+        let m = match matrix {
+            Some(matrix) => {
+                let matrix: PyArrayLike2<'_, f64, AllowTypeChange> =
+                    arrays::aligned(matrix)?.extract().map_err(|e| {
+                        PyValueError::new_err(format!("matrix must be a 4x4 array of numbers: {e}"))
+                    })?;
+                Some(arrays::read_affine(&matrix, "matrix")?)
+            }
+            None => None,
+        };
+        self.with(py, |e| {
+            let Some(now) = e.world().scene.lights.get(l) else {
+                return Err(shrad::Error::Invalid(format!(
+                    "light index {l} out of range ({} lights)",
+                    e.world().scene.lights.len()
+                )));
+            };
+            let (m, c, i) = (
+                m.unwrap_or(now.world_from_light),
+                rgb.map_or(now.color, Vec3::from),
+                intensity.unwrap_or(now.intensity),
+            );
+            e.set_light(l, m, c, i)
+        })
+        .map_err(to_py_err)
+    }
+
     /// Go to time ``t`` (seconds) on the scene's animation.
     fn set_time(&self, py: Python<'_>, t: f32) -> PyResult<()> {
         self.with(py, |e| e.set_time(t)).map_err(to_py_err)
@@ -339,6 +399,52 @@ impl PyEngine {
     fn centres<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
         let v = self.with(py, |e| e.world().patches.centre.clone());
         arrays::vec3s(py, v)
+    }
+
+    /// The dispersive solver's corner probes as they stand now (8 per interior object,
+    /// captured from the current radiosity), for lighting dynamic objects elsewhere: a dict
+    /// with ``positions`` (P, 3), ``sh`` (P, 9, 3: radiance SH in three.js's
+    /// ``LightProbe`` order and convention), ``irradiance_sh`` (P, 9, 3: the same times the
+    /// clamped-cosine factors, ``E(n) = sum_k c_k Y_k(n)``), ``objects`` and ``corners``
+    /// (P,) and ``states`` (``valid``, ``repaired``, ``invalid``), and ``bands`` (3).
+    /// A ValueError for solvers without per-object probes.
+    fn probes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let (probes, solver) = self.with(py, |e| {
+            let name = e.solver_choice().name().to_string();
+            (shrad::probe_export::corner_probes(e), name)
+        });
+        let probes = probes.ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "probes: the {solver} solver has no per-object probes (use the dispersive solver)"
+            ))
+        })?;
+        let n = probes.len();
+        let coefficients = |f: &dyn Fn(&shrad::probe_export::ExportedProbe) -> [Vec3; 9]| {
+            let flat: Vec<f32> = probes
+                .iter()
+                .flat_map(f)
+                .flat_map(|c| c.to_array())
+                .collect();
+            PyArray1::from_vec(py, flat).reshape([n, 9, 3])
+        };
+        let d = PyDict::new(py);
+        d.set_item(
+            "positions",
+            arrays::vec3s(py, probes.iter().map(|p| p.position).collect())?,
+        )?;
+        d.set_item("sh", coefficients(&|p| p.sh)?)?;
+        d.set_item("irradiance_sh", coefficients(&|p| p.irradiance_sh())?)?;
+        let objects: Vec<i64> = probes.iter().map(|p| p.object as i64).collect();
+        let corners: Vec<i64> = probes.iter().map(|p| p.corner as i64).collect();
+        d.set_item("objects", PyArray1::from_vec(py, objects))?;
+        d.set_item("corners", PyArray1::from_vec(py, corners))?;
+        let states: Vec<String> = probes
+            .iter()
+            .map(|p| format!("{:?}", p.state).to_lowercase())
+            .collect();
+        d.set_item("states", states)?;
+        d.set_item("bands", shrad::probe_export::BANDS)?;
+        Ok(d)
     }
 
     /// World-space unit normal of every patch: (N, 3) float32.

@@ -13,6 +13,7 @@ mod arrays;
 mod engine;
 mod images;
 mod scene;
+mod scene_dict;
 mod settings;
 
 /// A library error as the Python exception a user expects: `OSError` for files that
@@ -90,7 +91,7 @@ fn _shrad(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scene::PyObjectInfo>()?;
     m.add_class::<engine::PyEngine>()?;
     m.add_function(wrap_pyfunction!(scene::load, m)?)?;
-    m.add_function(wrap_pyfunction!(scene::load_dict, m)?)?;
+    m.add_function(wrap_pyfunction!(scene_dict::load_dict, m)?)?;
     m.add_function(wrap_pyfunction!(scene::builtins, m)?)?;
     m.add_function(wrap_pyfunction!(images::write_exr, m)?)?;
     m.add_function(wrap_pyfunction!(images::write_png, m)?)?;

@@ -1,8 +1,11 @@
 """shrad.sweep: shots in this process, on a spawned process pool and on a Dask LocalCluster
-bound to 127.0.0.1, each with a bounded time."""
+and a local Ray instance, bound to 127.0.0.1, each with a bounded time."""
 
 import concurrent.futures
 import multiprocessing
+import os
+import shutil
+import tempfile
 
 import numpy as np
 import pytest
@@ -78,3 +81,40 @@ def test_sweep_on_a_dask_local_cluster():
         bad = [shrad.Shot("cornell", name="bad", patches=300, preset="fancy")]
         with pytest.raises(shrad.ShotError, match="shot 0 'bad'.*no preset 'fancy'"):
             shrad.sweep(bad, executor=client, timeout=120)
+
+
+def test_sweep_on_a_local_ray_cluster():
+    """docs/python.md's Ray executor, on a local Ray instance bound to 127.0.0.1."""
+    # Ray replaces a loopback node address by the machine's outside one and listens on every
+    # interface, unless it is told it is no cluster (read when ray is imported): then its
+    # servers listen on 127.0.0.1 only.
+    os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"
+    ray = pytest.importorskip("ray")
+    # A short directory of its own: Ray's socket paths must stay under 108 characters.
+    temp = tempfile.mkdtemp(prefix="shrad-ray-")
+    ray.init(
+        address="local",
+        num_cpus=2,
+        include_dashboard=False,
+        _temp_dir=temp,
+        log_to_driver=False,
+    )
+    try:
+        assert all(n["NodeManagerAddress"] == "127.0.0.1" for n in ray.nodes())
+        run = ray.remote(shrad.run_shot)
+
+        class RayExecutor:
+            def submit(self, fn, *args):
+                return run.remote(*args).future()  # a concurrent.futures.Future
+
+        results = shrad.sweep(shots(), executor=RayExecutor(), timeout=240)
+        check(results)
+        # The same shot gives the same light on a Ray worker as here.
+        here = shrad.sweep(shots()[:1])
+        np.testing.assert_array_equal(here[0].radiosity, results[0].radiosity)
+        bad = [shrad.Shot("cornell", name="bad", patches=300, preset="fancy")]
+        with pytest.raises(shrad.ShotError, match="shot 0 'bad'.*no preset 'fancy'"):
+            shrad.sweep(bad, executor=RayExecutor(), timeout=120)
+    finally:
+        ray.shutdown()
+        shutil.rmtree(temp, ignore_errors=True)

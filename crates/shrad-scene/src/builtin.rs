@@ -246,12 +246,41 @@ impl Default for RoomParams {
 /// studies. The patch count is set through the scene's settings.
 pub fn room(params: &RoomParams) -> Scene {
     let size = Vec3::new(8.0, 3.0, 6.0);
+    let mut objects = room_walls(size);
+    objects.push(room_light(size));
+    objects.extend((0..params.objects).map(|i| room_object(size, params.objects, i)));
+    let v = Vec3::new;
+    let mut scene = Scene {
+        source: "builtin:room".into(),
+        objects,
+        camera: Some(Camera::look_at(
+            v(0.25, 2.7, 0.25),
+            v(5.2, 0.4, 4.4),
+            65f32.to_radians(),
+        )),
+        ..Default::default()
+    };
+    scene.settings.patches = Some(params.patches);
+    if let Some(big) = params.big_object_patches {
+        if let Some(o) = scene
+            .objects
+            .iter_mut()
+            .find(|o| o.role == Some(Role::Interior))
+        {
+            o.patch_size = Some((o.mesh.area() / big.max(1) as f32).sqrt());
+        }
+    }
+    scene
+}
+
+/// The room's six walls, facing in: a floor at y = 0 and `size` = (width, height, depth).
+fn room_walls(size: Vec3) -> Vec<Object> {
     let v = Vec3::new;
     let (w, h, d) = (size.x, size.y, size.z);
     let wall = |name: &str, p: [Vec3; 4], rho: Vec3| {
         object(name, quad(p), Material::diffuse(rho), Role::Boundary)
     };
-    let mut objects = vec![
+    vec![
         wall(
             "floor",
             [v(0., 0., 0.), v(0., 0., d), v(w, 0., d), v(w, 0., 0.)],
@@ -282,12 +311,17 @@ pub fn room(params: &RoomParams) -> Scene {
             [v(0., 0., 0.), v(0., h, 0.), v(0., h, d), v(0., 0., d)],
             v(0.15, 0.5, 0.2),
         ),
-    ];
-    let (lx, lz, ls) = (0.5 * w, 0.5 * d, 0.7f32);
-    let ly = h - 0.01;
+    ]
+}
+
+/// The ceiling light: a 1.4-wide square just under the middle of the ceiling.
+fn room_light(size: Vec3) -> Object {
+    let v = Vec3::new;
+    let (lx, lz, ls) = (0.5 * size.x, 0.5 * size.z, 0.7f32);
+    let ly = size.y - 0.01;
     let mut light = Material::diffuse(Vec3::ZERO);
     light.emitted_radiance = Vec3::splat(8.0);
-    objects.push(object(
+    object(
         "light",
         quad([
             v(lx - ls, ly, lz - ls),
@@ -297,7 +331,14 @@ pub fn room(params: &RoomParams) -> Scene {
         ]),
         light,
         Role::Light,
-    ));
+    )
+}
+
+/// Interior object `i` of `n` on the floor of a room of `size`: the objects stand on a
+/// grid of cells, every third a sphere, the others turned boxes of two heights.
+fn room_object(size: Vec3, n: usize, i: usize) -> Object {
+    let v = Vec3::new;
+    let (w, d) = (size.x, size.z);
     let palette = [
         v(0.8, 0.3, 0.2),
         v(0.2, 0.4, 0.8),
@@ -308,63 +349,38 @@ pub fn room(params: &RoomParams) -> Scene {
         v(0.9, 0.55, 0.2),
         v(0.3, 0.7, 0.75),
     ];
-    let n = params.objects;
     let cols = (n as f32).sqrt().ceil().max(1.0) as usize;
     let rows = n.div_ceil(cols).max(1);
     let margin = 0.8;
-    for i in 0..n {
-        let (cx, cz) = (i % cols, i / cols);
-        let x = margin + (cx as f32 + 0.5) / cols as f32 * (w - 2.0 * margin);
-        let z = margin + (cz as f32 + 0.5) / rows as f32 * (d - 2.0 * margin);
-        let cell = ((w - 2.0 * margin) / cols as f32).min((d - 2.0 * margin) / rows as f32);
-        let s = (0.22 * cell).min(0.45) * (0.8 + 0.4 * ((i * 7 % 5) as f32 / 4.0));
-        let material = Material::diffuse(palette[i % palette.len()]);
-        let o = if i % 3 == 2 {
-            let mut o = object(
-                &format!("sphere_{i}"),
-                sphere_mesh(s, 24),
-                material,
-                Role::Interior,
-            );
-            o.world_from_object = Affine3A::from_translation(v(x, s, z));
-            o
-        } else {
-            let half = v(s, s * (1.0 + 0.6 * (i % 2) as f32), s * 0.8);
-            let mut o = object(
-                &format!("box_{i}"),
-                box_mesh(half, false),
-                material,
-                Role::Interior,
-            );
-            o.world_from_object = Affine3A::from_rotation_translation(
-                Quat::from_rotation_y(0.3 * i as f32),
-                v(x, half.y, z),
-            );
-            o
-        };
-        objects.push(o);
+    let (cx, cz) = (i % cols, i / cols);
+    let x = margin + (cx as f32 + 0.5) / cols as f32 * (w - 2.0 * margin);
+    let z = margin + (cz as f32 + 0.5) / rows as f32 * (d - 2.0 * margin);
+    let cell = ((w - 2.0 * margin) / cols as f32).min((d - 2.0 * margin) / rows as f32);
+    let s = (0.22 * cell).min(0.45) * (0.8 + 0.4 * ((i * 7 % 5) as f32 / 4.0));
+    let material = Material::diffuse(palette[i % palette.len()]);
+    if i % 3 == 2 {
+        let mut o = object(
+            &format!("sphere_{i}"),
+            sphere_mesh(s, 24),
+            material,
+            Role::Interior,
+        );
+        o.world_from_object = Affine3A::from_translation(v(x, s, z));
+        o
+    } else {
+        let half = v(s, s * (1.0 + 0.6 * (i % 2) as f32), s * 0.8);
+        let mut o = object(
+            &format!("box_{i}"),
+            box_mesh(half, false),
+            material,
+            Role::Interior,
+        );
+        o.world_from_object = Affine3A::from_rotation_translation(
+            Quat::from_rotation_y(0.3 * i as f32),
+            v(x, half.y, z),
+        );
+        o
     }
-    let mut scene = Scene {
-        source: "builtin:room".into(),
-        objects,
-        camera: Some(Camera::look_at(
-            v(0.25, 2.7, 0.25),
-            v(5.2, 0.4, 4.4),
-            65f32.to_radians(),
-        )),
-        ..Default::default()
-    };
-    scene.settings.patches = Some(params.patches);
-    if let Some(big) = params.big_object_patches {
-        if let Some(o) = scene
-            .objects
-            .iter_mut()
-            .find(|o| o.role == Some(Role::Interior))
-        {
-            o.patch_size = Some((o.mesh.area() / big.max(1) as f32).sqrt());
-        }
-    }
-    scene
 }
 
 #[cfg(test)]

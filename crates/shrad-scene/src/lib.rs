@@ -14,7 +14,9 @@ mod model;
 mod node_anim;
 mod obj_io;
 mod roles;
+pub mod scene_def;
 mod scene_file;
+mod scene_lights;
 mod texture;
 mod write_atomic;
 

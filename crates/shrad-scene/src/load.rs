@@ -9,7 +9,9 @@ use crate::{builtin, builtin_names, infer_roles, Scene, SceneError};
 /// Options of [`load`].
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LoadOptions {
-    /// Drop zero-area triangles with a warning instead of failing.
+    /// Drop zero-area triangles with a warning instead of failing. The glTF reader drops
+    /// them whatever this says (glTF allows degenerate triangles); OBJ and scene files
+    /// follow it.
     pub drop_degenerate: bool,
     /// Play only this glTF animation (its name, else its index); `None`: every animation of
     /// the file at once on one timeline. An unknown one is an error listing those there are.

@@ -17,12 +17,6 @@ use crate::{Material, Mesh, Object, Scene, SceneError, Texture, TextureImage};
 
 /// Read an OBJ file (and the MTL files it names) into a scene, no role inference or validation.
 pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
-    let opts = tobj::LoadOptions {
-        single_index: true,
-        triangulate: true,
-        ignore_points: true,
-        ignore_lines: true,
-    };
     let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
         path: path.to_path_buf(),
         source,
@@ -30,21 +24,82 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
     check_face_indices(&String::from_utf8_lossy(&bytes))
         .map_err(|m| SceneError::invalid(path, format!("invalid OBJ: {m}")))?;
     let dir = path.parent().unwrap_or(Path::new("."));
+    let parsed = parse(path, dir, &bytes)?;
+    let mut scene = Scene {
+        source: path.display().to_string(),
+        ..Default::default()
+    };
+    let materials = materials_or_default(path, parsed.materials, &parsed.problems, &mut scene)?;
+    let mut maps = DiffuseMaps {
+        obj: path,
+        lib_dirs: parsed
+            .libraries
+            .into_iter()
+            .filter_map(|k| k.parent().map(Path::to_path_buf))
+            .chain([dir.to_path_buf()])
+            .collect(),
+        images: HashMap::new(),
+    };
+    let mut seen = HashMap::<String, usize>::new();
+    for (mi, model) in parsed.models.iter().enumerate() {
+        if model.mesh.indices.is_empty() {
+            continue;
+        }
+        let material = model_material(model, &materials, &mut maps, &mut scene.warnings);
+        let base = if model.name.is_empty() {
+            format!("object{mi}")
+        } else {
+            model.name.clone()
+        };
+        let name = unique_name(&mut seen, base);
+        let object = model_object(path, model, name, material, &mut scene.warnings);
+        scene.objects.push(object);
+    }
+    Ok(scene)
+}
+
+/// What tobj made of the file.
+struct Parsed {
+    models: Vec<tobj::Model>,
+    materials: Result<Vec<tobj::Material>, tobj::LoadError>,
+    problems: Vec<MtlProblem>,
+    /// The material libraries read.
+    libraries: Vec<PathBuf>,
+}
+
+fn parse(path: &Path, dir: &Path, bytes: &[u8]) -> Result<Parsed, SceneError> {
+    let opts = tobj::LoadOptions {
+        single_index: true,
+        triangulate: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
     let problems = RefCell::new(Vec::<MtlProblem>::new());
     let seen_libs = RefCell::new(HashMap::<PathBuf, Result<(), tobj::LoadError>>::new());
     let loaded = std::panic::catch_unwind(AssertUnwindSafe(|| {
-        tobj::load_obj_buf(&mut bytes.as_slice(), &opts, |mtl| {
+        tobj::load_obj_buf(&mut &bytes[..], &opts, |mtl| {
             load_mtl_once(dir, mtl, &problems, &seen_libs)
         })
     }))
     .map_err(|_| SceneError::invalid(path, "malformed OBJ or MTL (the reader gave up on it)"))?;
     let (models, materials) =
         loaded.map_err(|e| SceneError::invalid(path, format!("invalid OBJ: {e}")))?;
-    let mut scene = Scene {
-        source: path.display().to_string(),
-        ..Default::default()
-    };
-    let problems = problems.into_inner();
+    Ok(Parsed {
+        models,
+        materials,
+        problems: problems.into_inner(),
+        libraries: seen_libs.into_inner().into_keys().collect(),
+    })
+}
+
+/// The materials, or none with a warning when the libraries could not be loaded; an
+/// invalid library is an error naming it.
+fn materials_or_default(
+    path: &Path,
+    materials: Result<Vec<tobj::Material>, tobj::LoadError>,
+    problems: &[MtlProblem],
+    scene: &mut Scene,
+) -> Result<Vec<tobj::Material>, SceneError> {
     if let Some(MtlProblem::Invalid(file, m)) = problems
         .iter()
         .find(|p| matches!(p, MtlProblem::Invalid(..)))
@@ -54,8 +109,8 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
             format!("{m} (material library of {})", path.display()),
         ));
     }
-    let materials = match materials {
-        Ok(m) => m,
+    match materials {
+        Ok(m) => Ok(m),
         Err(e) => {
             let why: Vec<String> = problems
                 .iter()
@@ -72,26 +127,35 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
                 "{}: material library not loaded ({why}); using the default material",
                 path.display()
             ));
-            Vec::new()
+            Ok(Vec::new())
         }
-    };
-    // `map_Kd` paths are relative to the MTL file that names them (tobj does not say which
-    // one: the first library directory holding the file wins). Each image decoded once.
-    let lib_dirs: Vec<PathBuf> = seen_libs
-        .into_inner()
-        .into_keys()
-        .filter_map(|k| k.parent().map(Path::to_path_buf))
-        .chain([dir.to_path_buf()])
-        .collect();
-    let mut images: HashMap<String, Option<std::sync::Arc<TextureImage>>> = HashMap::new();
-    let mut diffuse_map = |name: &str, warnings: &mut Vec<String>| {
+    }
+}
+
+/// The `map_Kd` images, each decoded once. Their paths are relative to the MTL file that
+/// names them (tobj does not say which one: the first library directory holding the file
+/// wins).
+struct DiffuseMaps<'a> {
+    obj: &'a Path,
+    lib_dirs: Vec<PathBuf>,
+    images: HashMap<String, Option<std::sync::Arc<TextureImage>>>,
+}
+
+impl DiffuseMaps<'_> {
+    /// The image `map_Kd` names, or `None` with a warning when it cannot be loaded.
+    fn get(
+        &mut self,
+        name: &str,
+        warnings: &mut Vec<String>,
+    ) -> Option<std::sync::Arc<TextureImage>> {
         // Options (`-s 1 1 1 -o ...`) come before the file name.
         let file = if name.trim_start().starts_with('-') {
             name.split_whitespace().last().unwrap_or(name)
         } else {
             name.trim()
         };
-        images
+        let (lib_dirs, obj) = (&self.lib_dirs, self.obj);
+        self.images
             .entry(file.to_string())
             .or_insert_with(|| {
                 let found = lib_dirs.iter().map(|d| d.join(file)).find(|p| p.is_file());
@@ -106,93 +170,105 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
                     Err(e) => {
                         warnings.push(format!(
                             "{}: map_Kd '{file}' cannot be loaded ({e}); using Kd alone",
-                            path.display()
+                            obj.display()
                         ));
                         None
                     }
                 }
             })
             .clone()
-    };
-    let mut seen = HashMap::<String, usize>::new();
-    for (mi, model) in models.iter().enumerate() {
-        let m = &model.mesh;
-        if m.indices.is_empty() {
-            continue;
-        }
-        let positions: Vec<Vec3> = m
-            .positions
-            .chunks_exact(3)
-            .map(|c| Vec3::new(c[0], c[1], c[2]))
-            .collect();
-        let triangles: Vec<[u32; 3]> = m
-            .indices
-            .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]])
-            .collect();
-        let material = match m.material_id {
-            Some(id) => match materials.get(id) {
-                Some(mat) => Material {
-                    reflectance: mat
-                        .diffuse
-                        .map_or(Material::default().reflectance, Vec3::from),
-                    emitted_radiance: mat.emissive.map_or(Vec3::ZERO, Vec3::from),
-                    double_sided: false,
-                    base_color_texture: mat
-                        .diffuse_texture
-                        .as_deref()
-                        .and_then(|t| diffuse_map(t, &mut scene.warnings))
-                        .map(Texture::new),
-                    emissive_texture: None,
-                },
-                None => Material::default(),
-            },
-            None => {
-                if !materials.is_empty() {
-                    scene.warnings.push(format!(
-                        "{}: object '{}' has no material; using the default",
-                        path.display(),
-                        model.name
-                    ));
-                }
-                Material::default()
-            }
-        };
-        let base = if model.name.is_empty() {
-            format!("object{mi}")
-        } else {
-            model.name.clone()
-        };
-        // `usemtl` inside one `o` splits it into several models of the same name.
-        let count = seen.entry(base.clone()).or_insert(0);
-        let name = if *count == 0 {
-            base.clone()
-        } else {
-            format!("{base}.{count}")
-        };
-        *count += 1;
-        let mut mesh = Mesh::new(positions, triangles);
-        let mut material = material;
-        if let Some(t) = &material.base_color_texture {
-            if m.texcoords.len() == 2 * mesh.positions.len() {
-                // OBJ's v grows upwards from the image's bottom; glTF's (shrad's) downwards.
-                mesh.uvs = vec![m
-                    .texcoords
-                    .chunks_exact(2)
-                    .map(|c| Vec2::new(c[0], 1.0 - c[1]))
-                    .collect()];
-            } else {
-                scene.warnings.push(format!(
-                    "{}: object '{name}' has no texture coordinates: map_Kd averaged to one colour",
-                    path.display()
-                ));
-                material.reflectance *= t.image.mean();
-                material.base_color_texture = None;
-            }
-        }
-        scene.objects.push(Object::new(name, mesh, material));
     }
-    Ok(scene)
+}
+
+/// A model's material: its `Kd`, `Ke` and `map_Kd`, or the default.
+fn model_material(
+    model: &tobj::Model,
+    materials: &[tobj::Material],
+    maps: &mut DiffuseMaps,
+    warnings: &mut Vec<String>,
+) -> Material {
+    match model.mesh.material_id {
+        Some(id) => match materials.get(id) {
+            Some(mat) => Material {
+                reflectance: mat
+                    .diffuse
+                    .map_or(Material::default().reflectance, Vec3::from),
+                emitted_radiance: mat.emissive.map_or(Vec3::ZERO, Vec3::from),
+                double_sided: false,
+                base_color_texture: mat
+                    .diffuse_texture
+                    .as_deref()
+                    .and_then(|t| maps.get(t, warnings))
+                    .map(Texture::new),
+                emissive_texture: None,
+            },
+            None => Material::default(),
+        },
+        None => {
+            if !materials.is_empty() {
+                warnings.push(format!(
+                    "{}: object '{}' has no material; using the default",
+                    maps.obj.display(),
+                    model.name
+                ));
+            }
+            Material::default()
+        }
+    }
+}
+
+/// `base`, or `base.N` for its N-th repeat: `usemtl` inside one `o` splits it into several
+/// models of the same name.
+fn unique_name(seen: &mut HashMap<String, usize>, base: String) -> String {
+    let count = seen.entry(base.clone()).or_insert(0);
+    let name = if *count == 0 {
+        base.clone()
+    } else {
+        format!("{base}.{count}")
+    };
+    *count += 1;
+    name
+}
+
+/// One model as an object: its mesh, with texture coordinates when it has a texture (or
+/// the texture averaged into the reflectance when it has none).
+fn model_object(
+    path: &Path,
+    model: &tobj::Model,
+    name: String,
+    mut material: Material,
+    warnings: &mut Vec<String>,
+) -> Object {
+    let m = &model.mesh;
+    let positions: Vec<Vec3> = m
+        .positions
+        .chunks_exact(3)
+        .map(|c| Vec3::new(c[0], c[1], c[2]))
+        .collect();
+    let triangles: Vec<[u32; 3]> = m
+        .indices
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    let mut mesh = Mesh::new(positions, triangles);
+    if let Some(t) = &material.base_color_texture {
+        if m.texcoords.len() == 2 * mesh.positions.len() {
+            // OBJ's v grows upwards from the image's bottom; glTF's (shrad's) downwards.
+            mesh.uvs = vec![m
+                .texcoords
+                .chunks_exact(2)
+                .map(|c| Vec2::new(c[0], 1.0 - c[1]))
+                .collect()];
+        } else {
+            warnings.push(format!(
+                "{}: object '{name}' has no texture coordinates: map_Kd averaged to one colour",
+                path.display()
+            ));
+            material.reflectance *= t.image.mean();
+            material.base_color_texture = None;
+        }
+    }
+    Object::new(name, mesh, material)
 }
 
 /// Check the face indices before tobj sees them: tobj turns a relative index reaching before

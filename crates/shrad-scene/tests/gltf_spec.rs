@@ -340,7 +340,8 @@ fn accessor_and_buffer_view_bounds() {
         (
             "type",
             Box::new(|v| v["accessors"][0]["type"] = json!("VEC5")),
-            &["accessors[0].type: 'VEC5'"],
+            // Any string is a type in the schema (for later versions): refused where used.
+            &["attributes.POSITION: accessor 0 has type 'VEC5', which glTF 2.0 does not define"],
         ),
         (
             "view",
@@ -1386,6 +1387,131 @@ fn webp_and_ktx2_textures() {
         s.warnings
             .iter()
             .any(|w| w.contains("texture 0 has no image shrad can read")),
+        "{:?}",
+        s.warnings
+    );
+}
+
+#[test]
+fn a_file_without_scenes_is_a_library_of_meshes() {
+    let dir = temp_dir("library");
+    // glTF 2.0, "Scenes": without scenes, a library of meshes. No nodes at all: the mesh is
+    // placed once at the origin, named after it, with a warning.
+    let p = write_json(
+        &dir,
+        "no-nodes.gltf",
+        &quad_with(|v| {
+            let o = v.as_object_mut().unwrap();
+            for k in ["scene", "scenes", "nodes"] {
+                o.remove(k);
+            }
+        }),
+    );
+    let s = load_no_panic(&p).unwrap();
+    assert_eq!(s.objects.len(), 1);
+    assert_eq!(s.objects[0].name, "quad");
+    assert_eq!(s.objects[0].world_from_object, glam::Affine3A::IDENTITY);
+    assert_eq!(s.objects[0].mesh.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+    assert!(
+        s.warnings.iter().any(
+            |w| w.contains("meshes[0] 'quad' that no node instances placed once at the origin")
+        ),
+        "{:?}",
+        s.warnings
+    );
+    // Nodes but no scene: the root nodes are drawn as they are, and a mesh no node instances
+    // once at the origin.
+    let p = write_json(
+        &dir,
+        "root-node-and-free-mesh.gltf",
+        &quad_with(|v| {
+            let o = v.as_object_mut().unwrap();
+            o.remove("scene");
+            o.remove("scenes");
+            let quad = v["meshes"][0].clone();
+            v["meshes"].as_array_mut().unwrap().push(quad);
+            v["meshes"][1]["name"] = json!("spare");
+            v["nodes"][0]["translation"] = json!([0.0, 2.0, 0.0]);
+        }),
+    );
+    let s = load_no_panic(&p).unwrap();
+    let names: Vec<&str> = s.objects.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(names, ["floor", "spare"]);
+    assert_eq!(
+        s.objects[0].world_from_object.translation,
+        glam::Vec3A::new(0.0, 2.0, 0.0)
+    );
+    assert_eq!(s.objects[1].world_from_object, glam::Affine3A::IDENTITY);
+    // A scene that draws no mesh draws nothing: the file's scene says what is in it.
+    assert_refused(
+        &dir,
+        "scene-without-mesh.gltf",
+        &quad_with(|v| {
+            v["nodes"][0].as_object_mut().unwrap().remove("mesh");
+        }),
+        &["no node of the scene instances a triangle mesh (the file has 1 mesh(es))"],
+    );
+    // Points only: nothing to light, said so.
+    assert_refused(
+        &dir,
+        "points.gltf",
+        &quad_with(|v| v["meshes"][0]["primitives"][0]["mode"] = json!(0)),
+        &["nothing to light: the scene draws no triangle with area (skipped: 1 primitive(s) of points or lines)"],
+    );
+}
+
+#[test]
+fn accessor_types_gltf_2_0_does_not_define() {
+    let dir = temp_dir("accessor-type");
+    // The schema allows any string as accessor.type (for later versions) and the validator
+    // only warns: an accessor nothing reads may have one.
+    let unknown = json!({"componentType": 5126, "count": 3, "type": "NotaVEC3",
+                         "bufferView": 0});
+    let p = write_json(
+        &dir,
+        "unused.gltf",
+        &quad_with(|v| v["accessors"].as_array_mut().unwrap().push(unknown.clone())),
+    );
+    let s = load_no_panic(&p).unwrap();
+    assert_eq!(s.objects[0].mesh.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("accessors[2].type: 'NotaVEC3' is not a glTF 2.0 accessor type")),
+        "{:?}",
+        s.warnings
+    );
+    // Read by a mesh, or an animation: refused, naming the reference.
+    assert_refused(
+        &dir,
+        "used.gltf",
+        &quad_with(|v| {
+            v["accessors"].as_array_mut().unwrap().push(unknown.clone());
+            v["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = json!(2);
+        }),
+        &["meshes[0].primitives[0].attributes.NORMAL: accessor 2 has type 'NotaVEC3', which glTF 2.0 does not define"],
+    );
+    assert_refused(
+        &dir,
+        "animated.gltf",
+        &quad_with(|v| {
+            v["accessors"].as_array_mut().unwrap().push(unknown.clone());
+            v["animations"] = json!([{"samplers": [{"input": 2, "output": 0}],
+                "channels": [{"sampler": 0, "target": {"node": 0, "path": "translation"}}]}]);
+        }),
+        &["animations[0].samplers[0].input: accessor 2 has type 'NotaVEC3'"],
+    );
+    // glTF 2.1 that a 2.0 reader may read (minVersion 2.0): loads, with a warning.
+    let p = write_json(
+        &dir,
+        "v21-min20.gltf",
+        &quad_with(|v| v["asset"] = json!({"version": "2.1", "minVersion": "2.0"})),
+    );
+    let s = load_no_panic(&p).unwrap();
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("glTF 2.1 read as glTF 2.0")),
         "{:?}",
         s.warnings
     );

@@ -347,42 +347,4 @@ mod tests {
         let mean = sh[sh_index(0, 0)] / (2.0 * PI.sqrt());
         assert!((mean - (palette[0] + palette[1]) * 0.5).abs().max_element() < 1e-4);
     }
-
-    /// Timing of `project` at R = 128, 16 coefficients. Run with
-    /// `cargo test -p shrad-sh --release -- --ignored --nocapture project_timing`.
-    #[test]
-    #[ignore]
-    fn project_timing() {
-        let cube = CubeMap::new(128);
-        for bands in [3usize, 4, 8] {
-            let proj = ShProjector::new(bands, &cube);
-            let mut rng = Rng::new(5);
-            let radiance: Vec<Vec3> = (0..cube.len())
-                .map(|_| Vec3::new(rng.f32(), rng.f32(), rng.f32()))
-                .collect();
-            let ids: Vec<u32> = (0..cube.len())
-                .map(|_| (rng.f32() * 1000.0) as u32)
-                .collect();
-            let palette: Vec<Vec3> = (0..1000).map(|i| Vec3::splat(i as f32)).collect();
-            let mut out = ShRgb::zeros(bands);
-            let iters = 200;
-            let t0 = std::time::Instant::now();
-            for _ in 0..iters {
-                proj.project_into(std::hint::black_box(&radiance), &mut out);
-            }
-            let dt = t0.elapsed().as_secs_f64() / iters as f64;
-            let t1 = std::time::Instant::now();
-            for _ in 0..iters {
-                proj.project_with_into(|t| palette[ids[t] as usize], &mut out);
-            }
-            let dt2 = t1.elapsed().as_secs_f64() / iters as f64;
-            std::hint::black_box(&out);
-            println!(
-                "project R=128 bands={bands} ({} coeffs): slice {:.3} ms, palette {:.3} ms",
-                bands * bands,
-                dt * 1e3,
-                dt2 * 1e3
-            );
-        }
-    }
 }

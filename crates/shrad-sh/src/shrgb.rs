@@ -67,19 +67,6 @@ impl ShRgb {
         &mut self.coeffs
     }
 
-    /// Consumes `self`, returning the coefficient vector.
-    pub fn into_coeffs(self) -> Vec<Vec3> {
-        self.coeffs
-    }
-
-    /// One colour channel (`0 = R, 1 = G, 2 = B`) as scalars into `out`
-    /// (`out.len() ≥ len()`).
-    pub fn channel_into(&self, channel: usize, out: &mut [f32]) {
-        for (o, c) in out.iter_mut().zip(&self.coeffs) {
-            *o = c[channel];
-        }
-    }
-
     /// Sets every coefficient to zero.
     #[inline]
     pub fn set_zero(&mut self) {
@@ -107,14 +94,6 @@ impl ShRgb {
     /// `self *= s`.
     #[inline]
     pub fn scale(&mut self, s: f32) {
-        for a in &mut self.coeffs {
-            *a *= s;
-        }
-    }
-
-    /// `self *= s` per channel (e.g. an albedo tint).
-    #[inline]
-    pub fn scale_rgb(&mut self, s: Vec3) {
         for a in &mut self.coeffs {
             *a *= s;
         }
@@ -196,11 +175,6 @@ impl ShRgb {
         let n = self.len().min(out.len());
         out.coeffs[..n].copy_from_slice(&self.coeffs[..n]);
         out.coeffs[n..].fill(Vec3::ZERO);
-    }
-
-    /// `Σ_k |L_k|²` summed over channels (squared L² norm of the function).
-    pub fn norm_squared(&self) -> f32 {
-        self.coeffs.iter().map(|c| c.length_squared()).sum()
     }
 }
 

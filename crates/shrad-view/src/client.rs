@@ -14,7 +14,7 @@
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use axum::extract::ws::{CloseFrame, Message, WebSocket};
@@ -23,6 +23,7 @@ use futures_util::{SinkExt, StreamExt};
 use serde_json::{json, Value};
 use tokio::sync::{mpsc, Notify};
 
+use crate::access::{RateLimit, Seat, EXPENSIVE_BURST, EXPENSIVE_EVERY_S};
 use crate::engine_loop::{Frame, Shared};
 use crate::http::App;
 use crate::inbox::{Key, Pending, Refusal, ReplyTo, CAPACITY};
@@ -32,21 +33,26 @@ use crate::protocol::{self, Request};
 /// this client's own reader waits for room.
 const REPLIES: usize = 64;
 
-/// What one client has asked to receive; undone when it leaves, however it leaves.
+/// What one client has asked to receive, its seat (role) and its allowance of expensive
+/// requests; undone when it leaves, however it leaves.
 struct Subscription {
     shared: Arc<Shared>,
     channel: AtomicUsize,
     probes: AtomicBool,
+    seat: Seat,
+    expensive: Mutex<RateLimit>,
 }
 
 impl Subscription {
-    fn new(shared: Arc<Shared>) -> Subscription {
+    fn new(shared: Arc<Shared>, seat: Seat) -> Subscription {
         shared.clients.fetch_add(1, Ordering::Relaxed);
         shared.channel_clients[0].fetch_add(1, Ordering::Relaxed);
         Subscription {
             shared,
             channel: AtomicUsize::new(0),
             probes: AtomicBool::new(false),
+            seat,
+            expensive: Mutex::new(RateLimit::default()),
         }
     }
 
@@ -190,9 +196,21 @@ fn size(m: &Message) -> usize {
     }
 }
 
+/// Tell a client over the cap why it is refused, and close (1013: try again later).
+pub async fn refuse(mut socket: WebSocket, message: String) {
+    let text = protocol::message("refused", json!({ "message": message }));
+    let _ = socket.send(Message::Text(text.into())).await;
+    let reason: String = message.chars().take(60).collect();
+    let close = CloseFrame {
+        code: 1013,
+        reason: reason.into(),
+    };
+    let _ = socket.send(Message::Close(Some(close))).await;
+}
+
 /// Serve one client until it leaves or the server stops.
-pub async fn serve(socket: WebSocket, app: Arc<App>) {
-    let sub = Subscription::new(app.shared.clone());
+pub async fn serve(socket: WebSocket, app: Arc<App>, seat: Seat) {
+    let sub = Subscription::new(app.shared.clone(), seat);
     let (mut sink, mut stream) = socket.split();
     if sink
         .send(Message::Text(app.intro.scene.clone().into()))
@@ -209,6 +227,8 @@ pub async fn serve(socket: WebSocket, app: Arc<App>) {
     app.shared.inbox.refresh();
     let flow = Flow::default();
     let (reply_tx, replies) = mpsc::channel::<String>(REPLIES);
+    // Steers if nobody does; its `role` message goes first.
+    sub.seat.join(reply_tx.clone());
     let close = tokio::select! {
         c = read(&mut stream, &app, &sub, &flow, &reply_tx) => c,
         c = write(&mut sink, &app, &sub, &flow, replies) => c,
@@ -355,15 +375,31 @@ async fn handle(
                 .err()
                 .map(|e| protocol::error(id, &format!("ack: {e}")));
         }
+        Request::TakeSteering {} => {
+            return Some(match sub.seat.take_steering() {
+                Ok(()) => ok(id, "take_steering", json!({ "role": "steer" })),
+                Err(e) => protocol::error(id, &format!("take_steering: {e}")),
+            });
+        }
+        Request::ReleaseSteering {} => {
+            return Some(match sub.seat.release_steering() {
+                Ok(()) => ok(id, "release_steering", json!({ "role": "watch" })),
+                Err(e) => protocol::error(id, &format!("release_steering: {e}")),
+            });
+        }
         _ => {}
     }
     let kind = envelope.request.kind();
+    if let Some(refusal) = refused(sub, &envelope.request) {
+        return Some(protocol::error(id, &format!("{kind}: {refusal}")));
+    }
     let pending = Pending {
         key: Key::of(&envelope.request, &app.intro.objects),
         envelope,
         reply: reply.clone(),
         received: Instant::now(),
         received_at_frame: app.frames.borrow().seq,
+        client: sub.seat.id,
     };
     match app.shared.inbox.push(pending) {
         Ok(None) => None,
@@ -382,6 +418,29 @@ async fn handle(
             &format!("{kind}: the engine has stopped"),
         )),
     }
+}
+
+/// Why this client may not send `request` now, if it may not: steering from a watcher,
+/// or an expensive request beyond its allowance.
+fn refused(sub: &Subscription, request: &Request) -> Option<String> {
+    if request.is_steering() && !sub.seat.steers() {
+        return Some(format!(
+            "refused: this client watches ({}); steering messages come from the client that steers",
+            sub.seat.why_watching()
+        ));
+    }
+    if matches!(
+        request,
+        Request::ComputeError {} | Request::SetSolver { .. }
+    ) {
+        let mut limit = sub.expensive.lock().unwrap_or_else(|e| e.into_inner());
+        if let Err(wait) = limit.spend(Instant::now()) {
+            return Some(format!(
+                "rate limited: a client may ask for {EXPENSIVE_BURST} errors or solver switches at once, then one every {EXPENSIVE_EVERY_S} s; try again in {wait:.1} s"
+            ));
+        }
+    }
+    None
 }
 
 /// Answer `older`, replaced by request `by` of the client whose replies go to `reply`

@@ -21,6 +21,9 @@ use crate::inbox::{Batch, Inbox, Pending};
 use crate::protocol::{self, Request};
 use crate::{probe_sphere, solvers};
 
+mod jobs;
+use jobs::option_text;
+
 /// Shadow rays per (patch, light) when the viewer computes the direct channel itself.
 const DIRECT_SAMPLES: u32 = 16;
 /// Probes are captured again at most this often while a client shows them.
@@ -41,6 +44,8 @@ pub struct Shared {
     pub stop: AtomicBool,
     /// What the clients asked of the engine, waiting for the next frame.
     pub inbox: Inbox,
+    /// The newest frame published (what a job's reply counts frames with).
+    pub published: std::sync::atomic::AtomicU64,
 }
 
 impl Shared {
@@ -51,6 +56,7 @@ impl Shared {
             clients: AtomicUsize::new(0),
             stop: AtomicBool::new(false),
             inbox: Inbox::default(),
+            published: Default::default(),
         }
     }
 }
@@ -127,21 +133,29 @@ pub struct EngineLoop {
     loop_ms: f64,
     last_step: Option<Instant>,
     steering: Steering,
+    /// The worker that runs expensive requests beside the frames (`jobs.rs`).
+    jobs: jobs::Jobs,
+    /// Counts solver switches: an error measured before the last one is not shown.
+    solver_epoch: u64,
 }
 
 impl EngineLoop {
-    /// Wrap `engine`; `solver_name` / `preset` say how its solver was chosen.
+    /// Wrap `engine`; `solver_name` / `preset` say how its solver was chosen; `patching`:
+    /// how its world was patched, on which backend (the job worker's copy is made alike).
     pub fn new(
         engine: Engine,
         solver_name: String,
         preset: String,
         shared: Arc<Shared>,
+        patching: (shrad::PatchSizing, shrad::vis::Backend),
     ) -> (EngineLoop, Intro, watch::Receiver<Arc<Frame>>) {
         let mesh = DisplayMesh::new(engine.world());
         let (frames, rx) = watch::channel(Arc::new(Frame::default()));
         let duration = engine.world().scene.duration() as f64;
         let (probe_dirs, probe_triangles) = probe_sphere::probe_sphere(probe_sphere::SPLITS);
         let me = EngineLoop {
+            jobs: jobs::Jobs::start(patching.0, patching.1, shared.clone()),
+            solver_epoch: 0,
             engine,
             mesh,
             frames,
@@ -257,6 +271,7 @@ impl EngineLoop {
             } else {
                 self.shared.inbox.take()
             };
+            self.finish_jobs();
             self.apply(batch);
             if self.playing {
                 let now = Instant::now();
@@ -408,6 +423,7 @@ impl EngineLoop {
             probes: self.probes.clone(),
         };
         self.frames.send_replace(Arc::new(frame));
+        self.shared.published.store(self.seq, Ordering::Relaxed);
     }
 
     /// Apply what the clients asked since the last frame (in order: each key's newest).
@@ -430,6 +446,10 @@ impl EngineLoop {
     }
 
     fn apply_one(&mut self, p: Pending, queued_ms: f64) {
+        // Expensive requests run beside the frames (`jobs.rs`).
+        let Some(p) = self.defer(p) else {
+            return;
+        };
         let Pending {
             envelope,
             reply,
@@ -540,49 +560,30 @@ impl EngineLoop {
                 let rebuilt = self.engine.set_solver(choice).map_err(|e| e.to_string())?;
                 self.solver_name = solver;
                 self.preset = preset;
+                self.solver_epoch += 1;
                 self.last_error = None;
                 self.changed();
                 Ok(json!({ "precompute_ms": rebuilt.precompute_ms }))
             }
             Request::SetOption { key, value } => {
-                let value = match value {
-                    Value::String(s) => s,
-                    Value::Number(n) => n.to_string(),
-                    Value::Bool(b) => b.to_string(),
-                    other => {
-                        return Err(format!(
-                            "value of '{key}' must be a string or a number, got {other}"
-                        ))
-                    }
-                };
+                let value = option_text(&key, &value)?;
                 let detail = solvers::set_option(&mut self.engine, &key, &value)?;
                 self.changed();
                 Ok(detail)
             }
-            Request::ComputeError {} => {
-                let t = Instant::now();
-                let e = self.engine.error();
-                let v = json!({
-                    "overall": e.overall,
-                    "boundary": e.boundary,
-                    "interior": e.interior,
-                    "ms": t.elapsed().as_secs_f64() * 1e3,
-                    "at_frame": self.seq,
-                    "solver": self.solver_name,
-                    "preset": self.preset,
-                });
-                self.last_error = Some(v.clone());
-                Ok(v)
-            }
+            // Run by the job worker (`defer`); never applied here.
+            Request::ComputeError {} => Err("the error is computed beside the frames".into()),
             Request::Run { continuous } => {
                 self.continuous = continuous;
                 Ok(json!({ "continuous": continuous }))
             }
             Request::Ping {} => Ok(json!({})),
             // Handled by the client's own task; never sent here.
-            Request::SetChannel { .. } | Request::Probes { .. } | Request::Ack { .. } => {
-                Ok(json!({}))
-            }
+            Request::SetChannel { .. }
+            | Request::Probes { .. }
+            | Request::Ack { .. }
+            | Request::TakeSteering {}
+            | Request::ReleaseSteering {} => Ok(json!({})),
         }
     }
 }

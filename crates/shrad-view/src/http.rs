@@ -1,17 +1,20 @@
 //! HTTP and WebSocket (axum): the page's files, three.js from `web/node_modules`, and one
-//! task per client at `/ws` (`client.rs`).
+//! task per client at `/ws` (`client.rs`). Every request passes the token check first
+//! (`access.rs`); the WebSocket also the origin check and the cap on clients.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use axum::extract::ws::WebSocketUpgrade;
-use axum::extract::State;
-use axum::http::{header, HeaderMap, StatusCode, Uri};
+use axum::extract::{Request, State};
+use axum::http::{header, HeaderMap, HeaderValue, StatusCode, Uri};
+use axum::middleware::{self, Next};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use axum::Router;
 use tokio::sync::watch;
 
+use crate::access::Access;
 use crate::engine_loop::{Frame, Intro, Shared};
 use crate::protocol;
 
@@ -22,6 +25,10 @@ pub struct App {
     pub frames: watch::Receiver<Arc<Frame>>,
     pub shared: Arc<Shared>,
     pub stop: watch::Receiver<bool>,
+    pub access: Arc<Access>,
+    /// The cookie that carries the token once the page was loaded with it (named for the
+    /// port: browsers share cookies between a host's ports).
+    pub cookie: String,
 }
 
 /// Serve until `stop` turns true.
@@ -33,12 +40,54 @@ pub async fn run(
     let router = Router::new()
         .route("/ws", get(websocket))
         .fallback(get(file))
+        .layer(middleware::from_fn_with_state(app.clone(), token_check))
         .with_state(app);
     axum::serve(listener, router)
         .with_graceful_shutdown(async move {
             let _ = stop.wait_for(|s| *s).await;
         })
         .await
+}
+
+/// 401 unless the request carries the token (when there is one): `?token=` in its query,
+/// or the cookie set when the page was loaded with it. A good token in the query sets the
+/// cookie, so the page's own files and modules (which the page cannot add a query to)
+/// follow.
+async fn token_check(State(app): State<Arc<App>>, request: Request, next: Next) -> Response {
+    if app.access.options().token.is_none() {
+        return next.run(request).await;
+    }
+    let from_query = request.uri().query().and_then(|q| {
+        q.split('&')
+            .filter_map(|kv| kv.split_once('='))
+            .find(|(k, _)| *k == "token")
+            .map(|(_, v)| v.to_string())
+    });
+    let from_cookie = request
+        .headers()
+        .get_all(header::COOKIE)
+        .iter()
+        .filter_map(|h| h.to_str().ok())
+        .flat_map(|h| h.split(';'))
+        .filter_map(|kv| kv.trim().split_once('='))
+        .find(|(k, _)| *k == app.cookie)
+        .map(|(_, v)| v.to_string());
+    let query_ok = app.access.allows(from_query.as_deref());
+    if !(query_ok || app.access.allows(from_cookie.as_deref())) {
+        return (
+            StatusCode::UNAUTHORIZED,
+            "401: this viewer needs its token: open the URL `shrad view` printed (it ends in ?token=...)\n",
+        )
+            .into_response();
+    }
+    let mut response = next.run(request).await;
+    if let (true, Some(t)) = (query_ok, from_query) {
+        let cookie = format!("{}={t}; Path=/; HttpOnly; SameSite=Strict", app.cookie);
+        if let Ok(v) = HeaderValue::from_str(&cookie) {
+            response.headers_mut().append(header::SET_COOKIE, v);
+        }
+    }
+    response
 }
 
 /// A file of the page: `/` is `web/src/index.html`, `/vendor/three/...` is three.js's
@@ -122,7 +171,15 @@ async fn websocket(
                 .into_response();
         }
     }
-    ws.max_message_size(protocol::MAX_WIRE_BYTES)
-        .max_frame_size(protocol::MAX_WIRE_BYTES)
-        .on_upgrade(move |socket| crate::client::serve(socket, app))
+    // The seat is taken before the upgrade, so that clients connecting at once cannot
+    // pass the cap; one over it is upgraded to be told why (a page cannot read the body of
+    // a refused handshake).
+    let seat = app.access.admit();
+    let ws = ws
+        .max_message_size(protocol::MAX_WIRE_BYTES)
+        .max_frame_size(protocol::MAX_WIRE_BYTES);
+    match seat {
+        Ok(seat) => ws.on_upgrade(move |socket| crate::client::serve(socket, app, seat)),
+        Err(message) => ws.on_upgrade(move |socket| crate::client::refuse(socket, message)),
+    }
 }

@@ -64,7 +64,9 @@ impl Key {
             | Request::Ping {}
             | Request::SetChannel { .. }
             | Request::Probes { .. }
-            | Request::Ack { .. } => None,
+            | Request::Ack { .. }
+            | Request::TakeSteering {}
+            | Request::ReleaseSteering {} => None,
         }
     }
 }
@@ -86,6 +88,8 @@ pub struct Pending {
     /// The newest frame published when the server read it (the engine applies it at the
     /// start of frame `received_at_frame + 2` at the latest).
     pub received_at_frame: u64,
+    /// The client's number (its seat, `access.rs`): one expensive job each at a time.
+    pub client: u64,
 }
 
 /// What the engine takes at the start of a frame.
@@ -265,6 +269,7 @@ mod tests {
             reply: reply.clone(),
             received: Instant::now(),
             received_at_frame: 0,
+            client: 1,
         }
     }
 

@@ -33,6 +33,7 @@ use shrad::vis::Backend;
 use shrad::PatchSizing;
 use tokio::sync::watch;
 
+pub mod access;
 mod client;
 mod engine_loop;
 mod http;
@@ -41,6 +42,7 @@ mod probe_sphere;
 pub mod protocol;
 pub mod solvers;
 
+pub use access::AccessOptions;
 use engine_loop::{EngineLoop, Shared};
 pub use inbox::InboxCounts;
 
@@ -62,8 +64,11 @@ pub struct ServeOptions {
     /// The reference the page's error button measures against (`shrad view
     /// --rays-per-patch N`); `None`: the engine's own (fast) reference.
     pub reference: Option<ReferenceOptions>,
-    /// Address to bind (127.0.0.1 unless asked otherwise; any other gets a warning).
+    /// Address to bind (127.0.0.1 unless asked otherwise; any other needs a token, which
+    /// [`Server::start`] generates unless `access.token` gives one).
     pub host: IpAddr,
+    /// The token, the cap on clients and watch-only (`access.rs`).
+    pub access: AccessOptions,
     /// Port (0: any free port).
     pub port: u16,
     /// The page's folder (`web/` with `src/` and `node_modules/three`).
@@ -83,6 +88,7 @@ impl ServeOptions {
             choice: None,
             reference: None,
             host: IpAddr::V4(Ipv4Addr::LOCALHOST),
+            access: AccessOptions::default(),
             port: 8080,
             web_root: default_web_root(),
         }
@@ -105,6 +111,23 @@ fn build_engine(options: &mut ServeOptions) -> Result<Engine> {
     Ok(engine)
 }
 
+/// The sharing rules `options` ask for: beyond loopback a token is required, generated
+/// unless one is given; a given one is checked.
+fn access_rules(options: &ServeOptions) -> Result<Arc<access::Access>> {
+    let mut rules = options.access.clone();
+    if rules.max_clients == 0 {
+        bail!("--max-clients must be at least 1");
+    }
+    match &rules.token {
+        Some(t) => access::check_token(t).map_err(|e| anyhow::anyhow!("--token: {e}"))?,
+        None if !options.host.is_loopback() => {
+            rules.token = Some(access::generate_token().map_err(anyhow::Error::msg)?);
+        }
+        None => {}
+    }
+    Ok(access::Access::new(rules))
+}
+
 /// This repository's `web/` (where `scripts/setup-browser` installs three.js).
 pub fn default_web_root() -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../web"))
@@ -116,6 +139,7 @@ pub struct Server {
     runtime: Option<tokio::runtime::Runtime>,
     stop: watch::Sender<bool>,
     shared: Arc<Shared>,
+    token: Option<String>,
     engine_thread: Option<JoinHandle<()>>,
     http_task: Option<tokio::task::JoinHandle<std::io::Result<()>>>,
 }
@@ -132,12 +156,7 @@ impl Server {
                 );
             }
         }
-        if !options.host.is_loopback() {
-            eprintln!(
-                "warning: serving on {} : anyone who can reach this address can steer the scene (there is no authentication)",
-                options.host
-            );
-        }
+        let access = access_rules(&options)?;
         let engine = build_engine(&mut options)?;
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
@@ -151,8 +170,13 @@ impl Server {
             .with_context(|| format!("cannot listen on {addr}"))?;
         let addr = listener.local_addr()?;
         let shared = Arc::new(Shared::new());
-        let (engine_loop, intro, frames) =
-            EngineLoop::new(engine, options.solver, options.preset, shared.clone());
+        let (engine_loop, intro, frames) = EngineLoop::new(
+            engine,
+            options.solver,
+            options.preset,
+            shared.clone(),
+            (options.sizing, options.backend),
+        );
         let engine_thread = std::thread::Builder::new()
             .name("shrad-engine".to_string())
             .spawn(move || engine_loop.run())
@@ -164,6 +188,8 @@ impl Server {
             frames,
             shared: shared.clone(),
             stop: stop_rx.clone(),
+            access: access.clone(),
+            cookie: format!("shrad_token_{}", addr.port()),
         });
         let http_task = runtime.spawn(http::run(listener, app, stop_rx));
         Ok(Server {
@@ -171,6 +197,7 @@ impl Server {
             runtime: Some(runtime),
             stop,
             shared,
+            token: access.options().token.clone(),
             engine_thread: Some(engine_thread),
             http_task: Some(http_task),
         })
@@ -181,9 +208,17 @@ impl Server {
         self.addr
     }
 
-    /// The page's URL.
+    /// The page's URL (with `?token=...` when the server has a token).
     pub fn url(&self) -> String {
-        format!("http://{}/", self.addr)
+        match &self.token {
+            Some(t) => format!("http://{}/?token={t}", self.addr),
+            None => format!("http://{}/", self.addr),
+        }
+    }
+
+    /// The token every request must carry, if the server has one.
+    pub fn token(&self) -> Option<&str> {
+        self.token.as_deref()
     }
 
     /// What went through the engine's inbox so far (requests received, superseded by a
@@ -232,8 +267,15 @@ impl Drop for Server {
 /// Start the server, print its URL and serve until Ctrl-C; then close every connection and
 /// stop the engine.
 pub fn serve(options: ServeOptions) -> Result<()> {
+    let unspecified = options.host.is_unspecified();
     let server = Server::start(options)?;
     println!("shrad view: {}  (Ctrl-C to stop)", server.url());
+    if unspecified {
+        println!(
+            "  (listening on every interface: put this machine's name or address in place of {})",
+            server.addr().ip()
+        );
+    }
     let ctrl_c = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?
@@ -246,6 +288,23 @@ pub fn serve(options: ServeOptions) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn beyond_loopback_a_token_is_required_and_made_unless_given() {
+        // (Nothing is bound here: the rules only.)
+        let mut options = ServeOptions::new(shrad::scene::Scene::default());
+        assert_eq!(access_rules(&options).unwrap().options().token, None);
+        options.host = IpAddr::V4(Ipv4Addr::UNSPECIFIED);
+        let made = access_rules(&options).unwrap().options().token.clone();
+        assert_eq!(made.map(|t| t.len()), Some(48));
+        options.access.token = Some("short".to_string());
+        assert!(access_rules(&options).is_err());
+        options.access.token = Some("a-token-of-enough-length".to_string());
+        let given = access_rules(&options).unwrap().options().token.clone();
+        assert_eq!(given.as_deref(), Some("a-token-of-enough-length"));
+        options.access.max_clients = 0;
+        assert!(access_rules(&options).is_err());
+    }
 
     #[test]
     fn the_reference_options_reach_the_engine() {

@@ -117,6 +117,10 @@ pub enum Request {
     },
     /// Answered by `pong` with the same `id`.
     Ping {},
+    /// Become the client that steers, if nobody does (`access.rs`).
+    TakeSteering {},
+    /// Hand steering over: nobody steers until a client takes it.
+    ReleaseSteering {},
     /// Flow control (no reply): the client has received `received` frame messages
     /// (`frame`, `probes` and colour frames) since it connected. The server keeps at most
     /// [`MAX_IN_FLIGHT_BYTES`] of them unacknowledged per client (and always one).
@@ -142,7 +146,25 @@ impl Request {
             Request::Run { .. } => "run",
             Request::Ping {} => "ping",
             Request::Ack { .. } => "ack",
+            Request::TakeSteering {} => "take_steering",
+            Request::ReleaseSteering {} => "release_steering",
         }
+    }
+
+    /// Whether the request changes what everyone sees (only the client that steers may
+    /// send it). Watching requests (channel, probes, acknowledgements, ping, the error
+    /// against the reference, which changes nothing) are anyone's.
+    pub fn is_steering(&self) -> bool {
+        matches!(
+            self,
+            Request::SetTransform { .. }
+                | Request::SetEmission { .. }
+                | Request::SetTime { .. }
+                | Request::Play { .. }
+                | Request::SetSolver { .. }
+                | Request::SetOption { .. }
+                | Request::Run { .. }
+        )
     }
 }
 

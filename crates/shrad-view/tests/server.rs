@@ -6,8 +6,6 @@
 //! No assertion here depends on how fast the machine is: waits are bounded polls with
 //! generous limits (30 s and more), and what is checked is counted, not timed.
 
-use std::net::{IpAddr, Ipv4Addr};
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use futures_util::{SinkExt, StreamExt};
@@ -16,174 +14,8 @@ use shrad_view::{ServeOptions, Server};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio_tungstenite::tungstenite::Message;
 
-type RawWs =
-    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
-
-/// A client that acknowledges every frame message it reads (`ack`, as the page does), so the
-/// server keeps sending it frames.
-struct Ws {
-    inner: RawWs,
-    received: u64,
-}
-
-/// Whether the server counts `m` as a frame message (`frame`, `probes`, colours).
-fn is_frame_message(m: &Message) -> bool {
-    match m {
-        Message::Text(t) => serde_json::from_str::<Value>(t.as_str())
-            .is_ok_and(|v| v["type"] == "frame" || v["type"] == "probes"),
-        Message::Binary(b) => b.len() >= 16 && b[6] == 1,
-        _ => false,
-    }
-}
-
-impl Ws {
-    async fn next(&mut self) -> Option<Result<Message, tokio_tungstenite::tungstenite::Error>> {
-        let m = self.inner.next().await;
-        if let Some(Ok(message)) = &m {
-            if is_frame_message(message) {
-                self.received += 1;
-                let ack = json!({"v": 1, "type": "ack", "received": self.received});
-                let _ = self.inner.send(Message::Text(ack.to_string().into())).await;
-            }
-        }
-        m
-    }
-
-    async fn send(&mut self, m: Message) -> Result<(), tokio_tungstenite::tungstenite::Error> {
-        self.inner.send(m).await
-    }
-}
-
-/// A page folder with the two files the server checks for (the tests need no npm).
-fn web_root() -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("shrad-view-test-web-{}", std::process::id()));
-    std::fs::create_dir_all(dir.join("src")).unwrap();
-    std::fs::create_dir_all(dir.join("node_modules/three/build")).unwrap();
-    std::fs::write(
-        dir.join("src/index.html"),
-        "<!doctype html><title>test page</title>",
-    )
-    .unwrap();
-    std::fs::write(
-        dir.join("node_modules/three/build/three.module.js"),
-        "export {};",
-    )
-    .unwrap();
-    dir
-}
-
-fn server() -> Server {
-    let mut o = ServeOptions::new(shrad::scene::cornell_box());
-    o.sizing = shrad::PatchSizing::Count(2000);
-    o.host = IpAddr::V4(Ipv4Addr::LOCALHOST);
-    o.port = 0;
-    o.web_root = web_root();
-    Server::start(o).unwrap()
-}
-
-fn runtime() -> tokio::runtime::Runtime {
-    tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .unwrap()
-}
-
-async fn connect(s: &Server) -> Ws {
-    Ws {
-        inner: connect_raw(s).await,
-        received: 0,
-    }
-}
-
-/// A client that acknowledges nothing.
-async fn connect_raw(s: &Server) -> RawWs {
-    let (ws, _) = tokio_tungstenite::connect_async(format!("ws://{}/ws", s.addr()))
-        .await
-        .unwrap();
-    ws
-}
-
-/// The next text message that is not a `frame` or `probes` broadcast.
-async fn reply(ws: &mut Ws) -> Value {
-    let deadline = Instant::now() + Duration::from_secs(30);
-    loop {
-        let left = deadline.saturating_duration_since(Instant::now());
-        let m = tokio::time::timeout(left, ws.next())
-            .await
-            .expect("no reply within 30 s")
-            .expect("connection closed")
-            .expect("read error");
-        if let Message::Text(t) = m {
-            let v: Value = serde_json::from_str(t.as_str()).unwrap();
-            if v["type"] != "frame" && v["type"] != "probes" && v["type"] != "scene" {
-                return v;
-            }
-        }
-    }
-}
-
-async fn ping(ws: &mut Ws, id: u64) {
-    ws.send(Message::Text(
-        json!({"v": 1, "type": "ping", "id": id}).to_string().into(),
-    ))
-    .await
-    .unwrap();
-    let r = reply(ws).await;
-    assert_eq!(r["type"], "pong", "{r}");
-    assert_eq!(r["id"], id);
-}
-
-/// Read until a colour frame; returns its frame number and the matrices.
-async fn colour_frame(ws: &mut Ws) -> (u32, Vec<f32>) {
-    let deadline = Instant::now() + Duration::from_secs(30);
-    loop {
-        let left = deadline.saturating_duration_since(Instant::now());
-        let m = tokio::time::timeout(left, ws.next())
-            .await
-            .expect("no frame within 30 s");
-        if let Some(Ok(Message::Binary(b))) = m {
-            assert_eq!(&b[0..4], b"SHRV");
-            if b[6] != 1 {
-                continue;
-            }
-            let frame = u32::from_le_bytes(b[8..12].try_into().unwrap());
-            let n = u32::from_le_bytes(b[12..16].try_into().unwrap()) as usize;
-            let vertices = u32::from_le_bytes(b[20..24].try_into().unwrap()) as usize;
-            assert_eq!(b.len(), 24 + 64 * n + 6 * vertices);
-            let m: Vec<f32> = b[24..24 + 64 * n]
-                .chunks(4)
-                .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
-                .collect();
-            return (frame, m);
-        }
-    }
-}
-
-/// A plain HTTP GET; the status line's code.
-async fn http_get(s: &Server, path: &str) -> u16 {
-    let mut tcp = tokio::net::TcpStream::connect(s.addr()).await.unwrap();
-    tcp.write_all(
-        format!(
-            "GET {path} HTTP/1.1\r\nHost: {}\r\nConnection: close\r\n\r\n",
-            s.addr()
-        )
-        .as_bytes(),
-    )
-    .await
-    .unwrap();
-    let mut out = Vec::new();
-    tcp.read_to_end(&mut out).await.unwrap();
-    let text = String::from_utf8_lossy(&out);
-    text.split_whitespace().nth(1).unwrap().parse().unwrap()
-}
-
-async fn still_answers(s: &Server) {
-    let mut ws = connect(s).await;
-    ping(&mut ws, 4242).await;
-    colour_frame(&mut ws).await;
-    assert_eq!(http_get(s, "/").await, 200);
-}
+mod common;
+use common::*;
 
 #[test]
 fn two_clients_share_one_scene() {
@@ -427,8 +259,9 @@ fn a_client_that_never_reads_does_not_stall_the_engine() {
     runtime().block_on(async {
         // Never read from, nor acknowledging: the server sends it one frame and then waits
         // for it, while the engine goes on for the others.
-        let _sleeper = connect_raw(&s).await;
+        // (The first client steers.)
         let mut ws = connect(&s).await;
+        let _sleeper = connect_raw(&s).await;
         ws.send(Message::Text(
             json!({"v": 1, "type": "run", "continuous": true})
                 .to_string()
@@ -445,13 +278,6 @@ fn a_client_that_never_reads_does_not_stall_the_engine() {
         ping(&mut ws, 3).await;
     });
     s.stop().unwrap();
-}
-
-/// Send a move of `object` to `matrix` with `id`.
-fn move_message(object: &str, matrix: &[f32], id: u64) -> Message {
-    let request =
-        json!({"v": 1, "type": "set_transform", "object": object, "id": id, "matrix": matrix});
-    Message::Text(request.to_string().into())
 }
 
 #[test]
@@ -568,33 +394,6 @@ fn files_are_served_from_the_page_folder_only() {
     s.stop().unwrap();
 }
 
-/// Send a request and return its reply (skipping broadcasts).
-async fn ask(ws: &mut Ws, request: Value) -> Value {
-    ws.send(Message::Text(request.to_string().into()))
-        .await
-        .unwrap();
-    reply(ws).await
-}
-
-/// The next `frame` message.
-async fn frame_message(ws: &mut Ws) -> Value {
-    let deadline = Instant::now() + Duration::from_secs(30);
-    loop {
-        let left = deadline.saturating_duration_since(Instant::now());
-        let m = tokio::time::timeout(left, ws.next())
-            .await
-            .expect("no frame within 30 s")
-            .expect("connection closed")
-            .expect("read error");
-        if let Message::Text(t) = m {
-            let v: Value = serde_json::from_str(t.as_str()).unwrap();
-            if v["type"] == "frame" {
-                return v;
-            }
-        }
-    }
-}
-
 #[test]
 fn steering_requests_do_what_they_say() {
     let path =
@@ -696,8 +495,9 @@ fn a_client_that_does_not_acknowledge_is_sent_a_bounded_number_of_bytes_and_stil
 {
     let s = server();
     runtime().block_on(async {
-        let mut quiet = connect_raw(&s).await;
+        // (The first client steers.)
         let mut ws = connect(&s).await;
+        let mut quiet = connect_raw(&s).await;
         let keep_stepping = json!({"v": 1, "type": "run", "continuous": true, "id": 0});
         assert_eq!(ask(&mut ws, keep_stepping).await["type"], "ok");
         // The engine steps 300 frames for the client that acknowledges them.

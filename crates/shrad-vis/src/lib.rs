@@ -120,6 +120,24 @@ pub trait Visibility: Send + Sync {
     /// Shadow rays: `out[i]` is true when something lies strictly between `from[i]` and
     /// `to[i]` (shortened by `eps` at both ends), ignoring objects in `exclude`.
     fn occluded(&self, from: &[Vec3], to: &[Vec3], eps: f32, exclude: &[u32], out: &mut [bool]);
+    /// Shadow rays against the objects in `among` only (every other object transparent):
+    /// whether one of them lies strictly between `from[i]` and `to[i]`. A ray known to pass
+    /// everything else (a shadow ray that was clear before some objects moved) needs only
+    /// this. Backends may make it cheaper than [`Visibility::occluded`]; this default excludes
+    /// the others.
+    fn occluded_among(
+        &self,
+        from: &[Vec3],
+        to: &[Vec3],
+        eps: f32,
+        among: &[u32],
+        out: &mut [bool],
+    ) {
+        let others: Vec<u32> = (0..self.object_count() as u32)
+            .filter(|o| !among.contains(o))
+            .collect();
+        self.occluded(from, to, eps, &others, out)
+    }
 }
 
 /// The backends compiled into this build, best first (Embree when the system library was

@@ -3,7 +3,7 @@
 //! forth along x before every frame (as `shrad bench` does), and then left still. Prints the
 //! medians of the frame and of each step, the rays cast, and the still frames after.
 //!
-//! `cargo run --release --example moving_frame [patches] [objects] [frames]`
+//! `cargo run --release --example moving_frame [patches] [objects] [frames] [budget_ms|-] [key=value ...] [error]`
 use glam::{Affine3A, Vec3};
 use shrad::engine::Engine;
 use shrad::frame::FrameStats;
@@ -22,15 +22,36 @@ fn report(label: &str, stats: &[FrameStats]) {
         median(stats.iter().filter_map(|s| s.dispersive().map(f)).collect())
     };
     println!(
-        "{label}: frame {:.2} ms (max {:.2}), direct {:.2}, objects {:.2}, to boundary {:.2}, assemble {:.2}; rays {:.0}",
+        "{label}: frame {:.2} ms (mean {:.2}, max {:.2}), direct {:.2}, objects {:.2}, to boundary {:.2}, assemble {:.2}; rays {:.0} (mean {:.0})",
         median(stats.iter().map(|s| s.frame_ms).collect()),
+        mean(stats.iter().map(|s| s.frame_ms)),
         stats.iter().map(|s| s.frame_ms).fold(0.0, f64::max),
         d(|s| s.direct_ms),
         d(|s| s.objects_ms),
         d(|s| s.to_boundary_ms),
         d(|s| s.assemble_ms),
         median(stats.iter().map(|s| s.rays_cast as f64).collect()),
+        mean(stats.iter().map(|s| s.rays_cast as f64)),
     );
+}
+
+/// CPU time of every thread of this process so far (ns; Linux's per-task schedstat), or 0
+/// where it cannot be read: on a loaded machine a frame's CPU time says more than its wall
+/// time.
+fn cpu_ns() -> u64 {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return 0;
+    };
+    tasks
+        .flatten()
+        .filter_map(|t| std::fs::read_to_string(t.path().join("schedstat")).ok())
+        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
+        .sum()
+}
+
+fn mean(v: impl Iterator<Item = f64>) -> f64 {
+    let (sum, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    sum / n.max(1) as f64
 }
 
 fn main() {
@@ -41,6 +62,12 @@ fn main() {
     // With a budget (ms), the moving frames are `Engine::step_within` it, and their 95th
     // percentile is printed against it.
     let budget: Option<f32> = args.next().and_then(|s| s.parse().ok());
+    // Then any number of solver settings, `key=value`.
+    // and `error`: the error of the last moving frame against a reference solve of that
+    // moved state.
+    let rest: Vec<String> = args.collect();
+    let settings: Vec<String> = rest.iter().filter(|a| a.contains('=')).cloned().collect();
+    let with_error = rest.iter().any(|a| a == "error");
     let scene = room(&RoomParams {
         objects,
         patches,
@@ -54,6 +81,10 @@ fn main() {
         SolverChoice::Dispersive(Default::default()),
     )
     .expect("engine");
+    for kv in &settings {
+        let (k, v) = kv.split_once('=').expect("key=value");
+        engine.set_option(k, v).expect("a dispersive setting");
+    }
     println!(
         "{} patches, set up in {:.2} s",
         engine.world().patches.len(),
@@ -68,8 +99,12 @@ fn main() {
     engine.converge(2);
     let rest = engine.transform(mover);
     let reach = 0.05 * engine.world().scene.bounds().unwrap().size().x;
+    // Phase marks for `scripts/trace-table`, among the SHRAD_TRACE lines.
+    eprintln!("# moving");
+    let mut cpu_ms = Vec::new();
     let moving: Vec<FrameStats> = (1..=frames)
         .map(|k| {
+            let cpu = cpu_ns();
             let phase = (k as f32 * std::f32::consts::TAU / 16.0).sin();
             engine
                 .set_transform(
@@ -77,13 +112,29 @@ fn main() {
                     Affine3A::from_translation(Vec3::X * reach * phase) * rest,
                 )
                 .unwrap();
-            match budget {
+            let stats = match budget {
                 Some(ms) => engine.step_within(ms).unwrap(),
                 None => engine.step(),
-            }
+            };
+            cpu_ms.push((cpu_ns() - cpu) as f64 / 1e6);
+            stats
         })
         .collect();
+    eprintln!("# moved");
     report("moving", &moving);
+    println!(
+        "moving: CPU time a frame (all threads) {:.2} ms median",
+        median(cpu_ms)
+    );
+    if with_error {
+        let e = engine.error();
+        println!(
+            "error of the last moving frame: overall {:.3} %, boundary {:.3} %, interior {:.3} %",
+            100.0 * e.overall,
+            100.0 * e.boundary,
+            100.0 * e.interior
+        );
+    }
     if let Some(ms) = budget {
         let mut t: Vec<f64> = moving.iter().map(|s| s.frame_ms).collect();
         t.sort_by(f64::total_cmp);
@@ -127,6 +178,14 @@ fn main() {
     let t = std::time::Instant::now();
     world.vis.occluded(&origins, &to, 1e-3, &[], &mut blocked);
     let occluded = m as f64 / t.elapsed().as_secs_f64() / 1e6;
+    // The same shadow rays against the mover alone (`occluded_among`, what Step 1 traces
+    // first for the shadow rays a mover may have changed).
+    let t = std::time::Instant::now();
+    world
+        .vis
+        .occluded_among(&origins, &to, 1e-3, &[mover as u32], &mut blocked);
+    let among = m as f64 / t.elapsed().as_secs_f64() / 1e6;
+    println!("backend: {among:.1} Mrays/s occluded among the mover alone");
     let rays = median(moving.iter().map(|s| s.rays_cast as f64).collect());
     println!(
         "backend: {closest:.1} Mrays/s closest, {occluded:.1} Mrays/s occluded; the moving frame's rays at the closest rate: {:.2} ms",

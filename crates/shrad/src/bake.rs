@@ -115,6 +115,27 @@ pub fn bake_with_progress(
     options: &BakeOptions,
     progress: &dyn Progress,
 ) -> Result<Vec<Baked>, Error> {
+    bake_files(
+        engine,
+        path,
+        options,
+        progress,
+        &|engine, file, e, staged| stage_gltf(engine, file, Some(e), staged),
+    )
+}
+
+/// Writes one file of a bake (the engine's state at `exposure`) to staged names.
+pub type StageFile<'a> = dyn Fn(&Engine, &Path, f32, &mut StagedFiles) -> Result<Baked, Error> + 'a;
+
+/// The files of a bake, each written by `stage` (see [`bake_with_progress`]; a lightmap's
+/// are [`crate::lightmap::bake_with_progress`]'s).
+pub fn bake_files(
+    engine: &mut Engine,
+    path: &Path,
+    options: &BakeOptions,
+    progress: &dyn Progress,
+    stage: &StageFile<'_>,
+) -> Result<Vec<Baked>, Error> {
     is_glb_output(path)?;
     if let Some(e) = options.exposure {
         check_exposure(e)?;
@@ -145,7 +166,7 @@ pub fn bake_with_progress(
                 engine.converge_with_progress(options.passes, step_bar);
             }
             let e = *exposure.get_or_insert_with(|| auto_exposure(engine));
-            stage_gltf(engine, &file, Some(e), &mut staged)
+            stage(engine, &file, e, &mut staged)
         });
         out.push(written.inspect_err(|_| file_bar.end())?);
         file_bar.advance(1);

@@ -21,8 +21,12 @@ use crate::World;
 /// Flux bookkeeping of one state (W, i.e. radiometric units x area; RGB averaged).
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct EnergyBalance {
-    /// Emitted by lights: `sum M A`.
+    /// Emitted by lights: `sum M A` of the light surfaces, plus what the punctual lights
+    /// deliver to the patches (a point light's flux that reaches no patch never enters the
+    /// scene).
     pub emitted: f64,
+    /// Of `emitted`, the punctual lights' part: `sum E_punctual A`.
+    pub punctual: f64,
     /// Arriving on all patches, lights included: `sum E A`.
     pub received: f64,
     /// Absorbed by all patches, lights included: `sum (1 - rho) E A` (`rho` taken as 0 for
@@ -61,11 +65,53 @@ fn avg(v: Vec3) -> f64 {
     v.element_sum() as f64 / 3.0
 }
 
-/// The bound on reflected flux for the world's current emission (see the module docs).
-pub fn reflected_bound(world: &World) -> f64 {
+/// Flux that leaves the scene through its openings (W, RGB averaged): what each patch sends
+/// out, `B A`, times the open part of its cosine-weighted hemisphere, measured with `rays`
+/// cosine rays from points of its footprint (none blocked: open). At rest, in any scene,
+/// `absorbed + escaped = emitted`; a closed scene lets nothing out.
+pub fn escaped(world: &World, radiosity: &[Vec3], rays: u32) -> f64 {
+    use crate::sampling::{hammersley, hash, square_to_cosine_hemisphere, unit};
+    let p = &world.patches;
+    let rays = rays.max(1);
+    let (eps, far) = (world.eps, world.far());
+    let senders: Vec<usize> = (0..p.len())
+        .filter(|&i| radiosity.get(i).is_some_and(|b| b.max_element() > 0.0))
+        .collect();
+    let (from, to): (Vec<Vec3>, Vec<Vec3>) = senders
+        .par_iter()
+        .flat_map_iter(|&i| {
+            let seed = hash(i as u32 ^ 0x0e5c_a9ed);
+            (0..rays).map(move |j| {
+                let (u, v) = hammersley(j, rays, (unit(seed), unit(hash(seed))));
+                let x = p.sample_point(i, u, v);
+                let d = square_to_cosine_hemisphere(unit(hash(seed ^ j)), v, p.normal[i]);
+                (x + p.normal[i] * eps, x + d * far)
+            })
+        })
+        .unzip();
+    let mut blocked = vec![false; from.len()];
+    world.vis.occluded(&from, &to, eps, &[], &mut blocked);
+    senders
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| {
+            let open = blocked[k * rays as usize..(k + 1) * rays as usize]
+                .iter()
+                .filter(|b| !**b)
+                .count() as f64
+                / rays as f64;
+            avg(radiosity[i]) * p.area[i] as f64 * open
+        })
+        .sum()
+}
+
+/// The bound on reflected flux for the world's current emission (see the module docs), with
+/// `punctual` the flux the punctual lights deliver to the patches.
+pub fn reflected_bound(world: &World, punctual: f64) -> f64 {
     let emitted: f64 = (0..world.patches.len())
         .map(|i| avg(world.exitance[i]) * world.patches.area[i] as f64)
-        .sum();
+        .sum::<f64>()
+        + punctual;
     let max_rho = world
         .reflectance
         .iter()
@@ -75,16 +121,26 @@ pub fn reflected_bound(world: &World) -> f64 {
     emitted * max_rho / (1.0 - max_rho)
 }
 
-/// The balance of a state with irradiance `irradiance` on every patch. `reflects(i)`: does
-/// patch `i` reflect in this solver (else all that reaches it is absorbed)?
+/// The balance of a state with irradiance `irradiance` on every patch, of which `punctual`
+/// (per patch, or empty) came straight from the punctual lights: that part is input, counted
+/// in `emitted` and in the bound. `reflects(i)`: does patch `i` reflect in this solver (else
+/// all that reaches it is absorbed)?
 pub fn balance(
     world: &World,
     irradiance: &[Vec3],
+    punctual: &[Vec3],
     reflects: impl Fn(usize) -> bool,
 ) -> EnergyBalance {
     let p = &world.patches;
+    let punctual_flux: f64 = punctual
+        .iter()
+        .zip(&p.area)
+        .map(|(e, a)| avg(*e) * *a as f64)
+        .sum();
     let mut e = EnergyBalance {
-        reflected_bound: reflected_bound(world),
+        reflected_bound: reflected_bound(world, punctual_flux),
+        emitted: punctual_flux,
+        punctual: punctual_flux,
         ..Default::default()
     };
     for i in 0..p.len() {
@@ -159,58 +215,96 @@ impl IncidentMeter {
             .filter(|b| !b.is_empty())
             .map(|b| b.padded(Vec3::splat(4.0 * world.eps + 1e-5 * b.diagonal())))
             .collect();
-        let rays = self.rays;
-        let stale: Vec<usize> = (0..self.patches.len())
-            .into_par_iter()
-            .filter(|&k| {
-                let i = self.patches[k] as usize;
-                if moved.contains(&(p.object[i] as usize)) {
-                    return true;
-                }
-                (k * rays..(k + 1) * rays).any(|r| {
-                    let h = self.hit_object[r];
-                    (h != u32::MAX && moved.contains(&(h as usize)))
-                        || padded
-                            .iter()
-                            .any(|b| b.meets_segment(self.from[r], self.end[r]))
-                })
+        let spheres: Vec<(Vec3, f32)> = padded
+            .iter()
+            .map(|b| {
+                let (c, r) = b.bounding_sphere();
+                (c, r * r)
             })
             .collect();
-        self.trace_patches(world, &stale);
-        stale.len() * rays
+        // A sphere test first (a few multiply-adds), the slab test on what passes.
+        let meets = |a: Vec3, b: Vec3| {
+            spheres.iter().zip(&padded).any(|(&(c, r2), bx)| {
+                let d = b - a;
+                let k = ((c - a).dot(d) / d.length_squared().max(1e-30)).clamp(0.0, 1.0);
+                (c - a - d * k).length_squared() <= r2 && bx.meets_segment(a, b)
+            })
+        };
+        let rays = self.rays;
+        // Per metered patch, the rays to trace again (all of them when the patch moved).
+        let stale: Vec<(usize, Vec<usize>)> = (0..self.patches.len())
+            .into_par_iter()
+            .filter_map(|k| {
+                let i = self.patches[k] as usize;
+                if moved.contains(&(p.object[i] as usize)) {
+                    return Some((k, (0..rays).collect()));
+                }
+                let which: Vec<usize> = (0..rays)
+                    .filter(|&j| {
+                        let r = k * rays + j;
+                        let h = self.hit_object[r];
+                        (h != u32::MAX && moved.contains(&(h as usize)))
+                            || meets(self.from[r], self.end[r])
+                    })
+                    .collect();
+                (!which.is_empty()).then_some((k, which))
+            })
+            .collect();
+        self.trace_rays(world, &stale)
     }
 
     /// Trace every ray of the metered patches `ks`.
     fn trace_patches(&mut self, world: &World, ks: &[usize]) {
-        if ks.is_empty() {
-            return;
+        let all: Vec<(usize, Vec<usize>)> =
+            ks.iter().map(|&k| (k, (0..self.rays).collect())).collect();
+        self.trace_rays(world, &all);
+    }
+
+    /// Trace rays `which` of each metered patch `k` (the rays [`patch_rays`] gives, bit for
+    /// bit, so a ray traced again alone equals the ray traced with all the others). Returns
+    /// the rays traced.
+    ///
+    /// [`patch_rays`]: crate::form_factors::patch_rays
+    fn trace_rays(&mut self, world: &World, stale: &[(usize, Vec<usize>)]) -> usize {
+        let n: usize = stale.iter().map(|(_, w)| w.len()).sum();
+        if n == 0 {
+            return 0;
         }
         let rays = self.rays;
-        let n = ks.len() * rays;
         let mut origins = vec![Vec3::ZERO; n];
         let mut dirs = vec![Vec3::ZERO; n];
-        origins
-            .par_chunks_mut(rays)
-            .zip(dirs.par_chunks_mut(rays))
-            .zip(ks)
-            .for_each(|((o, d), &k)| {
-                crate::form_factors::patch_rays(world, self.patches[k] as usize, o, d)
-            });
+        let mut at = 0;
+        let mut slices = Vec::with_capacity(stale.len());
+        let (mut o_rest, mut d_rest) = (&mut origins[..], &mut dirs[..]);
+        for (k, which) in stale {
+            let (o, or) = o_rest.split_at_mut(which.len());
+            let (d, dr) = d_rest.split_at_mut(which.len());
+            slices.push((*k, which, o, d));
+            (o_rest, d_rest) = (or, dr);
+            at += which.len();
+        }
+        debug_assert_eq!(at, n);
+        slices.into_par_iter().for_each(|(k, which, o, d)| {
+            crate::form_factors::some_patch_rays(world, self.patches[k] as usize, rays, which, o, d)
+        });
         let mut hits = vec![Hit::MISS; n];
         world.vis.closest(&origins, &dirs, 0.0, &[], &mut hits);
         // A miss reaches any place a mover may go.
         let far = 1e30;
-        for (c, &k) in ks.iter().enumerate() {
-            for j in 0..rays {
-                let (r, q) = (k * rays + j, c * rays + j);
+        let mut q = 0;
+        for (k, which) in stale {
+            for &j in which {
+                let r = k * rays + j;
                 let h = &hits[q];
                 self.seen[r] = world.seen_patch(h).map_or(u32::MAX, |j| j as u32);
                 self.from[r] = origins[q];
                 let t = if h.is_hit() { h.t } else { far };
                 self.end[r] = origins[q] + dirs[q] * t;
                 self.hit_object[r] = if h.is_hit() { h.object } else { u32::MAX };
+                q += 1;
             }
         }
+        n
     }
 
     /// Write the measured irradiance of the metered patches into `irradiance`.

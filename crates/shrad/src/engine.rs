@@ -35,7 +35,7 @@ use shrad_vis::Backend;
 use crate::frame::{Changes, FrameStats};
 use crate::metrics::{relative_error, RelativeError};
 use crate::reference::{solve, ReferenceOptions};
-use crate::render::{render, Image, RenderOptions};
+use crate::render::{Image, RenderOptions};
 use crate::solver::{Solver, SolverChoice};
 use crate::{Error, NoProgress, PatchSizing, Progress, World};
 
@@ -154,13 +154,70 @@ impl Engine {
         Ok(())
     }
 
+    /// The punctual light called `name`, or with index `name` ("0"); an error lists the names.
+    pub fn light(&self, name: &str) -> Result<usize, Error> {
+        let lights = &self.world.scene.lights;
+        if let Some(l) = lights.iter().position(|l| l.name == name) {
+            return Ok(l);
+        }
+        match name.parse::<usize>() {
+            Ok(l) if l < lights.len() => Ok(l),
+            _ => Err(Error::Invalid(format!(
+                "no light '{name}' in {} (lights: {})",
+                self.world.scene.source,
+                lights
+                    .iter()
+                    .map(|l| l.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ))),
+        }
+    }
+
+    /// Put punctual light `l` at `world_from_light` (it shines along that frame's -Z) with
+    /// linear RGB `color` and photometric `intensity` (candela; lux for a directional
+    /// light: [`shrad_scene::Light`]). The next frame re-traces only that light's own shadow
+    /// rays when it moved, and none when only its colour or intensity changed.
+    pub fn set_light(
+        &mut self,
+        l: usize,
+        world_from_light: Affine3A,
+        color: Vec3,
+        intensity: f32,
+    ) -> Result<(), Error> {
+        if self
+            .world
+            .set_light(l, world_from_light, color, intensity)?
+            && !self.pending.lights.contains(&l)
+        {
+            self.pending.lights.push(l);
+        }
+        Ok(())
+    }
+
+    /// Put the sky `environment` (`None`: none) in place of the scene's. A changed sky is a
+    /// light change: the next frame re-traces the sky's direct light and wakes everything.
+    pub fn set_sky(&mut self, environment: Option<shrad_scene::Environment>) -> Result<(), Error> {
+        let sky = self.world.lights.len();
+        if self.world.set_sky(environment)? && !self.pending.lights.contains(&sky) {
+            self.pending.lights.push(sky);
+        }
+        Ok(())
+    }
+
     /// Go to time `t` (seconds) on the scene's animation: animated objects and lights take
     /// their pose there (overriding `set_transform` / `set_emission` on those objects).
     pub fn set_time(&mut self, t: f32) -> Result<(), Error> {
         if !t.is_finite() {
             return Err(Error::Invalid(format!("time {t} is not a finite number")));
         }
+        let before = self.world.lights.clone();
         let (moved, relit) = self.world.set_time(t);
+        for (l, (a, b)) in before.iter().zip(&self.world.lights).enumerate() {
+            if a != b && !self.pending.lights.contains(&l) {
+                self.pending.lights.push(l);
+            }
+        }
         for o in moved {
             if !self.pending.moved.contains(&o) {
                 self.pending.moved.push(o);
@@ -189,6 +246,32 @@ impl Engine {
         })
     }
 
+    /// Put in `solver`, precomputed for `choice` by [`Solver::new`] on another world with
+    /// this one's patches (a viewer keeps such a copy so that a precomputation runs beside
+    /// the frames instead of stopping them). `changed_since`: the objects moved and the
+    /// lights changed between that world's state and this one's; the first frame takes them
+    /// in as ordinary changes. An error (and the solver in use stays) when the patch counts
+    /// differ.
+    pub fn install_solver(
+        &mut self,
+        solver: Solver,
+        choice: SolverChoice,
+        changed_since: Changes,
+    ) -> Result<(), Error> {
+        if solver.radiosity().len() != self.world.patches.len() {
+            return Err(Error::Invalid(format!(
+                "a solver of {} patches cannot run on a world of {}",
+                solver.radiosity().len(),
+                self.world.patches.len()
+            )));
+        }
+        self.solver = solver;
+        self.choice = choice;
+        self.frames = 0;
+        self.pending = changed_since;
+        Ok(())
+    }
+
     /// Change one setting of the solver in use by name (`set_option("cube_res", "64")`; keys
     /// in [`crate::settings`], listed by [`SolverChoice::keys`]). A key whose
     /// [`rebuilds`](crate::settings::KeySpec::rebuilds) is set runs the precomputation again
@@ -203,7 +286,7 @@ impl Engine {
         }
         match (&mut self.solver, next) {
             (Solver::Dispersive(d), SolverChoice::Dispersive(o)) => d.set_schedule(o.schedule)?,
-            (Solver::Reference(o, ..), SolverChoice::Reference(n)) => *o = n,
+            (Solver::Reference { options, .. }, SolverChoice::Reference(n)) => *options = n,
             _ => return self.set_solver(next).map(Some),
         }
         self.choice = next;
@@ -325,9 +408,10 @@ impl Engine {
     pub fn render(&self, camera: Option<&Camera>, options: &RenderOptions) -> Result<Image, Error> {
         crate::limits::check_image(options.width, options.height, options.spp)?;
         let own = self.world.scene.camera_or_default_at(self.world.time);
-        Ok(render(
+        Ok(crate::render::render_with_punctual(
             &self.world,
             self.solver.radiosity(),
+            self.solver.punctual_irradiance(),
             camera.unwrap_or(&own),
             options,
         ))
@@ -392,6 +476,65 @@ mod tests {
         let before = counting.advanced.load(Relaxed);
         assert_eq!(e.converge_with_progress(1, &counting).len(), 1);
         assert!(counting.advanced.load(Relaxed) > before);
+    }
+
+    /// The short block's radiosity in `e` against `want`: the largest difference of a patch
+    /// over the block's brightest patch.
+    fn block_difference(e: &Engine, want: &[Vec3]) -> f32 {
+        let o = e.object("short_block").unwrap();
+        let r = e.world().patches.range(o);
+        let b = &e.radiosity()[r.clone()];
+        let max = want[r.clone()]
+            .iter()
+            .map(|y| y.max_element())
+            .fold(0.0, f32::max);
+        let d = b
+            .iter()
+            .zip(&want[r])
+            .map(|(x, y)| (*x - *y).abs().max_element());
+        d.fold(0.0, f32::max) / max
+    }
+
+    #[test]
+    fn a_solver_precomputed_on_a_copy_at_rest_lights_the_moved_scene_as_a_fresh_one() {
+        let choice = SolverChoice::Dispersive(Default::default());
+        let world = || {
+            World::new(
+                shrad_scene::cornell_box(),
+                PatchSizing::Count(400),
+                Backend::Auto,
+            )
+        };
+        let mut e = Engine::from_world(world().unwrap(), choice).unwrap();
+        // Precomputed on a copy at rest while the engine's block moves.
+        let solver = Solver::new(&world().unwrap(), choice).unwrap();
+        let o = e.object("short_block").unwrap();
+        let at = Affine3A::from_translation(Vec3::new(0.25, 0.0, 0.15)) * e.transform(o);
+        e.set_transform(o, at).unwrap();
+        let since = Changes {
+            moved: vec![o],
+            ..Default::default()
+        };
+        e.install_solver(solver, choice, since).unwrap();
+        assert_eq!(e.frames(), 0);
+        e.converge(2);
+        // As a solver precomputed on the moved world. (A new solver's caches are empty, so
+        // its first updates trace the world as it is; `since` tells its scheduler which
+        // objects to take first: without it this would pass too.)
+        let mut fresh = Engine::from_world(world().unwrap(), choice).unwrap();
+        fresh.set_transform(o, at).unwrap();
+        fresh.converge(2);
+        let d = block_difference(&e, fresh.radiosity());
+        assert!(d < 0.02, "the block's light differs by {:.2} %", 100.0 * d);
+        // A solver of another patching is refused; the one in use stays.
+        let other = World::new(
+            shrad_scene::cornell_box(),
+            PatchSizing::Count(900),
+            Backend::Auto,
+        );
+        let wrong = Solver::new(&other.unwrap(), choice).unwrap();
+        assert!(e.install_solver(wrong, choice, Changes::default()).is_err());
+        assert_eq!(e.radiosity().len(), fresh.radiosity().len());
     }
 
     #[test]

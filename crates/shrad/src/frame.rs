@@ -13,6 +13,18 @@ pub struct Changes {
     pub moved: Vec<usize>,
     /// Objects whose emission changed.
     pub relit: Vec<usize>,
+    /// Punctual lights that moved or changed colour or intensity (the solvers also compare
+    /// the light states they traced with the world's, so a light changed by
+    /// [`World::set_time`](crate::World::set_time) alone is not missed). Index
+    /// `world.lights.len()` stands for the sky.
+    pub lights: Vec<usize>,
+}
+
+impl Changes {
+    /// Did any light change: a light surface's emission or a punctual light?
+    pub fn light_changed(&self) -> bool {
+        !self.relit.is_empty() || !self.lights.is_empty()
+    }
 }
 
 /// Statistics of one frame, common to every solver, with the solver's own in
@@ -105,6 +117,9 @@ pub struct DispersiveStats {
     pub assemble_ms: f64,
     /// Probes captured (8 per updated object, more when a repair moves one).
     pub probes_captured: usize,
+    /// Texels of cached probes traced again because a mover's box met their rays (a probe
+    /// captured whole counts in `probes_captured` instead).
+    pub probe_texels_retraced: usize,
     /// Probes found invalid among those captured this frame.
     pub probes_invalid: usize,
     /// Of those, repaired by moving.

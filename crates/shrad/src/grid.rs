@@ -13,6 +13,10 @@ use crate::frame::{Changes, FrameStats, GridStats, SolverStats};
 use crate::probes::{ProbeCamera, Seen};
 use crate::World;
 
+/// Footprint samples (shadow rays) per patch and punctual light: the reference's fast
+/// preset's `direct_samples`.
+const GRID_PUNCTUAL_SAMPLES: u32 = 16;
+
 /// Settings of the grid baseline.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GridOptions {
@@ -53,6 +57,11 @@ pub struct Grid {
     /// The reflected flux of the last frame within the bound (the guard lets the light held
     /// from before a light dimmed drain: [`crate::energy::over_bound`]).
     light_held: crate::energy::LightHeld,
+    /// Direct light of the punctual lights (a probe cannot see a light without a surface;
+    /// paper 2.3.2's direct step lights every patch instead), re-traced when anything moved.
+    punctual: crate::lights::PunctualCache,
+    /// Its irradiance per patch (empty without punctual lights).
+    punctual_by_patch: Vec<Vec3>,
 }
 
 impl Grid {
@@ -84,6 +93,8 @@ impl Grid {
             radiosity: world.exitance.clone(),
             frame: 0,
             light_held: Default::default(),
+            punctual: Default::default(),
+            punctual_by_patch: Vec::new(),
         })
     }
 
@@ -119,10 +130,41 @@ impl Grid {
         (ids, trilinear_weights(t))
     }
 
+    /// The punctual lights' direct irradiance per patch (empty without punctual lights).
+    pub fn punctual_irradiance(&self) -> &[Vec3] {
+        &self.punctual_by_patch
+    }
+
+    /// Bring the punctual lights' direct light up to date: re-traced whole when an object
+    /// moved (the grid keeps no boxes), only what a light's change needs otherwise.
+    fn update_punctual(&mut self, world: &World, changes: &Changes) {
+        let n = world.patches.len();
+        if !crate::lights::has_sources(world) {
+            self.punctual_by_patch.clear();
+            return;
+        }
+        let fresh = self.punctual_by_patch.len() != n
+            || !changes.moved.is_empty()
+            || !self.punctual.same_lights(world);
+        let ks = if fresh {
+            let all: Vec<u32> = (0..n as u32).collect();
+            self.punctual = crate::lights::PunctualCache::new(world, all, GRID_PUNCTUAL_SAMPLES);
+            (0..n).collect()
+        } else {
+            self.punctual.update(world, &[], &[], |_| false)
+        };
+        self.punctual_by_patch.resize(n, Vec3::ZERO);
+        for k in ks {
+            self.punctual_by_patch[self.punctual.receivers()[k] as usize] =
+                self.punctual.irradiance()[k];
+        }
+    }
+
     /// One frame: capture every probe, light every patch.
-    pub fn step(&mut self, world: &World, _changes: &Changes) -> FrameStats {
+    pub fn step(&mut self, world: &World, changes: &Changes) -> FrameStats {
         let start = std::time::Instant::now();
         let rays_before = world.rays_cast();
+        self.update_punctual(world, changes);
         let radiosity = &self.radiosity;
         // Capture and project every probe (nothing left out).
         let captured =
@@ -147,13 +189,15 @@ impl Grid {
                 let mut lobe = [0f32; 64];
                 cosine_lobe_sh(bands, p.normal[i], &mut lobe[..nc]);
                 l.dot(&lobe[..nc]).max(Vec3::ZERO)
+                    + self.punctual_by_patch.get(i).copied().unwrap_or(Vec3::ZERO)
             })
             .collect();
         // The energy meter and its guard: a non-finite or diverged state is repaired before
         // it is published (spec 2).
         let mut irradiance = irradiance;
         let non_finite = crate::energy::reset_non_finite(&mut irradiance);
-        let mut energy = crate::energy::balance(world, &irradiance, |_| true);
+        let mut energy =
+            crate::energy::balance(world, &irradiance, &self.punctual_by_patch, |_| true);
         let mut diverged = (non_finite > 0).then(|| crate::energy::Divergence {
             message: format!("{non_finite} non-finite irradiance value(s) reset to 0"),
             non_finite,
@@ -164,7 +208,7 @@ impl Grid {
                 "reflected flux {:.4e} exceeds the bound {:.4e} that the lights can sustain; probe light damped by {s:.3}",
                 energy.reflected, energy.reflected_bound
             );
-            energy = crate::energy::balance(world, &irradiance, |_| true);
+            energy = crate::energy::balance(world, &irradiance, &self.punctual_by_patch, |_| true);
             diverged = Some(crate::energy::Divergence {
                 message: diverged.map_or(message.clone(), |d| d.message + "; " + &message),
                 non_finite,

@@ -15,6 +15,9 @@ use crate::Error;
 pub const BYTES_PER_PATCH: u64 = 5 * 1024;
 /// Bytes one camera sample costs while a picture is rendered.
 pub const BYTES_PER_SAMPLE: u64 = 64;
+/// The longest side of a picture, in pixels, for every command and front end (beyond it a
+/// picture is a mistake before it is a memory problem).
+pub const MAX_IMAGE_SIDE: u32 = 16384;
 /// Patch ids are `u32`, and one value marks "no patch".
 pub const MAX_PATCHES: u64 = u32::MAX as u64 - 1;
 
@@ -85,6 +88,11 @@ pub fn check_image_within(width: u32, height: u32, spp: u32, budget: u64) -> Res
             "image size {width}x{height} with {spp} samples per pixel: each must be at least 1"
         )));
     }
+    if width > MAX_IMAGE_SIDE || height > MAX_IMAGE_SIDE {
+        return Err(Error::Invalid(format!(
+            "image size {width}x{height}: a side may be at most {MAX_IMAGE_SIDE} pixels"
+        )));
+    }
     let pixels = width as u64 * height as u64;
     let need = pixels
         .saturating_mul(spp as u64)
@@ -132,11 +140,15 @@ mod tests {
 
     #[test]
     fn huge_images_are_refused() {
-        let e = check_image_within(100_000, 100_000, 16, 24 << 30)
+        let e = check_image_within(16_000, 16_000, 4096, 24 << 30)
             .unwrap_err()
             .to_string();
         assert!(e.contains("GiB"), "{e}");
         check_image_within(512, 512, 4, 24 << 30).unwrap();
+        let e = check_image_within(MAX_IMAGE_SIDE + 1, 4, 1, 24 << 30)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("at most 16384"), "{e}");
         assert!(check_image_within(0, 512, 1, 24 << 30).is_err());
     }
 

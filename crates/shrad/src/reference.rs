@@ -2,7 +2,8 @@
 //! `B = M + rho * (E_direct + F (B - M))`.
 //!
 //! - Direct light comes from [`crate::direct`] (exact unoccluded irradiance times a sampled
-//!   visible fraction), so it carries no visible noise; emitters' own exitance is therefore
+//!   visible fraction) and, for punctual lights, [`crate::lights`] (exact irradiance with a
+//!   shadow ray per footprint sample), so it carries no visible noise; emitters' own exitance is therefore
 //!   left out of the gathered term (`B - M`), which avoids counting it twice.
 //! - Form factors `F_ij` come from the shared transport code [`crate::form_factors`]
 //!   (stratified cosine-weighted rays from stratified points on each patch, stored as sparse
@@ -70,10 +71,10 @@ pub fn frame(
     options: &ReferenceOptions,
     frame: u64,
     progress: &dyn Progress,
-) -> (Vec<Vec3>, crate::frame::FrameStats) {
+) -> (Vec<Vec3>, Vec<Vec3>, crate::frame::FrameStats) {
     let t = Instant::now();
     let rays_before = world.rays_cast();
-    let (radiosity, stats) = solve(world, options, progress);
+    let (radiosity, punctual, stats) = solve_parts(world, options, progress);
     let out = crate::frame::FrameStats {
         frame_ms: t.elapsed().as_secs_f64() * 1e3,
         energy: stats.energy,
@@ -84,7 +85,7 @@ pub fn frame(
         rays_cast: world.rays_cast() - rays_before,
         ..crate::frame::FrameStats::new(frame, crate::frame::SolverStats::Reference(stats))
     };
-    (radiosity, out)
+    (radiosity, punctual, out)
 }
 
 /// Solve the radiosity of `world` at its current time.
@@ -93,6 +94,17 @@ pub fn solve(
     options: &ReferenceOptions,
     progress: &dyn Progress,
 ) -> (Vec<Vec3>, ReferenceStats) {
+    let (radiosity, _, stats) = solve_parts(world, options, progress);
+    (radiosity, stats)
+}
+
+/// [`solve`], with the punctual lights' direct irradiance of every patch (what a picture
+/// replaces by its per-pixel value).
+pub fn solve_parts(
+    world: &World,
+    options: &ReferenceOptions,
+    progress: &dyn Progress,
+) -> (Vec<Vec3>, Vec<Vec3>, ReferenceStats) {
     let p = &world.patches;
     let n = p.len();
     let mut stats = ReferenceStats::default();
@@ -103,7 +115,12 @@ pub fn solve(
     // Direct light, noise-free.
     let t = Instant::now();
     progress.begin("direct light", 1);
-    let direct: Vec<Vec3> = direct_irradiance(world, &all, options.direct_samples);
+    let punctual = crate::lights::punctual_irradiance_all(world, options.direct_samples);
+    let direct: Vec<Vec3> = direct_irradiance(world, &all, options.direct_samples)
+        .into_iter()
+        .zip(&punctual)
+        .map(|(a, b)| a + *b)
+        .collect();
     progress.advance(1);
     progress.end();
     stats.direct_seconds = t.elapsed().as_secs_f64();
@@ -164,11 +181,11 @@ pub fn solve(
                     .sum::<Vec3>()
         })
         .collect();
-    stats.energy = crate::energy::balance(world, &irradiance, |_| true);
+    stats.energy = crate::energy::balance(world, &irradiance, &punctual, |_| true);
     let radiosity = reflected
         .iter()
         .zip(&world.exitance)
         .map(|(r, m)| *r + *m)
         .collect();
-    (radiosity, stats)
+    (radiosity, punctual, stats)
 }

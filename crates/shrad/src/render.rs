@@ -6,6 +6,12 @@
 //! of the texel seen there, plus the emission there. Without textures and vertex colours
 //! `rho(x) = rho_i` and this is the patch's `B_i` (interpolated). The back of a single-sided
 //! surface is culled: the camera sees what lies behind it.
+//!
+//! Punctual lights are evaluated per pixel: the patches' irradiance less their punctual
+//! part (footprint averages, interpolated like the rest), plus the exact punctual irradiance
+//! at the point seen with a shadow ray ([`crate::lights::point_irradiance`]), so a point
+//! light's shadow edge is sharp at pixel scale while the indirect light comes from the
+//! patches.
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -104,15 +110,63 @@ pub fn camera_ray(camera: &Camera, width: u32, height: u32, px: f32, py: f32) ->
     (m.translation.into(), dir)
 }
 
-/// Render `radiosity` (one value per patch) as seen by `camera`.
+/// Render `radiosity` (one value per patch) as seen by `camera`. With punctual lights in
+/// the world, their part of each patch's irradiance is computed here (16 footprint samples;
+/// [`render_with_punctual`] takes the solver's own).
 pub fn render(
     world: &World,
     radiosity: &[Vec3],
     camera: &Camera,
     options: &RenderOptions,
 ) -> Image {
-    let (w, h) = (options.width.max(1), options.height.max(1));
-    let spp = options.spp.max(1);
+    let punctual = if !crate::lights::has_sources(world) {
+        Vec::new()
+    } else {
+        crate::lights::punctual_irradiance_all(world, 16)
+    };
+    render_with_punctual(world, radiosity, &punctual, camera, options)
+}
+
+/// The exact punctual irradiance at each hit that shows a patch (zero elsewhere; empty
+/// without punctual lights).
+fn punctual_at_hits(
+    world: &World,
+    hits: &[shrad_vis::Hit],
+    origins: &[Vec3],
+    dirs: &[Vec3],
+    punctual: &[Vec3],
+) -> Vec<Vec3> {
+    if !crate::lights::has_sources(world) || punctual.len() != world.patches.len() {
+        return Vec::new();
+    }
+    let seen: Vec<(usize, usize)> = (0..hits.len())
+        .filter_map(|k| world.seen_patch(&hits[k]).map(|i| (k, i)))
+        .collect();
+    let xs: Vec<Vec3> = seen
+        .iter()
+        .map(|&(k, _)| origins[k] + dirs[k] * hits[k].t)
+        .collect();
+    let ns: Vec<Vec3> = seen.iter().map(|&(_, i)| world.patches.normal[i]).collect();
+    let mut exact = vec![Vec3::ZERO; hits.len()];
+    for (&(k, _), e) in seen
+        .iter()
+        .zip(crate::lights::point_irradiance(world, &xs, &ns))
+    {
+        exact[k] = e;
+    }
+    exact
+}
+
+/// The primary rays of every sample (`spp` a pixel, stratified) and what each sees, the
+/// backs of single-sided surfaces passed through: `(origins, directions, hits)`, an origin
+/// moved past the backs it went through.
+pub fn primary_hits(
+    world: &World,
+    camera: &Camera,
+    w: u32,
+    h: u32,
+    spp: u32,
+) -> (Vec<Vec3>, Vec<Vec3>, Vec<shrad_vis::Hit>) {
     let n = (w * h) as usize;
     let side = (spp as f32).sqrt().ceil() as u32;
     let mut origins = vec![Vec3::ZERO; n * spp as usize];
@@ -160,12 +214,25 @@ pub fn render(
             hits[k] = h;
         }
     }
-    let irradiance = patch_irradiance(world, radiosity);
-    let vertex = match options.shading {
-        Shading::Smooth => vertex_radiosity(world, &irradiance),
-        Shading::Flat => Vec::new(),
-    };
-    let p = &world.patches;
+    (origins, dirs, hits)
+}
+
+/// [`render`] with `punctual`, the punctual lights' part of each patch's irradiance as the
+/// solver computed it ([`crate::solver::Solver::punctual_irradiance`]; empty: none), replaced
+/// per pixel by its exact value (see the module docs).
+pub fn render_with_punctual(
+    world: &World,
+    radiosity: &[Vec3],
+    punctual: &[Vec3],
+    camera: &Camera,
+    options: &RenderOptions,
+) -> Image {
+    let (w, h) = (options.width.max(1), options.height.max(1));
+    let spp = options.spp.max(1);
+    let n = (w * h) as usize;
+    let (origins, dirs, hits) = primary_hits(world, camera, w, h, spp);
+    let exact = punctual_at_hits(world, &hits, &origins, &dirs, punctual);
+    let light = SurfaceLight::new(world, radiosity, punctual, options.shading);
     let per_pixel: Vec<(Vec3, bool)> = (0..n)
         .into_par_iter()
         .map(|pix| {
@@ -174,59 +241,19 @@ pub fn render(
             for s in 0..spp as usize {
                 let k = pix * spp as usize + s;
                 let Some(i) = world.seen_patch(&hits[k]) else {
+                    // A ray that leaves the scene sees the sky.
+                    if let Some(sky) = world.sky.as_ref().filter(|_| !hits[k].is_hit()) {
+                        sum += sky.radiance(dirs[k]) * std::f32::consts::PI;
+                    }
                     continue;
                 };
                 if world.exitance[i].max_element() > 0.0 {
                     emitter = true;
                 }
-                let attrs = p.corner_attrs(i);
-                let (s, t) = if options.shading == Shading::Flat && attrs.is_none() {
-                    (0.0, 0.0)
-                } else {
-                    let y = origins[k] + dirs[k] * hits[k].t;
-                    let c = p.world_corners(i);
-                    if p.is_quad[i] {
-                        parallelogram_coords(y, c[0], c[1] - c[0], c[3] - c[0])
-                    } else {
-                        let (u, v) = parallelogram_coords(y, c[0], c[1] - c[0], c[2] - c[0]);
-                        let sum = (u + v).max(1.0);
-                        (u / sum, v / sum)
-                    }
-                };
-                let e = match options.shading {
-                    Shading::Flat => irradiance[i],
-                    Shading::Smooth => {
-                        let cv = p.corner_vertex[i].map(|v| vertex[v as usize]);
-                        if p.is_quad[i] {
-                            (cv[0] * (1.0 - s) + cv[1] * s) * (1.0 - t)
-                                + (cv[3] * (1.0 - s) + cv[2] * s) * t
-                        } else {
-                            cv[0] * (1.0 - s - t) + cv[1] * s + cv[2] * t
-                        }
-                    }
-                };
-                let (rho, m) = match attrs {
-                    None => (world.reflectance[i], world.exitance[i]),
-                    Some(c) => {
-                        let material = &world.scene.objects[p.object[i] as usize].material;
-                        let a = crate::surface::attr_at(c, p.is_quad[i], s, t);
-                        let rho = crate::surface::albedo(material, &a);
-                        let m = match world.emission_texture.get(i) {
-                            Some(avg) if material.emissive_texture.is_some() => {
-                                let per = Vec3::select(
-                                    avg.cmpgt(Vec3::ZERO),
-                                    world.exitance[i] / *avg,
-                                    Vec3::ZERO,
-                                );
-                                per * crate::surface::emission_scale(material, &a)
-                            }
-                            _ => world.exitance[i],
-                        };
-                        (rho, m)
-                    }
-                };
-                let b = rho * e + m;
-                sum += b;
+                let (s, t) = light.params(i, origins[k] + dirs[k] * hits[k].t);
+                let e = light.irradiance(i, s, t, exact.get(k).copied());
+                let (rho, m) = light.albedo_and_emission(i, s, t);
+                sum += rho * e + m;
             }
             (sum / (spp as f32 * std::f32::consts::PI), emitter)
         })
@@ -236,6 +263,118 @@ pub fn render(
         height: h,
         pixels: per_pixel.iter().map(|p| p.0).collect(),
         emitter: per_pixel.iter().map(|p| p.1).collect(),
+    }
+}
+
+/// The light a picture shows at a surface point, in the pieces a pixel (and a lightmap's
+/// texel, [`crate::lightmap`]) reads: the patches' irradiance reconstructed flat or smooth,
+/// its punctual part to replace by the exact value there, and the albedo and emission.
+pub struct SurfaceLight<'a> {
+    world: &'a World,
+    shading: Shading,
+    /// `E_i` per patch.
+    irradiance: Vec<Vec3>,
+    /// `E` per shading vertex (smooth only).
+    vertex: Vec<Vec3>,
+    /// The punctual part of the patches' irradiance: per patch, or per shading vertex when
+    /// smooth (empty without punctual lights).
+    part: Vec<Vec3>,
+}
+
+impl<'a> SurfaceLight<'a> {
+    /// The light of `radiosity`, with `punctual` the solver's punctual part per patch
+    /// (empty: none).
+    pub fn new(
+        world: &'a World,
+        radiosity: &[Vec3],
+        punctual: &[Vec3],
+        shading: Shading,
+    ) -> SurfaceLight<'a> {
+        let irradiance = patch_irradiance(world, radiosity);
+        let smooth = shading == Shading::Smooth;
+        let vertex = match smooth {
+            true => vertex_radiosity(world, &irradiance),
+            false => Vec::new(),
+        };
+        let part = if !crate::lights::has_sources(world) || punctual.len() != world.patches.len() {
+            Vec::new()
+        } else if smooth {
+            vertex_radiosity(world, punctual)
+        } else {
+            punctual.to_vec()
+        };
+        SurfaceLight {
+            world,
+            shading,
+            irradiance,
+            vertex,
+            part,
+        }
+    }
+
+    /// Whether an exact punctual irradiance is to be given to [`SurfaceLight::irradiance`].
+    pub fn has_punctual(&self) -> bool {
+        !self.part.is_empty()
+    }
+
+    /// Patch `i`'s parameters `(s, t)` at world point `y` on it (bilinear on a cell,
+    /// barycentric on a triangle).
+    pub fn params(&self, i: usize, y: Vec3) -> (f32, f32) {
+        let p = &self.world.patches;
+        if self.shading == Shading::Flat && p.corner_attrs(i).is_none() {
+            return (0.0, 0.0);
+        }
+        let c = p.world_corners(i);
+        if p.is_quad[i] {
+            parallelogram_coords(y, c[0], c[1] - c[0], c[3] - c[0])
+        } else {
+            let (u, v) = parallelogram_coords(y, c[0], c[1] - c[0], c[2] - c[0]);
+            let sum = (u + v).max(1.0);
+            (u / sum, v / sum)
+        }
+    }
+
+    /// The irradiance at parameters `(s, t)` of patch `i`; `exact`: the exact punctual
+    /// irradiance there, which replaces the patches' footprint average of it.
+    pub fn irradiance(&self, i: usize, s: f32, t: f32, exact: Option<Vec3>) -> Vec3 {
+        let p = &self.world.patches;
+        let at = |field: &[Vec3], per_vertex: &[Vec3]| match self.shading {
+            Shading::Flat => field[i],
+            Shading::Smooth => {
+                let cv = p.corner_vertex[i].map(|v| per_vertex[v as usize]);
+                if p.is_quad[i] {
+                    (cv[0] * (1.0 - s) + cv[1] * s) * (1.0 - t)
+                        + (cv[3] * (1.0 - s) + cv[2] * s) * t
+                } else {
+                    cv[0] * (1.0 - s - t) + cv[1] * s + cv[2] * t
+                }
+            }
+        };
+        let e = at(&self.irradiance, &self.vertex);
+        match exact {
+            // The footprint average of the punctual light out, its exact value in.
+            Some(x) if self.has_punctual() => (e - at(&self.part, &self.part)).max(Vec3::ZERO) + x,
+            _ => e,
+        }
+    }
+
+    /// The albedo `rho(x)` and emission `M(x)` at parameters `(s, t)` of patch `i`.
+    pub fn albedo_and_emission(&self, i: usize, s: f32, t: f32) -> (Vec3, Vec3) {
+        let (world, p) = (self.world, &self.world.patches);
+        let Some(c) = p.corner_attrs(i) else {
+            return (world.reflectance[i], world.exitance[i]);
+        };
+        let material = &world.scene.objects[p.object[i] as usize].material;
+        let a = crate::surface::attr_at(c, p.is_quad[i], s, t);
+        let rho = crate::surface::albedo(material, &a);
+        let m = match world.emission_texture.get(i) {
+            Some(avg) if material.emissive_texture.is_some() => {
+                let per = Vec3::select(avg.cmpgt(Vec3::ZERO), world.exitance[i] / *avg, Vec3::ZERO);
+                per * crate::surface::emission_scale(material, &a)
+            }
+            _ => world.exitance[i],
+        };
+        (rho, m)
     }
 }
 

@@ -23,8 +23,17 @@ pub enum SolverChoice {
 
 /// A solver's state across frames.
 pub enum Solver {
-    /// See [`SolverChoice::Reference`]: its settings, the radiosity and the frames solved.
-    Reference(ReferenceOptions, Vec<Vec3>, u64),
+    /// See [`SolverChoice::Reference`].
+    Reference {
+        /// Its settings.
+        options: ReferenceOptions,
+        /// The radiosity of the last frame solved (the exitance before the first).
+        radiosity: Vec<Vec3>,
+        /// Frames solved so far.
+        frames: u64,
+        /// The punctual lights' direct irradiance of every patch.
+        punctual: Vec<Vec3>,
+    },
     /// See [`SolverChoice::Dispersive`].
     Dispersive(Box<Dispersive>),
     /// See [`SolverChoice::Grid`].
@@ -47,7 +56,12 @@ impl Solver {
     ) -> Result<Solver, crate::Error> {
         choice.validate()?;
         Ok(match choice {
-            SolverChoice::Reference(o) => Solver::Reference(o, world.exitance.clone(), 0),
+            SolverChoice::Reference(options) => Solver::Reference {
+                options,
+                radiosity: world.exitance.clone(),
+                frames: 0,
+                punctual: Vec::new(),
+            },
             SolverChoice::Dispersive(o) => {
                 Solver::Dispersive(Box::new(Dispersive::new_with_progress(world, o, progress)?))
             }
@@ -70,9 +84,16 @@ impl Solver {
         progress: &dyn Progress,
     ) -> FrameStats {
         match self {
-            Solver::Reference(o, b, frames) => {
-                let (radiosity, stats) = crate::reference::frame(world, o, *frames, progress);
-                *b = radiosity;
+            Solver::Reference {
+                options,
+                radiosity,
+                frames,
+                punctual,
+            } => {
+                let (solved, direct, stats) =
+                    crate::reference::frame(world, options, *frames, progress);
+                *radiosity = solved;
+                *punctual = direct;
                 *frames += 1;
                 stats
             }
@@ -84,7 +105,7 @@ impl Solver {
     /// Frames a static scene needs to converge (`passes` updates of every object).
     pub fn frames_to_converge(&self, passes: usize) -> usize {
         match self {
-            Solver::Reference(..) => 1,
+            Solver::Reference { .. } => 1,
             Solver::Dispersive(d) => passes * d.frames_per_pass(),
             Solver::Grid(_) => passes,
         }
@@ -93,9 +114,20 @@ impl Solver {
     /// Radiosity of every patch.
     pub fn radiosity(&self) -> &[Vec3] {
         match self {
-            Solver::Reference(_, b, _) => b,
+            Solver::Reference { radiosity, .. } => radiosity,
             Solver::Dispersive(d) => d.radiosity(),
             Solver::Grid(g) => g.radiosity(),
+        }
+    }
+
+    /// The punctual lights' direct irradiance of every patch as the last frame computed it
+    /// (footprint averages; empty before the first frame or without punctual lights): the
+    /// part of each patch's irradiance a picture evaluates per pixel instead.
+    pub fn punctual_irradiance(&self) -> &[Vec3] {
+        match self {
+            Solver::Reference { punctual, .. } => punctual,
+            Solver::Dispersive(d) => d.punctual_irradiance(),
+            Solver::Grid(g) => g.punctual_irradiance(),
         }
     }
 }

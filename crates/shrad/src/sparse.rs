@@ -112,13 +112,6 @@ impl<T: Copy> SparseRows<T> {
     }
 }
 
-impl SparseRows<(u32, f32)> {
-    /// Sum of row `i`'s weights (a form-factor row: 1 for a patch inside a closed scene).
-    pub fn row_sum(&self, i: usize) -> f32 {
-        self.row(i).iter().map(|&(_, f)| f).sum()
-    }
-}
-
 /// A row's length as stored (rows hold at most `u32::MAX` entries: a row is one patch's rays
 /// or neighbours).
 fn row_len(n: usize) -> u32 {

@@ -27,6 +27,11 @@ pub struct World {
     pub emission_texture: Vec<Vec3>,
     /// Emitted exitance `M` of each patch at the current time.
     pub exitance: Vec<Vec3>,
+    /// The scene's punctual lights at the current time (`None`: a light whose transform
+    /// collapses it, dark), aligned with `scene.lights`.
+    pub lights: Vec<Option<crate::lights::LightState>>,
+    /// The sky (`scene.environment`), if any ([`crate::sky`]).
+    pub sky: Option<Arc<crate::sky::Sky>>,
     /// Current time (seconds).
     pub time: f32,
     /// Ray offset off surfaces (scene units), 1e-4 of the scene's diagonal.
@@ -87,6 +92,18 @@ impl Visibility for Counted {
         self.add(out.len());
         self.inner.occluded(from, to, eps, exclude, out)
     }
+
+    fn occluded_among(
+        &self,
+        from: &[Vec3],
+        to: &[Vec3],
+        eps: f32,
+        among: &[u32],
+        out: &mut [bool],
+    ) {
+        self.add(out.len());
+        self.inner.occluded_among(from, to, eps, among, out)
+    }
 }
 
 impl World {
@@ -125,6 +142,11 @@ impl World {
         let mut world = World {
             eps: 1e-4 * diagonal.max(f32::MIN_POSITIVE),
             exitance: vec![Vec3::ZERO; patches.len()],
+            lights: crate::lights::states_at(&scene.lights, 0.0),
+            sky: scene
+                .environment
+                .as_ref()
+                .map(|e| Arc::new(crate::sky::Sky::new(e))),
             scene,
             patches,
             vis,
@@ -179,8 +201,74 @@ impl World {
         if !moved.is_empty() {
             self.vis.commit();
         }
+        // Punctual lights follow their nodes; the solvers compare the states they traced
+        // with these, so a light's change is seen whoever changed the time.
+        for (l, light) in self.scene.lights.iter().enumerate() {
+            if first || light.is_animated() {
+                self.lights[l] =
+                    crate::lights::LightState::new(light, &light.world_from_light_at(t));
+            }
+        }
         self.time = t;
         (moved, relit)
+    }
+
+    /// How far a shadow ray towards a directional light reaches: a thousand scene diagonals
+    /// (`eps` is 1e-4 of one), beyond anything that can occlude.
+    pub fn far(&self) -> f32 {
+        1e7 * self.eps
+    }
+
+    /// Put punctual light `l` at `world_from_light` (it shines along its -Z) with colour
+    /// `color` and photometric `intensity` (candela, or lux for a directional light), until
+    /// the next [`World::set_time`] for an animated light. Returns whether it changed; a bad
+    /// value is an error naming the light, and changes nothing.
+    pub fn set_light(
+        &mut self,
+        l: usize,
+        world_from_light: Affine3A,
+        color: Vec3,
+        intensity: f32,
+    ) -> Result<bool, Error> {
+        let n = self.scene.lights.len();
+        let Some(light) = self.scene.lights.get(l) else {
+            return Err(Error::Invalid(format!(
+                "no light {l}: the scene has {n} (0..{n})"
+            )));
+        };
+        let next = shrad_scene::Light {
+            world_from_light,
+            color,
+            intensity,
+            ..light.clone()
+        };
+        if let Some(why) = next.problem() {
+            return Err(Error::Invalid(format!("light {l} '{}': {why}", light.name)));
+        }
+        let state = crate::lights::LightState::new(&next, &world_from_light);
+        self.scene.lights[l] = next;
+        let changed = state != self.lights[l];
+        self.lights[l] = state;
+        Ok(changed)
+    }
+
+    /// Put the sky `environment` (`None`: none) in place of the scene's. Returns whether it
+    /// changed; a bad value is an error and changes nothing.
+    pub fn set_sky(
+        &mut self,
+        environment: Option<shrad_scene::Environment>,
+    ) -> Result<bool, Error> {
+        if let Some(why) = environment.as_ref().and_then(|e| e.problem()) {
+            return Err(Error::Invalid(format!("{}: {why}", self.scene.source)));
+        }
+        if environment == self.scene.environment {
+            return Ok(false);
+        }
+        self.sky = environment
+            .as_ref()
+            .map(|e| Arc::new(crate::sky::Sky::new(e)));
+        self.scene.environment = environment;
+        Ok(true)
     }
 
     /// The patch whose front a hit sees (a double-sided surface's back is its twin's
@@ -254,8 +342,14 @@ impl World {
         }
     }
 
-    /// Does any object emit at the current time?
+    /// Does any object, punctual light or the sky emit at the current time?
     pub fn has_emitter(&self) -> bool {
-        self.exitance.iter().any(|m| m.max_element() > 0.0)
+        self.sky.as_ref().is_some_and(|s| !s.is_black())
+            || self.exitance.iter().any(|m| m.max_element() > 0.0)
+            || self
+                .lights
+                .iter()
+                .flatten()
+                .any(|l| l.strength.max_element() > 0.0)
     }
 }

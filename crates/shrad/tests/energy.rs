@@ -176,7 +176,11 @@ fn random_rooms_never_run_away() {
             };
             for f in 0..FRAMES {
                 let (moved, relit) = world.set_time(f as f32);
-                let changes = Changes { moved, relit };
+                let changes = Changes {
+                    moved,
+                    relit,
+                    ..Default::default()
+                };
                 let (stats, b) = match &mut s {
                     S::D(d) => (d.step(&world, &changes), d.radiosity()),
                     S::G(g) => (g.step(&world, &changes), g.radiosity()),

@@ -1,8 +1,9 @@
 //! Soak (issue 11 item 7): random object motion and light changes, frame after frame, on
 //! every solver and preset of a small scene (the Cornell box at 400 patches). Every frame the
-//! published radiosity is finite and the reflected flux within the bound the lights can
-//! sustain, or, after a light dimmed, within what the solver held before (light still
-//! draining: `shrad::energy::over_bound`); memory stays flat: the process's resident set (`/proc/self/statm`) never grows by
+//! published radiosity is finite and the reflected flux, computed here from the patches,
+//! within the physical bound `emitted max rho / (1 - max rho)` of the brightest light so far
+//! (a state still draining after the light dimmed is within that of the light before); the
+//! guard repairs a frame only when the light dimmed; memory stays flat: the process's resident set (`/proc/self/statm`) never grows by
 //! 5 % or more over what it was after the first 100 frames.
 //!
 //! In the test suite each solver runs `SHRAD_SOAK_FRAMES` frames (default 600, well under a
@@ -62,6 +63,45 @@ fn solvers() -> Vec<(&'static str, SolverChoice)> {
     ]
 }
 
+/// How far over the steady-state bound a published state may be: the solvers' ray-cast
+/// form factors and probes are estimates (16 rays a patch in the reference here), so a state
+/// can read a few per cent over the exact bound. A diverging state grows without limit.
+const NOISE_ALLOWANCE: f64 = 1.05;
+
+/// The published state's balance, computed here from the patches (not by `shrad::energy`).
+struct Physical {
+    /// Flux the lights emit: exitance times area, averaged over the channels.
+    emitted: f64,
+    /// Flux the surfaces reflect: (radiosity - exitance) times area.
+    reflected: f64,
+    /// The largest reflectance of any patch in any channel.
+    max_rho: f64,
+}
+
+fn physical_balance(engine: &Engine) -> Physical {
+    let world = engine.world();
+    let radiosity = engine.radiosity();
+    let avg = |v: Vec3| v.element_sum() as f64 / 3.0;
+    let mut own = Physical {
+        emitted: 0.0,
+        reflected: 0.0,
+        max_rho: 0.0,
+    };
+    for i in 0..world.patches.len() {
+        let area = world.patches.area[i] as f64;
+        own.emitted += avg(world.exitance[i]) * area;
+        own.reflected += avg(radiosity[i] - world.exitance[i]) * area;
+        own.max_rho = own.max_rho.max(world.reflectance[i].max_element() as f64);
+    }
+    own
+}
+
+/// What a steady state lit by `emitted` can reflect at most: light bounces with at most
+/// `max_rho` kept each time, `emitted (rho + rho^2 + ...)`.
+fn steady_reflected_bound(emitted: f64, max_rho: f64) -> f64 {
+    emitted * max_rho / (1.0 - max_rho)
+}
+
 #[test]
 fn soak_random_steering_on_every_solver_and_preset() {
     let frames: usize = std::env::var("SHRAD_SOAK_FRAMES")
@@ -98,7 +138,7 @@ fn soak_random_steering_on_every_solver_and_preset() {
         // still holds from before then exceeds what the new light can sustain.
         let mut diverged_on_dimming = 0usize;
         let mut flux = 0.0f32;
-        let mut held = shrad::energy::LightHeld::default();
+        let (mut brightest, mut dimmings) = (0.0f64, 0usize);
         for f in 0..frames {
             let mut dimmed = false;
             // Move one block anywhere on the floor, turned any way.
@@ -136,28 +176,34 @@ fn soak_random_steering_on_every_solver_and_preset() {
                 values.iter().all(|v| v.is_finite()),
                 "{name} frame {f}: {e:?}"
             );
-            // Within the bound, or (after the light dimmed) within what it held before: light
-            // still draining (`shrad::energy::over_bound`).
-            assert!(
-                e.reflected
-                    <= e.reflected_bound.max(held.get().unwrap_or(0.0))
-                        * shrad::energy::BOUND_TOLERANCE
-                        + 1e-9,
-                "{name} frame {f}: {e:?}, held {held:?}"
-            );
-            // Against the guard's level: the bound, or what was held before the light dimmed.
-            let level = e.reflected_bound.max(held.get().unwrap_or(0.0));
-            if level > 0.0 {
-                worst = worst.max(e.reflected / level);
-            }
-            held.note(&e);
             assert!(
                 engine.radiosity().iter().all(|b| b.is_finite()),
                 "{name} frame {f}: non-finite radiosity"
             );
-            assert!(stats.frame_ms.is_finite());
+            // The balance from the published state, by this test and not the solver's meter.
+            let own = physical_balance(&engine);
+            brightest = brightest.max(own.emitted);
+            assert!(
+                (e.emitted - own.emitted).abs() <= 1e-6 * own.emitted.max(1.0),
+                "{name} frame {f}: the meter's emitted {} is not the lights' {}",
+                e.emitted,
+                own.emitted
+            );
+            // A steady state reflects at most emitted max rho / (1 - max rho); a state
+            // draining after the light dimmed, at most that of the brightest light so far.
+            let bound = steady_reflected_bound(brightest, own.max_rho);
+            assert!(
+                own.reflected <= bound * NOISE_ALLOWANCE + 1e-9,
+                "{name} frame {f}: reflects {} > {bound} (brightest light so far {brightest}, max rho {})",
+                own.reflected,
+                own.max_rho
+            );
+            if bound > 0.0 {
+                worst = worst.max(own.reflected / bound);
+            }
             diverged += stats.diverged.is_some() as usize;
             diverged_on_dimming += (stats.diverged.is_some() && dimmed) as usize;
+            dimmings += dimmed as usize;
             if let (Some(d), Some(_)) = (&stats.diverged, std::env::var_os("SHRAD_SOAK_WHY")) {
                 eprintln!("{name} frame {f} (light dimmed: {dimmed}): {}", d.message);
             }
@@ -171,11 +217,23 @@ fn soak_random_steering_on_every_solver_and_preset() {
         }
         let growth = rss_max as f64 / rss_after_100.max(1) as f64 - 1.0;
         eprintln!(
-            "soak {name}: {frames} frames in {:.1} s, largest reflected / max(bound, held) {worst:.3}, {diverged} frame(s) repaired by the guard ({diverged_on_dimming} of them as the light dimmed), RSS {:.1} MiB after 100 frames, at most {:.1} MiB after that ({:+.2} %)",
+            "soak {name}: {frames} frames in {:.1} s, largest reflected / bound of the brightest light so far {worst:.3}, {diverged} frame(s) repaired by the guard ({diverged_on_dimming} of them as the light dimmed; it dimmed {dimmings} times), RSS {:.1} MiB after 100 frames, at most {:.1} MiB after that ({:+.2} %)",
             start.elapsed().as_secs_f64(),
             rss_after_100 as f64 / (1 << 20) as f64,
             rss_max as f64 / (1 << 20) as f64,
             100.0 * growth
+        );
+        // The guard may repair a frame where the light dimmed (what the solver still holds
+        // exceeds what the new light sustains), at most once a dimming; any other repair is
+        // a divergence of the solver itself.
+        assert!(
+            diverged_on_dimming <= dimmings,
+            "{name}: {diverged_on_dimming} repairs for {dimmings} dimmings"
+        );
+        assert_eq!(
+            diverged - diverged_on_dimming,
+            0,
+            "{name}: frames repaired without the light dimming"
         );
         assert!(rss_after_100 > 0, "/proc/self/statm is readable");
         assert!(

@@ -76,14 +76,6 @@ fn frame_count(args: &AnimateArgs, scene: &Scene) -> Result<usize> {
     if frames == 0 || frames > 100_000 {
         bail!("--frames must be between 1 and 100000, got {frames}");
     }
-    if args.width == 0
-        || args.height == 0
-        || args.width > 8192
-        || args.height > 8192
-        || args.spp == 0
-    {
-        bail!("--width, --height must be 1..8192 and --spp at least 1");
-    }
     if let Some(e) = args.exposure {
         check_positive("--exposure", e)?;
     }

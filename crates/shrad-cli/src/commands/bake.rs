@@ -10,6 +10,7 @@ use anyhow::{bail, Result};
 use clap::Args;
 use shrad::bake::{bake_with_progress, BakeOptions};
 use shrad::engine::Engine;
+use shrad::lightmap::LightmapOptions;
 use shrad_scene::Scene;
 
 use crate::commands::render::solve;
@@ -44,6 +45,30 @@ pub struct BakeArgs {
     /// the 99th percentile of non-light luminance to 0.9, from the first file for them all].
     #[arg(long, allow_negative_numbers = true)]
     exposure: Option<f32>,
+    /// Also write SH irradiance probes for dynamic objects as JSON beside the output
+    /// (OUT.probes.json), in three.js's LightProbe coefficient order. `corners`: the
+    /// dispersive solver's 8 probes at each interior object's corners.
+    #[arg(long, value_name = "WHERE", value_parser = ["corners"], conflicts_with = "frames")]
+    probes: Option<String>,
+    /// Write the light into a lightmap: a texture atlas over TEXCOORD_1 (charts: the patches'
+    /// planar faces), evaluated per texel as pictures are, as PNGs in the glTF (the lit
+    /// surface under an unlit material; the lightmap for three.js's lightMap on uv1) and as a
+    /// linear OpenEXR beside it (OUT.lightmap.exr, E / pi). See docs/bake.md.
+    #[arg(long)]
+    lightmap: bool,
+    /// With --lightmap: the texel edge in metres (scene units).
+    #[arg(
+        long,
+        value_name = "M",
+        requires = "lightmap",
+        conflicts_with = "lightmap_res",
+        allow_negative_numbers = true
+    )]
+    texel_size: Option<f32>,
+    /// With --lightmap: the atlas's side in texels [default: 1024]; the texel size is the
+    /// smallest at which the charts fit.
+    #[arg(long, value_name = "N", requires = "lightmap")]
+    lightmap_res: Option<u32>,
 }
 
 /// What can be checked before patching and solving: the options, the output's name and
@@ -56,6 +81,15 @@ fn check(args: &BakeArgs, scene: &Scene) -> Result<()> {
     }
     if let Some(e) = args.exposure {
         check_positive("--exposure", e)?;
+    }
+    if let Some(m) = args.texel_size {
+        check_positive("--texel-size", m)?;
+    }
+    if let Some(n) = args.lightmap_res {
+        let max = shrad::limits::MAX_IMAGE_SIDE;
+        if !(8..=max).contains(&n) {
+            bail!("--lightmap-res {n}: the atlas's side must be 8 to {max} texels");
+        }
     }
     let out = &args.output;
     let ext = out
@@ -89,11 +123,37 @@ fn check(args: &BakeArgs, scene: &Scene) -> Result<()> {
     Ok(())
 }
 
+/// The corner probes as JSON beside `output` (`OUT.probes.json`; format in docs/python.md).
+fn write_probes(engine: &Engine, output: &Path, quiet: bool) -> Result<()> {
+    let Some(probes) = shrad::probe_export::corner_probes(engine) else {
+        bail!(
+            "--probes corners: the {} solver has no per-object probes (use the dispersive solver)",
+            engine.solver_choice().name()
+        );
+    };
+    let path = output.with_extension("probes.json");
+    let text = shrad::probe_export::to_json_text(engine, &probes);
+    shrad_scene::write_atomic(&path, |tmp| {
+        std::fs::write(tmp, &text).map_err(|e| e.to_string())
+    })?;
+    if !quiet {
+        println!("wrote {}: {} probes, 3 bands", path.display(), probes.len());
+    }
+    Ok(())
+}
+
 /// Solve, then write the file or the sequence.
 pub fn run(args: BakeArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     check(&args, &scene)?;
     let quiet = args.scene.quiet;
     let choice = args.solver.choice(file, quiet)?;
+    // Refused before any solving: only the dispersive solver has per-object probes.
+    if args.probes.is_some() && choice.name() != "dispersive" {
+        bail!(
+            "--probes corners: the {} solver has no per-object probes (add --solver dispersive)",
+            choice.name()
+        );
+    }
     let reference = args.solver.reference()?;
     let mut world = build_world(scene, &args.scene, quiet)?;
     // A sequence starts at 0; one file at --time, posed before any solver exists (as in
@@ -128,7 +188,26 @@ pub fn run(args: BakeArgs, scene: Scene, file: &FileSettings) -> Result<()> {
         passes: if frames.is_some() { args.passes } else { 0 },
         exposure: args.exposure,
     };
-    let baked = bake_with_progress(&mut engine, &args.output, &options, &*progress_for(quiet))?;
+    let progress = progress_for(quiet);
+    let baked = if args.lightmap {
+        let lightmap = LightmapOptions {
+            texel_size: args.texel_size,
+            resolution: args.lightmap_res,
+            ..LightmapOptions::default()
+        };
+        shrad::lightmap::bake_with_progress(
+            &mut engine,
+            &args.output,
+            &options,
+            &lightmap,
+            &*progress,
+        )?
+    } else {
+        bake_with_progress(&mut engine, &args.output, &options, &*progress)?
+    };
+    if args.probes.is_some() {
+        write_probes(&engine, &args.output, quiet)?;
+    }
     if !quiet {
         for b in &baked {
             println!(

@@ -45,6 +45,59 @@ fn print_animations(scene: &Scene) {
     }
 }
 
+/// The punctual lights: kind, intensity in the file's photometric units and in watts (per
+/// steradian, or per square metre for a directional light: the 683 lm/W of
+/// `docs/scene-format.md`), position or direction.
+fn print_lights(scene: &Scene) {
+    if scene.lights.is_empty() {
+        return;
+    }
+    println!(
+        "{:<4} {:<24} {:<11} {:>14} {:>14}  {:<30} animated",
+        "#", "light", "kind", "intensity", "radiometric", "position / direction"
+    );
+    for (l, light) in scene.lights.iter().enumerate() {
+        use shrad::scene::{Light, LightKind};
+        let m = light.world_from_light;
+        let (unit, w_unit, place) = match light.kind {
+            LightKind::Directional => {
+                let d = Light::direction(&m).unwrap_or_default();
+                (
+                    "lx",
+                    "W/m^2",
+                    format!("towards {:.3} {:.3} {:.3}", d.x, d.y, d.z),
+                )
+            }
+            _ => {
+                let p = Light::position(&m);
+                ("cd", "W/sr", format!("at {:.3} {:.3} {:.3}", p.x, p.y, p.z))
+            }
+        };
+        let cone = match light.kind {
+            LightKind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => format!(
+                " (cone {:.1}..{:.1} deg)",
+                inner_cone_angle.to_degrees(),
+                outer_cone_angle.to_degrees()
+            ),
+            _ => String::new(),
+        };
+        let w = light.radiometric();
+        println!(
+            "{:<4} {:<24} {:<11} {:>14} {:>14}  {:<30} {}{cone}",
+            l,
+            light.name,
+            light.kind.name(),
+            format!("{:.4} {unit}", light.intensity),
+            format!("{:.4} {w_unit}", w.max_element()),
+            place,
+            if light.is_animated() { "yes" } else { "no" }
+        );
+    }
+}
+
 /// Print the scene.
 pub fn run(args: InfoArgs, scene: Scene) -> Result<()> {
     let sizing = sizing(&args.scene, &scene)?;
@@ -63,6 +116,7 @@ pub fn run(args: InfoArgs, scene: Scene) -> Result<()> {
         None => println!("camera: none in the scene (a default frames the scene)"),
     }
     print_animations(&scene);
+    print_lights(&scene);
     // The same memory check as a solve: a tiny --patch-size is an error, not an abort.
     let plan = shrad::Patches::plan(&scene, sizing);
     shrad::limits::check_patches(&scene.source, plan)?;

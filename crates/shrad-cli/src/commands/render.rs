@@ -91,13 +91,6 @@ fn default_output(scene: &str) -> PathBuf {
 
 /// Check the picture options before anything is solved.
 fn check_picture(args: &RenderArgs) -> Result<()> {
-    if args.width == 0 || args.height == 0 || args.width > 16384 || args.height > 16384 {
-        bail!(
-            "--width and --height must be between 1 and 16384, got {}x{}",
-            args.width,
-            args.height
-        );
-    }
     if args.spp == 0 || args.spp > 4096 {
         bail!("--spp must be between 1 and 4096, got {}", args.spp);
     }
@@ -178,7 +171,8 @@ pub(crate) fn solve(engine: &mut Engine, frames: Option<usize>, quiet: bool) {
                 s.frame_ms, g.capture_ms, g.shade_ms, g.probes, g.probes_invalid
             ),
         }
-        print_energy(&s.energy);
+        let escaped = shrad::energy::escaped(engine.world(), engine.radiosity(), 16);
+        print_energy(&s.energy, Some(escaped));
     }
 }
 

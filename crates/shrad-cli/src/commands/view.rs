@@ -23,10 +23,21 @@ pub struct ViewArgs {
     pub scene: SceneArgs,
     #[command(flatten)]
     pub solver: SolverArgs,
-    /// Address to bind. Anything but a loopback address is warned about: whoever reaches
-    /// it can steer the scene (there is no authentication).
+    /// Address to bind. Anything but a loopback address needs a token: one is generated
+    /// (unless --token gives it) and printed in the URL, as Jupyter does.
     #[arg(long, default_value_t = IpAddr::V4(Ipv4Addr::LOCALHOST))]
     host: IpAddr,
+    /// The token every page, file and WebSocket request must carry (`?token=...`, at
+    /// least 16 letters, digits or - . _ ~); on loopback too when given.
+    #[arg(long, value_name = "TOKEN")]
+    token: Option<String>,
+    /// Clients at once; one more is refused with a message the page shows.
+    #[arg(long, value_name = "N", default_value_t = shrad_view::access::DEFAULT_MAX_CLIENTS)]
+    max_clients: usize,
+    /// Every client watches: nobody moves objects, changes lights, solvers or settings
+    /// (otherwise the first client steers until it hands over).
+    #[arg(long)]
+    watch_only: bool,
     /// Port (0: any free port; the URL printed says which).
     #[arg(long, default_value_t = 8080)]
     port: u16,
@@ -64,8 +75,13 @@ pub fn run(mut args: ViewArgs, scene: Scene, file: &FileSettings) -> Result<()> 
         args.solver
             .reference_over(shrad::reference::ReferenceOptions::fast())?,
     );
-    // The library warns about a host that is not loopback.
+    // The library makes a token for a host that is not loopback.
     options.host = args.host;
+    options.access = shrad_view::AccessOptions {
+        token: args.token,
+        max_clients: args.max_clients,
+        watch_only: args.watch_only,
+    };
     options.port = args.port;
     if let Some(web) = args.web {
         options.web_root = web;

@@ -87,6 +87,26 @@ impl GltfBuffer {
         accessor
     }
 
+    /// A float `VEC2` vertex attribute (`TEXCOORD_n`). Returns the accessor's index.
+    pub fn vec2s(&mut self, values: &[glam::Vec2]) -> usize {
+        let bytes = values
+            .iter()
+            .flat_map(|v| v.to_array())
+            .map(f32::to_le_bytes);
+        self.push(bytes, ARRAY_BUFFER, values.len(), "VEC2", FLOAT)
+    }
+
+    /// A buffer view of `bytes` (an image's file, say), with no target and no accessor,
+    /// padded to 4 bytes. Returns the buffer view's index.
+    pub fn blob(&mut self, bytes: &[u8]) -> usize {
+        let offset = self.bin.len();
+        self.bin.extend_from_slice(bytes);
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len()}));
+        self.bin.resize(self.bin.len().next_multiple_of(4), 0);
+        self.views.len() - 1
+    }
+
     /// A triangle list's indices, an unsigned-int `SCALAR` accessor. Returns its index.
     pub fn triangles(&mut self, triangles: &[[u32; 3]]) -> usize {
         let bytes = triangles.iter().flatten().map(|i| i.to_le_bytes());

@@ -37,131 +37,160 @@ fn extras_of(raw: &gltf::json::Extras, what: &str) -> Result<(Option<Role>, Opti
     Ok((role, patch))
 }
 
+/// Where a mesh is drawn: by a node, or (a file without scenes, a library of meshes) once at
+/// the origin.
+pub(super) struct Instance<'a, 'd> {
+    /// The node that instances the mesh; None for a mesh of a library placed at the origin.
+    pub node: Option<&'a gltf::Node<'d>>,
+    /// The node's world transform.
+    pub world: Mat4,
+    /// How messages name the instance: `nodes[3] 'lamp'`, or `placed at the origin`.
+    pub label: String,
+}
+
 impl Walk<'_> {
-    /// The objects of `mesh`, instanced by `node` with the world transform `world`.
-    pub(super) fn mesh(
-        &mut self,
-        node: &gltf::Node,
-        mesh: &gltf::Mesh,
-        world: Mat4,
-        node_label: &str,
-    ) -> Result<(), SceneError> {
-        let (path, buffers) = (self.path, self.buffers);
+    /// The objects of `mesh` drawn by `inst`: one per triangle primitive with area.
+    pub(super) fn mesh(&mut self, inst: &Instance, mesh: &gltf::Mesh) -> Result<(), SceneError> {
+        let path = self.path;
         let bad = |m: String| SceneError::invalid(path, m);
-        let (node_role, node_patch) = extras_of(node.extras(), node_label).map_err(bad)?;
+        let (node_role, node_patch) = match inst.node {
+            Some(node) => extras_of(node.extras(), &inst.label).map_err(bad)?,
+            None => (None, None),
+        };
         let (mesh_role, mesh_patch) =
             extras_of(mesh.extras(), &format!("meshes[{}]", mesh.index())).map_err(bad)?;
-        let base_name = node
-            .name()
+        let base_name = inst
+            .node
+            .and_then(gltf::Node::name)
             .or(mesh.name())
             .map(str::to_string)
-            .unwrap_or_else(|| format!("node{}", node.index()));
+            .unwrap_or_else(|| match inst.node {
+                Some(node) => format!("node{}", node.index()),
+                None => format!("mesh{}", mesh.index()),
+            });
         // A mirroring transform (negative determinant) is kept as it is: the mesh stays
         // counter-clockwise from the front in its own frame, and the world normal is the
         // inverse transpose of the local one (glTF 2.0, "Transformations").
-        let world_from_object = Affine3A::from_mat4(world);
+        let world_from_object = Affine3A::from_mat4(inst.world);
         let n_prims = mesh.primitives().len();
         for prim in mesh.primitives() {
+            let at = Place {
+                who: format!("meshes[{}].primitives[{}]", mesh.index(), prim.index()),
+                inst: format!(" ({})", inst.label),
+            };
+            let Some(mut shape) = self.primitive_shape(&prim, &at).map_err(bad)? else {
+                continue;
+            };
+            let reader = prim.reader(|b| self.buffers.get(b.index()).map(|d| d.0.as_slice()));
+            let mut material = self.material(&prim.material());
+            self.attributes(&reader, &mut shape, &mut material, &at.both())
+                .map_err(bad)?;
+            // After the material and attributes, so that a primitive without area has been
+            // read (and checked) as far as any other.
+            if !self.drop_zero_area(&mut shape, &at.both()) {
+                continue;
+            }
             let name = if n_prims > 1 {
                 format!("{base_name}.{}", prim.index())
             } else {
                 base_name.clone()
             };
-            let who = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
-            let inst = format!(" ({node_label})");
-            let mode = prim.mode();
-            if !matches!(
-                mode,
-                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
-            ) {
-                self.scene.warnings.push(format!(
-                    "{who}{inst}: {mode:?} primitive skipped (only triangles are used)"
-                ));
-                continue;
-            }
-            let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
-                // Warned about once per primitive by `validate`.
-                continue;
-            };
-            if pos_acc.count() == 0 || prim.indices().is_some_and(|a| a.count() == 0) {
-                self.scene
-                    .warnings
-                    .push(format!("{who}{inst}: empty primitive skipped"));
-                continue;
-            }
-            let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.0.as_slice()));
-            let positions: Vec<Vec3> = reader
-                .read_positions()
-                .ok_or_else(|| {
-                    bad(format!(
-                        "{who}.attributes.POSITION{inst}: cannot be read (an accessor without bufferView is all zeros)"
-                    ))
-                })?
-                .map(Vec3::from)
-                .collect();
-            if positions.len() != pos_acc.count() {
-                return Err(bad(format!(
-                    "{who}.attributes.POSITION{inst}: has {} of {} elements",
-                    positions.len(),
-                    pos_acc.count()
-                )));
-            }
-            let indices: Vec<u32> = match prim.indices() {
-                Some(acc) => {
-                    let v: Vec<u32> = reader
-                        .read_indices()
-                        .ok_or_else(|| {
-                            bad(format!(
-                                "{who}.indices{inst}: cannot be read (an accessor without bufferView is all zeros)"
-                            ))
-                        })?
-                        .into_u32()
-                        .collect();
-                    if v.len() != acc.count() {
-                        return Err(bad(format!(
-                            "{who}.indices{inst}: has fewer elements than its count"
-                        )));
-                    }
-                    v
-                }
-                None => (0..positions.len() as u32).collect(),
-            };
-            let n = positions.len();
-            if let Some(k) = indices.iter().position(|&i| i as usize >= n) {
-                return Err(bad(format!(
-                    "{who}.indices{inst}: index {} (element {k}) is out of range: POSITION has {n} vertices",
-                    indices[k]
-                )));
-            }
-            if let Some(k) = positions.iter().position(|p| !p.is_finite()) {
-                return Err(bad(format!(
-                    "{who}.attributes.POSITION{inst}: vertex {k} is not finite ({})",
-                    positions[k]
-                )));
-            }
-            let triangles = to_triangles(mode, &indices);
-            if mode == Mode::Triangles && indices.len() % 3 != 0 {
-                self.scene.warnings.push(format!(
-                    "{who}{inst}: {} index(es) beyond the last whole triangle ignored",
-                    indices.len() % 3
-                ));
-            }
-            let mut material = self.material(&prim.material());
-            let mut shape = Mesh::new(positions, triangles);
-            self.attributes(&reader, &mut shape, &mut material, &format!("{who}{inst}"))
-                .map_err(bad)?;
             let mut object = Object::new(name, shape, material);
             object.world_from_object = world_from_object;
-            self.animate(&mut object, node.index());
+            if let Some(node) = inst.node {
+                self.animate(&mut object, node.index());
+            }
             object.role = node_role.or(mesh_role);
             object.patch_size = node_patch.or(mesh_patch);
             self.scene.objects.push(object);
             self.names.push(PartNames {
-                node: node.name().map(str::to_string),
+                node: inst.node.and_then(gltf::Node::name).map(str::to_string),
                 mesh: mesh.name().map(str::to_string),
             });
         }
         Ok(())
+    }
+
+    /// The positions and triangles of a primitive (`at` names it in messages); None (with a
+    /// warning) when it has nothing to light: not triangles, empty or without POSITION.
+    fn primitive_shape(
+        &mut self,
+        prim: &gltf::Primitive,
+        at: &Place,
+    ) -> Result<Option<Mesh>, String> {
+        let (who, inst) = (&at.who, &at.inst);
+        let mode = prim.mode();
+        if !matches!(
+            mode,
+            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+        ) {
+            self.scene.warnings.push(format!(
+                "{who}{inst}: {mode:?} primitive skipped (only triangles are used)"
+            ));
+            self.skipped.not_triangles += 1;
+            return Ok(None);
+        }
+        let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
+            // Taken out before the gltf crate sees them (counted in `skipped`), and warned
+            // about by `validate`.
+            return Ok(None);
+        };
+        if pos_acc.count() == 0 || prim.indices().is_some_and(|a| a.count() == 0) {
+            self.scene
+                .warnings
+                .push(format!("{who}{inst}: empty primitive skipped"));
+            return Ok(None);
+        }
+        let buffers = self.buffers;
+        let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.0.as_slice()));
+        let positions = read_positions(&reader, pos_acc.count(), at)?;
+        let indices = read_indices(&reader, prim, positions.len(), at)?;
+        if mode == Mode::Triangles && indices.len() % 3 != 0 {
+            self.scene.warnings.push(format!(
+                "{who}{inst}: {} index(es) beyond the last whole triangle ignored",
+                indices.len() % 3
+            ));
+        }
+        let triangles = to_triangles(mode, &indices);
+        if triangles.is_empty() {
+            self.scene.warnings.push(format!(
+                "{who}{inst}: {} index(es) make no whole triangle: primitive skipped",
+                indices.len()
+            ));
+            return Ok(None);
+        }
+        Ok(Some(Mesh::new(positions, triangles)))
+    }
+
+    /// Drop a primitive's zero-area triangles with a warning. The specification does not
+    /// forbid degenerate triangles (the glTF-Validator reports them as information only,
+    /// ACCESSOR_INDEX_TRIANGLE_DEGENERATE), and exporters write them (strips joined by
+    /// repeated indices, welded or collapsed vertices; an accessor without bufferView is
+    /// all zeros): they draw nothing, so a glTF reader drops them rather than refusing the
+    /// file. Radiosity cannot light them (a patch needs an area), hence they go. A primitive
+    /// left without triangles is skipped, with the same warning: returns false then.
+    fn drop_zero_area(&mut self, shape: &mut Mesh, who: &str) -> bool {
+        let degenerate = shape.zero_area_triangles();
+        if degenerate.is_empty() {
+            return true;
+        }
+        let all = degenerate.len() == shape.triangles.len();
+        self.scene.warnings.push(format!(
+            "{who}: {} of {} triangle(s) have zero area and were dropped{}",
+            degenerate.len(),
+            shape.triangles.len(),
+            if all {
+                " (the primitive is skipped)"
+            } else {
+                ""
+            }
+        ));
+        self.skipped.zero_area_triangles += degenerate.len();
+        if all {
+            self.skipped.zero_area_primitives += 1;
+        }
+        shape.remove_triangles(&degenerate);
+        !all
     }
 
     /// The texture coordinates the material's textures read and `COLOR_0` (normalized
@@ -247,6 +276,83 @@ impl Walk<'_> {
         }
         Ok(())
     }
+}
+
+/// How messages name a primitive: its JSON path `who` (`meshes[0].primitives[1]`) and the
+/// instance `inst` (` (nodes[2] 'lamp')`); a property's path goes between the two.
+struct Place {
+    who: String,
+    inst: String,
+}
+
+impl Place {
+    fn both(&self) -> String {
+        format!("{}{}", self.who, self.inst)
+    }
+}
+
+/// A primitive's `count` positions, all finite.
+fn read_positions<'a, 's, F>(
+    reader: &gltf::mesh::Reader<'a, 's, F>,
+    count: usize,
+    at: &Place,
+) -> Result<Vec<Vec3>, String>
+where
+    F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
+{
+    let (who, inst) = (&at.who, &at.inst);
+    let positions: Vec<Vec3> = reader
+        .read_positions()
+        .ok_or_else(|| format!("{who}.attributes.POSITION{inst}: cannot be read"))?
+        .map(Vec3::from)
+        .collect();
+    if positions.len() != count {
+        return Err(format!(
+            "{who}.attributes.POSITION{inst}: has {} of {count} elements",
+            positions.len()
+        ));
+    }
+    if let Some(k) = positions.iter().position(|p| !p.is_finite()) {
+        return Err(format!(
+            "{who}.attributes.POSITION{inst}: vertex {k} is not finite ({})",
+            positions[k]
+        ));
+    }
+    Ok(positions)
+}
+
+/// A primitive's indices (0, 1, 2, ... without an indices accessor), each below `n`, the
+/// number of vertices.
+fn read_indices<'a, 's, F>(
+    reader: &gltf::mesh::Reader<'a, 's, F>,
+    prim: &gltf::Primitive,
+    n: usize,
+    at: &Place,
+) -> Result<Vec<u32>, String>
+where
+    F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
+{
+    let (who, inst) = (&at.who, &at.inst);
+    let Some(acc) = prim.indices() else {
+        return Ok((0..n as u32).collect());
+    };
+    let indices: Vec<u32> = reader
+        .read_indices()
+        .ok_or_else(|| format!("{who}.indices{inst}: cannot be read"))?
+        .into_u32()
+        .collect();
+    if indices.len() != acc.count() {
+        return Err(format!(
+            "{who}.indices{inst}: has fewer elements than its count"
+        ));
+    }
+    if let Some(k) = indices.iter().position(|&i| i as usize >= n) {
+        return Err(format!(
+            "{who}.indices{inst}: index {} (element {k}) is out of range: POSITION has {n} vertices",
+            indices[k]
+        ));
+    }
+    Ok(indices)
 }
 
 /// Triangles of a triangle list, strip or fan (front faces counter-clockwise).

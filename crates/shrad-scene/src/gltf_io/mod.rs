@@ -21,6 +21,7 @@ mod anim;
 mod buffers;
 pub mod builder;
 mod container;
+mod lights;
 mod material;
 mod mesh;
 mod unpack;
@@ -30,7 +31,6 @@ mod write;
 
 use std::path::Path;
 
-use glam::Mat4;
 use serde_json::{json, Value};
 
 use crate::{Scene, SceneError};
@@ -116,18 +116,20 @@ fn integral_floats_to_integers(v: &mut Value) {
 }
 
 /// What the gltf crate refuses though the specification allows it, or which shrad has
-/// already done: the extensions `unpack` decoded (and the texture extensions, whose images
-/// the material reader picks) out of `extensionsRequired` / `extensionsUsed` (the crate
+/// already done: the extensions `unpack` decoded (the texture extensions, whose images
+/// the material reader picks, and the punctual lights, which `lights` reads) out of `extensionsRequired` / `extensionsUsed` (the crate
 /// refuses a required extension it does not know); a scene without `nodes` given an empty
 /// list (optional in the specification, required by the crate); primitives without
-/// POSITION removed.
-fn crate_compatible(root: &mut Value) {
+/// POSITION removed (returns how many); accessors of a type glTF 2.0 does not define made
+/// SCALAR.
+fn crate_compatible(root: &mut Value) -> usize {
     const DONE: &[&str] = &[
         "KHR_mesh_quantization",
         "EXT_meshopt_compression",
         "KHR_draco_mesh_compression",
         "EXT_texture_webp",
         "KHR_texture_basisu",
+        lights::EXTENSION,
     ];
     for key in ["extensionsRequired", "extensionsUsed"] {
         if let Some(list) = root.get_mut(key).and_then(Value::as_array_mut) {
@@ -136,6 +138,7 @@ fn crate_compatible(root: &mut Value) {
     }
     // A primitive without POSITION is skipped (warned about by `validate`); the crate
     // requires POSITION.
+    let mut no_position = 0;
     for m in root
         .get_mut("meshes")
         .and_then(Value::as_array_mut)
@@ -143,7 +146,22 @@ fn crate_compatible(root: &mut Value) {
         .flatten()
     {
         if let Some(p) = m.get_mut("primitives").and_then(Value::as_array_mut) {
+            let before = p.len();
             p.retain(|p| p["attributes"].get("POSITION").is_some());
+            no_position += before - p.len();
+        }
+    }
+    // An accessor of a type glTF 2.0 does not define is refused wherever it is referred to
+    // (`validate`); unreferenced, it is never read, and the crate needs a type it knows.
+    for a in root
+        .get_mut("accessors")
+        .and_then(Value::as_array_mut)
+        .into_iter()
+        .flatten()
+    {
+        let known = ["SCALAR", "VEC2", "VEC3", "VEC4", "MAT2", "MAT3", "MAT4"];
+        if !a["type"].as_str().is_some_and(|t| known.contains(&t)) {
+            a["type"] = json!("SCALAR");
         }
     }
     for s in root
@@ -156,6 +174,7 @@ fn crate_compatible(root: &mut Value) {
             s["nodes"] = json!([]);
         }
     }
+    no_position
 }
 
 /// The image each texture reads: `EXT_texture_webp`'s (shrad decodes WebP), else the core
@@ -203,6 +222,64 @@ fn placeholder_sources(root: &mut Value) {
     }
 }
 
+/// Take the animations (which `anim` reads from the raw JSON) and the skins (not read, with
+/// a warning) out of `root`, for the gltf crate; returns the animations.
+fn take_animations_and_skins(root: &mut Value, warnings: &mut Vec<String>) -> Vec<Value> {
+    let mut raw_animations = Vec::new();
+    if let Some(root) = root.as_object_mut() {
+        if let Some(Value::Array(a)) = root.remove("animations") {
+            raw_animations = a;
+        }
+        if root
+            .remove("skins")
+            .is_some_and(|s| s.as_array().is_some_and(|s| !s.is_empty()))
+        {
+            warnings.push(
+                "glTF skins ignored: skinned meshes stay in their bind pose (joints still move as nodes)".into(),
+            );
+        }
+        if let Some(Value::Array(nodes)) = root.get_mut("nodes") {
+            for n in nodes.iter_mut().filter_map(Value::as_object_mut) {
+                n.remove("skin");
+            }
+        }
+    }
+    raw_animations
+}
+
+/// The checked and unpacked JSON split three ways: what the reader needs of the raw JSON
+/// later (accessors, bufferViews and textures: small, no buffer data), the raw animations
+/// (read by `anim`), and the document made acceptable to the gltf crate (which it takes
+/// uncopied: base64 buffers can be large). Animations are read by `anim` and skins are not
+/// read; both are left out of what the gltf crate sees, which would refuse some valid ones
+/// (an animation channel without a target node, as the specification allows).
+fn split_for_crate(mut value: Value, warnings: &mut Vec<String>) -> ForCrate {
+    let kept = json!({
+        "accessors": value["accessors"].clone(),
+        "bufferViews": value["bufferViews"].clone(),
+        "textures": value["textures"].clone(),
+    });
+    let raw_animations = take_animations_and_skins(&mut value, warnings);
+    fill_position_bounds(&mut value);
+    placeholder_sources(&mut value);
+    let no_position = crate_compatible(&mut value);
+    ForCrate {
+        kept,
+        raw_animations,
+        root: value,
+        no_position,
+    }
+}
+
+/// What [`split_for_crate`] gives.
+struct ForCrate {
+    kept: Value,
+    raw_animations: Vec<Value>,
+    root: Value,
+    /// Primitives without POSITION taken out.
+    no_position: usize,
+}
+
 fn read_bytes(
     path: &Path,
     bytes: &[u8],
@@ -221,6 +298,7 @@ fn read_bytes(
         serde_json::from_slice(json_bytes).map_err(|e| bad(format!("invalid glTF: JSON: {e}")))?;
     integral_floats_to_integers(&mut value);
     validate::check_json(&value, blob.map(<[u8]>::len), &mut warnings).map_err(bad)?;
+    let file_lights = lights::read(&value, &mut warnings).map_err(bad)?;
     if value["meshes"].as_array().is_none_or(Vec::is_empty) {
         return Err(bad(
             "the file has no mesh (shrad lights triangle meshes, and this glTF defines none)"
@@ -236,42 +314,15 @@ fn read_bytes(
     validate::check_views_have_data(&value, &buffers).map_err(bad)?;
     validate::check_sparse_indices(&value, &buffers).map_err(bad)?;
     choose_texture_sources(&mut value);
-    // Animations are read by `anim` and skins are not read; both are left out of what
-    // the gltf crate sees, which would refuse some valid ones (an animation channel without
-    // a target node, as the specification allows).
-    // What the reader needs of the raw JSON later (small: no buffer data), so the document
-    // itself (base64 buffers can be large) moves to the gltf crate uncopied.
-    let kept = json!({
-        "accessors": value["accessors"].clone(),
-        "bufferViews": value["bufferViews"].clone(),
-        "textures": value["textures"].clone(),
-    });
-    let mut for_crate = value;
-    let mut raw_animations = Vec::new();
-    if let Some(root) = for_crate.as_object_mut() {
-        if let Some(Value::Array(a)) = root.remove("animations") {
-            raw_animations = a;
-        }
-        if root
-            .remove("skins")
-            .is_some_and(|s| s.as_array().is_some_and(|s| !s.is_empty()))
-        {
-            warnings.push(
-                "glTF skins ignored: skinned meshes stay in their bind pose (joints still move as nodes)".into(),
-            );
-        }
-        if let Some(Value::Array(nodes)) = root.get_mut("nodes") {
-            for n in nodes.iter_mut().filter_map(Value::as_object_mut) {
-                n.remove("skin");
-            }
-        }
-    }
-    fill_position_bounds(&mut for_crate);
-    placeholder_sources(&mut for_crate);
-    crate_compatible(&mut for_crate);
+    let ForCrate {
+        kept,
+        raw_animations,
+        root,
+        no_position,
+    } = split_for_crate(value, &mut warnings);
     // The gltf crate's own messages begin "invalid glTF: " already.
     let root: gltf::json::Root =
-        serde_json::from_value(for_crate).map_err(|e| bad(format!("invalid glTF: {e}")))?;
+        serde_json::from_value(root).map_err(|e| bad(format!("invalid glTF: {e}")))?;
     let doc = gltf::Document::from_json(root).map_err(|e| bad(e.to_string()))?;
     let buffers: Vec<gltf::buffer::Data> = buffers.into_iter().map(gltf::buffer::Data).collect();
     let animations =
@@ -293,30 +344,12 @@ fn read_bytes(
         textures: std::collections::HashMap::new(),
         texels_left: crate::texture::MAX_FILE_TEXELS,
         materials: std::collections::HashMap::new(),
+        file_lights,
+        skipped: walk::Skipped {
+            no_position,
+            ..Default::default()
+        },
     };
-    let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
-        Some(s) => s.nodes().collect(),
-        None => {
-            let mut is_child = vec![false; doc.nodes().len()];
-            for n in doc.nodes() {
-                for c in n.children() {
-                    is_child[c.index()] = true;
-                }
-            }
-            cx.scene
-                .warnings
-                .push("glTF has no scene: taking every root node".into());
-            doc.nodes().filter(|n| !is_child[n.index()]).collect()
-        }
-    };
-    for node in roots {
-        cx.node(node, Mat4::IDENTITY, 0)?;
-    }
-    if cx.scene.objects.is_empty() {
-        return Err(bad(format!(
-            "no node of the scene instances a triangle mesh (the file has {} mesh(es)): nothing to light",
-            doc.meshes().len()
-        )));
-    }
+    cx.scene()?;
     Ok((cx.scene, cx.names))
 }

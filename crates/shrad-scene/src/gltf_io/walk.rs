@@ -1,5 +1,6 @@
 //! The default scene's node hierarchy walked into objects: each node's accumulated
-//! transform, its animation, the first perspective camera (and what moves it), and its mesh (see `mesh`).
+//! transform, its animation, the first perspective camera (and what moves it), its punctual
+//! light (see `lights`), and its mesh (see `mesh`).
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -32,6 +33,23 @@ pub(super) struct Walk<'a> {
     pub(super) texels_left: u64,
     /// Each material once converted (None: the default material).
     pub(super) materials: HashMap<Option<usize>, Material>,
+    /// The file's punctual lights and which node instances which.
+    pub(super) file_lights: super::lights::FileLights,
+    /// What the walk skipped, for the message when nothing is left to light.
+    pub(super) skipped: Skipped,
+}
+
+/// Primitives and triangles a walk left out (each with a warning).
+#[derive(Debug, Default)]
+pub(super) struct Skipped {
+    /// Primitives of points or lines.
+    pub not_triangles: usize,
+    /// Zero-area triangles dropped.
+    pub zero_area_triangles: usize,
+    /// Primitives all of whose triangles have zero area.
+    pub zero_area_primitives: usize,
+    /// Primitives without POSITION (in the file: the gltf crate never sees them).
+    pub no_position: usize,
 }
 
 impl Walk<'_> {
@@ -62,6 +80,25 @@ impl Walk<'_> {
             outer: Affine3A::IDENTITY,
         });
         self.scene.camera = self.scene.camera_at(0.0);
+    }
+
+    /// Put light `l` of the file on node `node` (world transform `world`), following the
+    /// node's animation when it or an ancestor is animated.
+    fn light(&mut self, l: usize, node: usize, world: Mat4) {
+        let Some(mut light) = self.file_lights.lights[l].clone() else {
+            return;
+        };
+        light.world_from_light = Affine3A::from_mat4(world);
+        if let Some(graph) = self.graph.as_ref().filter(|g| g.moves(node)) {
+            let anim = crate::NodeAnimation {
+                graph: graph.clone(),
+                node,
+                outer: Affine3A::IDENTITY,
+            };
+            light.world_from_light = anim.world_from_object_at(0.0);
+            light.node_animation = Some(anim);
+        }
+        self.scene.lights.push(light);
     }
 
     pub(super) fn node(
@@ -112,12 +149,130 @@ impl Walk<'_> {
                 }
             }
         }
+        if let Some(&Some(l)) = self.file_lights.node_light.get(node.index()) {
+            self.light(l, node.index(), world);
+        }
         if let Some(mesh) = node.mesh() {
-            self.mesh(&node, &mesh, world, &node_label)?;
+            let inst = super::mesh::Instance {
+                node: Some(&node),
+                world,
+                label: node_label,
+            };
+            self.mesh(&inst, &mesh)?;
         }
         for child in node.children() {
             self.node(child, world, depth + 1)?;
         }
         Ok(())
+    }
+}
+
+impl Walk<'_> {
+    /// Walk the default scene (else the first), or, in a file without scenes, every root
+    /// node and then every mesh that no node instances, once at the origin. Errors when
+    /// nothing is left to light, saying why.
+    pub(super) fn scene(&mut self) -> Result<(), SceneError> {
+        let doc = self.doc;
+        let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+            Some(s) => s.nodes().collect(),
+            None => {
+                let mut is_child = vec![false; doc.nodes().len()];
+                for c in doc.nodes().flat_map(|n| n.children()) {
+                    is_child[c.index()] = true;
+                }
+                if doc.nodes().len() > 0 {
+                    self.scene
+                        .warnings
+                        .push("glTF has no scene: taking every root node".into());
+                }
+                doc.nodes().filter(|n| !is_child[n.index()]).collect()
+            }
+        };
+        for node in roots {
+            self.node(node, Mat4::IDENTITY, 0)?;
+        }
+        if doc.scenes().len() == 0 {
+            self.library_meshes()?;
+        }
+        if self.scene.objects.is_empty() {
+            return Err(SceneError::invalid(self.path, self.nothing_to_light()));
+        }
+        Ok(())
+    }
+
+    /// glTF 2.0, "Scenes": "A glTF asset that does not contain any scenes SHOULD be treated
+    /// as a library of individual entities such as materials or meshes." Such a file is
+    /// what a user opens to see its meshes (the validator's own test files are written so,
+    /// and exporters of single meshes too); a mesh no node instances is the library's
+    /// entity as it is, so it is placed once at the origin, untransformed, with a warning
+    /// naming it. A file with a scene draws what its scene says: a mesh outside it stays out.
+    fn library_meshes(&mut self) -> Result<(), SceneError> {
+        let doc = self.doc;
+        let mut used = vec![false; doc.meshes().len()];
+        for m in doc.nodes().filter_map(|n| n.mesh()) {
+            used[m.index()] = true;
+        }
+        let free: Vec<gltf::Mesh> = doc.meshes().filter(|m| !used[m.index()]).collect();
+        if free.is_empty() {
+            return Ok(());
+        }
+        let names: Vec<String> = free
+            .iter()
+            .map(|m| match m.name() {
+                Some(n) => format!("meshes[{}] '{n}'", m.index()),
+                None => format!("meshes[{}]", m.index()),
+            })
+            .collect();
+        self.scene.warnings.push(format!(
+            "glTF has no scene (a library of meshes): {} that no node instances placed once at the origin",
+            names.join(", ")
+        ));
+        for m in free {
+            let inst = super::mesh::Instance {
+                node: None,
+                world: Mat4::IDENTITY,
+                label: "placed at the origin".into(),
+            };
+            self.mesh(&inst, &m)?;
+        }
+        Ok(())
+    }
+
+    /// Why a walk that made no object has nothing to light.
+    fn nothing_to_light(&self) -> String {
+        let n = self.doc.meshes().len();
+        let s = &self.skipped;
+        let mut parts = Vec::new();
+        if s.zero_area_primitives > 0 {
+            parts.push(format!(
+                "{} triangle(s) of zero area in {} primitive(s)",
+                s.zero_area_triangles, s.zero_area_primitives
+            ));
+        }
+        if s.not_triangles > 0 {
+            parts.push(format!(
+                "{} primitive(s) of points or lines",
+                s.not_triangles
+            ));
+        }
+        if s.no_position > 0 {
+            parts.push(format!(
+                "{} primitive(s) without POSITION in the file",
+                s.no_position
+            ));
+        }
+        match parts.len() {
+            0 => format!(
+                "no node of the scene instances a triangle mesh (the file has {n} mesh(es)): nothing to light"
+            ),
+            1 if s.zero_area_primitives > 0 => format!(
+                "nothing to light: every triangle the scene draws has zero area ({} triangle(s) in {} primitive(s), dropped)",
+                s.zero_area_triangles, s.zero_area_primitives
+            ),
+            _ => format!(
+                "nothing to light: the scene draws no triangle with area (skipped: {})",
+                parts.join(", ")
+            ),
+        }
     }
 }

@@ -27,6 +27,27 @@ impl Mesh {
         let [a, b, c] = self.triangles[t].map(|i| self.positions[i as usize]);
         0.5 * (b - a).cross(c - a).length()
     }
+    /// The triangles whose area is zero or negligible (at most 1e-10 of the square of the
+    /// mesh's bounding-box diagonal, or not finite), in increasing order.
+    pub fn zero_area_triangles(&self) -> Vec<usize> {
+        let scale = self.bounds().map_or(0.0, |b| b.diagonal());
+        let eps = 1e-10 * scale * scale;
+        (0..self.triangles.len())
+            .filter(|&t| {
+                self.triangle_area(t).partial_cmp(&eps) != Some(std::cmp::Ordering::Greater)
+            })
+            .collect()
+    }
+    /// Remove the triangles `sorted` lists (increasing indices, as
+    /// [`Mesh::zero_area_triangles`] gives them); vertices stay.
+    pub fn remove_triangles(&mut self, sorted: &[usize]) {
+        let mut k = 0;
+        self.triangles.retain(|_| {
+            let keep = sorted.binary_search(&k).is_err();
+            k += 1;
+            keep
+        });
+    }
     /// Total surface area.
     pub fn area(&self) -> f32 {
         (0..self.triangles.len())

@@ -7,6 +7,8 @@
 //! solver relies on ([`Scene::validate`], `validate.rs`).
 
 mod animation;
+mod environment;
+mod light;
 mod material;
 mod mesh;
 mod object;
@@ -14,6 +16,8 @@ mod scene;
 mod validate;
 
 pub use animation::{Animation, EmissionKey, Keyframe};
+pub use environment::{EnvMap, Environment, MAX_ENV_SIDE};
+pub use light::{Light, LightKind, LUMENS_PER_WATT};
 pub use material::Material;
 pub use mesh::Mesh;
 pub use object::{Object, Role};

@@ -64,6 +64,11 @@ pub struct Scene {
     pub source: String,
     /// The objects.
     pub objects: Vec<Object>,
+    /// Punctual lights (glTF `KHR_lights_punctual`, the scene file's `[[lights]]`).
+    pub lights: Vec<crate::Light>,
+    /// The sky (the scene file's `[environment]`, the CLI's `--sky` / `--env`): `None`,
+    /// black.
+    pub environment: Option<crate::Environment>,
     /// The scene's camera, if it has one (for a camera that moves: its pose at time 0).
     pub camera: Option<Camera>,
     /// What moves the camera: the glTF node holding it, when that node or an ancestor is
@@ -148,21 +153,33 @@ impl Scene {
             .camera_animation
             .as_ref()
             .map_or(0.0, crate::NodeAnimation::duration);
+        let camera = self
+            .lights
+            .iter()
+            .map(crate::Light::duration)
+            .fold(camera, f32::max);
         self.objects
             .iter()
             .map(Object::duration)
             .fold(camera, f32::max)
     }
 
-    /// Is there any emitter?
+    /// Is there any emitter (an emissive surface or a punctual light of positive strength)?
     pub fn has_emitter(&self) -> bool {
-        self.objects.iter().any(|o| {
-            o.material.is_emissive()
-                || o.animation.as_ref().is_some_and(|a| {
-                    a.emission
-                        .iter()
-                        .any(|k| k.emitted_radiance.max_element() > 0.0)
-                })
-        })
+        let punctual = self
+            .lights
+            .iter()
+            .any(|l| l.radiometric().max_element() > 0.0);
+        let sky = self.environment.as_ref().is_some_and(|e| !e.is_black());
+        punctual
+            || sky
+            || self.objects.iter().any(|o| {
+                o.material.is_emissive()
+                    || o.animation.as_ref().is_some_and(|a| {
+                        a.emission
+                            .iter()
+                            .any(|k| k.emitted_radiance.max_element() > 0.0)
+                    })
+            })
     }
 }

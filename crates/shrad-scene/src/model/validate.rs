@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use crate::{Scene, SceneError};
+use crate::{Object, Scene, SceneError};
 
 impl Scene {
     /// Check what every solver relies on: finite positions and transforms, indices in range,
@@ -12,139 +12,16 @@ impl Scene {
         if self.objects.is_empty() {
             return Err(SceneError::invalid(path, "the scene has no objects"));
         }
+        self.validate_lights(path)?;
         for (oi, o) in self.objects.iter_mut().enumerate() {
             let who = format!("object {oi} '{}'", o.name);
-            if let Some(i) = o.mesh.positions.iter().position(|p| !p.is_finite()) {
-                return Err(SceneError::invalid(
-                    path,
-                    format!("{who}: vertex {i} is not finite ({})", o.mesh.positions[i]),
-                ));
-            }
-            let n = o.mesh.positions.len() as u32;
-            if let Some(t) = o
-                .mesh
-                .triangles
-                .iter()
-                .position(|t| t.iter().any(|&i| i >= n))
-            {
-                return Err(SceneError::invalid(
-                    path,
-                    format!(
-                        "{who}: triangle {t} has vertex index out of range ({:?}, {n} vertices)",
-                        o.mesh.triangles[t]
-                    ),
-                ));
-            }
-            let m = o.world_from_object;
-            if !(m.matrix3.is_finite() && m.translation.is_finite())
-                || m.matrix3.determinant().abs() < 1e-12
-            {
-                return Err(SceneError::invalid(
-                    path,
-                    format!("{who}: transform is not finite or is singular"),
-                ));
-            }
-            if let Some(k) = o
-                .mesh
-                .uvs
-                .iter()
-                .position(|s| s.len() != o.mesh.positions.len())
-            {
-                return Err(SceneError::invalid(
-                    path,
-                    format!(
-                        "{who}: texture coordinate set {k} has {} entries for {n} vertices",
-                        o.mesh.uvs[k].len()
-                    ),
-                ));
-            }
-            let colors = o.mesh.colors.len();
-            if colors != 0 && colors != o.mesh.positions.len() {
-                return Err(SceneError::invalid(
-                    path,
-                    format!("{who}: {colors} vertex colours for {n} vertices"),
-                ));
-            }
-            if let Some(i) = o
-                .mesh
-                .colors
-                .iter()
-                .position(|c| !c.is_finite() || c.min_element() < 0.0 || c.max_element() > 1.0)
-            {
-                return Err(SceneError::invalid(
-                    path,
-                    format!(
-                        "{who}: vertex colour {i} ({}) must be in [0, 1]",
-                        o.mesh.colors[i]
-                    ),
-                ));
-            }
-            for (what, t) in [
-                ("base colour", &o.material.base_color_texture),
-                ("emissive", &o.material.emissive_texture),
-            ] {
-                if let Some(t) = t {
-                    if t.tex_coord as usize >= o.mesh.uvs.len() {
-                        return Err(SceneError::invalid(
-                            path,
-                            format!(
-                                "{who}: the {what} texture reads TEXCOORD_{} but the mesh has {} texture coordinate set(s)",
-                                t.tex_coord,
-                                o.mesh.uvs.len()
-                            ),
-                        ));
-                    }
-                }
-            }
-            let r = o.material.reflectance;
-            if !r.is_finite() || r.min_element() < 0.0 || r.max_element() >= 1.0 {
-                return Err(SceneError::invalid(
-                    path,
-                    format!("{who}: reflectance {r} must be in [0, 1) (energy conservation)"),
-                ));
-            }
-            let e = o.material.emitted_radiance;
-            if !e.is_finite() || e.min_element() < 0.0 {
-                return Err(SceneError::invalid(
-                    path,
-                    format!("{who}: emitted radiance {e} must be finite and >= 0"),
-                ));
-            }
-            let scale = o.mesh.bounds().map_or(0.0, |b| b.diagonal());
-            let eps = 1e-10 * scale * scale;
-            let degenerate: Vec<usize> = (0..o.mesh.triangles.len())
-                .filter(|&t| {
-                    o.mesh.triangle_area(t).partial_cmp(&eps) != Some(std::cmp::Ordering::Greater)
-                })
-                .collect();
-            if !degenerate.is_empty() {
-                if !drop_degenerate {
-                    return Err(SceneError::invalid(
-                        path,
-                        format!(
-                            "{who}: {} zero-area triangle(s), first is triangle {} {:?} (use --drop-degenerate to skip them)",
-                            degenerate.len(),
-                            degenerate[0],
-                            o.mesh.triangles[degenerate[0]]
-                        ),
-                    ));
-                }
-                self.warnings.push(format!(
-                    "{who}: dropped {} zero-area triangle(s)",
-                    degenerate.len()
-                ));
-                let mut k = 0;
-                o.mesh.triangles.retain(|_| {
-                    let keep = degenerate.binary_search(&k).is_err();
-                    k += 1;
-                    keep
-                });
-            }
-            if o.mesh.triangles.is_empty() {
-                return Err(SceneError::invalid(
-                    path,
-                    format!("{who}: has no triangles"),
-                ));
+            let problem = geometry_problem(o)
+                .or_else(|| attribute_problem(o))
+                .or_else(|| material_problem(&o.material))
+                .map_or(Ok(()), Err)
+                .and_then(|()| zero_area(o, drop_degenerate, &who, &mut self.warnings));
+            if let Err(why) = problem {
+                return Err(SceneError::invalid(path, format!("{who}: {why}")));
             }
         }
         if !self.has_emitter() {
@@ -153,4 +30,137 @@ impl Scene {
         }
         Ok(())
     }
+}
+
+/// What is wrong with an object's vertices, triangles or transform, if anything: a vertex
+/// that is not finite, an index out of range, a transform that is not finite or is singular.
+fn geometry_problem(o: &Object) -> Option<String> {
+    if let Some(i) = o.mesh.positions.iter().position(|p| !p.is_finite()) {
+        return Some(format!(
+            "vertex {i} is not finite ({})",
+            o.mesh.positions[i]
+        ));
+    }
+    let n = o.mesh.positions.len() as u32;
+    if let Some(t) = o
+        .mesh
+        .triangles
+        .iter()
+        .position(|t| t.iter().any(|&i| i >= n))
+    {
+        return Some(format!(
+            "triangle {t} has vertex index out of range ({:?}, {n} vertices)",
+            o.mesh.triangles[t]
+        ));
+    }
+    let m = o.world_from_object;
+    if !(m.matrix3.is_finite() && m.translation.is_finite())
+        || m.matrix3.determinant().abs() < 1e-12
+    {
+        return Some("transform is not finite or is singular".into());
+    }
+    None
+}
+
+/// What is wrong with an object's texture coordinates, vertex colours or the texture
+/// coordinate sets its textures read, if anything.
+fn attribute_problem(o: &Object) -> Option<String> {
+    let n = o.mesh.positions.len();
+    if let Some(k) = o.mesh.uvs.iter().position(|s| s.len() != n) {
+        return Some(format!(
+            "texture coordinate set {k} has {} entries for {n} vertices",
+            o.mesh.uvs[k].len()
+        ));
+    }
+    let colors = o.mesh.colors.len();
+    if colors != 0 && colors != n {
+        return Some(format!("{colors} vertex colours for {n} vertices"));
+    }
+    if let Some(i) = o
+        .mesh
+        .colors
+        .iter()
+        .position(|c| !c.is_finite() || c.min_element() < 0.0 || c.max_element() > 1.0)
+    {
+        return Some(format!(
+            "vertex colour {i} ({}) must be in [0, 1]",
+            o.mesh.colors[i]
+        ));
+    }
+    for (what, t) in [
+        ("base colour", &o.material.base_color_texture),
+        ("emissive", &o.material.emissive_texture),
+    ] {
+        if let Some(t) = t
+            .as_ref()
+            .filter(|t| t.tex_coord as usize >= o.mesh.uvs.len())
+        {
+            return Some(format!(
+                "the {what} texture reads TEXCOORD_{} but the mesh has {} texture coordinate set(s)",
+                t.tex_coord,
+                o.mesh.uvs.len()
+            ));
+        }
+    }
+    None
+}
+
+/// Zero-area triangles are an error, or dropped with a warning when `drop`; an object
+/// without triangles is an error.
+fn zero_area(
+    o: &mut Object,
+    drop: bool,
+    who: &str,
+    warnings: &mut Vec<String>,
+) -> Result<(), String> {
+    let degenerate = o.mesh.zero_area_triangles();
+    if let Some(&first) = degenerate.first() {
+        if !drop {
+            return Err(format!(
+                "{} zero-area triangle(s), first is triangle {first} {:?} (use --drop-degenerate to skip them)",
+                degenerate.len(),
+                o.mesh.triangles[first]
+            ));
+        }
+        warnings.push(format!(
+            "{who}: dropped {} zero-area triangle(s)",
+            degenerate.len()
+        ));
+        o.mesh.remove_triangles(&degenerate);
+    }
+    if o.mesh.triangles.is_empty() {
+        return Err("has no triangles".into());
+    }
+    Ok(())
+}
+
+impl Scene {
+    /// Every light's values are valid (`Light::problem`).
+    fn validate_lights(&self, path: &Path) -> Result<(), SceneError> {
+        for (li, l) in self.lights.iter().enumerate() {
+            if let Some(why) = l.problem() {
+                return Err(SceneError::invalid(
+                    path,
+                    format!("light {li} '{}': {why}", l.name),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What is wrong with a material's values, if anything: a reflectance outside [0, 1) or an
+/// emission that is negative or not finite.
+fn material_problem(m: &crate::Material) -> Option<String> {
+    let r = m.reflectance;
+    if !r.is_finite() || r.min_element() < 0.0 || r.max_element() >= 1.0 {
+        return Some(format!(
+            "reflectance {r} must be in [0, 1) (energy conservation)"
+        ));
+    }
+    let e = m.emitted_radiance;
+    if !e.is_finite() || e.min_element() < 0.0 {
+        return Some(format!("emitted radiance {e} must be finite and >= 0"));
+    }
+    None
 }

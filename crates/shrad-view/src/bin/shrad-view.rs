@@ -1,6 +1,6 @@
 //! A development binary for the viewer server (the `shrad view` subcommand of shrad-cli
 //! calls the same [`shrad_view::serve`]): `shrad-view SCENE [--patches N] [--solver S]
-//! [--preset P] [--host H] [--port P] [--backend B] [--web DIR]`.
+//! [--preset P] [--host H] [--token T] [--max-clients N] [--watch-only] [--port P] [--backend B] [--web DIR]`.
 
 use std::net::IpAddr;
 use std::path::PathBuf;
@@ -23,9 +23,19 @@ struct Args {
     /// Preset of the solver: default or paper.
     #[arg(long, default_value = "default")]
     preset: String,
-    /// Address to bind; anything but a loopback address is warned about.
+    /// Address to bind; anything but a loopback address needs a token (generated unless
+    /// --token gives one, printed in the URL).
     #[arg(long, default_value = "127.0.0.1")]
     host: IpAddr,
+    /// The token every request must carry (`?token=...`); also on loopback when given.
+    #[arg(long)]
+    token: Option<String>,
+    /// Clients at once; one more is refused with a message.
+    #[arg(long, default_value_t = shrad_view::access::DEFAULT_MAX_CLIENTS)]
+    max_clients: usize,
+    /// Every client watches; nobody steers.
+    #[arg(long)]
+    watch_only: bool,
     /// Port (0: any free port).
     #[arg(long, default_value_t = 8080)]
     port: u16,
@@ -48,6 +58,11 @@ fn main() -> Result<()> {
     options.solver = args.solver;
     options.preset = args.preset;
     options.host = args.host;
+    options.access = shrad_view::AccessOptions {
+        token: args.token,
+        max_clients: args.max_clients,
+        watch_only: args.watch_only,
+    };
     options.port = args.port;
     options.backend = match args.backend.as_str() {
         "auto" => shrad::vis::Backend::Auto,

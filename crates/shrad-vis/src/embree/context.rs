@@ -46,6 +46,17 @@ impl MaskBits {
         1 << self.bit[o]
     }
 
+    /// The ray mask that keeps only the objects in `among`, if there is one exactly: no
+    /// object outside `among` may share a bit with one inside.
+    pub(super) fn only(&self, among: &[u32]) -> Option<u32> {
+        let exact = among.iter().all(|&o| {
+            self.bit
+                .get(o as usize)
+                .is_some_and(|&b| self.members[b as usize].iter().all(|m| among.contains(m)))
+        });
+        exact.then(|| among.iter().fold(0, |m, &o| m | self.mask(o as usize)))
+    }
+
     /// The ray mask that excludes `exclude` exactly, if there is one: every object sharing
     /// a bit with an excluded object must be excluded too.
     pub(super) fn excluding(&self, exclude: &[u32]) -> Option<u32> {
@@ -85,6 +96,20 @@ impl ExcludeContext {
             },
             exclude: exclude.as_ptr(),
             exclude_len: exclude.len(),
+            ray_mask,
+        }
+    }
+
+    /// A context without a filter whose rays carry `ray_mask`.
+    pub(super) fn masked(flags: u32, ray_mask: u32) -> ExcludeContext {
+        ExcludeContext {
+            ctx: RTCIntersectContext {
+                flags,
+                filter: None,
+                inst_id: [RTC_INVALID_GEOMETRY_ID; MAX_INST],
+            },
+            exclude: std::ptr::null(),
+            exclude_len: 0,
             ray_mask,
         }
     }
@@ -133,5 +158,10 @@ mod tests {
         assert_eq!(many.excluding(&[3, 35]), None);
         // Out of range: no mask (the filter then ignores it).
         assert_eq!(few.excluding(&[99]), None);
+        // Keeping only some objects: exact when none of the others shares their bits.
+        assert_eq!(few.only(&[3, 7]), Some(1 << 3 | 1 << 7));
+        assert_eq!(many.only(&[3]), Some(1));
+        assert_eq!(many.only(&[35]), None);
+        assert_eq!(few.only(&[99]), None);
     }
 }

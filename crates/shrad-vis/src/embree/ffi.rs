@@ -183,4 +183,10 @@ extern "C" {
         rayhit: *mut RTCRayHit16,
     );
     pub fn rtcOccluded1(scene: RTCScene, context: *mut RTCIntersectContext, ray: *mut RTCRay);
+    pub fn rtcOccluded16(
+        valid: *const i32,
+        scene: RTCScene,
+        context: *mut RTCIntersectContext,
+        ray: *mut RTCRay16,
+    );
 }

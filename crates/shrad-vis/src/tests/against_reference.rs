@@ -235,3 +235,36 @@ fn closed_room_has_no_leaks() {
         );
     }
 }
+
+/// Shadow rays among a few objects equal shadow rays with every other object excluded, on
+/// every backend, whether the objects keep ray-mask bits of their own (Embree's mask path:
+/// 40 objects, 3 and 5 flagged) or share one (35: the exclusion path).
+#[test]
+fn occluded_among_equals_occluded_with_the_others_excluded() {
+    let (meshes, xf) = random_scene(0xfeed, 40);
+    let mut rng = Rng(7);
+    let n = 4000;
+    let point = |rng: &mut Rng| Vec3::new(rng.f(), rng.f(), rng.f()) * 10.0 - 5.0;
+    let from: Vec<Vec3> = (0..n).map(|_| point(&mut rng)).collect();
+    let to: Vec<Vec3> = (0..n).map(|_| point(&mut rng)).collect();
+    for b in backends() {
+        let refs: Vec<MeshRef<'_>> = meshes
+            .iter()
+            .enumerate()
+            .map(|(i, m)| MeshRef {
+                often_excluded: i == 3 || i == 5,
+                ..m.r()
+            })
+            .collect();
+        let v = build(b, &refs, &xf).unwrap();
+        for among in [&[3u32][..], &[3, 5][..], &[35][..], &[3, 35][..]] {
+            let others: Vec<u32> = (0..40).filter(|o| !among.contains(o)).collect();
+            let (mut a, mut e) = (vec![false; n], vec![false; n]);
+            v.occluded_among(&from, &to, 1e-4, among, &mut a);
+            v.occluded(&from, &to, 1e-4, &others, &mut e);
+            let blocked = e.iter().filter(|&&x| x).count();
+            assert!(blocked > 20, "{b:?} {among:?}: too few blocked ({blocked})");
+            assert_eq!(a, e, "{b:?} {among:?}");
+        }
+    }
+}

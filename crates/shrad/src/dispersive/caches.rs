@@ -35,6 +35,8 @@ use crate::World;
 pub(super) const SEES_NOTHING: u32 = u32::MAX;
 /// A probe texel that sees a back face (or the outside of the enclosure).
 pub(super) const SEES_BACK: u32 = u32::MAX - 1;
+/// A probe texel a mover's box may have changed: traced again before the probe is shaded.
+pub(super) const SEES_STALE: u32 = u32::MAX - 2;
 /// A splat texel not traced since it was last forgotten.
 pub(super) const UNKNOWN: u32 = u32::MAX;
 /// A splat texel whose ray lands on no patch.
@@ -73,6 +75,11 @@ pub(super) struct ChunkCones {
     /// Per chunk: the cone's axis and half-angle (radians; `PI` when it covers everything).
     axis: Vec<Vec3>,
     half_angle: Vec<f32>,
+    /// For cube-map cones ([`ChunkCones::tiles`]): the texels of chunk `c` are
+    /// `members[starts[c]..starts[c + 1]]`; empty when chunk `c` is the range
+    /// `c * CHUNK..(c + 1) * CHUNK`.
+    members: Vec<u32>,
+    starts: Vec<u32>,
 }
 
 /// A mover's bounding sphere seen from an apex: direction and angular radius, or `None`
@@ -80,28 +87,69 @@ pub(super) struct ChunkCones {
 pub(super) type SeenSphere = Option<(Vec3, f32)>;
 
 impl ChunkCones {
-    /// The cones of `n` directions, `dir(i)` giving direction `i` (any length).
+    /// The cones of `n` directions in chunks of [`CHUNK`] consecutive ones, `dir(i)` giving
+    /// direction `i` (any length).
     pub(super) fn new(n: usize, dir: impl Fn(usize) -> Vec3 + Sync) -> Self {
-        let cones: Vec<(Vec3, f32)> = (0..n.div_ceil(CHUNK))
+        let (axis, half_angle) = (0..n.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|c| cone_of((c * CHUNK..((c + 1) * CHUNK).min(n)).map(&dir)))
+            .unzip();
+        ChunkCones {
+            axis,
+            half_angle,
+            members: Vec::new(),
+            starts: Vec::new(),
+        }
+    }
+
+    /// The cones of a cube map's texels in square tiles of 8 x 8 per face: a tile's cone is
+    /// about an eighth of a face wide, where 64 consecutive texels (two rows) span the
+    /// face, so a small mover meets far fewer chunks.
+    pub(super) fn tiles(cube: &shrad_sh::CubeMap) -> Self {
+        const SIDE: usize = 8;
+        let res = cube.res();
+        let (mut members, mut starts) = (Vec::new(), vec![0u32]);
+        for face in shrad_sh::CubeFace::ALL {
+            for row0 in (0..res).step_by(SIDE) {
+                for col0 in (0..res).step_by(SIDE) {
+                    for row in row0..(row0 + SIDE).min(res) {
+                        for col in col0..(col0 + SIDE).min(res) {
+                            members.push(cube.texel_index(face, row, col) as u32);
+                        }
+                    }
+                    starts.push(members.len() as u32);
+                }
+            }
+        }
+        let (axis, half_angle) = (0..starts.len() - 1)
             .into_par_iter()
             .map(|c| {
-                let range = c * CHUNK..((c + 1) * CHUNK).min(n);
-                let sum: Vec3 = range.clone().map(|i| dir(i).normalize_or_zero()).sum();
-                let axis = sum.normalize_or_zero();
-                if axis == Vec3::ZERO {
-                    return (Vec3::Z, std::f32::consts::PI);
-                }
-                let min_cos = range
-                    .map(|i| axis.dot(dir(i).normalize_or_zero()))
-                    .fold(1f32, f32::min);
-                // A little slack against rounding.
-                (axis, min_cos.clamp(-1.0, 1.0).acos() + 1e-4)
+                let texels = &members[starts[c] as usize..starts[c + 1] as usize];
+                cone_of(texels.iter().map(|&t| cube.directions[t as usize]))
             })
-            .collect();
+            .unzip();
         ChunkCones {
-            axis: cones.iter().map(|c| c.0).collect(),
-            half_angle: cones.iter().map(|c| c.1).collect(),
+            axis,
+            half_angle,
+            members,
+            starts,
         }
+    }
+
+    /// Number of chunks.
+    pub(super) fn len(&self) -> usize {
+        self.axis.len()
+    }
+
+    /// The ray indices of chunk `c` (of `n` rays in all).
+    pub(super) fn chunk(&self, c: usize, n: usize) -> impl Iterator<Item = usize> + '_ {
+        let (tiled, ranged) = if self.members.is_empty() {
+            (&[][..], c * CHUNK..((c + 1) * CHUNK).min(n))
+        } else {
+            let texels = &self.members[self.starts[c] as usize..self.starts[c + 1] as usize];
+            (texels, 0..0)
+        };
+        tiled.iter().map(|&t| t as usize).chain(ranged)
     }
 
     /// `spheres` (centre, radius) as seen from `apex`.
@@ -129,16 +177,59 @@ impl ChunkCones {
     }
 }
 
+/// Mark `stale` every ray of `marks` in a chunk of `cones` that may meet a `seen` sphere
+/// and that `meets` says a mover's box meets (skipping those already marked); returns the
+/// rays marked.
+fn mark_stale(
+    cones: &ChunkCones,
+    seen: &[SeenSphere],
+    marks: &mut [u32],
+    stale: u32,
+    meets: impl Fn(usize) -> bool,
+) -> Vec<usize> {
+    let n = marks.len();
+    let mut out = Vec::new();
+    for c in (0..cones.len()).filter(|&c| cones.may_meet(c, seen)) {
+        for k in cones.chunk(c, n) {
+            if marks[k] != stale && meets(k) {
+                marks[k] = stale;
+                out.push(k);
+            }
+        }
+    }
+    out
+}
+
+/// The cone (axis, half-angle) of some directions (any length).
+fn cone_of(dirs: impl Iterator<Item = Vec3> + Clone) -> (Vec3, f32) {
+    let axis = dirs
+        .clone()
+        .map(|d| d.normalize_or_zero())
+        .sum::<Vec3>()
+        .normalize_or_zero();
+    if axis == Vec3::ZERO {
+        return (Vec3::Z, std::f32::consts::PI);
+    }
+    let min_cos = dirs
+        .map(|d| axis.dot(d.normalize_or_zero()))
+        .fold(1f32, f32::min);
+    // A little slack against rounding.
+    (axis, min_cos.clamp(-1.0, 1.0).acos() + 1e-4)
+}
+
 /// What a probe's capture at its current place saw.
 pub(super) struct ProbeHits {
     /// Where it was captured (world).
     pub(super) origin: Vec3,
-    /// Per texel: the patch seen, [`SEES_NOTHING`] or [`SEES_BACK`].
+    /// Per texel: the patch seen, [`SEES_NOTHING`], [`SEES_BACK`] or [`SEES_STALE`].
     pub(super) seen: Vec<u32>,
     /// Per texel: the hit distance (infinite for a miss).
     pub(super) t: Vec<f32>,
-    /// Fraction of the sphere (by solid angle) that sees back faces.
+    /// Fraction of the sphere (by solid angle) that sees back faces (stale texels aside).
     pub(super) back_fraction: f32,
+    /// The texels marked [`SEES_STALE`], to trace again: a mover usually covers a small
+    /// part of a neighbour's probe, so only that part is re-captured.
+    pub(super) stale: Vec<u32>,
 }
 
 /// Step 2's cache of one object.
@@ -176,7 +267,7 @@ pub(super) struct SplatTexels {
 
 /// How one emitter reaches the boundary.
 pub(super) enum EmitterRays {
-    Gather(GatherEntries),
+    Gather(Box<GatherEntries>),
     Splat(SplatTexels),
 }
 
@@ -242,6 +333,7 @@ impl Dispersive {
             for ob in &mut self.objects {
                 ob.probe_cache = ProbeCache::default();
                 ob.emitter_cache = EmitterCache::default();
+                ob.openness.clear();
             }
             return;
         }
@@ -276,6 +368,7 @@ impl Dispersive {
         let emitter_dirs = &self.emitter_camera.cube.directions;
         let sphere_list: Vec<(Vec3, f32)> = boxes.iter().map(Aabb::bounding_sphere).collect();
         let (probe_cones, emitter_cones) = (&self.probe_cones, &self.emitter_cones);
+        let object_boxes = &self.object_boxes;
         // One task an object (hundreds of objects: a task a probe or an emitter would cost
         // more in scheduling than the tests it runs).
         self.objects.par_iter_mut().for_each(|ob| {
@@ -284,18 +377,21 @@ impl Dispersive {
                 ob.emitter_cache = EmitterCache::default();
                 return;
             }
-            for probe in &mut ob.probe_cache.probes {
-                let stale = probe.as_ref().is_some_and(|h| {
-                    let seen = ChunkCones::seen_from(h.origin, &sphere_list);
-                    (0..h.t.len().div_ceil(CHUNK)).any(|c| {
-                        probe_cones.may_meet(c, &seen)
-                            && (c * CHUNK..((c + 1) * CHUNK).min(h.t.len()))
-                                .any(|t| meets(h.origin, dirs[t], h.t[t]))
-                    })
+            // Contact openness looks a short reach (`contact_openness`) beyond the object's
+            // own surface: only a mover whose box comes within that reach can change it.
+            let m = p.world_from_local[ob.object];
+            let reach = 0.02 * m.transform_vector3(ob.probe_box.size()).length();
+            let near = object_boxes[ob.object].padded(Vec3::splat(reach + 2.0 * world.eps));
+            if boxes.iter().any(|b| b.meets_box(&near)) {
+                ob.openness.clear();
+            }
+            for h in ob.probe_cache.probes.iter_mut().flatten() {
+                let (origin, seen) = (h.origin, ChunkCones::seen_from(h.origin, &sphere_list));
+                let (marks, t) = (&mut h.seen, &h.t);
+                let marked = mark_stale(probe_cones, &seen, marks, SEES_STALE, |k| {
+                    meets(origin, dirs[k], t[k])
                 });
-                if stale {
-                    *probe = None;
-                }
+                h.stale.extend(marked.into_iter().map(|k| k as u32));
             }
             if boundary_moved {
                 ob.emitter_cache = EmitterCache::default();
@@ -324,19 +420,10 @@ impl Dispersive {
                     EmitterRays::Splat(s) => {
                         let c = s.centre;
                         let seen_spheres = ChunkCones::seen_from(c, &sphere_list);
-                        s.seen
-                            .chunks_mut(CHUNK)
-                            .zip(s.t.chunks(CHUNK))
-                            .zip(emitter_dirs.chunks(CHUNK))
-                            .enumerate()
-                            .filter(|(k, _)| emitter_cones.may_meet(*k, &seen_spheres))
-                            .for_each(|(_, ((seen, t), d))| {
-                                for ((seen, &t), &d) in seen.iter_mut().zip(t).zip(d) {
-                                    if *seen != UNKNOWN && meets(c, d, t) {
-                                        *seen = UNKNOWN;
-                                    }
-                                }
-                            })
+                        let t = &s.t;
+                        mark_stale(emitter_cones, &seen_spheres, &mut s.seen, UNKNOWN, |k| {
+                            meets(c, emitter_dirs[k], t[k])
+                        });
                     }
                 }
             }
@@ -362,27 +449,44 @@ mod tests {
             h ^= h << 5;
             h as f32 / u32::MAX as f32
         };
-        let camera = crate::probes::ProbeCamera::new(8, 2);
+        // Consecutive chunks and square tiles (12^2 faces: tiles of 8 and of 4 texels).
+        let camera = crate::probes::ProbeCamera::new(12, 2);
         let dirs = &camera.cube.directions;
-        let cones = ChunkCones::new(dirs.len(), |t| dirs[t]);
+        let n = dirs.len();
+        let kinds = [
+            ChunkCones::new(n, |t| dirs[t]),
+            ChunkCones::tiles(&camera.cube),
+        ];
+        let mut every: Vec<usize> = (0..kinds[1].len())
+            .flat_map(|c| kinds[1].chunk(c, n))
+            .collect();
+        every.sort_unstable();
+        assert_eq!(
+            every,
+            (0..n).collect::<Vec<_>>(),
+            "the tiles are not a partition"
+        );
         let apex = Vec3::new(0.3, -0.2, 0.1);
-        let mut rejected = 0;
+        let mut rejected = [0; 2];
         for _ in 0..2000 {
             let c = Vec3::new(rnd(), rnd(), rnd()) * 8.0 - 4.0;
             let r = 0.05 + 0.5 * rnd();
             let b = Aabb::new(c - Vec3::splat(r), c + Vec3::splat(r));
             let seen = ChunkCones::seen_from(apex, &[b.bounding_sphere()]);
-            for chunk in 0..dirs.len().div_ceil(CHUNK) {
-                let any_ray = (chunk * CHUNK..((chunk + 1) * CHUNK).min(dirs.len()))
-                    .any(|t| b.meets_ray_within(apex, dirs[t], f32::INFINITY));
-                let may = cones.may_meet(chunk, &seen);
-                assert!(may || !any_ray, "a cone rejected a box its rays meet");
-                rejected += usize::from(!may);
+            for (cones, rejected) in kinds.iter().zip(&mut rejected) {
+                for chunk in 0..cones.len() {
+                    let any_ray = cones
+                        .chunk(chunk, n)
+                        .any(|t| b.meets_ray_within(apex, dirs[t], f32::INFINITY));
+                    let may = cones.may_meet(chunk, &seen);
+                    assert!(may || !any_ray, "a cone rejected a box its rays meet");
+                    *rejected += usize::from(!may);
+                }
             }
         }
         assert!(
-            rejected > 2000,
-            "the cones reject almost nothing: {rejected}"
+            rejected.iter().all(|&r| r > 2000),
+            "the cones reject almost nothing: {rejected:?}"
         );
     }
 
@@ -417,7 +521,7 @@ mod tests {
                 (world, d)
             })
             .collect();
-        let mut reused = 0;
+        let (mut reused, mut retraced) = (0, 0);
         for (f, event) in events.iter().enumerate() {
             let changes = match *event {
                 Event::Still => Changes::default(),
@@ -430,6 +534,7 @@ mod tests {
                     Changes {
                         moved: vec![o],
                         relit: vec![],
+                        ..Default::default()
                     }
                 }
                 Event::Relight(s) => {
@@ -439,6 +544,7 @@ mod tests {
                     Changes {
                         moved: vec![],
                         relit: vec![light],
+                        ..Default::default()
                     }
                 }
             };
@@ -446,6 +552,9 @@ mod tests {
             for (r, (world, d)) in runs.iter_mut().enumerate() {
                 let stats = d.step(world, &changes);
                 captured[r] = stats.dispersive().unwrap().probes_captured;
+                if r == 0 {
+                    retraced += stats.dispersive().unwrap().probe_texels_retraced;
+                }
             }
             if matches!(event, Event::Still | Event::Relight(_)) && f > 2 {
                 assert!(captured[1] >= 8, "frame {f}: the uncached run captures");
@@ -464,6 +573,8 @@ mod tests {
             );
         }
         assert!(reused > 0, "the cache was never used");
+        // The block's moves cross the other block's probes: only part of them is traced.
+        assert!(retraced > 0, "no cached probe was refreshed texel by texel");
         assert!(runs[0].1.cache_bytes() > 0 && runs[1].1.cache_bytes() == 0);
     }
 

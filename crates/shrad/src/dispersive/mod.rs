@@ -55,7 +55,7 @@ mod wall_rows;
 pub use frame::{Batch, Changes, DispersiveStats, Divergence, EnergyBalance, FrameStats};
 pub use options::{DispersiveOptions, ProbeRepair, Schedule, ToBoundary};
 pub use step3_to_boundary::splat_to_boundary;
-pub use step4_assemble::WALL_ROWS_PER_FRAME;
+pub use step4_assemble::{WALL_ROWS_PER_FRAME, WALL_ROWS_WHILE_MOVING};
 pub use wall_rows::WALL_RETRACE_SHARE;
 
 use object_state::ObjectProbes;
@@ -73,6 +73,10 @@ pub struct Dispersive {
     /// The cones of each chunk of the two cameras' texel directions (`caches.rs`).
     probe_cones: caches::ChunkCones,
     emitter_cones: caches::ChunkCones,
+    /// Half-resolution probes and splat for objects that are moving
+    /// (`coarse_while_moving`); never cached, so they need no cones.
+    coarse_camera: ProbeCamera,
+    coarse_emitter_camera: ProbeCamera,
     objects: Vec<ObjectProbes>,
     /// Which objects a frame updates; what it knows of each (aligned with `objects`).
     scheduler: Scheduler,
@@ -101,6 +105,9 @@ pub struct Dispersive {
     direct_valid: bool,
     /// Step 1's direct light with its shadow rays, to re-trace only those a mover may block.
     direct_cache: crate::direct::DirectCache,
+    /// Step 1's direct light of the punctual lights, likewise, and the light surfaces' part
+    /// of `direct` apart.
+    punctual: step1_direct::PunctualDirect,
     frame: u64,
     /// The reflected flux of the last frame within the bound (the guard lets the light held
     /// from before a light dimmed drain: [`crate::energy::over_bound`]).
@@ -156,6 +163,15 @@ impl Dispersive {
         let p = &world.patches;
         let camera = ProbeCamera::new(options.cube_res, options.bands);
         let emitter_camera = ProbeCamera::new(options.emitter_res, options.bands);
+        let half = |res: usize| {
+            if options.coarse_while_moving {
+                (res / 2).max(1)
+            } else {
+                1
+            }
+        };
+        let coarse_camera = ProbeCamera::new(half(options.cube_res), options.bands);
+        let coarse_emitter_camera = ProbeCamera::new(half(options.emitter_res), options.bands);
         let interior: Vec<usize> = (0..world.scene.objects.len())
             .filter(|&o| p.object_role[o] == Role::Interior)
             .collect();
@@ -182,14 +198,14 @@ impl Dispersive {
         let n = p.len();
         let n_objects = objects.len();
         let radiosity = world.exitance.clone();
-        let probe_cones = caches::ChunkCones::new(camera.texels(), |t| camera.cube.directions[t]);
-        let emitter_cones = caches::ChunkCones::new(emitter_camera.texels(), |t| {
-            emitter_camera.cube.directions[t]
-        });
+        let probe_cones = caches::ChunkCones::tiles(&camera.cube);
+        let emitter_cones = caches::ChunkCones::tiles(&emitter_camera.cube);
         Ok(Dispersive {
             options,
             camera,
             emitter_camera,
+            coarse_camera,
+            coarse_emitter_camera,
             probe_cones,
             emitter_cones,
             scheduler: Scheduler::new(options.schedule, objects.len()),
@@ -211,6 +227,7 @@ impl Dispersive {
             object_boxes,
             direct_valid: false,
             direct_cache: Default::default(),
+            punctual: Default::default(),
             frame: 0,
             light_held: Default::default(),
             light_meter: IncidentMeter::new(
@@ -239,6 +256,16 @@ impl Dispersive {
     /// Current radiosity of every patch.
     pub fn radiosity(&self) -> &[Vec3] {
         &self.radiosity
+    }
+
+    /// The probe and splat cameras for an update of object `k` this frame: the coarse ones
+    /// while it moves (`coarse_while_moving`).
+    fn cameras_for(&self, k: usize) -> (&ProbeCamera, &ProbeCamera, bool) {
+        if self.options.coarse_while_moving && self.objects[k].moving {
+            (&self.coarse_camera, &self.coarse_emitter_camera, true)
+        } else {
+            (&self.camera, &self.emitter_camera, false)
+        }
     }
 
     /// The options in use.
@@ -295,6 +322,7 @@ impl Dispersive {
         let rays_before = world.rays_cast();
         let mut stats = FrameStats::new(self.frame, SolverStats::Dispersive(Default::default()));
         let mut steps = DispersiveStats::default();
+        let changes = &self.punctual.with_light_changes(world, changes);
         self.note_changes(world, changes);
         if self.everything_sleeps(changes) {
             return self.sleeping_frame(frame_start);
@@ -327,16 +355,18 @@ impl Dispersive {
         tr("forget_stale", tt);
         let lit = self.light_selected_objects(world, batch, &mut stats, &mut steps);
         steps.objects_ms = ms(t);
+        tr("step2", t);
 
         // Step 3 (2.3.4).
         let t = Instant::now();
         let updated = lit.clone();
         stats.energy.object_emitters = self.objects_to_boundary(world, lit);
         steps.to_boundary_ms = ms(t);
+        tr("step3", t);
 
         // Step 4 (2.3.5): full wall sweeps when the light changed.
         let t = Instant::now();
-        let sweeps = if changes.relit.is_empty() || budget_ms.is_some() {
+        let sweeps = if !changes.light_changed() || budget_ms.is_some() {
             1
         } else {
             8
@@ -347,8 +377,15 @@ impl Dispersive {
             let left = (b - ms(frame_start) - self.meter_ms).max(0.0);
             ((left / self.row_ms.max(1e-6)) as usize).max(1024)
         });
+        // While something moves, a quarter of the window: the walls' second bounce lags a
+        // few frames behind the mover, and the full window returns as soon as it rests.
+        let window = match changes.moved.is_empty() {
+            true => window,
+            false => Some(window.map_or(WALL_ROWS_WHILE_MOVING, |w| w.min(WALL_ROWS_WHILE_MOVING))),
+        };
         let change = self.assemble(world, sweeps, window);
         steps.assemble_ms = ms(t);
+        tr("step4", t);
 
         let tt = Instant::now();
         self.meter_and_guard(world, changes, &mut stats);
@@ -356,6 +393,7 @@ impl Dispersive {
         self.tail_ms = steps.assemble_ms + self.meter_ms;
         tr("meter_and_guard", tt);
         self.note_settling(changes, &updated, change, &stats);
+        tr("frame", frame_start);
 
         stats.frame_ms = ms(frame_start);
         stats.stalest = self.scheduler.stalest(self.frame);

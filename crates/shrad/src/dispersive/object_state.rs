@@ -50,6 +50,12 @@ pub(super) struct ObjectProbes {
     pub(super) probe_cache: ProbeCache,
     /// Step 3's cached emitter rays (`caches.rs`).
     pub(super) emitter_cache: EmitterCache,
+    /// It moved since the last frame (set by `note_changes`): with `coarse_while_moving`,
+    /// an update this frame uses the coarse cameras.
+    pub(super) moving: bool,
+    /// Its light is from a coarse update: it is updated again, at full resolution, soon
+    /// after it stops, and it does not sleep before.
+    pub(super) coarse_light: bool,
 }
 
 impl ObjectProbes {
@@ -99,6 +105,8 @@ impl ObjectProbes {
             openness: Vec::new(),
             probe_cache: ProbeCache::default(),
             emitter_cache: EmitterCache::default(),
+            moving: false,
+            coarse_light: false,
         }
     }
 

@@ -125,6 +125,13 @@ pub struct DispersiveOptions {
     /// their sweeps change the boundary by less than it, and a frame in which everything
     /// sleeps costs no tracing and no sweep. 0: never sleep (the paper).
     pub sleep_tolerance: f32,
+    /// An object that moved since the last frame is updated from cube maps of half the
+    /// resolution (`cube_res / 2` probes, `emitter_res / 2` splat: a quarter of the rays),
+    /// its own patches' direct light from a quarter of `direct_samples`, and again at full
+    /// resolution as soon as it stops (beyond the paper: the light of a
+    /// moving object is wrong by its motion anyway, so the frame spends its rays on
+    /// following it; the light settles at full resolution once it rests).
+    pub coarse_while_moving: bool,
 }
 
 impl DispersiveOptions {
@@ -150,6 +157,7 @@ impl DispersiveOptions {
             self_shadow_rays: 0,
             splat_smoothing: false,
             sleep_tolerance: 0.0,
+            coarse_while_moving: false,
         }
     }
 
@@ -173,6 +181,7 @@ impl DispersiveOptions {
             self_shadow_rays: 64,
             splat_smoothing: true,
             sleep_tolerance: 1e-4,
+            coarse_while_moving: true,
             ..Self::paper()
         }
     }

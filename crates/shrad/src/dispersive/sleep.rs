@@ -37,8 +37,9 @@ impl Dispersive {
         }
         self.scheduler.wake_drifted(self.drift, tolerance);
         changes.moved.is_empty()
-            && changes.relit.is_empty()
+            && !changes.light_changed()
             && self.direct_valid
+            && !self.direct_cache.has_coarse()
             && self.scheduler.asleep() == self.objects.len()
             && self.quiet_frames >= self.frames_per_wall_sweep()
             && self.wall_rows.as_ref().is_none_or(|rows| rows.settled())
@@ -88,7 +89,7 @@ impl Dispersive {
             return;
         }
         self.drift += change;
-        let nothing_changed = changes.moved.is_empty() && changes.relit.is_empty();
+        let nothing_changed = changes.moved.is_empty() && !changes.light_changed();
         for &k in updated {
             if nothing_changed && self.object_change[k] < tolerance {
                 self.scheduler.sleep(k, self.drift);

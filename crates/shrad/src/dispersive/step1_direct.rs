@@ -7,8 +7,9 @@
 //! ([`DirectCache`]) and only the shadow rays a mover may have changed are re-traced: a
 //! blocked ray whose segment meets a mover's old box, a free one whose segment meets its new
 //! box (receivers whose cone to a light misses every box are skipped at once). The result is
-//! what a full recomputation with the same samples gives. Everything is recomputed when a
-//! light moved or changed.
+//! what a full recomputation with the same samples gives. The light surfaces' part is
+//! recomputed when one of them moved or changed; a punctual light that moved re-traces only
+//! its own term, one whose colour or intensity changed is rescaled (`lights/cache.rs`).
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -17,17 +18,19 @@ use shrad_scene::{Aabb, Role};
 use super::setup::world_box;
 use super::{Changes, Dispersive};
 use crate::direct::DirectCache;
+use crate::lights::PunctualCache;
 use crate::World;
 
 impl Dispersive {
     /// Mark objects near what moved (or every object, when a light changed) as disturbed.
     pub(super) fn note_changes(&mut self, world: &World, changes: &Changes) {
         let p = &world.patches;
-        let lights_changed = changes
-            .relit
-            .iter()
-            .chain(&changes.moved)
-            .any(|&o| p.object_role[o] == Role::Light);
+        let lights_changed = !changes.lights.is_empty()
+            || changes
+                .relit
+                .iter()
+                .chain(&changes.moved)
+                .any(|&o| p.object_role[o] == Role::Light);
         let boxes: Vec<(Vec3, f32)> = changes
             .moved
             .iter()
@@ -42,7 +45,12 @@ impl Dispersive {
             })
             .collect();
         for (k, ob) in self.objects.iter_mut().enumerate() {
-            if changes.moved.contains(&ob.object) {
+            ob.moving = changes.moved.contains(&ob.object);
+            if !ob.moving && ob.coarse_light {
+                // It stopped with light from a coarse update: full resolution soon.
+                self.scheduler.disturb(k, 4.0);
+            }
+            if ob.moving {
                 self.scheduler.disturb(k, 4.0);
                 // Its surroundings changed: probes go back to the corners and are re-checked.
                 ob.probe_scale = [1.0; 8];
@@ -61,7 +69,6 @@ impl Dispersive {
                 .any(|(bc, br)| (c - *bc).length() < 3.0 * (r + br))
             {
                 self.scheduler.disturb(k, 2.0);
-                ob.openness.clear();
             }
         }
     }
@@ -81,25 +88,44 @@ impl Dispersive {
     }
 
     /// Step 1 (paper 2.3.2): direct light on the boundary (and interior patches when
-    /// `direct_on_interior`). The paper recomputes it every frame; here it is cached with its
-    /// shadow rays ([`DirectCache`]): when only occluders moved, only the shadow rays that
-    /// meet a box they swept are re-traced (exactly what a full recomputation would give),
-    /// and everything is recomputed when a light moved or changed.
+    /// `direct_on_interior`), and the punctual lights' on every patch. The paper recomputes
+    /// it every frame; here it is cached with its shadow rays ([`DirectCache`],
+    /// [`PunctualCache`]): when only occluders moved, only the shadow rays that meet a box
+    /// they swept are re-traced (exactly what a full recomputation would give); a light
+    /// surface that moved or changed recomputes the light surfaces' part, a punctual light
+    /// that moved re-traces its own term and one that changed strength only rescales it.
     pub(super) fn direct_to_boundary(&mut self, world: &World, changes: &Changes, swept: &[Aabb]) {
-        if self.direct_valid && changes.moved.is_empty() && changes.relit.is_empty() {
+        // A frame without changes still traces, with every sample, the receivers a mover
+        // left with fewer (`coarse_while_moving`).
+        if self.direct_valid
+            && changes.moved.is_empty()
+            && !changes.light_changed()
+            && !self.direct_cache.has_coarse()
+        {
             return;
         }
         let p = &world.patches;
-        let light_changed = !changes.relit.is_empty()
+        let surface_changed = !changes.relit.is_empty()
             || changes.moved.iter().any(|&o| {
                 p.object_role[o] == Role::Light
                     || world.exitance[p.range(o).start].max_element() > 0.0
             });
-        let everything = !self.direct_valid
-            || light_changed
-            || self.direct_cache.samples() != self.options.direct_samples.max(1)
-            || !self.direct_cache.same_emitters(world);
-        if everything {
+        let samples = self.options.direct_samples.max(1);
+        let everything = !self.direct_valid;
+        // `swept` holds each mover's old box then its new one.
+        let old: Vec<Aabb> = swept.iter().step_by(2).copied().collect();
+        let new: Vec<Aabb> = swept.iter().skip(1).step_by(2).copied().collect();
+        // Patches of a moved object moved themselves: recomputed whole.
+        let moved: Vec<usize> = changes.moved.clone();
+        let whole = |i: u32| moved.contains(&(p.object[i as usize] as usize));
+        let parts = &mut self.punctual;
+        parts.area.resize(p.len(), Vec3::ZERO);
+        let mut changed: Vec<u32> = Vec::new();
+        if everything
+            || surface_changed
+            || self.direct_cache.samples() != samples
+            || !self.direct_cache.same_emitters(world)
+        {
             let receivers: Vec<u32> = (0..p.len() as u32)
                 .into_par_iter()
                 .filter(|&i| match p.role(i as usize) {
@@ -108,32 +134,112 @@ impl Dispersive {
                 })
                 .filter(|&i| world.reflectance[i as usize].max_element() > 0.0)
                 .collect();
-            self.direct_cache = DirectCache::new(world, receivers, self.options.direct_samples);
-            for (&i, &e) in self
+            self.direct_cache = DirectCache::new(world, receivers, samples);
+            changed.extend(self.direct_cache.receivers());
+        } else if !changes.moved.is_empty() || self.direct_cache.has_coarse() {
+            let movers: Vec<u32> = moved.iter().map(|&o| o as u32).collect();
+            // A moving receiver with a quarter of the samples (`coarse_while_moving`).
+            let moving_samples = if self.options.coarse_while_moving {
+                samples.div_ceil(4)
+            } else {
+                samples
+            };
+            let ks = self
                 .direct_cache
-                .receivers()
-                .iter()
-                .zip(self.direct_cache.irradiance())
-            {
-                self.direct[i as usize] = e;
-            }
-        } else {
-            // Patches of a moved object moved themselves: recomputed whole.
-            let moved: Vec<usize> = changes.moved.clone();
-            // `swept` holds each mover's old box then its new one.
-            let old: Vec<Aabb> = swept.iter().step_by(2).copied().collect();
-            let new: Vec<Aabb> = swept.iter().skip(1).step_by(2).copied().collect();
-            let changed = self.direct_cache.update(world, &old, &new, |i| {
-                moved.contains(&(p.object[i as usize] as usize))
-            });
-            let (receivers, e) = (
-                self.direct_cache.receivers(),
-                self.direct_cache.irradiance(),
-            );
-            for k in changed {
-                self.direct[receivers[k] as usize] = e[k];
-            }
+                .update(world, &movers, &old, &new, whole, moving_samples);
+            changed.extend(ks.iter().map(|&k| self.direct_cache.receivers()[k]));
+        }
+        let (receivers, e) = (
+            self.direct_cache.receivers(),
+            self.direct_cache.irradiance(),
+        );
+        for (&i, &e) in receivers.iter().zip(e) {
+            parts.area[i as usize] = e;
+        }
+        changed.extend(parts.update(world, everything, samples, &old, &new, whole));
+        changed.par_sort_unstable();
+        changed.dedup();
+        for i in changed {
+            let i = i as usize;
+            self.direct[i] = parts.area[i] + parts.by_patch.get(i).copied().unwrap_or(Vec3::ZERO);
         }
         self.direct_valid = true;
+    }
+
+    /// The punctual lights' direct irradiance of every patch (empty without punctual lights).
+    pub fn punctual_irradiance(&self) -> &[Vec3] {
+        &self.punctual.by_patch
+    }
+}
+
+/// Step 1's punctual lights: their cached direct light and, per patch, its value and the
+/// light surfaces' (`direct` is the sum of the two).
+#[derive(Clone, Debug, Default)]
+pub(super) struct PunctualDirect {
+    cache: PunctualCache,
+    /// Per patch: the punctual lights' direct irradiance (empty without punctual lights).
+    by_patch: Vec<Vec3>,
+    /// Per patch: the light surfaces' direct irradiance.
+    area: Vec<Vec3>,
+}
+
+impl PunctualDirect {
+    /// `changes` with every punctual light whose state differs from the one traced added to
+    /// [`Changes::lights`] (however it changed: the engine, the time, a caller of its own).
+    pub(super) fn with_light_changes(&self, world: &World, changes: &Changes) -> Changes {
+        let mut out = changes.clone();
+        for (l, now) in world.lights.iter().enumerate() {
+            if self.cache.lights().get(l) != Some(now) && !out.lights.contains(&l) {
+                out.lights.push(l);
+            }
+        }
+        // The sky is light `lights.len()` (a sky change is a light change).
+        let sky = world.lights.len();
+        if !self.cache.same_sky(world) && !out.lights.contains(&sky) {
+            out.lights.push(sky);
+        }
+        out
+    }
+
+    /// Bring the punctual part up to date (whole when `everything`, or the sample count or
+    /// the number of lights changed); returns the patches whose value changed.
+    fn update(
+        &mut self,
+        world: &World,
+        everything: bool,
+        samples: u32,
+        old: &[Aabb],
+        new: &[Aabb],
+        whole: impl Fn(u32) -> bool + Sync,
+    ) -> Vec<u32> {
+        let p = &world.patches;
+        if !crate::lights::has_sources(world) {
+            let had: Vec<u32> = (0..self.by_patch.len() as u32).collect();
+            self.by_patch.clear();
+            return had;
+        }
+        let ks = if everything
+            || self.by_patch.len() != p.len()
+            || self.cache.samples() != samples
+            || !self.cache.same_lights(world)
+        {
+            // Every patch that reflects: a probe cannot see a punctual light, so interior
+            // patches take it here whatever `direct_on_interior` says.
+            let receivers: Vec<u32> = (0..p.len() as u32)
+                .filter(|&i| world.reflectance[i as usize].max_element() > 0.0)
+                .collect();
+            self.cache = PunctualCache::new(world, receivers, samples);
+            self.by_patch = vec![Vec3::ZERO; p.len()];
+            (0..self.cache.receivers().len()).collect()
+        } else {
+            self.cache.update(world, old, new, whole)
+        };
+        let (receivers, e) = (self.cache.receivers(), self.cache.irradiance());
+        ks.iter()
+            .map(|&k| {
+                self.by_patch[receivers[k] as usize] = e[k];
+                receivers[k]
+            })
+            .collect()
     }
 }

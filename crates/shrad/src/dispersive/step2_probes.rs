@@ -18,9 +18,9 @@ use rayon::prelude::*;
 use shrad_sh::{cosine_lobe_sh, num_coeffs, ShRgb, MAX_COEFFS};
 use shrad_vis::Hit;
 
-use super::caches::{ProbeCache, ProbeHits, MAX_PROBE_BYTES, SEES_BACK, SEES_NOTHING};
+use super::caches::{ProbeCache, ProbeHits, MAX_PROBE_BYTES, SEES_BACK, SEES_NOTHING, SEES_STALE};
 use super::{ms, Batch, Dispersive, DispersiveStats, FrameStats, ProbeRepair};
-use crate::probes::Seen;
+use crate::probes::{ProbeCamera, Seen};
 use crate::World;
 
 impl Dispersive {
@@ -123,17 +123,16 @@ impl Dispersive {
                 };
             }
             super::tr("openness", tt);
+            self.objects[k].coarse_light = self.cameras_for(k).2;
             let openness = &self.objects[k].openness;
             // How much the update changed the object's light (`sleep.rs`).
             let (mut changed, mut total) = (0f64, 0f64);
             for ((i, e), &v) in range.clone().zip(e).zip(openness) {
                 let e = e * v;
                 self.probe_irradiance[i] = e;
-                let direct = if self.options.direct_on_interior {
-                    self.direct[i]
-                } else {
-                    Vec3::ZERO
-                };
+                // The light surfaces' direct light when `direct_on_interior`, the punctual
+                // lights' always (a probe cannot see them): Step 1 leaves 0 otherwise.
+                let direct = self.direct[i];
                 let b = world.exitance[i] + world.reflectance[i] * (e + direct);
                 let a = p.area[i] as f64;
                 changed += a * (b - self.radiosity[i]).abs().element_sum() as f64;
@@ -217,6 +216,7 @@ impl Dispersive {
         steps: &mut DispersiveStats,
     ) -> (Vec<Option<ShRgb>>, [f32; 8]) {
         let mut cache = std::mem::take(&mut self.objects[k].probe_cache);
+        let (camera, _, coarse) = self.cameras_for(k);
         let ob = &self.objects[k];
         let o = ob.object as u32;
         if cache.key != Some((m, ob.probe_scale)) {
@@ -227,16 +227,28 @@ impl Dispersive {
         } else {
             vec![]
         };
+        let limit = self.options.invalid_back_fraction;
+        let repair = self.options.repair;
+        for slot in &mut cache.probes {
+            let Some(h) = slot.as_mut().filter(|h| !h.stale.is_empty()) else {
+                continue;
+            };
+            steps.probe_texels_retraced += h.stale.len();
+            self.retrace_stale_texels(world, h, &exclude, o);
+            // A probe that turned invalid is captured afresh below, to be moved inward from
+            // where it stands, as an uncached update would.
+            if h.back_fraction > limit && repair == ProbeRepair::MoveInward {
+                *slot = None;
+            }
+        }
         // Capture the probes not cached, all in one batch.
         let missing: Vec<usize> = (0..8).filter(|&c| cache.probes[c].is_none()).collect();
         let points: Vec<Vec3> = missing
             .iter()
             .map(|&c| m.transform_point3(ob.probe_local(c)))
             .collect();
-        let fresh = self.probe_hits(world, &points, &exclude, o);
+        let fresh = self.probe_hits(world, camera, &points, &exclude, o);
         steps.probes_captured += points.len();
-        let limit = self.options.invalid_back_fraction;
-        let repair = self.options.repair;
         let valid = |h: &ProbeHits| h.back_fraction <= limit || repair == ProbeRepair::None;
         let mut scale = ob.probe_scale;
         let mut slots = std::mem::take(&mut cache.probes);
@@ -252,7 +264,7 @@ impl Dispersive {
                     .filter(|&s| s < scale[c]);
                 for s in tries {
                     let q = m.transform_point3(centre + (ob.corner_local(c) - centre) * s);
-                    let again = self.probe_hits(world, &[q], &exclude, o).pop();
+                    let again = self.probe_hits(world, camera, &[q], &exclude, o).pop();
                     steps.probes_captured += 1;
                     if let Some(again) = again.filter(|h| h.back_fraction <= limit) {
                         slots[c] = Some(again);
@@ -269,19 +281,21 @@ impl Dispersive {
             }
         }
         // Shade every texel from the current radiosity and project to SH.
-        let projector = &self.camera.projector;
+        let projector = &camera.projector;
         let out: Vec<Option<ShRgb>> = slots
             .par_iter()
             .map(|h| {
                 let h = h.as_ref().filter(|h| valid(h))?;
                 Some(projector.project_indexed(|t| match h.seen[t] {
-                    SEES_NOTHING | SEES_BACK => Vec3::ZERO,
+                    // Stale texels were all traced again above.
+                    SEES_NOTHING | SEES_BACK | SEES_STALE => Vec3::ZERO,
                     j => self.texel_radiance(world, j as usize),
                 }))
             })
             .collect();
         // Keep what a later update can reuse: not a probe MoveInward failed to repair.
-        if self.caching && 8 * 8 * self.camera.texels() <= MAX_PROBE_BYTES {
+        // A coarse capture is of a moving object, which the next frame moves again.
+        if self.caching && !coarse && 8 * 8 * self.camera.texels() <= MAX_PROBE_BYTES {
             for h in &mut slots {
                 if h.as_ref().is_some_and(|h| !valid(h)) {
                     *h = None;
@@ -294,42 +308,53 @@ impl Dispersive {
         (out, scale)
     }
 
+    /// Trace again the texels of a cached probe that a mover's box marked stale
+    /// (`forget_stale_caches`): the same rays a full capture casts, only fewer.
+    fn retrace_stale_texels(&self, world: &World, h: &mut ProbeHits, exclude: &[u32], o: u32) {
+        let dirs: Vec<Vec3> = h
+            .stale
+            .iter()
+            .map(|&t| self.camera.cube.directions[t as usize])
+            .collect();
+        let mut hits = vec![Hit::MISS; dirs.len()];
+        world
+            .vis
+            .capture(&[h.origin], &dirs, 0.0, exclude, &mut hits);
+        for (&t, hit) in h.stale.iter().zip(&hits) {
+            h.seen[t as usize] = self.seen_code(world, hit, o);
+            h.t[t as usize] = if hit.is_hit() { hit.t } else { f32::INFINITY };
+        }
+        h.stale.clear();
+        h.back_fraction = back_fraction(&h.seen, &self.camera.cube.solid_angles);
+    }
+
     /// Capture a cube map at each of `points` and keep, per texel, what shading needs: the
     /// patch seen (as [`Dispersive::shade_probe_texel`] decides) and the distance.
     fn probe_hits(
         &self,
         world: &World,
+        camera: &ProbeCamera,
         points: &[Vec3],
         exclude: &[u32],
         o: u32,
     ) -> Vec<ProbeHits> {
-        let n = self.camera.texels();
-        let solid_angles = &self.camera.cube.solid_angles;
-        let hits = self.camera.capture_hits(world, points, exclude);
+        let n = camera.texels();
+        let solid_angles = &camera.cube.solid_angles;
+        let hits = camera.capture_hits(world, points, exclude);
         hits.par_chunks(n)
             .zip(points)
             .map(|(h, &origin)| {
-                let mut back = 0.0;
-                let seen = h
-                    .iter()
-                    .zip(solid_angles)
-                    .map(|(h, &sa)| {
-                        let s = self.seen_code(world, h, o);
-                        if s == SEES_BACK {
-                            back += sa;
-                        }
-                        s
-                    })
-                    .collect();
+                let seen: Vec<u32> = h.iter().map(|h| self.seen_code(world, h, o)).collect();
                 let t: Vec<f32> = h
                     .iter()
                     .map(|h| if h.is_hit() { h.t } else { f32::INFINITY })
                     .collect();
                 ProbeHits {
                     origin,
+                    back_fraction: back_fraction(&seen, solid_angles),
                     seen,
                     t,
-                    back_fraction: back / (4.0 * std::f32::consts::PI),
+                    stale: Vec::new(),
                 }
             })
             .collect()
@@ -365,4 +390,15 @@ impl Dispersive {
             j => Seen::Radiance(self.texel_radiance(world, j as usize)),
         }
     }
+}
+
+/// Fraction of the sphere (by solid angle) whose texels see back faces.
+fn back_fraction(seen: &[u32], solid_angles: &[f32]) -> f32 {
+    let back: f32 = seen
+        .iter()
+        .zip(solid_angles)
+        .filter(|(&s, _)| s == SEES_BACK)
+        .map(|(_, &sa)| sa)
+        .sum();
+    back / (4.0 * std::f32::consts::PI)
 }

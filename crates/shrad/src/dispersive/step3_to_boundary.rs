@@ -40,23 +40,12 @@ impl Dispersive {
             let o = ob.object;
             let m = p.world_from_local[o];
             let range = p.range(o);
-            let method = match self.options.to_boundary {
-                // Gather while it costs about what a splat does (up to 2 x 6R^2 boundary
-                // patches, and at least up to 32k: a coarse splat aliases), splat beyond, so
-                // that the cost of Step 3 stays bounded however large the boundary grows.
-                ToBoundary::Auto
-                    if self.boundary_patches.len()
-                        > (2 * self.emitter_camera.texels()).max(1 << 15) =>
-                {
-                    ToBoundary::Splat
-                }
-                ToBoundary::Auto => ToBoundary::Gather,
-                m => m,
-            };
+            let method = self.to_boundary_method();
             // The geometry of its emitters, cached between updates (`caches.rs`).
             let mut cache = std::mem::take(&mut self.objects[k].emitter_cache);
             let ob = &self.objects[k];
             let tt = std::time::Instant::now();
+            let coarse = self.cameras_for(k).2;
             if cache.key != Some(m) {
                 cache = self.emitter_geometry(world, k, m, method);
             }
@@ -80,7 +69,9 @@ impl Dispersive {
                 }
                 let intensity = ShRgb::from_coeffs(intensity);
                 pieces.extend(match rays {
-                    EmitterRays::Splat(texels) => self.splat(world, o, texels, &intensity),
+                    EmitterRays::Splat(texels) => {
+                        self.splat(world, self.cameras_for(k).1, o, texels, &intensity)
+                    }
                     EmitterRays::Gather(entries) => {
                         let soften = if self.options.emitter_per_face {
                             members
@@ -99,7 +90,7 @@ impl Dispersive {
             let tt = std::time::Instant::now();
             // Kept unless the caches are off or it would be too large (then it is rebuilt at
             // every update, as the uncached code would).
-            if self.caching && cache.bytes() <= MAX_STEP3_BYTES {
+            if self.caching && !coarse && cache.bytes() <= MAX_STEP3_BYTES {
                 self.objects[k].emitter_cache = cache;
             }
             let contribution = match method {
@@ -163,6 +154,23 @@ impl Dispersive {
         flux_sent
     }
 
+    /// How objects reach the boundary: the option, with `Auto` resolved. Gather while it
+    /// costs about what a splat does (up to 2 x 6R^2 boundary patches, and at least up to
+    /// 32k: a coarse splat aliases), splat beyond, so that the cost of Step 3 stays bounded
+    /// however large the boundary grows.
+    fn to_boundary_method(&self) -> ToBoundary {
+        match self.options.to_boundary {
+            ToBoundary::Auto
+                if self.boundary_patches.len()
+                    > (2 * self.emitter_camera.texels()).max(1 << 15) =>
+            {
+                ToBoundary::Splat
+            }
+            ToBoundary::Auto => ToBoundary::Gather,
+            m => m,
+        }
+    }
+
     /// What Step 3 of object `k` at `m` needs of geometry (`caches.rs`): per emitter, its
     /// patches' lobes along their world exit directions (2.3.4 Step 1) and the rays to the
     /// boundary, none cast yet.
@@ -204,9 +212,11 @@ impl Dispersive {
             .map(|(centre_local, _)| {
                 let centre = m.transform_point3(*centre_local);
                 match method {
-                    ToBoundary::Gather => EmitterRays::Gather(self.gather_entries(world, centre)),
+                    ToBoundary::Gather => {
+                        EmitterRays::Gather(Box::new(self.gather_entries(world, centre)))
+                    }
                     _ => {
-                        let n = self.emitter_camera.texels();
+                        let n = self.cameras_for(k).1.texels();
                         EmitterRays::Splat(SplatTexels {
                             centre,
                             seen: vec![UNKNOWN; n],
@@ -259,11 +269,12 @@ impl Dispersive {
     fn splat(
         &self,
         world: &World,
+        camera: &ProbeCamera,
         o: usize,
         texels: &mut SplatTexels,
         intensity: &ShRgb,
     ) -> Vec<(u32, Vec3)> {
-        let (cube, projector) = (&self.emitter_camera.cube, &self.emitter_camera.projector);
+        let (cube, projector) = (&camera.cube, &camera.projector);
         // Flux through every texel at once (`texel_values`: the floats of `texel_value`).
         let mut values = vec![Vec3::ZERO; cube.directions.len()];
         projector.texel_values(intensity, &mut values);

@@ -336,6 +336,7 @@ fn sleeping_scene_matches_a_never_sleeping_one_and_wakes() {
     let moved = Changes {
         moved: vec![block],
         relit: vec![],
+        ..Default::default()
     };
     let run = |w: &World, d: &mut Dispersive, c: &Changes, frames: usize| -> Vec<FrameStats> {
         (0..frames)
@@ -381,6 +382,7 @@ fn sleeping_scene_matches_a_never_sleeping_one_and_wakes() {
     let relit = Changes {
         moved: vec![],
         relit: vec![light],
+        ..Default::default()
     };
     let s = sleepy.step(&world, &relit);
     assert!(!asleep(&s));
@@ -470,6 +472,7 @@ fn a_budget_far_below_one_object_still_progresses_and_loses_nothing() {
         let moved = Changes {
             moved: vec![block],
             relit: vec![],
+            ..Default::default()
         };
         let s = budgeted.step(&world, &moved);
         free.step(&world, &moved);
@@ -501,4 +504,70 @@ fn a_budget_far_below_one_object_still_progresses_and_loses_nothing() {
     );
     let gap = relative_difference(&world, budgeted.radiosity(), free.radiosity());
     assert!(gap < 1e-3, "budgeted and unbudgeted differ by {gap:e}");
+}
+
+/// `coarse_while_moving`: while the block moves, its updates trace fewer rays than at full
+/// resolution; once it stops, it is updated at full resolution soon, and the light then
+/// equals that of a solver that never went coarse.
+#[test]
+fn coarse_updates_while_moving_settle_to_the_full_resolution_light() {
+    let scene = shrad_scene::cornell_box();
+    let block = scene
+        .objects
+        .iter()
+        .position(|o| o.name == "short_block")
+        .unwrap();
+    let make = |coarse: bool| {
+        let world = World::new(scene.clone(), PatchSizing::Count(3000), Backend::Auto).unwrap();
+        let d = Dispersive::new(
+            &world,
+            DispersiveOptions {
+                coarse_while_moving: coarse,
+                schedule: Schedule::Full,
+                ..DispersiveOptions::improved()
+            },
+        )
+        .unwrap();
+        (world, d)
+    };
+    let mut runs = [make(true), make(false)];
+    let still = Changes::default();
+    for (world, d) in &mut runs {
+        d.converge(world, 4);
+    }
+    // Move the block a little every frame: the coarse run traces fewer rays each frame.
+    for f in 1..=6 {
+        let m = Affine3A::from_translation(Vec3::new(8.0 * f as f32, 0.0, 0.0))
+            * scene.objects[block].world_from_object;
+        let moved = Changes {
+            moved: vec![block],
+            relit: vec![],
+            ..Default::default()
+        };
+        let rays: Vec<u64> = runs
+            .iter_mut()
+            .map(|(world, d)| {
+                world.move_object(block, m).unwrap();
+                let before = world.rays_cast();
+                let s = d.step(world, &moved);
+                assert!(s.objects_updated.contains(&block));
+                world.rays_cast() - before
+            })
+            .collect();
+        assert!(
+            rays[0] < rays[1],
+            "frame {f}: the coarse run traced {} rays, the full one {}",
+            rays[0],
+            rays[1]
+        );
+    }
+    // Once it rests, both settle to the same light.
+    for (world, d) in &mut runs {
+        for _ in 0..12 {
+            d.step(world, &still);
+        }
+    }
+    assert!(runs[0].1.objects.iter().all(|ob| !ob.coarse_light));
+    let gap = relative_difference(&runs[0].0, runs[0].1.radiosity(), runs[1].1.radiosity());
+    assert!(gap < 1e-3, "coarse-then-full differs from full by {gap:e}");
 }

@@ -71,6 +71,7 @@ fn moving_an_occluder_keeps_direct_light_and_wall_rows_exact() {
             &Changes {
                 moved: vec![block],
                 relit: Vec::new(),
+                ..Default::default()
             },
         );
         // The wall rays wait for later frames when there are more than a frame's share.
@@ -106,7 +107,8 @@ fn moving_an_occluder_keeps_direct_light_and_wall_rows_exact() {
             .count();
     }
     // The caches stay small: about 10 bytes a wall ray (with the rows themselves, under 24),
-    // and tens of bytes a direct-light receiver.
+    // and about 7 bytes a shadow ray (its blocked bit and its quantised end) plus tens of
+    // bytes a direct-light receiver.
     let rows = d.wall_rows.as_ref().unwrap();
     let rays = d.boundary_patches.len() * options.wall_rays as usize;
     assert!(
@@ -114,7 +116,12 @@ fn moving_an_occluder_keeps_direct_light_and_wall_rows_exact() {
         "{} bytes for {rays} rays",
         rows.bytes()
     );
-    assert!(d.direct_cache.bytes() < 64 * d.direct_cache.receivers().len());
+    let shadow_rays = d.direct_cache.receivers().len() * options.direct_samples as usize;
+    assert!(
+        d.direct_cache.bytes() < 7 * shadow_rays + 64 * d.direct_cache.receivers().len(),
+        "{} bytes for {shadow_rays} shadow rays",
+        d.direct_cache.bytes()
+    );
     // The moves changed what the walls see and the shadows: the test exercised something.
     assert!(
         rows_changed > 100 && direct_changed > 100,
@@ -149,7 +156,7 @@ fn direct_cache_update_equals_a_full_recomputation() {
         )
         .unwrap();
     let new = setup::world_box(&world, block);
-    let changed = cache.update(&world, &[old], &[new], |_| false);
+    let changed = cache.update(&world, &[block as u32], &[old], &[new], |_| false, 16);
     assert!(
         !changed.is_empty(),
         "moving the tall block changed no shadow"
@@ -160,4 +167,55 @@ fn direct_cache_update_equals_a_full_recomputation() {
     let mut back = crate::direct::direct_irradiance(&world, &reversed, 16);
     back.reverse();
     assert_eq!(back, full.irradiance());
+}
+
+/// A moving receiver traced with fewer samples is traced whole, with every sample, at the
+/// first update where it rests: the cache then equals a fresh one.
+#[test]
+fn coarse_moving_receivers_are_exact_again_once_they_rest() {
+    let mut world = World::new(
+        shrad_scene::cornell_box(),
+        PatchSizing::Count(2000),
+        Backend::Auto,
+    )
+    .unwrap();
+    let block = (0..world.scene.objects.len())
+        .find(|&o| world.scene.objects[o].name == "tall_block")
+        .unwrap();
+    // Boundary and the block's own patches, as Step 1 with `direct_on_interior`.
+    let receivers: Vec<u32> = (0..world.patches.len() as u32)
+        .filter(|&i| {
+            let p = &world.patches;
+            p.role(i as usize) == Role::Boundary || p.object[i as usize] as usize == block
+        })
+        .collect();
+    let mut cache = crate::direct::DirectCache::new(&world, receivers.clone(), 16);
+    let old = setup::world_box(&world, block);
+    let m = world.patches.world_from_local[block]
+        * Affine3A::from_mat3(world.patches.local_from_object[block]);
+    world
+        .move_object(
+            block,
+            Affine3A::from_translation(Vec3::new(8.0, 0.0, -10.0)) * m,
+        )
+        .unwrap();
+    let new = setup::world_box(&world, block);
+    let on_block = |i: u32| world.patches.object[i as usize] as usize == block;
+    let mut every_sample = cache.clone();
+    let rays = |cache: &mut crate::direct::DirectCache, samples: u32| {
+        let before = world.rays_cast();
+        cache.update(&world, &[block as u32], &[old], &[new], on_block, samples);
+        world.rays_cast() - before
+    };
+    let (coarse, fine) = (rays(&mut cache, 4), rays(&mut every_sample, 16));
+    assert!(
+        cache.has_coarse() && !every_sample.has_coarse(),
+        "the block's patches were not traced coarse"
+    );
+    assert!(coarse < fine, "coarse {coarse} rays, every sample {fine}");
+    let full = crate::direct::DirectCache::new(&world, receivers.clone(), 16);
+    // At rest: nothing moves, and the coarse receivers are traced whole again.
+    let changed = cache.update(&world, &[], &[], &[], |_| false, 16);
+    assert!(!changed.is_empty() && !cache.has_coarse());
+    assert_eq!(cache.irradiance(), full.irradiance());
 }

@@ -92,34 +92,34 @@ impl Dispersive {
             return;
         };
         let n = self.boundary_patches.len();
-        let rays = self.options.wall_rays.max(1) as usize;
         let past = || deadline.is_some_and(|d| Instant::now() >= d);
-        // Every object's box now (`swept_boxes` has just remembered the movers' new ones).
         let tt = Instant::now();
-        rows.note_moves(&changes.moved);
-        let mut left = n.div_ceil(WALL_CHECK_SHARE).min(WALL_CHECK_MAX);
-        // Under a deadline a few rows at a time, so the checks stop when time is up.
+        rows.note_moves(&changes.moved); // `object_boxes`: every object's box now
+                                         // Half as much while something moves (what is left catches up once it rests).
+        let moving = 1 + usize::from(!changes.moved.is_empty());
+        let mut left = n.div_ceil(WALL_CHECK_SHARE).min(WALL_CHECK_MAX / moving);
+        // Under a deadline a few rows at a time (the first even past it: always progress).
         let step = if deadline.is_some() { 256 } else { left };
-        while left > 0 && !past() {
+        while left > 0 {
             let done = rows.check(
                 world,
                 &self.boundary_patches,
                 &self.object_boxes,
                 step.min(left),
             );
-            if done == 0 {
+            left = left.saturating_sub(done);
+            if done == 0 || past() {
                 break;
             }
-            left = left.saturating_sub(done);
         }
         super::tr("  mark", tt);
         let tt = Instant::now();
         let mut left = if rows.pending_rows() > 0 {
             rows.build_per_frame
         } else {
-            (n * rays)
+            (n * self.options.wall_rays.max(1) as usize)
                 .div_ceil(WALL_RETRACE_SHARE)
-                .min(WALL_RETRACE_MAX)
+                .min(WALL_RETRACE_MAX / moving)
         }
         .max(1);
         let step = if deadline.is_some() { 1024 } else { left };

@@ -30,6 +30,7 @@
 mod attrs;
 mod plan;
 mod shape;
+mod sizing;
 mod split;
 #[cfg(test)]
 mod tests;

@@ -97,6 +97,7 @@ impl Keyed for DispersiveOptions {
             "self_shadow_rays" => Value::Int(self.self_shadow_rays.into()),
             "splat_smoothing" => Value::Bool(self.splat_smoothing),
             "sleep_tolerance" => Value::Float(self.sleep_tolerance.into()),
+            "coarse_while_moving" => Value::Bool(self.coarse_while_moving),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
     }
@@ -178,6 +179,7 @@ impl Keyed for DispersiveOptions {
             "self_shadow_rays" => self.self_shadow_rays = as_u32(value),
             "splat_smoothing" => self.splat_smoothing = as_bool(value),
             "sleep_tolerance" => self.sleep_tolerance = as_f32(value),
+            "coarse_while_moving" => self.coarse_while_moving = as_bool(value),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
         Ok(())

@@ -200,6 +200,10 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
         0.1,
         "an object sleeps once an update changes its light by less than this fraction, and the walls once a sweep does; a change of light or a mover nearby wakes them (0: never sleep, the paper)",
     ),
+    flag(
+        "coarse_while_moving",
+        "an object that moved since the last frame is updated from half-resolution cube maps and a quarter of the direct light's samples, and at full resolution once it stops",
+    ),
 ];
 
 /// The grid baseline's keys (fields of [`GridOptions`]).

@@ -20,6 +20,7 @@ const IMPLEMENTED_EXTENSIONS: &[&str] = &[
     "EXT_meshopt_compression",
     "KHR_draco_mesh_compression",
     "EXT_texture_webp",
+    "KHR_lights_punctual",
 ];
 
 /// What shrad loses when it ignores an extension the file only uses (the specification
@@ -27,7 +28,6 @@ const IMPLEMENTED_EXTENSIONS: &[&str] = &[
 fn ignored_extension_note(name: &str) -> &'static str {
     match name {
         "KHR_materials_unlit" => "unlit materials are read as diffuse reflectors",
-        "KHR_lights_punctual" => "punctual lights are ignored: only emissive surfaces emit",
         "KHR_texture_basisu" => {
             "KTX2 / Basis Universal images are not decoded: the fallback image is used, else the factor alone"
         }
@@ -168,6 +168,9 @@ struct JsonCheck<'v> {
     /// `KHR_mesh_quantization` is in `extensionsUsed`: integer positions and texture
     /// coordinates are allowed.
     quantized: bool,
+    /// Accessors whose type glTF 2.0 does not define (filled by `accessors`), with it: none
+    /// may be referred to.
+    unknown_accessors: Vec<(usize, String)>,
 }
 
 impl JsonCheck<'_> {
@@ -189,7 +192,16 @@ impl JsonCheck<'_> {
         let Some(i) = uint(obj, key, at)? else {
             return Ok(None);
         };
-        self.index(i, &join(at, key), kind).map(Some)
+        let here = join(at, key);
+        let i = self.index(i, &here, kind)?;
+        if kind == "accessors" {
+            if let Some((_, ty)) = self.unknown_accessors.iter().find(|u| u.0 == i) {
+                return Err(format!(
+                    "{here}: accessor {i} has type '{ty}', which glTF 2.0 does not define: shrad cannot read it"
+                ));
+            }
+        }
+        Ok(Some(i))
     }
 
     fn index(&self, i: u64, here: &str, kind: &str) -> Result<usize, String> {
@@ -390,6 +402,7 @@ pub(super) fn check_json(
         root,
         warnings,
         parents: Vec::new(),
+        unknown_accessors: Vec::new(),
         quantized: root["extensionsUsed"]
             .as_array()
             .is_some_and(|e| e.iter().any(|e| e == "KHR_mesh_quantization")),

@@ -1,0 +1,131 @@
+//! An object definition's rest transform and keyframed animation.
+
+use glam::{Affine3A, Mat4, Quat, Vec3};
+
+use super::{KeyInterpolation, ObjectDef, Scale};
+use crate::{Animation, EmissionKey, Keyframe};
+
+/// Rotation from `rotation_deg` (about X, then Y, then Z, world axes: R = Rz Ry Rx) or
+/// `rotation_quat` (`[x, y, z, w]`, normalised).
+pub(super) fn rotation(deg: Option<[f32; 3]>, quat: Option<[f32; 4]>) -> Result<Quat, String> {
+    match (deg, quat) {
+        (Some(_), Some(_)) => Err("give rotation_deg or rotation_quat, not both".into()),
+        (Some([x, y, z]), None) => {
+            if ![x, y, z].iter().all(|v| v.is_finite()) {
+                return Err("rotation_deg must be finite".into());
+            }
+            Ok(Quat::from_rotation_z(z.to_radians())
+                * Quat::from_rotation_y(y.to_radians())
+                * Quat::from_rotation_x(x.to_radians()))
+        }
+        (None, Some(q)) => {
+            let q = Quat::from_array(q);
+            let len = q.length();
+            if !(len.is_finite() && len > 1e-6) {
+                return Err(
+                    "rotation_quat must be a finite non-zero quaternion [x, y, z, w]".into(),
+                );
+            }
+            Ok(q / len)
+        }
+        (None, None) => Ok(Quat::IDENTITY),
+    }
+}
+
+pub(super) fn finite3(v: [f32; 3], what: &str) -> Result<Vec3, String> {
+    let v = Vec3::from(v);
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("{what} must be finite"))
+    }
+}
+
+/// `world_from_object` at rest: `transform`, or `position`, rotation and `scale`.
+pub(super) fn rest_transform(o: &ObjectDef) -> Result<Affine3A, String> {
+    if let Some(rows) = o.transform {
+        let parts = [
+            ("position", o.position.is_some()),
+            ("rotation_deg", o.rotation_deg.is_some()),
+            ("rotation_quat", o.rotation_quat.is_some()),
+            ("scale", o.scale.is_some()),
+        ];
+        if let Some((key, _)) = parts.iter().find(|(_, given)| *given) {
+            return Err(format!("give 'transform' or '{key}', not both"));
+        }
+        return affine_from_rows(rows);
+    }
+    let position = finite3(o.position.unwrap_or([0.0; 3]), "position")?;
+    let rot = rotation(o.rotation_deg, o.rotation_quat)?;
+    let scale = match o.scale {
+        None => Vec3::ONE,
+        Some(Scale::Uniform(s)) => Vec3::splat(s),
+        Some(Scale::Axes(s)) => Vec3::from(s),
+    };
+    if !(scale.is_finite() && scale.min_element() > 0.0) {
+        return Err(format!("scale {scale} must be positive"));
+    }
+    Ok(Affine3A::from_scale_rotation_translation(
+        scale, rot, position,
+    ))
+}
+
+/// A 4x4 matrix given row by row, which must be affine.
+fn affine_from_rows(rows: [[f32; 4]; 4]) -> Result<Affine3A, String> {
+    if rows[3] != [0.0, 0.0, 0.0, 1.0] {
+        return Err(format!(
+            "'transform' must be affine (last row [0, 0, 0, 1]), got last row {:?}",
+            rows[3]
+        ));
+    }
+    if !rows.iter().flatten().all(|v| v.is_finite()) {
+        return Err("'transform' must be finite".into());
+    }
+    Ok(Affine3A::from_mat4(
+        Mat4::from_cols_array_2d(&rows).transpose(),
+    ))
+}
+
+/// The object's keyframed motion and emission, sorted by time; `None` without keys.
+pub(super) fn animation(o: &ObjectDef) -> Result<Option<Animation>, String> {
+    if o.key.is_empty() && o.emission_key.is_empty() {
+        if o.interpolation.is_some() {
+            return Err(
+                "'interpolation' given without any [[object.key]] or [[object.emission_key]]"
+                    .into(),
+            );
+        }
+        return Ok(None);
+    }
+    let mut keys = Vec::with_capacity(o.key.len());
+    for (k, key) in o.key.iter().enumerate() {
+        let at = |m: String| format!("key {k}: {m}");
+        if !key.time.is_finite() {
+            return Err(at("time must be finite".into()));
+        }
+        keys.push(Keyframe {
+            time: key.time,
+            translation: finite3(key.translation.unwrap_or([0.0; 3]), "translation").map_err(at)?,
+            rotation: rotation(key.rotation_deg, key.rotation_quat).map_err(at)?,
+        });
+    }
+    let mut emission = Vec::with_capacity(o.emission_key.len());
+    for (k, key) in o.emission_key.iter().enumerate() {
+        let at = |m: String| format!("emission_key {k}: {m}");
+        let e = finite3(key.emission, "emission").map_err(at)?;
+        if !key.time.is_finite() || e.min_element() < 0.0 {
+            return Err(at("time must be finite and emission >= 0".into()));
+        }
+        emission.push(EmissionKey {
+            time: key.time,
+            emitted_radiance: e,
+        });
+    }
+    keys.sort_by(|a, b| a.time.total_cmp(&b.time));
+    emission.sort_by(|a, b| a.time.total_cmp(&b.time));
+    Ok(Some(Animation {
+        keys,
+        emission,
+        step: o.interpolation == Some(KeyInterpolation::Step),
+    }))
+}

@@ -1,0 +1,106 @@
+//! The scene file's `[[lights]]` (docs/scene-format.md): point, spot and directional lights
+//! with a position or a direction, a colour, and a strength given as power in watts (point
+//! and spot: Blender's convention, radiant intensity `P / (4 pi)` W/sr), as irradiance in
+//! W/m^2 (directional), or as the glTF extension's photometric `intensity` (candela, lux).
+
+use glam::{Affine3A, Quat, Vec3};
+use serde::Deserialize;
+
+use crate::{Light, LightKind, LUMENS_PER_WATT};
+
+/// What a light's table may hold.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct LightDef {
+    name: Option<String>,
+    kind: Kind,
+    position: Option<[f32; 3]>,
+    /// The way the light shines (spot, directional).
+    direction: Option<[f32; 3]>,
+    color: Option<[f32; 3]>,
+    /// Watts (point, spot).
+    power: Option<f32>,
+    /// W/m^2 (directional).
+    irradiance: Option<f32>,
+    /// Candela (point, spot) or lux (directional).
+    intensity: Option<f32>,
+    range: Option<f32>,
+    inner_cone_deg: Option<f32>,
+    outer_cone_deg: Option<f32>,
+}
+
+#[derive(Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+enum Kind {
+    Point,
+    Spot,
+    Directional,
+}
+
+fn vec3(v: [f32; 3], what: &str) -> Result<Vec3, String> {
+    let v = Vec3::from(v);
+    v.is_finite()
+        .then_some(v)
+        .ok_or_else(|| format!("{what} must be finite"))
+}
+
+/// The light `d` describes (its values checked by [`Light::problem`] afterwards).
+pub(crate) fn light(d: &LightDef, i: usize) -> Result<Light, String> {
+    let kind = match d.kind {
+        Kind::Point => LightKind::Point,
+        Kind::Directional => LightKind::Directional,
+        Kind::Spot => LightKind::Spot {
+            inner_cone_angle: d.inner_cone_deg.unwrap_or(0.0).to_radians(),
+            outer_cone_angle: d.outer_cone_deg.unwrap_or(45.0).to_radians(),
+        },
+    };
+    if d.kind != Kind::Spot && (d.inner_cone_deg.is_some() || d.outer_cone_deg.is_some()) {
+        return Err("only a spot light has cone angles".into());
+    }
+    let intensity = match (d.kind, d.power, d.irradiance, d.intensity) {
+        (Kind::Directional, None, Some(e), None) => e * LUMENS_PER_WATT,
+        (Kind::Point | Kind::Spot, Some(p), None, None) => {
+            p * LUMENS_PER_WATT / (4.0 * std::f32::consts::PI)
+        }
+        (_, None, None, Some(i)) => i,
+        (Kind::Directional, ..) => {
+            return Err(
+                "give a directional light one of irradiance (W/m^2) or intensity (lux)".into(),
+            )
+        }
+        _ => return Err("give one of power (W) or intensity (candela)".into()),
+    };
+    let position = match (d.kind, d.position) {
+        (Kind::Directional, Some(_)) => {
+            return Err("a directional light has a direction, not a position".into())
+        }
+        (_, Some(p)) => vec3(p, "position")?,
+        (Kind::Directional, None) => Vec3::ZERO,
+        (_, None) => return Err("position missing".into()),
+    };
+    let rotation = match (d.kind, d.direction) {
+        (Kind::Point, Some(_)) => return Err("a point light has no direction".into()),
+        (Kind::Point, None) => Quat::IDENTITY,
+        (_, None) => return Err("direction missing (the way the light shines)".into()),
+        (_, Some(v)) => {
+            let v = vec3(v, "direction")?;
+            if v.length() <= 1e-12 {
+                return Err("direction must not be zero".into());
+            }
+            Quat::from_rotation_arc(-Vec3::Z, v.normalize())
+        }
+    };
+    if d.range.is_some() && d.kind == Kind::Directional {
+        return Err("a directional light has no range".into());
+    }
+    Ok(Light {
+        color: vec3(d.color.unwrap_or([1.0; 3]), "color")?,
+        range: d.range,
+        world_from_light: Affine3A::from_rotation_translation(rotation, position),
+        ..Light::new(
+            d.name.clone().unwrap_or_else(|| format!("light{i}")),
+            kind,
+            intensity,
+        )
+    })
+}

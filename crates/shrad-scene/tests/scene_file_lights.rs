@@ -1,0 +1,98 @@
+//! The scene file's `[[lights]]`: each kind, each way to give its strength, and bad values
+//! as errors naming the file, the light and its line.
+
+use std::f32::consts::PI;
+
+use glam::Vec3;
+use shrad_scene::{load, Light, LightKind, LoadOptions};
+
+const FLOOR: &str = r#"
+[[object]]
+shape = "quad"
+corners = [[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]]
+"#;
+
+fn write(name: &str, lights: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("shrad-toml-lights-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, format!("{FLOOR}\n{lights}")).unwrap();
+    p
+}
+
+#[test]
+fn lights_of_each_kind_load_in_radiometric_units() {
+    let p = write(
+        "ok.toml",
+        r#"
+[[lights]]
+name = "bulb"
+kind = "point"
+position = [0, 2, 0]
+power = 100.0
+
+[[lights]]
+kind = "spot"
+position = [0, 3, 0]
+direction = [0, -1, 0]
+intensity = 683.0
+color = [1, 0.5, 0.5]
+inner_cone_deg = 10
+outer_cone_deg = 30
+
+[[lights]]
+kind = "directional"
+direction = [1, -1, 0]
+irradiance = 2.0
+"#,
+    );
+    let s = load(&p, &LoadOptions::default()).unwrap();
+    let [bulb, spot, sun] = &s.lights[..] else {
+        panic!("{:?}", s.lights)
+    };
+    // A 100 W lamp: 100 / (4 pi) W/sr, as Blender and Cycles have it.
+    assert!((bulb.radiometric().x - 100.0 / (4.0 * PI)).abs() < 1e-4);
+    assert_eq!(
+        Light::position(&bulb.world_from_light),
+        Vec3::new(0.0, 2.0, 0.0)
+    );
+    assert_eq!(spot.radiometric(), Vec3::new(1.0, 0.5, 0.5));
+    assert!(matches!(spot.kind, LightKind::Spot { outer_cone_angle, .. }
+        if (outer_cone_angle - 30f32.to_radians()).abs() < 1e-6));
+    let d = Light::direction(&spot.world_from_light).unwrap();
+    assert!((d + Vec3::Y).length() < 1e-6, "{d}");
+    assert!((sun.radiometric().x - 2.0).abs() < 1e-5);
+    let d = Light::direction(&sun.world_from_light).unwrap();
+    assert!(
+        (d - Vec3::new(1.0, -1.0, 0.0).normalize()).length() < 1e-6,
+        "{d}"
+    );
+}
+
+#[test]
+fn bad_lights_name_the_file_the_light_and_the_line() {
+    let cases = [
+        ("neg.toml", "kind = \"point\"\nposition = [0, 1, 0]\nintensity = -1.0", "intensity"),
+        ("both.toml", "kind = \"point\"\nposition = [0, 1, 0]\npower = 1.0\nintensity = 1.0", "one of"),
+        (
+            "cone.toml",
+            "kind = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nintensity = 1\ninner_cone_deg = 40\nouter_cone_deg = 30",
+            "innerConeAngle",
+        ),
+        (
+            "wide.toml",
+            "kind = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nintensity = 1\nouter_cone_deg = 100",
+            "pi/2",
+        ),
+        ("nodir.toml", "kind = \"directional\"\nirradiance = 1", "direction missing"),
+        ("nopos.toml", "kind = \"point\"\npower = 1", "position missing"),
+    ];
+    for (name, body, what) in cases {
+        let p = write(name, &format!("[[lights]]\n{body}\n"));
+        let e = load(&p, &LoadOptions::default()).unwrap_err().to_string();
+        assert!(
+            e.contains(name) && e.contains("lights 0 (line ") && e.contains(what),
+            "{name}: {e}"
+        );
+    }
+}

@@ -1,0 +1,516 @@
+//! [`DirectCache`]: direct light kept with its shadow rays' outcomes, so that an update
+//! re-traces only what a mover may have changed (the dispersive solver's Step 1).
+
+use glam::Vec3;
+use rayon::prelude::*;
+use shrad_scene::Aabb;
+
+use super::{
+    cone_meets_sphere, emitters, emitting_objects, padded_swept, sample_shift, shadow_sample,
+    unoccluded_irradiance, visible_fraction, Emitter,
+};
+use crate::World;
+
+/// Direct irradiance of a set of receivers with what it was made of, so that it can be
+/// updated exactly when only occluders move (the dispersive solver's Step 1, paper 2.3.2):
+/// per (receiver, emitter) the unoccluded irradiance and which shadow rays were blocked.
+/// The rays themselves are regenerated, identically, when needed (their seed depends on the
+/// receiver and the emitter only); only where they end is kept, quantised ([`SampleEnds`]).
+///
+/// An update re-traces only the shadow rays whose segment meets a box an occluder swept; a
+/// ray that meets none sees the same geometry as before, so the result equals a full
+/// recomputation with the same samples. Valid while the emitters (their shapes, places and
+/// emission) and the receivers' places stay as they were at [`DirectCache::new`].
+#[derive(Clone, Debug, Default)]
+pub struct DirectCache {
+    samples: u32,
+    /// `u64` words of blocked bits per (receiver, emitter).
+    words: usize,
+    /// The emitting objects, in order.
+    objects: Vec<usize>,
+    receivers: Vec<u32>,
+    /// `[k * emitters + e]`: unoccluded irradiance of receiver `k` from emitter `e` (unit
+    /// radiance).
+    unoccluded: Vec<f32>,
+    /// `[(k * emitters + e) * words ..]`: bit `j` set when shadow ray `j` is blocked.
+    blocked: Vec<u64>,
+    /// `[k]`: the direct irradiance.
+    irradiance: Vec<Vec3>,
+    /// `[k]`: its irradiance is from fewer samples (a moving receiver's, see
+    /// [`DirectCache::update`]) and its blocked bits are not kept: it is traced whole, with
+    /// every sample, at the first update where it does not move.
+    coarse: Vec<bool>,
+    /// Where each shadow ray ends, quantised ([`SampleEnds`]), so that finding the rays a
+    /// mover may have changed is a segment test per ray, not a regenerated sample.
+    ends: SampleEnds,
+    /// `[b]`: a sphere holding the shadow rays' origins of receivers `b * BLOCK ..` (their
+    /// patches' centres), so that a mover far from a block's rays rejects the whole block.
+    blocks: Vec<(Vec3, f32)>,
+}
+
+/// A shadow ray to re-trace: (receiver, emitter, sample, from, to).
+type Retrace = (u32, u32, u32, Vec3, Vec3);
+
+/// Receivers per block of [`DirectCache`]'s rejection test (consecutive receivers are
+/// patches of one object, near one another).
+const BLOCK: usize = 64;
+
+/// Bounding sphere of the centres of `receivers` (padded by the shadow rays' offset).
+fn block_sphere(world: &World, receivers: &[u32]) -> (Vec3, f32) {
+    let p = &world.patches;
+    let pts = receivers.iter().map(|&i| p.centre[i as usize]);
+    let (lo, hi) = pts
+        .clone()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), c| {
+            (a.min(c), b.max(c))
+        });
+    let c = 0.5 * (lo + hi);
+    let r = pts.map(|q| (q - c).length()).fold(0.0, f32::max);
+    (c, r + 2.0 * world.eps)
+}
+
+/// Whether a shadow ray from anywhere in the sphere `(oc, or)` to anywhere in the sphere
+/// `(lc, lr)` may meet the sphere `(bc, br)`: such a segment lies within `max(or, lr)` of the
+/// segment between the centres (it is a convex mix of the two centres plus offsets of at
+/// most `or` and `lr`).
+fn capsule_meets_sphere(oc: Vec3, or: f32, lc: Vec3, lr: f32, bc: Vec3, br: f32) -> bool {
+    let axis = lc - oc;
+    let t = ((bc - oc).dot(axis) / axis.length_squared().max(1e-30)).clamp(0.0, 1.0);
+    (bc - (oc + axis * t)).length() <= br + or.max(lr) + 1e-6 * (1.0 + axis.length())
+}
+
+/// `[(k * emitters + e) * samples + j]`: the end of shadow ray `j` of receiver `k` towards
+/// emitter `e` (a point on the emitter), quantised to 16 bits an axis in `space` (6 bytes a
+/// ray; 7 MB at the 77k room). Finding the rays a mover's box meets then costs a slab test
+/// per ray against the box padded by the quantisation step (a superset: each ray found is
+/// regenerated and tested exactly before it is re-traced). Left empty above
+/// [`SampleEnds::MAX_RAYS`] rays, where the samples are regenerated instead.
+#[derive(Clone, Debug, Default)]
+struct SampleEnds {
+    space: Option<Aabb>,
+    end: Vec<[u16; 3]>,
+}
+
+impl SampleEnds {
+    /// At most this many rays' ends are kept (48 MB).
+    const MAX_RAYS: usize = 1 << 23;
+
+    fn new(world: &World, rays: usize) -> SampleEnds {
+        let space = world.scene.bounds().filter(|_| rays <= Self::MAX_RAYS);
+        let space = space.map(|b| b.padded(Vec3::splat(1e-3) + 0.01 * b.size()));
+        SampleEnds {
+            end: vec![[0; 3]; if space.is_some() { rays } else { 0 }],
+            space,
+        }
+    }
+
+    /// Quantisation step, per axis.
+    fn step(space: &Aabb) -> Vec3 {
+        space.size().max(Vec3::splat(1e-6)) / 65535.0
+    }
+
+    fn put(&mut self, at: usize, p: Vec3) {
+        if let Some(space) = &self.space {
+            if !space.contains(p) {
+                // An end outside (an emitter beyond the scene's bounds): keep none.
+                *self = SampleEnds::default();
+                return;
+            }
+            let q = ((p - space.min) / Self::step(space)).round();
+            let q = q.clamp(Vec3::ZERO, Vec3::splat(65535.0));
+            self.end[at] = [q.x as u16, q.y as u16, q.z as u16];
+        }
+    }
+
+    fn get(&self, at: usize) -> Option<Vec3> {
+        let space = self.space.as_ref()?;
+        let e = self.end[at];
+        Some(space.min + Vec3::new(e[0] as f32, e[1] as f32, e[2] as f32) * Self::step(space))
+    }
+
+    /// `boxes` padded by the quantisation step: a segment to a stored end misses them only
+    /// if the segment to the exact end misses the boxes unpadded.
+    fn pad(&self, boxes: &[Aabb]) -> Vec<Aabb> {
+        let q = self.space.as_ref().map_or(Vec3::ZERO, Self::step);
+        boxes.iter().map(|b| b.padded(q)).collect()
+    }
+}
+
+impl DirectCache {
+    /// Compute the direct irradiance of `receivers` with `samples` shadow rays per
+    /// (receiver, emitter).
+    pub fn new(world: &World, receivers: Vec<u32>, samples: u32) -> DirectCache {
+        let ems = emitters(world);
+        let samples = samples.max(1);
+        let words = (samples as usize).div_ceil(64);
+        let ne = ems.len();
+        let mut cache = DirectCache {
+            samples,
+            words,
+            objects: ems.iter().map(|e| e.object).collect(),
+            unoccluded: vec![0.0; receivers.len() * ne],
+            blocked: vec![0; receivers.len() * ne * words],
+            irradiance: vec![Vec3::ZERO; receivers.len()],
+            coarse: vec![false; receivers.len()],
+            ends: SampleEnds::new(world, receivers.len() * ne * samples as usize),
+            blocks: receivers
+                .chunks(BLOCK)
+                .map(|b| block_sphere(world, b))
+                .collect(),
+            receivers,
+        };
+        if ne > 0 {
+            let all: Vec<usize> = (0..cache.receivers.len()).collect();
+            cache.recompute(world, &ems, &all, samples);
+        }
+        cache
+    }
+
+    /// The receivers, as given to [`DirectCache::new`].
+    pub fn receivers(&self) -> &[u32] {
+        &self.receivers
+    }
+
+    /// Direct irradiance of each receiver (aligned with [`DirectCache::receivers`]).
+    pub fn irradiance(&self) -> &[Vec3] {
+        &self.irradiance
+    }
+
+    /// Whether some receiver's irradiance is from fewer samples than the cache's (it moved
+    /// at its last update); the next [`DirectCache::update`] traces it whole.
+    pub fn has_coarse(&self) -> bool {
+        self.coarse.iter().any(|&c| c)
+    }
+
+    /// Shadow rays per (receiver, emitter).
+    pub fn samples(&self) -> u32 {
+        self.samples
+    }
+
+    /// Whether the world's emitting objects are still those the cache was made with (their
+    /// places and emission are the caller's to watch).
+    pub fn same_emitters(&self, world: &World) -> bool {
+        emitting_objects(world).eq(self.objects.iter().copied())
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.receivers.len() * 4
+            + self.unoccluded.len() * 4
+            + self.blocked.len() * 8
+            + self.irradiance.len() * 12
+            + self.coarse.len()
+            + self.ends.end.len() * 6
+            + self.blocks.len() * 16
+    }
+
+    /// After occluders moved from the boxes `old` to the boxes `new`: re-trace the shadow
+    /// rays that may have changed, and recompute whole the receivers `whole` accepts (those
+    /// that moved). A blocked ray can only be freed if its blocker moved, so if its segment
+    /// meets an old box; a free ray can only be blocked by a mover's new place, so if its
+    /// segment meets a new box. The receivers `whole` accepts are traced with `whole_samples`
+    /// shadow rays (fewer than the cache's: the light of a moving receiver, whole again with
+    /// every sample once it rests). Those rays are first traced against the `movers` alone (the
+    /// objects that moved): a free ray can only be blocked by them, and a blocked ray they
+    /// still block stays blocked; only a blocked ray they no longer block is traced against
+    /// the whole scene. Returns the indices of the receivers whose irradiance was
+    /// recomputed, ascending; [`DirectCache::irradiance`] holds the new values.
+    pub fn update(
+        &mut self,
+        world: &World,
+        movers: &[u32],
+        old: &[Aabb],
+        new: &[Aabb],
+        whole: impl Fn(u32) -> bool + Sync,
+        whole_samples: u32,
+    ) -> Vec<usize> {
+        let ems = emitters(world);
+        if ems.is_empty() || self.receivers.is_empty() {
+            return Vec::new();
+        }
+        debug_assert!(self.same_emitters(world));
+        let ne = ems.len();
+        let (samples, words) = (self.samples, self.words);
+        let eps = world.eps;
+        let (old, new) = (padded_swept(old, eps), padded_swept(new, eps));
+        let spheres: Vec<(Vec3, f32)> = old.iter().chain(&new).map(Aabb::bounding_sphere).collect();
+        // Coarse receivers that rest now are traced whole too, with every sample.
+        let is_whole = |k: usize| whole(self.receivers[k]) || self.coarse[k];
+        let (whole_ks, settled_ks): (Vec<usize>, Vec<usize>) = (0..self.receivers.len())
+            .into_par_iter()
+            .filter(|&k| is_whole(k))
+            .partition(|&k| whole(self.receivers[k]));
+        let rays = self.rays_to_retrace(world, &ems, (&old, &new), &spheres, is_whole);
+        let blocked = self.trace_movers_first(world, movers, &rays, ne);
+        let mut touched: Vec<usize> = Vec::new();
+        for (&(k, e, j, ..), &b) in rays.iter().zip(&blocked) {
+            let w = &mut self.blocked[(k as usize * ne + e as usize) * words + j as usize / 64];
+            let bit = 1u64 << (j % 64);
+            if b != (*w & bit != 0) {
+                *w ^= bit;
+                touched.push(k as usize);
+            }
+        }
+        touched.sort_unstable();
+        touched.dedup();
+        // The receivers whose rays changed: their visible fractions again.
+        let values: Vec<Vec3> = touched
+            .par_iter()
+            .map(|&k| self.value(world, &ems, k))
+            .collect();
+        for (&k, v) in touched.iter().zip(values) {
+            self.irradiance[k] = v;
+        }
+        // The receivers that moved, and the coarse ones that rest now: everything again.
+        self.recompute(world, &ems, &whole_ks, whole_samples);
+        self.recompute(world, &ems, &settled_ks, samples);
+        self.refresh_blocks(world, &whole_ks);
+        touched.extend(whole_ks.iter().chain(&settled_ks));
+        touched.sort_unstable();
+        touched.dedup();
+        touched
+    }
+
+    /// The shadow rays (receiver, emitter, sample, from, to) that a mover may have changed:
+    /// of the receivers not traced whole, those blocked whose segment meets an `old` box,
+    /// those free whose segment meets a `new` one (`spheres`: the boxes' bounding spheres).
+    fn rays_to_retrace(
+        &self,
+        world: &World,
+        ems: &[Emitter],
+        (old, new): (&[Aabb], &[Aabb]),
+        spheres: &[(Vec3, f32)],
+        is_whole: impl Fn(usize) -> bool + Sync,
+    ) -> Vec<Retrace> {
+        let ne = ems.len();
+        let (samples, words) = (self.samples, self.words);
+        let p = &world.patches;
+        let eps = world.eps;
+        let (old_q, new_q) = (self.ends.pad(old), self.ends.pad(new));
+        // Whole blocks of receivers first: those whose rays to every emitter pass far from
+        // every swept box.
+        let block_may_meet = |b: usize| {
+            let (oc, or) = self.blocks[b];
+            ems.iter().any(|em| {
+                let (lc, lr) = em.sphere;
+                spheres
+                    .iter()
+                    .any(|&(bc, br)| capsule_meets_sphere(oc, or, lc, lr, bc, br))
+            })
+        };
+        let n = self.receivers.len();
+        (0..self.blocks.len())
+            .into_par_iter()
+            .filter(|&b| block_may_meet(b))
+            .flat_map_iter(|b| b * BLOCK..((b + 1) * BLOCK).min(n))
+            .filter(|&k| !is_whole(k))
+            .flat_map_iter(|k| {
+                let i = self.receivers[k] as usize;
+                let (x, n) = (p.centre[i], p.normal[i]);
+                let mut out = Vec::new();
+                for (e, em) in ems.iter().enumerate() {
+                    if self.unoccluded[k * ne + e] <= 0.0 {
+                        continue;
+                    }
+                    // Every shadow ray lies in the cone from x to the emitter's sphere.
+                    let (lc, lr) = em.sphere;
+                    if !spheres
+                        .iter()
+                        .any(|&(bc, br)| cone_meets_sphere(x, lc, lr, bc, br))
+                    {
+                        continue;
+                    }
+                    let shift = sample_shift(i, em);
+                    let bits = &self.blocked[(k * ne + e) * words..];
+                    let first = (k * ne + e) * samples as usize;
+                    for j in 0..samples {
+                        let blocked = bits[j as usize / 64] & (1 << (j % 64)) != 0;
+                        let (boxes, padded) = if blocked {
+                            (&old, &old_q)
+                        } else {
+                            (&new, &new_q)
+                        };
+                        if boxes.is_empty() {
+                            continue;
+                        }
+                        // The stored end first (a cheap superset), then the exact sample.
+                        let from = x + n * eps;
+                        if let Some(end) = self.ends.get(first + j as usize) {
+                            if !padded.iter().any(|b| b.meets_segment(from, end)) {
+                                continue;
+                            }
+                        }
+                        let (from, to, _) = shadow_sample(em, x, n, shift, j, samples, eps);
+                        if boxes.iter().any(|b| b.meets_segment(from, to)) {
+                            out.push((k as u32, e as u32, j, from, to));
+                        }
+                    }
+                }
+                out.into_iter()
+            })
+            .collect()
+    }
+
+    /// The spheres of the blocks holding receivers `ks` (which moved), where they are now.
+    fn refresh_blocks(&mut self, world: &World, ks: &[usize]) {
+        let mut blocks: Vec<usize> = ks.iter().map(|&k| k / BLOCK).collect();
+        blocks.dedup();
+        for b in blocks {
+            let ks = &self.receivers[b * BLOCK..((b + 1) * BLOCK).min(self.receivers.len())];
+            self.blocks[b] = block_sphere(world, ks);
+        }
+    }
+
+    /// Trace `rays` (receiver, emitter, sample, from, to) against the `movers` alone, then
+    /// against the whole scene those that were blocked and the movers no longer block (a
+    /// free ray can only have been blocked by a mover). Returns whether each is blocked.
+    fn trace_movers_first(
+        &self,
+        world: &World,
+        movers: &[u32],
+        rays: &[(u32, u32, u32, Vec3, Vec3)],
+        ne: usize,
+    ) -> Vec<bool> {
+        let (eps, words) = (world.eps, self.words);
+        let from: Vec<Vec3> = rays.iter().map(|r| r.3).collect();
+        let to: Vec<Vec3> = rays.iter().map(|r| r.4).collect();
+        let mut blocked = vec![false; rays.len()];
+        world
+            .vis
+            .occluded_among(&from, &to, eps, movers, &mut blocked);
+        // Blocked before, and the movers no longer block it: something else may.
+        let again: Vec<usize> = (0..rays.len())
+            .filter(|&r| {
+                let (k, e, j, ..) = rays[r];
+                let w = self.blocked[(k as usize * ne + e as usize) * words + j as usize / 64];
+                !blocked[r] && w & (1u64 << (j % 64)) != 0
+            })
+            .collect();
+        if !again.is_empty() {
+            let from: Vec<Vec3> = again.iter().map(|&r| rays[r].3).collect();
+            let to: Vec<Vec3> = again.iter().map(|&r| rays[r].4).collect();
+            let mut b = vec![false; again.len()];
+            world.vis.occluded(&from, &to, eps, &[], &mut b);
+            for (&r, b) in again.iter().zip(b) {
+                blocked[r] = b;
+            }
+        }
+        blocked
+    }
+
+    /// Trace receivers `ks` from scratch (unoccluded irradiance, shadow rays, irradiance)
+    /// with `samples` shadow rays per emitter: the cache's count, or fewer for a coarse
+    /// receiver, whose irradiance is then kept but not its rays.
+    fn recompute(&mut self, world: &World, ems: &[Emitter], ks: &[usize], samples: u32) {
+        let p = &world.patches;
+        let eps = world.eps;
+        let ne = ems.len();
+        let coarse = samples < self.samples;
+        let (samples, words) = (samples.clamp(1, self.samples), self.words);
+        let s = samples as usize;
+        let mut coarse_value = vec![Vec3::ZERO; if coarse { ks.len() } else { 0 }];
+        const CHUNK: usize = 2048;
+        for ks in ks.chunks(CHUNK) {
+            for (e, em) in ems.iter().enumerate() {
+                // Unoccluded irradiance, exact.
+                let unoccluded: Vec<f32> = ks
+                    .par_iter()
+                    .map(|&k| {
+                        let i = self.receivers[k] as usize;
+                        unoccluded_irradiance(em, p.centre[i], p.normal[i])
+                    })
+                    .collect();
+                // Shadow rays to stratified points on the emitter.
+                let mut from = vec![Vec3::ZERO; ks.len() * s];
+                let mut to = vec![Vec3::ZERO; ks.len() * s];
+                from.par_chunks_mut(s)
+                    .zip(to.par_chunks_mut(s))
+                    .enumerate()
+                    .for_each(|(c, (f, t))| {
+                        if unoccluded[c] <= 0.0 {
+                            return;
+                        }
+                        let i = self.receivers[ks[c]] as usize;
+                        let (x, n) = (p.centre[i], p.normal[i]);
+                        let shift = sample_shift(i, em);
+                        for j in 0..s {
+                            (f[j], t[j], _) =
+                                shadow_sample(em, x, n, shift, j as u32, samples, eps);
+                        }
+                    });
+                let mut blocked = vec![false; from.len()];
+                world.vis.occluded(&from, &to, eps, &[], &mut blocked);
+                if coarse {
+                    for (c, &k) in ks.iter().enumerate() {
+                        self.unoccluded[k * ne + e] = unoccluded[c];
+                        self.coarse[k] = true;
+                        let i = self.receivers[k] as usize;
+                        let fraction = visible_fraction(
+                            em,
+                            (p.centre[i], p.normal[i]),
+                            sample_shift(i, em),
+                            samples,
+                            eps,
+                            |j| blocked[c * s + j as usize],
+                        );
+                        coarse_value[c] += em.radiance * (unoccluded[c] * fraction);
+                    }
+                    continue;
+                }
+                for (c, &k) in ks.iter().enumerate() {
+                    self.coarse[k] = false;
+                    self.unoccluded[k * ne + e] = unoccluded[c];
+                    let first = (k * ne + e) * s;
+                    for (j, &end) in to[c * s..(c + 1) * s].iter().enumerate() {
+                        self.ends.put(first + j, end);
+                    }
+                    let bits = &mut self.blocked[(k * ne + e) * words..(k * ne + e + 1) * words];
+                    bits.fill(0);
+                    for (j, &b) in blocked[c * s..(c + 1) * s].iter().enumerate() {
+                        if b {
+                            bits[j / 64] |= 1 << (j % 64);
+                        }
+                    }
+                }
+            }
+            if coarse {
+                for (&k, v) in ks.iter().zip(&coarse_value) {
+                    self.irradiance[k] = *v;
+                }
+                coarse_value.iter_mut().for_each(|v| *v = Vec3::ZERO);
+                continue;
+            }
+            let values: Vec<Vec3> = ks.par_iter().map(|&k| self.value(world, ems, k)).collect();
+            for (&k, v) in ks.iter().zip(values) {
+                self.irradiance[k] = v;
+            }
+        }
+    }
+
+    /// Irradiance of receiver `k` from what is cached: per emitter, the unoccluded
+    /// irradiance times the weighted fraction of shadow rays not blocked.
+    fn value(&self, world: &World, ems: &[Emitter], k: usize) -> Vec3 {
+        let p = &world.patches;
+        let i = self.receivers[k] as usize;
+        let (x, n) = (p.centre[i], p.normal[i]);
+        let ne = ems.len();
+        let mut out = Vec3::ZERO;
+        for (e, em) in ems.iter().enumerate() {
+            let u = self.unoccluded[k * ne + e];
+            if u <= 0.0 {
+                continue;
+            }
+            let bits = &self.blocked[(k * ne + e) * self.words..];
+            let fraction = visible_fraction(
+                em,
+                (x, n),
+                sample_shift(i, em),
+                self.samples,
+                world.eps,
+                |j| bits[j as usize / 64] & (1 << (j % 64)) != 0,
+            );
+            out += em.radiance * (u * fraction);
+        }
+        out
+    }
+}

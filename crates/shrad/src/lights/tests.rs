@@ -1,0 +1,290 @@
+//! Punctual lights against closed forms on a plane, and the cache against a fresh one.
+
+use std::f32::consts::PI;
+
+use glam::{Affine3A, Quat, Vec3};
+use shrad_scene::{box_mesh, quad, Light, LightKind, Material, Object, Role, Scene};
+use shrad_vis::Backend;
+
+use super::{punctual_irradiance_all, PunctualCache};
+use crate::{PatchSizing, World};
+
+const HALF: f32 = 2.0;
+
+/// A floor of half-width [`HALF`] at y = 0 facing +Y, an optional box (half-size 0.2) resting
+/// on it at `box_at`, and `lights`.
+fn scene(lights: Vec<Light>, box_at: Option<Vec3>) -> Scene {
+    let a = HALF;
+    let floor = quad([
+        Vec3::new(-a, 0.0, -a),
+        Vec3::new(-a, 0.0, a),
+        Vec3::new(a, 0.0, a),
+        Vec3::new(a, 0.0, -a),
+    ]);
+    let mut objects = vec![Object {
+        role: Some(Role::Boundary),
+        ..Object::new("floor", floor, Material::diffuse(Vec3::splat(0.5)))
+    }];
+    if let Some(at) = box_at {
+        objects.push(Object {
+            role: Some(Role::Interior),
+            world_from_object: Affine3A::from_translation(at),
+            ..Object::new(
+                "box",
+                box_mesh(Vec3::splat(0.2), false),
+                Material::diffuse(Vec3::splat(0.5)),
+            )
+        });
+    }
+    Scene {
+        source: "test".into(),
+        objects,
+        lights,
+        ..Default::default()
+    }
+}
+
+fn point(at: Vec3, candela: f32) -> Light {
+    Light {
+        world_from_light: Affine3A::from_translation(at),
+        ..Light::new("bulb", LightKind::Point, candela)
+    }
+}
+
+fn world(s: Scene, patches: usize) -> World {
+    World::new(s, PatchSizing::Count(patches), Backend::Auto).unwrap()
+}
+
+/// `sum E_i A_i` over the floor's patches.
+fn floor_flux(w: &World, e: &[Vec3]) -> f64 {
+    w.patches
+        .range(0)
+        .map(|i| e[i].x as f64 * w.patches.area[i] as f64)
+        .sum()
+}
+
+#[test]
+fn a_point_light_follows_the_inverse_square_and_cosine_law() {
+    let (h, cd) = (1.0, 683.0);
+    let w = world(scene(vec![point(Vec3::Y * h, cd)], None), 4000);
+    let e = punctual_irradiance_all(&w, 16);
+    // The flux on the floor is I times the solid angle the square subtends from the light,
+    // 4 asin(a^2 / (a^2 + h^2)).
+    let (a2, h2) = (HALF * HALF, h * h);
+    let expected = (4.0 * (a2 / (a2 + h2)).asin()) as f64;
+    let got = floor_flux(&w, &e);
+    assert!((got / expected - 1.0).abs() < 2e-3, "{got} vs {expected}");
+    // Patch by patch: E = I h / (r^2 + h^2)^(3/2) at the centre (small patches: their
+    // footprint average is within a fraction of a percent of it).
+    for i in w.patches.range(0) {
+        let c = w.patches.centre[i];
+        let r2 = c.x * c.x + c.z * c.z;
+        let closed = h / (r2 + h2).powf(1.5);
+        assert!(
+            (e[i].x / closed - 1.0).abs() < 0.01,
+            "{c}: {} vs {closed}",
+            e[i].x
+        );
+    }
+}
+
+#[test]
+fn a_spot_falls_off_smoothly_between_its_cones() {
+    let (inner, outer) = (0.3f32, 0.6f32);
+    let spot = Light {
+        // Shining straight down from 1 above the floor.
+        world_from_light: Affine3A::from_rotation_translation(
+            Quat::from_rotation_x(-PI / 2.0),
+            Vec3::Y,
+        ),
+        ..Light::new(
+            "spot",
+            LightKind::Spot {
+                inner_cone_angle: inner,
+                outer_cone_angle: outer,
+            },
+            683.0,
+        )
+    };
+    let w = world(scene(vec![spot], None), 6000);
+    let e = punctual_irradiance_all(&w, 16);
+    // The flux is I times the integral of f over the cone: with f = t^2 and t linear in
+    // cos between the cones, 2 pi [(1 - cos inner) + (cos inner - cos outer) / 3].
+    let (ci, co) = (inner.cos(), outer.cos());
+    let expected = (2.0 * PI * ((1.0 - ci) + (ci - co) / 3.0)) as f64;
+    let got = floor_flux(&w, &e);
+    assert!((got / expected - 1.0).abs() < 5e-3, "{got} vs {expected}");
+    // Inside the inner cone: a point light; outside the outer one: nothing.
+    for i in w.patches.range(0) {
+        let c = w.patches.centre[i];
+        let r = (c.x * c.x + c.z * c.z).sqrt();
+        let angle = r.atan();
+        let (lo, hi) = (angle - 0.03, angle + 0.03); // the footprint's spread of angles
+        if hi < inner {
+            let closed = 1.0 / (r * r + 1.0).powf(1.5);
+            assert!((e[i].x / closed - 1.0).abs() < 0.01, "{c}");
+        } else if lo > outer {
+            assert_eq!(e[i].x, 0.0, "{c}");
+        }
+    }
+}
+
+#[test]
+fn a_sun_gives_e_cos_theta_everywhere() {
+    let theta = 0.7f32;
+    let towards = Vec3::new(theta.sin(), -theta.cos(), 0.0);
+    let sun = Light {
+        world_from_light: Affine3A::from_quat(Quat::from_rotation_arc(-Vec3::Z, towards)),
+        ..Light::new("sun", LightKind::Directional, 683.0 * 3.0)
+    };
+    let w = world(scene(vec![sun], None), 500);
+    let e = punctual_irradiance_all(&w, 4);
+    for i in w.patches.range(0) {
+        assert!((e[i].x - 3.0 * theta.cos()).abs() < 1e-5, "{}", e[i].x);
+    }
+}
+
+#[test]
+fn the_cache_after_moves_and_light_changes_equals_a_fresh_one() {
+    let lights = vec![
+        point(Vec3::new(0.3, 1.5, 0.2), 683.0),
+        Light {
+            world_from_light: Affine3A::from_quat(Quat::from_rotation_arc(
+                -Vec3::Z,
+                Vec3::new(0.4, -1.0, 0.3).normalize(),
+            )),
+            ..Light::new("sun", LightKind::Directional, 683.0)
+        },
+    ];
+    let mut w = world(scene(lights, Some(Vec3::new(0.0, 0.2, 0.0))), 3000);
+    let all: Vec<u32> = (0..w.patches.len() as u32).collect();
+    let mut cache = PunctualCache::new(&w, all.clone(), 16);
+    let box_world = |w: &World| {
+        w.patches.shapes[1]
+            .bounds()
+            .unwrap()
+            .transformed(w.patches.world_from_local[1])
+    };
+    let fresh_rays = {
+        let before = w.rays_cast();
+        let _ = PunctualCache::new(&w, all.clone(), 16);
+        w.rays_cast() - before
+    };
+    for step in 0..4 {
+        let old = box_world(&w);
+        let at = Vec3::new(0.5 * step as f32 - 0.6, 0.2, 0.1 * step as f32);
+        w.move_object(1, Affine3A::from_translation(at)).unwrap();
+        let new = box_world(&w);
+        let before = w.rays_cast();
+        let object = w.patches.object.clone();
+        cache.update(&w, &[old], &[new], |i| object[i as usize] == 1);
+        let traced = w.rays_cast() - before;
+        assert!(
+            traced < fresh_rays / 2,
+            "{traced} of {fresh_rays} re-traced"
+        );
+        let fresh = PunctualCache::new(&w, all.clone(), 16);
+        assert_eq!(cache.irradiance(), fresh.irradiance(), "after move {step}");
+    }
+    // A brighter light: nothing traced. A moved light: its own term again.
+    let m = w.scene.lights[0].world_from_light;
+    assert!(w.set_light(0, m, Vec3::new(1.0, 0.5, 0.2), 2000.0).unwrap());
+    let before = w.rays_cast();
+    cache.update(&w, &[], &[], |_| false);
+    assert_eq!(w.rays_cast(), before, "a strength change traces nothing");
+    assert_eq!(
+        cache.irradiance(),
+        PunctualCache::new(&w, all.clone(), 16).irradiance()
+    );
+    let moved = Affine3A::from_translation(Vec3::new(-0.7, 1.1, 0.4));
+    assert!(w.set_light(0, moved, Vec3::ONE, 683.0).unwrap());
+    cache.update(&w, &[], &[], |_| false);
+    assert_eq!(
+        cache.irradiance(),
+        PunctualCache::new(&w, all.clone(), 16).irradiance()
+    );
+    // Bad values are errors, and change nothing.
+    assert!(w.set_light(0, moved, Vec3::ONE, -1.0).is_err());
+    assert!(w.set_light(5, moved, Vec3::ONE, 1.0).is_err());
+}
+
+#[test]
+fn a_box_casts_a_shadow_and_its_lit_side_is_lit() {
+    let w = world(
+        scene(
+            vec![point(Vec3::new(0.0, 2.0, 0.0), 683.0)],
+            Some(Vec3::new(0.0, 0.2, 0.0)),
+        ),
+        3000,
+    );
+    let e = punctual_irradiance_all(&w, 16);
+    // Floor patches right under the box are in its shadow; the box's top is lit.
+    let p = &w.patches;
+    for i in p.range(0) {
+        let c = p.centre[i];
+        if c.x.abs() < 0.15 && c.z.abs() < 0.15 {
+            assert_eq!(e[i], Vec3::ZERO, "{c}");
+        }
+    }
+    let mut tops = 0;
+    for i in p.range(1).filter(|&i| p.normal[i].y > 0.9) {
+        let (c, h) = (p.centre[i], 2.0 - p.centre[i].y);
+        let closed = h / (c.x * c.x + c.z * c.z + h * h).powf(1.5);
+        assert!(
+            (e[i].x / closed - 1.0).abs() < 0.01,
+            "{c}: {} vs {closed}",
+            e[i].x
+        );
+        tops += 1;
+    }
+    assert!(tops > 0);
+}
+
+/// The sky's part of the cache (`crate::sky`) after an occluder moved equals a fresh cache,
+/// tracing only the rays the box's path meets; a changed sky re-traces it.
+#[test]
+fn the_sky_after_moves_and_a_sky_change_equals_a_fresh_one() {
+    let texels = (0..16 * 8)
+        .map(|k| Vec3::new(0.2 + (k % 7) as f32, 0.5, 0.1 * (k / 16) as f32))
+        .collect();
+    let map = shrad_scene::EnvMap::new("t.exr".into(), 16, 8, texels).unwrap();
+    let mut s = scene(Vec::new(), Some(Vec3::new(0.0, 0.2, 0.0)));
+    s.environment = Some(shrad_scene::Environment::from_map(map));
+    let mut w = world(s, 2000);
+    let all: Vec<u32> = (0..w.patches.len() as u32).collect();
+    let mut cache = PunctualCache::new(&w, all.clone(), 16);
+    let box_world = |w: &World| {
+        w.patches.shapes[1]
+            .bounds()
+            .unwrap()
+            .transformed(w.patches.world_from_local[1])
+    };
+    let before = w.rays_cast();
+    let _ = PunctualCache::new(&w, all.clone(), 16);
+    let fresh_rays = w.rays_cast() - before;
+    for step in 0..3 {
+        let old = box_world(&w);
+        let at = Vec3::new(0.4 * step as f32 - 0.5, 0.2, -0.1 * step as f32);
+        w.move_object(1, Affine3A::from_translation(at)).unwrap();
+        let new = box_world(&w);
+        let before = w.rays_cast();
+        let object = w.patches.object.clone();
+        let changed = cache.update(&w, &[old], &[new], |i| object[i as usize] == 1);
+        assert!(!changed.is_empty());
+        let traced = w.rays_cast() - before;
+        assert!(traced < fresh_rays, "{traced} of {fresh_rays} re-traced");
+        let fresh = PunctualCache::new(&w, all.clone(), 16);
+        assert_eq!(cache.irradiance(), fresh.irradiance(), "after move {step}");
+    }
+    let uniform = shrad_scene::Environment::uniform(Vec3::new(0.3, 0.2, 0.1));
+    assert!(w.set_sky(Some(uniform)).unwrap());
+    assert!(!cache.same_sky(&w));
+    cache.update(&w, &[], &[], |_| false);
+    assert_eq!(
+        cache.irradiance(),
+        PunctualCache::new(&w, all.clone(), 16).irradiance()
+    );
+    assert!(w.set_sky(None).unwrap());
+    cache.update(&w, &[], &[], |_| false);
+    assert!(cache.irradiance().iter().all(|e| *e == Vec3::ZERO));
+}

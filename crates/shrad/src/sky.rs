@@ -1,0 +1,492 @@
+//! The sky (spec section 2, "Lights that are not surfaces"): radiance from outside the
+//! scene, a uniform value or an equirectangular map ([`shrad_scene::Environment`]), met by
+//! every ray that leaves the scene.
+//!
+//! Like a punctual light it has no surface, so its light enters where the paper puts every
+//! light's, the direct-light step (2.3.2): [`SkyCache`] gives each patch the footprint
+//! average of `E = int L(w) V(w) cos(theta) dw` with sampled visibility (one shadow ray a
+//! sample, towards `far`), and every later step carries the reflected light unchanged. A
+//! uniform sky is sampled by cosine (an unoccluded sample gives exactly `pi L`); a map by a
+//! mixture of its luminance (a luminance x `sin(theta)` CDF over the texels, so a small
+//! bright sun converges) and cosine, each sample weighted by the mixture's density (unbiased
+//! whatever the map). The cache keeps which rays are blocked, so a mover re-traces only the
+//! rays that meet a box it swept (exactly what a fresh cache gives); a changed sky re-traces
+//! everything. Pictures evaluate the same estimator per pixel ([`point_irradiance`]) and
+//! show the sky where a primary ray leaves the scene ([`Sky::radiance`]).
+//!
+//! Probes do not see the sky: its direct light is on every patch already (as a punctual
+//! light's), so a probe that saw it would count it twice.
+
+use std::f32::consts::{PI, TAU};
+use std::sync::Arc;
+
+use glam::Vec3;
+use rayon::prelude::*;
+use shrad_scene::{Aabb, Environment};
+
+use crate::direct::padded_swept;
+use crate::sampling::{hammersley, hash, hash2, square_to_cosine_hemisphere, unit};
+use crate::World;
+
+/// The sky ready for lookups and sampling.
+#[derive(Debug)]
+pub struct Sky {
+    /// As the scene gave it.
+    pub environment: Environment,
+    /// Scaled uniform radiance (no map).
+    uniform: Vec3,
+    /// Scaled texels, row 0 at the top.
+    texels: Vec<Vec3>,
+    width: usize,
+    height: usize,
+    /// `(sin, cos)` of the rotation about +Y.
+    rot: (f32, f32),
+    /// Cumulative row weights (`height + 1`, last = 1).
+    marginal: Vec<f32>,
+    /// Per row, cumulative texel weights (`width + 1` each, last = 1).
+    conditional: Vec<f32>,
+    /// Per texel, its probability.
+    prob: Vec<f32>,
+}
+
+fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+/// Index of the interval of the cumulative `cdf` (ascending, first 0) holding `u`.
+fn find(cdf: &[f32], u: f32) -> usize {
+    let k = cdf.partition_point(|&c| c <= u);
+    k.clamp(1, cdf.len() - 1) - 1
+}
+
+impl Sky {
+    /// The sky of `environment` (checked by [`Environment::problem`] where it was made).
+    pub fn new(environment: &Environment) -> Sky {
+        let s = environment.scale;
+        let r = environment.rotate_deg.to_radians();
+        let mut sky = Sky {
+            environment: environment.clone(),
+            uniform: environment.radiance * s,
+            texels: Vec::new(),
+            width: 0,
+            height: 0,
+            rot: r.sin_cos(),
+            marginal: Vec::new(),
+            conditional: Vec::new(),
+            prob: Vec::new(),
+        };
+        if let Some(map) = &environment.map {
+            let (w, h) = (map.width as usize, map.height as usize);
+            sky.texels = map.texels.iter().map(|t| *t * s).collect();
+            sky.width = w;
+            sky.height = h;
+            sky.build_cdf();
+        }
+        sky
+    }
+
+    fn build_cdf(&mut self) {
+        let (w, h) = (self.width, self.height);
+        let mut weights = vec![0.0f64; w * h];
+        for y in 0..h {
+            let st = (PI * (y as f32 + 0.5) / h as f32).sin() as f64;
+            for x in 0..w {
+                weights[y * w + x] = luminance(self.texels[y * w + x]).max(0.0) as f64 * st;
+            }
+        }
+        let total: f64 = weights.iter().sum();
+        if total <= 0.0 {
+            return;
+        }
+        self.prob = weights.iter().map(|&x| (x / total) as f32).collect();
+        self.conditional = vec![0.0; h * (w + 1)];
+        self.marginal = vec![0.0; h + 1];
+        let mut acc_rows = 0.0f64;
+        for y in 0..h {
+            let row: f64 = weights[y * w..(y + 1) * w].iter().sum();
+            let c = &mut self.conditional[y * (w + 1)..(y + 1) * (w + 1)];
+            let mut acc = 0.0f64;
+            for x in 0..w {
+                acc += weights[y * w + x];
+                c[x + 1] = if row > 0.0 {
+                    (acc / row) as f32
+                } else {
+                    (x + 1) as f32 / w as f32
+                };
+            }
+            c[w] = 1.0;
+            acc_rows += row;
+            self.marginal[y + 1] = (acc_rows / total) as f32;
+        }
+        self.marginal[h] = 1.0;
+    }
+
+    /// Is it a uniform sky (no map)?
+    pub fn is_uniform(&self) -> bool {
+        self.width == 0
+    }
+
+    /// Does it send no light?
+    pub fn is_black(&self) -> bool {
+        if self.is_uniform() {
+            self.uniform.max_element() <= 0.0
+        } else {
+            self.prob.is_empty()
+        }
+    }
+
+    /// The map's `(u, v)` in [0, 1)^2 of the world direction `d` (unit).
+    fn uv(&self, d: Vec3) -> (f32, f32) {
+        // World = R_y(rot) local: local = R_y(-rot) world.
+        let (s, c) = self.rot;
+        let lx = c * d.x - s * d.z;
+        let lz = s * d.x + c * d.z;
+        let u = lx.atan2(-lz) / TAU;
+        let u = if u < 0.0 { u + 1.0 } else { u };
+        (u.min(0.999_999), d.y.clamp(-1.0, 1.0).acos() / PI)
+    }
+
+    /// World direction of the map's `(u, v)`.
+    fn direction(&self, u: f32, v: f32) -> Vec3 {
+        let (sp, cp) = (TAU * u).sin_cos();
+        let (st, ct) = (PI * v).sin_cos();
+        let (lx, ly, lz) = (sp * st, ct, -cp * st);
+        let (s, c) = self.rot;
+        Vec3::new(c * lx + s * lz, ly, -s * lx + c * lz)
+    }
+
+    fn texel(&self, u: f32, v: f32) -> usize {
+        let x = ((u * self.width as f32) as usize).min(self.width - 1);
+        let y = ((v * self.height as f32) as usize).min(self.height - 1);
+        y * self.width + x
+    }
+
+    /// Radiance arriving from the world direction `d` (unit): what a ray leaving the scene
+    /// along `d` sees.
+    pub fn radiance(&self, d: Vec3) -> Vec3 {
+        if self.is_uniform() {
+            return self.uniform;
+        }
+        let (u, v) = self.uv(d);
+        self.texels[self.texel(u, v)]
+    }
+
+    /// Solid-angle density of [`Sky::sample_map`] at `d`.
+    fn map_pdf(&self, d: Vec3) -> f32 {
+        if self.prob.is_empty() {
+            return 0.0;
+        }
+        let (u, v) = self.uv(d);
+        let st = (PI * v).sin();
+        if st <= 0.0 {
+            return 0.0;
+        }
+        self.prob[self.texel(u, v)] * (self.width * self.height) as f32 / (2.0 * PI * PI * st)
+    }
+
+    /// A direction drawn by the map's luminance from `(a, b)` in [0, 1)^2.
+    fn sample_map(&self, a: f32, b: f32) -> Vec3 {
+        let y = find(&self.marginal, a);
+        let (m0, m1) = (self.marginal[y], self.marginal[y + 1]);
+        let fy = if m1 > m0 { (a - m0) / (m1 - m0) } else { 0.5 };
+        let c = &self.conditional[y * (self.width + 1)..(y + 1) * (self.width + 1)];
+        let x = find(c, b);
+        let fx = if c[x + 1] > c[x] {
+            (b - c[x]) / (c[x + 1] - c[x])
+        } else {
+            0.5
+        };
+        let u = (x as f32 + fx.clamp(0.0, 1.0)) / self.width as f32;
+        let v = (y as f32 + fy.clamp(0.0, 1.0)) / self.height as f32;
+        self.direction(u, v)
+    }
+
+    /// Sample `j` of an estimate of the irradiance at a point of unit normal `n` from
+    /// `(a, b)` in [0, 1)^2: the direction and its weight `L cos / pdf` (zero below the
+    /// horizon). A uniform sky is sampled by cosine; a map by its luminance for even `j`
+    /// and by cosine for odd `j`, weighted by the mixture of the two densities.
+    pub fn sample(&self, n: Vec3, j: u32, a: f32, b: f32) -> (Vec3, Vec3) {
+        if self.is_uniform() {
+            return (square_to_cosine_hemisphere(a, b, n), self.uniform * PI);
+        }
+        if self.prob.is_empty() {
+            return (n, Vec3::ZERO);
+        }
+        let d = if j % 2 == 0 {
+            self.sample_map(a, b)
+        } else {
+            square_to_cosine_hemisphere(a, b, n)
+        };
+        let cos = n.dot(d);
+        if cos <= 1e-6 {
+            return (d, Vec3::ZERO);
+        }
+        let pdf = 0.5 * self.map_pdf(d) + 0.5 * cos / PI;
+        if pdf <= 0.0 {
+            return (d, Vec3::ZERO);
+        }
+        (d, self.radiance(d) * (cos / pdf))
+    }
+}
+
+/// The world's sky, if it has one that sends light.
+fn lit(world: &World) -> Option<&Arc<Sky>> {
+    world.sky.as_ref().filter(|s| !s.is_black())
+}
+
+/// Sample `j` of `samples` on receiver `i`: (footprint point, direction, weight).
+fn receiver_sample(world: &World, sky: &Sky, i: usize, j: u32, samples: u32) -> (Vec3, Vec3, Vec3) {
+    let seed = hash(i as u32 ^ 0x5c4e_9d1b);
+    let (u, v) = hammersley(j, samples, (unit(seed), unit(hash(seed))));
+    let x = world.patches.sample_point(i, u, v);
+    // The direction from a second, independent stratified pair.
+    let s2 = hash2(seed, 0x2f6b_11a3);
+    let (a, b) = hammersley(
+        (j.wrapping_mul(7919)) % samples,
+        samples,
+        (unit(s2), unit(hash(s2))),
+    );
+    let (d, w) = sky.sample(world.patches.normal[i], j, a, b);
+    (x, d, w)
+}
+
+/// The sky's direct irradiance of a set of patches with the rays it was made of (see the
+/// module docs).
+#[derive(Clone, Debug, Default)]
+pub struct SkyCache {
+    sky: Option<Arc<Sky>>,
+    samples: u32,
+    words: usize,
+    receivers: Vec<u32>,
+    /// `[k * words ..]`: bit `j` set when ray `j` is blocked.
+    blocked: Vec<u64>,
+    /// `[k]`: the irradiance.
+    irradiance: Vec<Vec3>,
+}
+
+impl SkyCache {
+    /// Trace the sky's direct irradiance of `receivers` with `samples` rays each (an empty
+    /// cache when the world has no sky that sends light).
+    pub fn new(world: &World, receivers: &[u32], samples: u32) -> SkyCache {
+        let samples = samples.max(1);
+        let words = (samples as usize).div_ceil(64);
+        let n = receivers.len();
+        let mut cache = SkyCache {
+            sky: lit(world).cloned(),
+            samples,
+            words,
+            receivers: receivers.to_vec(),
+            blocked: vec![0; n * words],
+            irradiance: vec![Vec3::ZERO; n],
+        };
+        if cache.sky.is_some() {
+            let all: Vec<usize> = (0..n).collect();
+            cache.trace(world, &all);
+        }
+        cache
+    }
+
+    /// Irradiance of each receiver (aligned with the receivers given).
+    pub fn irradiance(&self) -> &[Vec3] {
+        &self.irradiance
+    }
+
+    /// Is this the sky the world has now?
+    pub fn same_sky(&self, world: &World) -> bool {
+        match (&self.sky, lit(world)) {
+            (None, None) => true,
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        }
+    }
+
+    /// Bring the cache to the world's state after occluders moved `old -> new` (boxes) and
+    /// the receivers `whole` accepts moved themselves; a changed sky re-traces everything.
+    /// Returns the receivers whose irradiance changed, ascending.
+    pub fn update(
+        &mut self,
+        world: &World,
+        old: &[Aabb],
+        new: &[Aabb],
+        whole: impl Fn(u32) -> bool + Sync,
+    ) -> Vec<usize> {
+        let n = self.receivers.len();
+        if !self.same_sky(world) {
+            *self = SkyCache::new(world, &self.receivers, self.samples);
+            return (0..n).collect();
+        }
+        if self.sky.is_none() {
+            return Vec::new();
+        }
+        let ks: Vec<usize> = (0..n)
+            .into_par_iter()
+            .filter(|&k| whole(self.receivers[k]))
+            .collect();
+        self.trace(world, &ks);
+        let mut touched = ks.clone();
+        touched.extend(self.retrace_near(world, old, new, &ks));
+        touched.sort_unstable();
+        touched.dedup();
+        touched
+    }
+
+    /// Re-trace the rays of receivers not in `skip` that a mover's old box (blocked rays) or
+    /// new box (free rays) meets; returns the receivers whose irradiance changed.
+    fn retrace_near(
+        &mut self,
+        world: &World,
+        old: &[Aabb],
+        new: &[Aabb],
+        skip: &[usize],
+    ) -> Vec<usize> {
+        let Some(sky) = self.sky.clone() else {
+            return Vec::new();
+        };
+        let eps = world.eps;
+        let (old, new) = (padded_swept(old, eps), padded_swept(new, eps));
+        if old.is_empty() && new.is_empty() {
+            return Vec::new();
+        }
+        let (samples, words, far) = (self.samples, self.words, world.far());
+        let rays: Vec<(u32, u32, Vec3, Vec3)> = (0..self.receivers.len())
+            .into_par_iter()
+            .filter(|k| skip.binary_search(k).is_err())
+            .flat_map_iter(|k| {
+                let i = self.receivers[k] as usize;
+                let n = world.patches.normal[i];
+                let bits = &self.blocked[k * words..(k + 1) * words];
+                let (sky, old, new) = (&sky, &old, &new);
+                (0..samples).filter_map(move |j| {
+                    let (x, d, w) = receiver_sample(world, sky, i, j, samples);
+                    if w.max_element() <= 0.0 {
+                        return None;
+                    }
+                    let blocked = bits[j as usize / 64] & (1 << (j % 64)) != 0;
+                    let boxes = if blocked { old } else { new };
+                    let (from, to) = (x + n * eps, x + d * far);
+                    boxes
+                        .iter()
+                        .any(|b| b.meets_segment(from, to))
+                        .then_some((k as u32, j, from, to))
+                })
+            })
+            .collect();
+        let from: Vec<Vec3> = rays.iter().map(|r| r.2).collect();
+        let to: Vec<Vec3> = rays.iter().map(|r| r.3).collect();
+        let mut blocked = vec![false; rays.len()];
+        world.vis.occluded(&from, &to, eps, &[], &mut blocked);
+        let mut changed: Vec<usize> = Vec::new();
+        for (&(k, j, ..), &b) in rays.iter().zip(&blocked) {
+            let w = &mut self.blocked[k as usize * words + j as usize / 64];
+            let bit = 1u64 << (j % 64);
+            if b != (*w & bit != 0) {
+                *w ^= bit;
+                changed.push(k as usize);
+            }
+        }
+        changed.sort_unstable();
+        changed.dedup();
+        for &k in &changed {
+            self.irradiance[k] = self.sum(world, &sky, k);
+        }
+        changed
+    }
+
+    /// Irradiance of receiver `k` from its cached blocked bits.
+    fn sum(&self, world: &World, sky: &Sky, k: usize) -> Vec3 {
+        let i = self.receivers[k] as usize;
+        let bits = &self.blocked[k * self.words..(k + 1) * self.words];
+        let mut e = Vec3::ZERO;
+        for j in 0..self.samples {
+            if bits[j as usize / 64] & (1 << (j % 64)) == 0 {
+                e += receiver_sample(world, sky, i, j, self.samples).2;
+            }
+        }
+        e / self.samples as f32
+    }
+
+    /// Trace receivers `ks` from scratch.
+    fn trace(&mut self, world: &World, ks: &[usize]) {
+        let Some(sky) = self.sky.clone() else {
+            return;
+        };
+        let (words, samples) = (self.words, self.samples);
+        let s = samples as usize;
+        let (eps, far) = (world.eps, world.far());
+        for ks in ks.chunks(4096) {
+            let rays: Vec<(Vec3, Vec3, Vec3)> = ks
+                .par_iter()
+                .flat_map_iter(|&k| {
+                    let i = self.receivers[k] as usize;
+                    let n = world.patches.normal[i];
+                    let sky = &sky;
+                    (0..samples).map(move |j| {
+                        let (x, d, w) = receiver_sample(world, sky, i, j, samples);
+                        if w.max_element() > 0.0 {
+                            (x + n * eps, x + d * far, w)
+                        } else {
+                            (x, x, Vec3::ZERO)
+                        }
+                    })
+                })
+                .collect();
+            let from: Vec<Vec3> = rays.iter().map(|r| r.0).collect();
+            let to: Vec<Vec3> = rays.iter().map(|r| r.1).collect();
+            let mut blocked = vec![false; rays.len()];
+            world.vis.occluded(&from, &to, eps, &[], &mut blocked);
+            for (c, &k) in ks.iter().enumerate() {
+                let bits = &mut self.blocked[k * words..(k + 1) * words];
+                bits.fill(0);
+                let mut e = Vec3::ZERO;
+                for j in 0..s {
+                    if blocked[c * s + j] {
+                        bits[j / 64] |= 1 << (j % 64);
+                    } else {
+                        e += rays[c * s + j].2;
+                    }
+                }
+                self.irradiance[k] = e / s as f32;
+            }
+        }
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.receivers.len() * 16 + self.blocked.len() * 8
+    }
+}
+
+/// Rays a picture casts per pixel towards the sky.
+pub const PIXEL_SAMPLES: u32 = 32;
+
+/// The sky's direct irradiance at the points `xs` (unit normals `ns`), [`PIXEL_SAMPLES`]
+/// rays each: what a picture shows per pixel. Zero without a sky.
+pub fn point_irradiance(world: &World, xs: &[Vec3], ns: &[Vec3]) -> Vec<Vec3> {
+    let mut out = vec![Vec3::ZERO; xs.len()];
+    let Some(sky) = lit(world) else {
+        return out;
+    };
+    let (eps, far, s) = (world.eps, world.far(), PIXEL_SAMPLES);
+    let rays: Vec<(Vec3, Vec3, Vec3)> = (0..xs.len())
+        .into_par_iter()
+        .flat_map_iter(|k| {
+            let (x, n) = (xs[k], ns[k]);
+            let seed = hash(k as u32 ^ 0x7a3d_c5e1);
+            (0..s).map(move |j| {
+                let (a, b) = hammersley(j, s, (unit(seed), unit(hash(seed))));
+                let (d, w) = sky.sample(n, j, a, b);
+                (x + n * eps, x + d * far, w)
+            })
+        })
+        .collect();
+    let from: Vec<Vec3> = rays.iter().map(|r| r.0).collect();
+    let to: Vec<Vec3> = rays.iter().map(|r| r.1).collect();
+    let mut blocked = vec![false; rays.len()];
+    world.vis.occluded(&from, &to, eps, &[], &mut blocked);
+    for (r, (ray, b)) in rays.iter().zip(blocked).enumerate() {
+        if !b {
+            out[r / s as usize] += ray.2 / s as f32;
+        }
+    }
+    out
+}
