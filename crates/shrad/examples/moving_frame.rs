@@ -3,7 +3,7 @@
 //! forth along x before every frame (as `shrad bench` does), and then left still. Prints the
 //! medians of the frame and of each step, the rays cast, and the still frames after.
 //!
-//! `cargo run --release --example moving_frame [patches] [objects] [frames] [budget_ms|-] [key=value ...] [error]`
+//! `cargo run --release --example moving_frame [patches] [objects] [frames] [budget_ms|-] [key=value ...] [error] [smallest]`
 use glam::{Affine3A, Vec3};
 use shrad::engine::Engine;
 use shrad::frame::FrameStats;
@@ -68,6 +68,9 @@ fn main() {
     let rest: Vec<String> = args.collect();
     let settings: Vec<String> = rest.iter().filter(|a| a.contains('=')).cloned().collect();
     let with_error = rest.iter().any(|a| a == "error");
+    // and `smallest`: move the smallest interior object instead of the largest (the bench's
+    // objects scenes).
+    let smallest = rest.iter().any(|a| a == "smallest");
     let scene = room(&RoomParams {
         objects,
         patches,
@@ -91,10 +94,12 @@ fn main() {
         t.elapsed().as_secs_f64()
     );
     let p = &engine.world().patches;
-    let mover = (0..p.object_role.len())
-        .filter(|&o| p.object_role[o] == Role::Interior)
-        .max_by_key(|&o| p.range(o).len())
-        .expect("an interior object");
+    let interior = (0..p.object_role.len()).filter(|&o| p.object_role[o] == Role::Interior);
+    let mover = match smallest {
+        true => interior.min_by_key(|&o| p.range(o).len()),
+        false => interior.max_by_key(|&o| p.range(o).len()),
+    }
+    .expect("an interior object");
     println!("mover: object {mover}, {} patches", p.range(mover).len());
     engine.converge(2);
     let rest = engine.transform(mover);

@@ -90,6 +90,8 @@ pub struct Dispersive {
     indirect: Vec<Vec3>,
     /// One zero per patch: Step 3 sums its pieces here.
     scratch: Vec<Vec3>,
+    /// Per patch, all false between uses: Step 3's spread marks the patches it reaches.
+    reached: Vec<bool>,
     /// Irradiance of boundary patches from other boundary patches.
     wall: Vec<Vec3>,
     /// Form-factor rows among boundary patches (aligned with `boundary_patches`), if the
@@ -215,6 +217,7 @@ impl Dispersive {
             probe_irradiance: vec![Vec3::ZERO; n],
             indirect: vec![Vec3::ZERO; n],
             scratch: vec![Vec3::ZERO; n],
+            reached: vec![false; n],
             wall: vec![Vec3::ZERO; n],
             neighbours: if options.splat_smoothing {
                 Neighbours::of_boundary(world)

@@ -132,6 +132,11 @@ pub struct DispersiveOptions {
     /// moving object is wrong by its motion anyway, so the frame spends its rays on
     /// following it; the light settles at full resolution once it rests).
     pub coarse_while_moving: bool,
+    /// While an object moves (with `coarse_while_moving`), Step 3 sends its light from one
+    /// SH emitter at its box centre, as the paper does, instead of one per face direction
+    /// (`emitter_per_face`): a sixth of the splat's rays for light that is wrong by the
+    /// motion anyway; per face again once it rests.
+    pub one_emitter_while_moving: bool,
 }
 
 impl DispersiveOptions {
@@ -158,6 +163,7 @@ impl DispersiveOptions {
             splat_smoothing: false,
             sleep_tolerance: 0.0,
             coarse_while_moving: false,
+            one_emitter_while_moving: false,
         }
     }
 
@@ -182,6 +188,7 @@ impl DispersiveOptions {
             splat_smoothing: true,
             sleep_tolerance: 1e-4,
             coarse_while_moving: true,
+            one_emitter_while_moving: true,
             ..Self::paper()
         }
     }

@@ -30,128 +30,241 @@ impl Dispersive {
     /// Step 3 (paper 2.3.4): each lit object sends its reflected light to the boundary as one
     /// SH emitter at its centre, replacing its previous contribution. Returns the flux sent.
     pub(super) fn objects_to_boundary(&mut self, world: &World, lit: Vec<usize>) -> f64 {
-        let p = &world.patches;
-        let bands = self.options.bands;
-        let nc = num_coeffs(bands);
         let mut flux_sent = 0.0;
         for k in lit {
             let started = std::time::Instant::now();
-            let ob = &self.objects[k];
-            let o = ob.object;
-            let m = p.world_from_local[o];
-            let range = p.range(o);
-            let method = self.to_boundary_method();
-            // The geometry of its emitters, cached between updates (`caches.rs`).
-            let mut cache = std::mem::take(&mut self.objects[k].emitter_cache);
-            let ob = &self.objects[k];
             let tt = std::time::Instant::now();
-            let coarse = self.cameras_for(k).2;
-            if cache.key != Some(m) {
-                cache = self.emitter_geometry(world, k, m, method);
-            }
-            super::tr("emitter_geometry", tt);
-            let tt = std::time::Instant::now();
-            // Pieces (boundary patch, value), several per patch: irradiance from a gather,
-            // flux from a splat.
-            let mut pieces: Vec<(u32, Vec3)> = Vec::new();
-            for (((_, members), lobes), rays) in
-                ob.emitters.iter().zip(&cache.lobes).zip(&mut cache.rays)
-            {
-                // Outgoing intensity in SH: sum_i (rho_i E_i) A_i / pi * A_l Y_k(d_i).
-                let mut intensity = vec![Vec3::ZERO; nc];
-                for (&k, lobe) in members.iter().zip(lobes.chunks_exact(nc)) {
-                    let i = range.start + k as usize;
-                    let reflected = self.radiosity[i] - world.exitance[i];
-                    let scale = reflected * p.area[i] * std::f32::consts::FRAC_1_PI;
-                    for c in 0..nc {
-                        intensity[c] += scale * lobe[c];
-                    }
-                }
-                let intensity = ShRgb::from_coeffs(intensity);
-                pieces.extend(match rays {
-                    EmitterRays::Splat(texels) => {
-                        self.splat(world, self.cameras_for(k).1, o, texels, &intensity)
-                    }
-                    EmitterRays::Gather(entries) => {
-                        let soften = if self.options.emitter_per_face {
-                            members
-                                .iter()
-                                .map(|&k| p.area[range.start + k as usize])
-                                .sum::<f32>()
-                                * std::f32::consts::FRAC_1_PI
-                        } else {
-                            0.0
-                        };
-                        self.gather(world, o, entries, &intensity, soften)
-                    }
-                });
-            }
+            let pieces = self.emit(world, k);
             super::tr("emit", tt);
             let tt = std::time::Instant::now();
-            // Kept unless the caches are off or it would be too large (then it is rebuilt at
-            // every update, as the uncached code would).
-            if self.caching && !coarse && cache.bytes() <= MAX_STEP3_BYTES {
-                self.objects[k].emitter_cache = cache;
-            }
-            let contribution = match method {
-                ToBoundary::Gather => sum_by_patch(&mut self.scratch, pieces),
-                _ if self.options.splat_smoothing => {
-                    // Each patch's flux spread over its neighbourhood in proportion to area.
-                    let flux = sum_by_patch(&mut self.scratch, pieces);
-                    let near = &self.neighbours;
-                    let spread = flux.iter().flat_map(|&(k, f)| {
-                        let w = f * near.inv_area[k as usize];
-                        near.of(k as usize).iter().map(move |&i| (i, w))
-                    });
-                    sum_by_patch(&mut self.scratch, spread)
-                }
-                _ => {
-                    let by_area = pieces.into_iter().map(|(j, f)| (j, f / p.area[j as usize]));
-                    sum_by_patch(&mut self.scratch, by_area)
-                }
-            };
-            // An object cannot send the boundary more than it reflects: a contribution beyond
-            // that (patches measured in the wrong units, a splat that aliases) is damped to
-            // it, and the frame says so.
-            let reflected: f64 = range
-                .clone()
-                .map(|i| ((self.radiosity[i] - world.exitance[i]) * p.area[i]).element_sum() as f64)
-                .sum::<f64>()
-                / 3.0;
-            let sent: f64 = contribution
-                .iter()
-                .map(|&(j, e)| (e * p.area[j as usize]).element_sum() as f64)
-                .sum::<f64>()
-                / 3.0;
-            let mut contribution = contribution;
-            let within = sent <= reflected * crate::energy::BOUND_TOLERANCE + f64::MIN_POSITIVE;
-            if !within {
-                let s = if sent.is_finite() && sent > 0.0 {
-                    (reflected.max(0.0) / sent) as f32
-                } else {
-                    0.0
-                };
-                contribution.iter_mut().for_each(|(_, e)| *e *= s);
-                let note = format!(
-                    "object '{}' sent {sent:.4e} to the boundary but reflects only {reflected:.4e}: its contribution was damped by {s:.3}",
-                    world.scene.objects[o].name
-                );
-                self.step_warnings.push(note);
-            }
-            // Replace the object's previous contribution (paper: "只更新当前物体对它的影响").
-            for &(j, e) in &self.objects[k].to_boundary {
-                self.indirect[j as usize] -= e;
-            }
-            for &(j, e) in &contribution {
-                self.indirect[j as usize] += e;
-                flux_sent += (e * p.area[j as usize]).element_sum() as f64 / 3.0;
-            }
-            self.objects[k].to_boundary = contribution;
+            let contribution = self.pieces_to_irradiance(world, pieces);
+            let contribution = self.within_reflected(world, k, contribution);
+            flux_sent += self.replace_contribution(world, k, contribution);
             // An object's cost, for a budget: its Step 2 and its Step 3.
             self.scheduler.add_cost(k, super::ms(started));
             super::tr("sum_and_replace", tt);
         }
         flux_sent
+    }
+
+    /// Object `k`'s emitters lit from its current radiosity, sent to the boundary: pieces
+    /// (boundary patch, value), several per patch, irradiance from a gather and flux from a
+    /// splat. The emitters' geometry and rays are cached between updates (`caches.rs`).
+    fn emit(&mut self, world: &World, k: usize) -> Vec<(u32, Vec3)> {
+        let p = &world.patches;
+        let o = self.objects[k].object;
+        let m = p.world_from_local[o];
+        let method = self.to_boundary_method();
+        let coarse = self.cameras_for(k).2;
+        // While it moves (coarse), one emitter at the box centre as in the paper instead of
+        // one per face direction: a sixth of the splat's rays and pieces, for light that is
+        // wrong by the motion anyway; per face again as soon as it rests.
+        let merged =
+            coarse && self.options.one_emitter_while_moving && self.objects[k].emitters.len() > 1;
+        let emitters = if merged {
+            1
+        } else {
+            self.objects[k].emitters.len()
+        };
+        let mut cache = std::mem::take(&mut self.objects[k].emitter_cache);
+        if cache.key != Some(m) || cache.rays.len() != emitters {
+            cache = self.emitter_geometry(world, k, m, method, merged);
+        }
+        let ob = &self.objects[k];
+        let intensities: Vec<ShRgb> = ob
+            .emitters
+            .iter()
+            .zip(&cache.lobes)
+            .map(|((_, members), lobes)| self.emitter_intensity(world, k, members, lobes))
+            .collect();
+        let soften = |members: &mut dyn Iterator<Item = &u32>| {
+            let range = p.range(o);
+            match self.options.emitter_per_face {
+                true => {
+                    members
+                        .map(|&k| p.area[range.start + k as usize])
+                        .sum::<f32>()
+                        * std::f32::consts::FRAC_1_PI
+                }
+                false => 0.0,
+            }
+        };
+        let pieces = if merged {
+            let mut total = ShRgb::zeros(self.options.bands);
+            intensities.iter().for_each(|i| total.add(i));
+            let soften = soften(&mut ob.emitters.iter().flat_map(|(_, m)| m));
+            self.emit_one(world, k, &mut cache.rays[0], &total, soften)
+        } else {
+            // The emitters in parallel: each has its own rays.
+            let each: Vec<Vec<(u32, Vec3)>> = ob
+                .emitters
+                .par_iter()
+                .zip(cache.rays.par_iter_mut())
+                .zip(&intensities)
+                .map(|(((_, members), rays), intensity)| {
+                    self.emit_one(world, k, rays, intensity, soften(&mut members.iter()))
+                })
+                .collect();
+            each.concat()
+        };
+        // Kept unless the caches are off or it would be too large (then it is rebuilt at
+        // every update, as the uncached code would).
+        if self.caching && !coarse && cache.bytes() <= MAX_STEP3_BYTES {
+            self.objects[k].emitter_cache = cache;
+        }
+        pieces
+    }
+
+    /// The outgoing intensity of one emitter of object `k` in SH:
+    /// `sum_i (rho_i E_i) A_i / pi * A_l Y_k(d_i)` over its `members` (2.3.4 Step 1).
+    fn emitter_intensity(&self, world: &World, k: usize, members: &[u32], lobes: &[f32]) -> ShRgb {
+        let p = &world.patches;
+        let nc = num_coeffs(self.options.bands);
+        let range = p.range(self.objects[k].object);
+        let mut intensity = vec![Vec3::ZERO; nc];
+        for (&m, lobe) in members.iter().zip(lobes.chunks_exact(nc)) {
+            let i = range.start + m as usize;
+            let reflected = self.radiosity[i] - world.exitance[i];
+            let scale = reflected * p.area[i] * std::f32::consts::FRAC_1_PI;
+            for c in 0..nc {
+                intensity[c] += scale * lobe[c];
+            }
+        }
+        ShRgb::from_coeffs(intensity)
+    }
+
+    /// One emitter of object `k` sent along its cached rays.
+    fn emit_one(
+        &self,
+        world: &World,
+        k: usize,
+        rays: &mut EmitterRays,
+        intensity: &ShRgb,
+        soften: f32,
+    ) -> Vec<(u32, Vec3)> {
+        let o = self.objects[k].object;
+        match rays {
+            EmitterRays::Splat(texels) => {
+                self.splat(world, self.cameras_for(k).1, o, texels, intensity)
+            }
+            EmitterRays::Gather(entries) => self.gather(world, o, entries, intensity, soften),
+        }
+    }
+
+    /// Pieces summed to one irradiance per boundary patch: a gather's as they are, a splat's
+    /// flux over the patch's area, or spread over its edge neighbourhood in proportion to
+    /// area (`splat_smoothing`).
+    fn pieces_to_irradiance(
+        &mut self,
+        world: &World,
+        pieces: Vec<(u32, Vec3)>,
+    ) -> Vec<(u32, Vec3)> {
+        let area = &world.patches.area;
+        match self.to_boundary_method() {
+            ToBoundary::Gather => sum_by_patch(&mut self.scratch, pieces),
+            _ if self.options.splat_smoothing => {
+                let flux = sum_by_patch(&mut self.scratch, pieces);
+                self.spread_over_neighbours(flux)
+            }
+            _ => {
+                let by_area = pieces.into_iter().map(|(j, f)| (j, f / area[j as usize]));
+                sum_by_patch(&mut self.scratch, by_area)
+            }
+        }
+    }
+
+    /// Each patch's flux spread over its neighbourhood in proportion to area: patch `i`
+    /// receives `sum_k f_k / A(near(k))` over the flux patches `k` whose neighbourhood holds
+    /// it. Neighbourhoods are symmetric (patches sharing a vertex), so this is a gather over
+    /// `near(i)`, in parallel, over the patches the flux patches' neighbourhoods reach.
+    fn spread_over_neighbours(&mut self, flux: Vec<(u32, Vec3)>) -> Vec<(u32, Vec3)> {
+        let near = &self.neighbours;
+        let (weighted, reached) = (&mut self.scratch, &mut self.reached);
+        let mut targets: Vec<u32> = Vec::with_capacity(flux.len() * 2);
+        for &(k, f) in &flux {
+            weighted[k as usize] = f * near.inv_area[k as usize];
+            for &i in near.of(k as usize) {
+                if !reached[i as usize] {
+                    reached[i as usize] = true;
+                    targets.push(i);
+                }
+            }
+        }
+        let weighted = &*weighted;
+        let spread: Vec<(u32, Vec3)> = targets
+            .par_iter()
+            .filter_map(|&i| {
+                let e: Vec3 = near
+                    .of(i as usize)
+                    .iter()
+                    .map(|&k| weighted[k as usize])
+                    .sum();
+                (e != Vec3::ZERO).then_some((i, e))
+            })
+            .collect();
+        targets.iter().for_each(|&i| reached[i as usize] = false);
+        flux.iter()
+            .for_each(|&(k, _)| self.scratch[k as usize] = Vec3::ZERO);
+        spread
+    }
+
+    /// An object cannot send the boundary more than it reflects: a contribution beyond that
+    /// (patches measured in the wrong units, a splat that aliases) is damped to it, and the
+    /// frame says so.
+    fn within_reflected(
+        &mut self,
+        world: &World,
+        k: usize,
+        mut contribution: Vec<(u32, Vec3)>,
+    ) -> Vec<(u32, Vec3)> {
+        let p = &world.patches;
+        let o = self.objects[k].object;
+        let reflected: f64 = p
+            .range(o)
+            .map(|i| ((self.radiosity[i] - world.exitance[i]) * p.area[i]).element_sum() as f64)
+            .sum::<f64>()
+            / 3.0;
+        let sent: f64 = contribution
+            .iter()
+            .map(|&(j, e)| (e * p.area[j as usize]).element_sum() as f64)
+            .sum::<f64>()
+            / 3.0;
+        if sent <= reflected * crate::energy::BOUND_TOLERANCE + f64::MIN_POSITIVE {
+            return contribution;
+        }
+        let s = if sent.is_finite() && sent > 0.0 {
+            (reflected.max(0.0) / sent) as f32
+        } else {
+            0.0
+        };
+        contribution.iter_mut().for_each(|(_, e)| *e *= s);
+        let note = format!(
+            "object '{}' sent {sent:.4e} to the boundary but reflects only {reflected:.4e}: its contribution was damped by {s:.3}",
+            world.scene.objects[o].name
+        );
+        self.step_warnings.push(note);
+        contribution
+    }
+
+    /// Replace object `k`'s previous contribution to the boundary by `contribution` (paper:
+    /// "只更新当前物体对它的影响"); returns the flux it sends now.
+    fn replace_contribution(
+        &mut self,
+        world: &World,
+        k: usize,
+        contribution: Vec<(u32, Vec3)>,
+    ) -> f64 {
+        let area = &world.patches.area;
+        for &(j, e) in &self.objects[k].to_boundary {
+            self.indirect[j as usize] -= e;
+        }
+        let mut flux = 0.0;
+        for &(j, e) in &contribution {
+            self.indirect[j as usize] += e;
+            flux += (e * area[j as usize]).element_sum() as f64 / 3.0;
+        }
+        self.objects[k].to_boundary = contribution;
+        flux
     }
 
     /// How objects reach the boundary: the option, with `Auto` resolved. Gather while it
@@ -180,6 +293,7 @@ impl Dispersive {
         k: usize,
         m: glam::Affine3A,
         method: ToBoundary,
+        merged: bool,
     ) -> EmitterCache {
         let p = &world.patches;
         let bands = self.options.bands;
@@ -206,10 +320,14 @@ impl Dispersive {
                 lobes
             })
             .collect();
-        let rays = ob
-            .emitters
+        // One emitter at the box centre when `merged`, else one per group.
+        let centres: Vec<Vec3> = match merged {
+            true => vec![ob.centre_local()],
+            false => ob.emitters.iter().map(|(c, _)| *c).collect(),
+        };
+        let rays = centres
             .iter()
-            .map(|(centre_local, _)| {
+            .map(|centre_local| {
                 let centre = m.transform_point3(*centre_local);
                 match method {
                     ToBoundary::Gather => {

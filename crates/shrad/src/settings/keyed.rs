@@ -98,6 +98,7 @@ impl Keyed for DispersiveOptions {
             "splat_smoothing" => Value::Bool(self.splat_smoothing),
             "sleep_tolerance" => Value::Float(self.sleep_tolerance.into()),
             "coarse_while_moving" => Value::Bool(self.coarse_while_moving),
+            "one_emitter_while_moving" => Value::Bool(self.one_emitter_while_moving),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
     }
@@ -180,6 +181,7 @@ impl Keyed for DispersiveOptions {
             "splat_smoothing" => self.splat_smoothing = as_bool(value),
             "sleep_tolerance" => self.sleep_tolerance = as_f32(value),
             "coarse_while_moving" => self.coarse_while_moving = as_bool(value),
+            "one_emitter_while_moving" => self.one_emitter_while_moving = as_bool(value),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
         Ok(())

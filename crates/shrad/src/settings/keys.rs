@@ -204,6 +204,10 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
         "coarse_while_moving",
         "an object that moved since the last frame is updated from half-resolution cube maps and a quarter of the direct light's samples, and at full resolution once it stops",
     ),
+    flag(
+        "one_emitter_while_moving",
+        "while an object moves (with coarse_while_moving), Step 3 sends its light from one SH emitter at its box centre, as the paper does, instead of one per face direction",
+    ),
 ];
 
 /// The grid baseline's keys (fields of [`GridOptions`]).
