@@ -14,7 +14,7 @@
 //!
 //! Everything is exact: a cached ray is forgotten when the object moves, when its probes
 //! move, and when a box swept by another object (its old or new place, padded) meets the
-//! ray's segment ([`Dispersive::forget_stale_caches`], a per-ray slab test); a ray that was
+//! ray's segment (`stale.rs`, a per-ray slab test, checked just before the object is updated); a ray that was
 //! forgotten is cast again the next time it is needed. A moving boundary or light object
 //! (whose patches Step 3 aims at) forgets every Step 3 cache. Options never change under a
 //! solver without a rebuild (`set_schedule` changes only the schedule, which the caches do
@@ -26,10 +26,8 @@
 
 use glam::{Affine3A, Vec3};
 use rayon::prelude::*;
-use shrad_scene::{Aabb, Role};
 
-use super::{Changes, Dispersive};
-use crate::World;
+use super::Dispersive;
 
 /// A probe texel that sees nothing to shade: a miss, or the object's own black texel.
 pub(super) const SEES_NOTHING: u32 = u32::MAX;
@@ -180,7 +178,7 @@ impl ChunkCones {
 /// Mark `stale` every ray of `marks` in a chunk of `cones` that may meet a `seen` sphere
 /// and that `meets` says a mover's box meets (skipping those already marked); returns the
 /// rays marked.
-fn mark_stale(
+pub(super) fn mark_stale(
     cones: &ChunkCones,
     seen: &[SeenSphere],
     marks: &mut [u32],
@@ -325,117 +323,15 @@ impl Dispersive {
     pub fn set_caching(&mut self, on: bool) {
         self.caching = on;
     }
-
-    /// Forget the cached rays this frame's changes may have altered (module docs); with the
-    /// caches off, forget everything. Runs every frame, for every object, before Step 2.
-    pub(super) fn forget_stale_caches(&mut self, world: &World, changes: &Changes, swept: &[Aabb]) {
-        if !self.caching {
-            for ob in &mut self.objects {
-                ob.probe_cache = ProbeCache::default();
-                ob.emitter_cache = EmitterCache::default();
-                ob.openness.clear();
-            }
-            return;
-        }
-        if changes.moved.is_empty() {
-            return;
-        }
-        let p = &world.patches;
-        let diag = world.scene.bounds().map_or(1.0, |b| b.diagonal());
-        // A hit on a mover's surface lies on its box up to rounding.
-        let pad = Vec3::splat(4.0 * world.eps + 1e-5 * diag);
-        let boxes: Vec<Aabb> = swept.iter().map(|b| b.padded(pad)).collect();
-        let boundary_moved = changes
-            .moved
-            .iter()
-            .any(|&o| p.object_role[o] != Role::Interior);
-        // A bounding-sphere test first (a few multiply-adds), the slab test on what passes.
-        let spheres: Vec<(Vec3, f32)> = boxes
-            .iter()
-            .map(|b| {
-                let (c, r) = b.bounding_sphere();
-                (c, r * r)
-            })
-            .collect();
-        let meets = |o: Vec3, d: Vec3, t: f32| {
-            spheres.iter().zip(&boxes).any(|(&(c, r2), b)| {
-                let w = c - o;
-                let k = (w.dot(d) / d.length_squared().max(1e-30)).clamp(0.0, t);
-                (w - d * k).length_squared() <= r2 && b.meets_ray_within(o, d, t)
-            })
-        };
-        let dirs = &self.camera.cube.directions;
-        let emitter_dirs = &self.emitter_camera.cube.directions;
-        let sphere_list: Vec<(Vec3, f32)> = boxes.iter().map(Aabb::bounding_sphere).collect();
-        let (probe_cones, emitter_cones) = (&self.probe_cones, &self.emitter_cones);
-        let object_boxes = &self.object_boxes;
-        // One task an object (hundreds of objects: a task a probe or an emitter would cost
-        // more in scheduling than the tests it runs).
-        self.objects.par_iter_mut().for_each(|ob| {
-            if changes.moved.contains(&ob.object) {
-                ob.probe_cache = ProbeCache::default();
-                ob.emitter_cache = EmitterCache::default();
-                return;
-            }
-            // Contact openness looks a short reach (`contact_openness`) beyond the object's
-            // own surface: only a mover whose box comes within that reach can change it.
-            let m = p.world_from_local[ob.object];
-            let reach = 0.02 * m.transform_vector3(ob.probe_box.size()).length();
-            let near = object_boxes[ob.object].padded(Vec3::splat(reach + 2.0 * world.eps));
-            if boxes.iter().any(|b| b.meets_box(&near)) {
-                ob.openness.clear();
-            }
-            for h in ob.probe_cache.probes.iter_mut().flatten() {
-                let (origin, seen) = (h.origin, ChunkCones::seen_from(h.origin, &sphere_list));
-                let (marks, t) = (&mut h.seen, &h.t);
-                let marked = mark_stale(probe_cones, &seen, marks, SEES_STALE, |k| {
-                    meets(origin, dirs[k], t[k])
-                });
-                h.stale.extend(marked.into_iter().map(|k| k as u32));
-            }
-            if boundary_moved {
-                ob.emitter_cache = EmitterCache::default();
-                return;
-            }
-            for rays in &mut ob.emitter_cache.rays {
-                match rays {
-                    EmitterRays::Gather(g) => {
-                        let c = g.centre;
-                        let (cones, seen) = (&g.cones, ChunkCones::seen_from(c, &sphere_list));
-                        g.ray
-                            .chunks_mut(CHUNK)
-                            .zip(g.patch.chunks(CHUNK))
-                            .enumerate()
-                            .filter(|(k, _)| cones.may_meet(*k, &seen))
-                            .for_each(|(_, (rs, js))| {
-                                for (r, &j) in rs.iter_mut().zip(js) {
-                                    let j = j as usize;
-                                    let from = p.centre[j] + p.normal[j] * world.eps;
-                                    if *r != RAY_UNKNOWN && meets(from, c - from, 1.0) {
-                                        *r = RAY_UNKNOWN;
-                                    }
-                                }
-                            })
-                    }
-                    EmitterRays::Splat(s) => {
-                        let c = s.centre;
-                        let seen_spheres = ChunkCones::seen_from(c, &sphere_list);
-                        let t = &s.t;
-                        mark_stale(emitter_cones, &seen_spheres, &mut s.seen, UNKNOWN, |k| {
-                            meets(c, emitter_dirs[k], t[k])
-                        });
-                    }
-                }
-            }
-        });
-    }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::super::{DispersiveOptions, Schedule, ToBoundary};
+    use super::super::{Changes, DispersiveOptions, Schedule, ToBoundary};
     use super::*;
     use crate::patches::PatchSizing;
+    use crate::World;
+    use shrad_scene::{Aabb, Role};
     use shrad_vis::Backend;
 
     /// A chunk's cone never rejects a sphere that one of its rays meets (random directions

@@ -42,6 +42,7 @@ mod options;
 mod scheduler;
 mod setup;
 mod sleep;
+mod stale;
 mod step1_direct;
 mod step2_probes;
 mod step3_to_boundary;
@@ -92,6 +93,8 @@ pub struct Dispersive {
     scratch: Vec<Vec3>,
     /// Per patch, all false between uses: Step 3's spread marks the patches it reaches.
     reached: Vec<bool>,
+    /// The boxes movers swept, until every object's caches were checked against them.
+    swept_log: stale::SweptLog,
     /// Irradiance of boundary patches from other boundary patches.
     wall: Vec<Vec3>,
     /// Form-factor rows among boundary patches (aligned with `boundary_patches`), if the
@@ -218,6 +221,7 @@ impl Dispersive {
             indirect: vec![Vec3::ZERO; n],
             scratch: vec![Vec3::ZERO; n],
             reached: vec![false; n],
+            swept_log: Default::default(),
             wall: vec![Vec3::ZERO; n],
             neighbours: if options.splat_smoothing {
                 Neighbours::of_boundary(world)
@@ -340,6 +344,7 @@ impl Dispersive {
         // Step 1 (2.3.2), and the wall rows a mover passed through.
         let t = Instant::now();
         let swept = self.swept_boxes(world, changes);
+        self.log_swept(world, changes, &swept);
         let tt = Instant::now();
         self.direct_to_boundary(world, changes, &swept);
         tr("direct_to_boundary", tt);
@@ -354,7 +359,7 @@ impl Dispersive {
         let batch = self.scheduler.schedule(self.frame, objects_ms);
         let t = Instant::now();
         let tt = Instant::now();
-        self.forget_stale_caches(world, changes, &swept);
+        self.forget_stale_caches(world, &batch.0);
         tr("forget_stale", tt);
         let lit = self.light_selected_objects(world, batch, &mut stats, &mut steps);
         steps.objects_ms = ms(t);

@@ -56,6 +56,8 @@ pub(super) struct ObjectProbes {
     /// Its light is from a coarse update: it is updated again, at full resolution, soon
     /// after it stops, and it does not sleep before.
     pub(super) coarse_light: bool,
+    /// The frame its caches were last checked against what movers swept (`stale.rs`).
+    pub(super) checked_frame: Option<u64>,
 }
 
 impl ObjectProbes {
@@ -107,6 +109,7 @@ impl ObjectProbes {
             emitter_cache: EmitterCache::default(),
             moving: false,
             coarse_light: false,
+            checked_frame: None,
         }
     }
 

@@ -179,30 +179,44 @@ impl Dispersive {
     /// `near(i)`, in parallel, over the patches the flux patches' neighbourhoods reach.
     fn spread_over_neighbours(&mut self, flux: Vec<(u32, Vec3)>) -> Vec<(u32, Vec3)> {
         let near = &self.neighbours;
-        let (weighted, reached) = (&mut self.scratch, &mut self.reached);
-        let mut targets: Vec<u32> = Vec::with_capacity(flux.len() * 2);
         for &(k, f) in &flux {
-            weighted[k as usize] = f * near.inv_area[k as usize];
-            for &i in near.of(k as usize) {
-                if !reached[i as usize] {
-                    reached[i as usize] = true;
+            self.scratch[k as usize] = f * near.inv_area[k as usize];
+        }
+        // The patches reached: marked one by one when the flux lands on a small part of the
+        // boundary, else every boundary patch (a dense pass costs less than the marking).
+        let marked = flux.len() * 4 < self.boundary_patches.len();
+        let targets: Vec<u32> = if marked {
+            let reached = &mut self.reached;
+            let mut targets = Vec::with_capacity(flux.len() * 2);
+            for &i in flux.iter().flat_map(|&(k, _)| near.of(k as usize)) {
+                if !std::mem::replace(&mut reached[i as usize], true) {
                     targets.push(i);
                 }
             }
-        }
-        let weighted = &*weighted;
-        let spread: Vec<(u32, Vec3)> = targets
-            .par_iter()
-            .filter_map(|&i| {
-                let e: Vec3 = near
-                    .of(i as usize)
-                    .iter()
-                    .map(|&k| weighted[k as usize])
-                    .sum();
-                (e != Vec3::ZERO).then_some((i, e))
-            })
-            .collect();
-        targets.iter().for_each(|&i| reached[i as usize] = false);
+            targets
+        } else {
+            Vec::new()
+        };
+        let weighted = &self.scratch;
+        let gather = |&i: &u32| {
+            let e: Vec3 = near
+                .of(i as usize)
+                .iter()
+                .map(|&k| weighted[k as usize])
+                .sum();
+            (e != Vec3::ZERO).then_some((i, e))
+        };
+        let spread: Vec<(u32, Vec3)> = match marked {
+            true => targets.par_iter().filter_map(gather).collect(),
+            false => self
+                .boundary_patches
+                .par_iter()
+                .filter_map(gather)
+                .collect(),
+        };
+        targets
+            .iter()
+            .for_each(|&i| self.reached[i as usize] = false);
         flux.iter()
             .for_each(|&(k, _)| self.scratch[k as usize] = Vec3::ZERO);
         spread
