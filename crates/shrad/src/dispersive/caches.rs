@@ -341,33 +341,16 @@ impl Dispersive {
             return;
         }
         let p = &world.patches;
-        let diag = world.scene.bounds().map_or(1.0, |b| b.diagonal());
-        // A hit on a mover's surface lies on its box up to rounding.
-        let pad = Vec3::splat(4.0 * world.eps + 1e-5 * diag);
-        let boxes: Vec<Aabb> = swept.iter().map(|b| b.padded(pad)).collect();
+        let swept = SweptBoxes::new(world, swept);
         let boundary_moved = changes
             .moved
             .iter()
             .any(|&o| p.object_role[o] != Role::Interior);
-        // A bounding-sphere test first (a few multiply-adds), the slab test on what passes.
-        let spheres: Vec<(Vec3, f32)> = boxes
-            .iter()
-            .map(|b| {
-                let (c, r) = b.bounding_sphere();
-                (c, r * r)
-            })
-            .collect();
-        let meets = |o: Vec3, d: Vec3, t: f32| {
-            spheres.iter().zip(&boxes).any(|(&(c, r2), b)| {
-                let w = c - o;
-                let k = (w.dot(d) / d.length_squared().max(1e-30)).clamp(0.0, t);
-                (w - d * k).length_squared() <= r2 && b.meets_ray_within(o, d, t)
-            })
-        };
-        let dirs = &self.camera.cube.directions;
-        let emitter_dirs = &self.emitter_camera.cube.directions;
-        let sphere_list: Vec<(Vec3, f32)> = boxes.iter().map(Aabb::bounding_sphere).collect();
-        let (probe_cones, emitter_cones) = (&self.probe_cones, &self.emitter_cones);
+        let probe_rays = (&self.probe_cones, &self.camera.cube.directions[..]);
+        let emitter_rays = (
+            &self.emitter_cones,
+            &self.emitter_camera.cube.directions[..],
+        );
         let object_boxes = &self.object_boxes;
         // One task an object (hundreds of objects: a task a probe or an emitter would cost
         // more in scheduling than the tests it runs).
@@ -382,52 +365,109 @@ impl Dispersive {
             let m = p.world_from_local[ob.object];
             let reach = 0.02 * m.transform_vector3(ob.probe_box.size()).length();
             let near = object_boxes[ob.object].padded(Vec3::splat(reach + 2.0 * world.eps));
-            if boxes.iter().any(|b| b.meets_box(&near)) {
+            if swept.boxes.iter().any(|b| b.meets_box(&near)) {
                 ob.openness.clear();
             }
-            for h in ob.probe_cache.probes.iter_mut().flatten() {
-                let (origin, seen) = (h.origin, ChunkCones::seen_from(h.origin, &sphere_list));
-                let (marks, t) = (&mut h.seen, &h.t);
-                let marked = mark_stale(probe_cones, &seen, marks, SEES_STALE, |k| {
-                    meets(origin, dirs[k], t[k])
-                });
-                h.stale.extend(marked.into_iter().map(|k| k as u32));
-            }
+            ob.probe_cache.forget_stale(&swept, probe_rays);
             if boundary_moved {
                 ob.emitter_cache = EmitterCache::default();
                 return;
             }
-            for rays in &mut ob.emitter_cache.rays {
-                match rays {
-                    EmitterRays::Gather(g) => {
-                        let c = g.centre;
-                        let (cones, seen) = (&g.cones, ChunkCones::seen_from(c, &sphere_list));
-                        g.ray
-                            .chunks_mut(CHUNK)
-                            .zip(g.patch.chunks(CHUNK))
-                            .enumerate()
-                            .filter(|(k, _)| cones.may_meet(*k, &seen))
-                            .for_each(|(_, (rs, js))| {
-                                for (r, &j) in rs.iter_mut().zip(js) {
-                                    let j = j as usize;
-                                    let from = p.centre[j] + p.normal[j] * world.eps;
-                                    if *r != RAY_UNKNOWN && meets(from, c - from, 1.0) {
-                                        *r = RAY_UNKNOWN;
-                                    }
+            ob.emitter_cache.forget_stale(world, &swept, emitter_rays);
+        });
+    }
+}
+
+/// The boxes the movers swept this frame (padded), with the tests a cached ray is forgotten
+/// by.
+struct SweptBoxes {
+    boxes: Vec<Aabb>,
+    /// Per box: its bounding sphere (centre, radius).
+    spheres: Vec<(Vec3, f32)>,
+    /// Per box: its bounding sphere (centre, radius squared).
+    spheres_r2: Vec<(Vec3, f32)>,
+}
+
+impl SweptBoxes {
+    fn new(world: &World, swept: &[Aabb]) -> SweptBoxes {
+        let diag = world.scene.bounds().map_or(1.0, |b| b.diagonal());
+        // A hit on a mover's surface lies on its box up to rounding.
+        let pad = Vec3::splat(4.0 * world.eps + 1e-5 * diag);
+        let boxes: Vec<Aabb> = swept.iter().map(|b| b.padded(pad)).collect();
+        let spheres: Vec<(Vec3, f32)> = boxes.iter().map(Aabb::bounding_sphere).collect();
+        let spheres_r2 = spheres.iter().map(|&(c, r)| (c, r * r)).collect();
+        SweptBoxes {
+            boxes,
+            spheres,
+            spheres_r2,
+        }
+    }
+
+    /// Does the segment `o + s d`, `s` in `[0, t]`, meet a box? A bounding-sphere test first
+    /// (a few multiply-adds), the slab test on what passes.
+    fn meet(&self, o: Vec3, d: Vec3, t: f32) -> bool {
+        self.spheres_r2
+            .iter()
+            .zip(&self.boxes)
+            .any(|(&(c, r2), b)| {
+                let w = c - o;
+                let k = (w.dot(d) / d.length_squared().max(1e-30)).clamp(0.0, t);
+                (w - d * k).length_squared() <= r2 && b.meets_ray_within(o, d, t)
+            })
+    }
+}
+
+/// A cube map's chunk cones and texel directions.
+type CubeRays<'a> = (&'a ChunkCones, &'a [Vec3]);
+
+impl ProbeCache {
+    /// Mark [`SEES_STALE`] the probe texels whose ray a swept box meets.
+    fn forget_stale(&mut self, swept: &SweptBoxes, (cones, dirs): CubeRays) {
+        for h in self.probes.iter_mut().flatten() {
+            let (origin, seen) = (h.origin, ChunkCones::seen_from(h.origin, &swept.spheres));
+            let (marks, t) = (&mut h.seen, &h.t);
+            let marked = mark_stale(cones, &seen, marks, SEES_STALE, |k| {
+                swept.meet(origin, dirs[k], t[k])
+            });
+            h.stale.extend(marked.into_iter().map(|k| k as u32));
+        }
+    }
+}
+
+impl EmitterCache {
+    /// Forget the gather shadow rays and splat texels whose ray a swept box meets.
+    fn forget_stale(&mut self, world: &World, swept: &SweptBoxes, (cones, dirs): CubeRays) {
+        let p = &world.patches;
+        for rays in &mut self.rays {
+            match rays {
+                EmitterRays::Gather(g) => {
+                    let c = g.centre;
+                    let (chunks, seen) = (&g.cones, ChunkCones::seen_from(c, &swept.spheres));
+                    g.ray
+                        .chunks_mut(CHUNK)
+                        .zip(g.patch.chunks(CHUNK))
+                        .enumerate()
+                        .filter(|(k, _)| chunks.may_meet(*k, &seen))
+                        .for_each(|(_, (rs, js))| {
+                            for (r, &j) in rs.iter_mut().zip(js) {
+                                let j = j as usize;
+                                let from = p.centre[j] + p.normal[j] * world.eps;
+                                if *r != RAY_UNKNOWN && swept.meet(from, c - from, 1.0) {
+                                    *r = RAY_UNKNOWN;
                                 }
-                            })
-                    }
-                    EmitterRays::Splat(s) => {
-                        let c = s.centre;
-                        let seen_spheres = ChunkCones::seen_from(c, &sphere_list);
-                        let t = &s.t;
-                        mark_stale(emitter_cones, &seen_spheres, &mut s.seen, UNKNOWN, |k| {
-                            meets(c, emitter_dirs[k], t[k])
-                        });
-                    }
+                            }
+                        })
+                }
+                EmitterRays::Splat(s) => {
+                    let c = s.centre;
+                    let seen = ChunkCones::seen_from(c, &swept.spheres);
+                    let t = &s.t;
+                    mark_stale(cones, &seen, &mut s.seen, UNKNOWN, |k| {
+                        swept.meet(c, dirs[k], t[k])
+                    });
                 }
             }
-        });
+        }
     }
 }
 
