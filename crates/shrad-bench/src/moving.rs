@@ -11,8 +11,8 @@
 use std::time::Instant;
 
 use glam::{Affine3A, Vec3};
-use shrad::dispersive::FrameStats;
 use shrad::engine::Engine;
+use shrad::frame::FrameStats;
 use shrad::metrics::relative_error;
 use shrad::reference::{solve, ReferenceOptions};
 use shrad::{NoProgress, World};

@@ -6,7 +6,8 @@
 mod common;
 
 use glam::{Affine3A, Quat, Vec3};
-use shrad::dispersive::{Changes, Dispersive, DispersiveOptions};
+use shrad::dispersive::{Dispersive, DispersiveOptions};
+use shrad::frame::Changes;
 use shrad::grid::{Grid, GridOptions};
 use shrad::reference::{solve, ReferenceOptions};
 use shrad::scene::{Animation, Keyframe, Material, Mesh, Object, Role, Scene};
