@@ -11,8 +11,8 @@
 use std::time::Instant;
 
 use glam::{Affine3A, Vec3};
-use shrad::dispersive::FrameStats;
 use shrad::engine::Engine;
+use shrad::frame::FrameStats;
 use shrad::metrics::relative_error;
 use shrad::reference::{solve, ReferenceOptions};
 use shrad::{NoProgress, World};
@@ -191,20 +191,8 @@ mod tests {
     use crate::scenes::{build_world, SceneSpec};
     use crate::solvers::SolverKind;
     use crate::BenchOptions;
-    use shrad::scene::{Role, RoomParams};
+    use shrad::scene::Role;
     use shrad::vis::Backend;
-
-    fn tiny_spec(table: Table, objects: usize, patches: usize) -> SceneSpec {
-        SceneSpec {
-            name: "tiny".into(),
-            table,
-            params: RoomParams {
-                objects,
-                patches,
-                big_object_patches: None,
-            },
-        }
-    }
 
     fn interior(world: &World) -> Vec<usize> {
         let p = &world.patches;
@@ -245,7 +233,7 @@ mod tests {
     /// still scene's reference.
     #[test]
     fn the_error_while_moving_is_of_the_moved_state() {
-        let spec = tiny_spec(Table::Scaling, 2, 1200);
+        let spec = SceneSpec::tiny(Table::Scaling, 2, 1200);
         let world = build_world(&spec, Backend::Auto).unwrap();
         let reference_options = ReferenceOptions::fast();
         let (reference, _) = solve(&world, &reference_options, &NoProgress);
@@ -288,7 +276,7 @@ mod tests {
     /// On the objects scenes the smallest box moves.
     #[test]
     fn the_objects_scenes_move_their_smallest_box() {
-        let spec = tiny_spec(Table::Objects, 8, 3000);
+        let spec = SceneSpec::tiny(Table::Objects, 8, 3000);
         let world = build_world(&spec, Backend::Auto).unwrap();
         let p = &world.patches;
         let interior = interior(&world);

@@ -196,20 +196,10 @@ pub fn measure_ray_rate(world: &World, rays: usize, batch: usize) -> RayRate {
 mod tests {
     use super::*;
     use crate::scenes::{build_world, SceneSpec, Table};
-    use shrad::scene::RoomParams;
     use shrad::vis::Backend;
 
     fn tiny() -> World {
-        let spec = SceneSpec {
-            name: "tiny".into(),
-            table: Table::Scaling,
-            params: RoomParams {
-                objects: 2,
-                patches: 1000,
-                big_object_patches: None,
-            },
-        };
-        build_world(&spec, Backend::Auto).unwrap()
+        build_world(&SceneSpec::tiny(Table::Scaling, 2, 1000), Backend::Auto).unwrap()
     }
 
     #[test]

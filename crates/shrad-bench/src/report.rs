@@ -3,7 +3,7 @@
 //! these types serialised.
 
 use serde::Serialize;
-use shrad::dispersive::FrameStats;
+use shrad::frame::FrameStats;
 use shrad::frame::SolverStats;
 use shrad::metrics::RelativeError;
 

@@ -52,6 +52,22 @@ pub struct SceneSpec {
     pub params: RoomParams,
 }
 
+#[cfg(test)]
+impl SceneSpec {
+    /// A small room of `objects` objects and about `patches` patches, for tests.
+    pub(crate) fn tiny(table: Table, objects: usize, patches: usize) -> SceneSpec {
+        SceneSpec {
+            name: "tiny".into(),
+            table,
+            params: RoomParams {
+                objects,
+                patches,
+                big_object_patches: None,
+            },
+        }
+    }
+}
+
 /// The scenes of the full run (`quick == false`: Tables 1-2, Table 3, the objects scenes)
 /// or of `--quick` (the Tables 1-2 row nearest 75k patches and the objects scenes).
 pub fn scenes(quick: bool) -> Vec<SceneSpec> {

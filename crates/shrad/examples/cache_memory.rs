@@ -3,7 +3,8 @@
 //!
 //! `cargo run --release -p shrad --example cache_memory -- [scene] [patches]`
 //! (e.g. `cornell 20000`, `room 77375`)
-use shrad::dispersive::{Changes, Dispersive, DispersiveOptions};
+use shrad::dispersive::{Dispersive, DispersiveOptions};
+use shrad::frame::Changes;
 use shrad::vis::Backend;
 use shrad::{PatchSizing, World};
 

@@ -34,6 +34,7 @@ pub mod reference;
 pub mod render;
 pub mod sampling;
 pub mod settings;
+mod shadow_rays;
 pub mod sky;
 pub mod solver;
 pub mod sparse;

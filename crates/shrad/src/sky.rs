@@ -26,6 +26,7 @@ use shrad_scene::{Aabb, Environment};
 
 use crate::direct::padded_swept;
 use crate::sampling::{hammersley, hash, hash2, square_to_cosine_hemisphere, unit};
+use crate::shadow_rays::ShadowRays;
 use crate::World;
 
 /// The sky ready for lookups and sampling.
@@ -255,11 +256,9 @@ fn receiver_sample(world: &World, sky: &Sky, i: usize, j: u32, samples: u32) -> 
 #[derive(Clone, Debug, Default)]
 pub struct SkyCache {
     sky: Option<Arc<Sky>>,
-    samples: u32,
-    words: usize,
     receivers: Vec<u32>,
-    /// `[k * words ..]`: bit `j` set when ray `j` is blocked.
-    blocked: Vec<u64>,
+    /// Set `k`: receiver `k`'s rays.
+    shadows: ShadowRays,
     /// `[k]`: the irradiance.
     irradiance: Vec<Vec3>,
 }
@@ -268,15 +267,11 @@ impl SkyCache {
     /// Trace the sky's direct irradiance of `receivers` with `samples` rays each (an empty
     /// cache when the world has no sky that sends light).
     pub fn new(world: &World, receivers: &[u32], samples: u32) -> SkyCache {
-        let samples = samples.max(1);
-        let words = (samples as usize).div_ceil(64);
         let n = receivers.len();
         let mut cache = SkyCache {
             sky: lit(world).cloned(),
-            samples,
-            words,
             receivers: receivers.to_vec(),
-            blocked: vec![0; n * words],
+            shadows: ShadowRays::new(n, samples),
             irradiance: vec![Vec3::ZERO; n],
         };
         if cache.sky.is_some() {
@@ -312,7 +307,7 @@ impl SkyCache {
     ) -> Vec<usize> {
         let n = self.receivers.len();
         if !self.same_sky(world) {
-            *self = SkyCache::new(world, &self.receivers, self.samples);
+            *self = SkyCache::new(world, &self.receivers, self.shadows.samples());
             return (0..n).collect();
         }
         if self.sky.is_none() {
@@ -347,45 +342,17 @@ impl SkyCache {
         if old.is_empty() && new.is_empty() {
             return Vec::new();
         }
-        let (samples, words, far) = (self.samples, self.words, world.far());
-        let rays: Vec<(u32, u32, Vec3, Vec3)> = (0..self.receivers.len())
-            .into_par_iter()
+        let (samples, far) = (self.shadows.samples(), world.far());
+        let sets: Vec<usize> = (0..self.receivers.len())
             .filter(|k| skip.binary_search(k).is_err())
-            .flat_map_iter(|k| {
-                let i = self.receivers[k] as usize;
-                let n = world.patches.normal[i];
-                let bits = &self.blocked[k * words..(k + 1) * words];
-                let (sky, old, new) = (&sky, &old, &new);
-                (0..samples).filter_map(move |j| {
-                    let (x, d, w) = receiver_sample(world, sky, i, j, samples);
-                    if w.max_element() <= 0.0 {
-                        return None;
-                    }
-                    let blocked = bits[j as usize / 64] & (1 << (j % 64)) != 0;
-                    let boxes = if blocked { old } else { new };
-                    let (from, to) = (x + n * eps, x + d * far);
-                    boxes
-                        .iter()
-                        .any(|b| b.meets_segment(from, to))
-                        .then_some((k as u32, j, from, to))
-                })
-            })
             .collect();
-        let from: Vec<Vec3> = rays.iter().map(|r| r.2).collect();
-        let to: Vec<Vec3> = rays.iter().map(|r| r.3).collect();
-        let mut blocked = vec![false; rays.len()];
-        world.vis.occluded(&from, &to, eps, &[], &mut blocked);
-        let mut changed: Vec<usize> = Vec::new();
-        for (&(k, j, ..), &b) in rays.iter().zip(&blocked) {
-            let w = &mut self.blocked[k as usize * words + j as usize / 64];
-            let bit = 1u64 << (j % 64);
-            if b != (*w & bit != 0) {
-                *w ^= bit;
-                changed.push(k as usize);
-            }
-        }
-        changed.sort_unstable();
-        changed.dedup();
+        let rays = self.shadows.near_movers(&sets, &old, &new, |k, j| {
+            let i = self.receivers[k] as usize;
+            let (x, d, w) = receiver_sample(world, &sky, i, j, samples);
+            let n = world.patches.normal[i];
+            (w.max_element() > 0.0).then(|| (x + n * eps, x + d * far))
+        });
+        let changed = self.shadows.retrace(world, &rays);
         for &k in &changed {
             self.irradiance[k] = self.sum(world, &sky, k);
         }
@@ -395,14 +362,14 @@ impl SkyCache {
     /// Irradiance of receiver `k` from its cached blocked bits.
     fn sum(&self, world: &World, sky: &Sky, k: usize) -> Vec3 {
         let i = self.receivers[k] as usize;
-        let bits = &self.blocked[k * self.words..(k + 1) * self.words];
+        let samples = self.shadows.samples();
         let mut e = Vec3::ZERO;
-        for j in 0..self.samples {
-            if bits[j as usize / 64] & (1 << (j % 64)) == 0 {
-                e += receiver_sample(world, sky, i, j, self.samples).2;
+        for j in 0..samples {
+            if !self.shadows.is_blocked(k, j) {
+                e += receiver_sample(world, sky, i, j, samples).2;
             }
         }
-        e / self.samples as f32
+        e / samples as f32
     }
 
     /// Trace receivers `ks` from scratch.
@@ -410,49 +377,23 @@ impl SkyCache {
         let Some(sky) = self.sky.clone() else {
             return;
         };
-        let (words, samples) = (self.words, self.samples);
-        let s = samples as usize;
-        let (eps, far) = (world.eps, world.far());
-        for ks in ks.chunks(4096) {
-            let rays: Vec<(Vec3, Vec3, Vec3)> = ks
-                .par_iter()
-                .flat_map_iter(|&k| {
-                    let i = self.receivers[k] as usize;
-                    let n = world.patches.normal[i];
-                    let sky = &sky;
-                    (0..samples).map(move |j| {
-                        let (x, d, w) = receiver_sample(world, sky, i, j, samples);
-                        if w.max_element() > 0.0 {
-                            (x + n * eps, x + d * far, w)
-                        } else {
-                            (x, x, Vec3::ZERO)
-                        }
-                    })
-                })
-                .collect();
-            let from: Vec<Vec3> = rays.iter().map(|r| r.0).collect();
-            let to: Vec<Vec3> = rays.iter().map(|r| r.1).collect();
-            let mut blocked = vec![false; rays.len()];
-            world.vis.occluded(&from, &to, eps, &[], &mut blocked);
-            for (c, &k) in ks.iter().enumerate() {
-                let bits = &mut self.blocked[k * words..(k + 1) * words];
-                bits.fill(0);
-                let mut e = Vec3::ZERO;
-                for j in 0..s {
-                    if blocked[c * s + j] {
-                        bits[j / 64] |= 1 << (j % 64);
-                    } else {
-                        e += rays[c * s + j].2;
-                    }
-                }
-                self.irradiance[k] = e / s as f32;
-            }
+        let (eps, far, samples) = (world.eps, world.far(), self.shadows.samples());
+        let receivers = &self.receivers;
+        // A sample of no weight casts no ray (its bit stays clear).
+        let sums = self.shadows.trace(world, ks, |k, j| {
+            let i = receivers[k] as usize;
+            let n = world.patches.normal[i];
+            let (x, d, w) = receiver_sample(world, &sky, i, j, samples);
+            (w.max_element() > 0.0).then(|| (x + n * eps, x + d * far, w))
+        });
+        for (&k, (_, free)) in ks.iter().zip(sums) {
+            self.irradiance[k] = free / samples as f32;
         }
     }
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        self.receivers.len() * 16 + self.blocked.len() * 8
+        self.receivers.len() * 16 + self.shadows.bytes()
     }
 }
 

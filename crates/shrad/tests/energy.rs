@@ -3,8 +3,11 @@
 //! and preset. The published state never exceeds the energy bound and never holds a
 //! non-finite value; the reference's meter closes within 1 % in a closed room.
 
+mod common;
+
 use glam::{Affine3A, Quat, Vec3};
-use shrad::dispersive::{Changes, Dispersive, DispersiveOptions};
+use shrad::dispersive::{Dispersive, DispersiveOptions};
+use shrad::frame::Changes;
 use shrad::grid::{Grid, GridOptions};
 use shrad::reference::{solve, ReferenceOptions};
 use shrad::scene::{Animation, Keyframe, Material, Mesh, Object, Role, Scene};
@@ -57,16 +60,7 @@ fn random_room(seed: u64) -> Scene {
     objects.push(room);
     let mut light = Object::new(
         "light",
-        Mesh {
-            positions: vec![
-                Vec3::new(-0.5, 0.0, -0.5),
-                Vec3::new(0.5, 0.0, -0.5),
-                Vec3::new(0.5, 0.0, 0.5),
-                Vec3::new(-0.5, 0.0, 0.5),
-            ],
-            triangles: vec![[0, 1, 2], [0, 2, 3]],
-            ..Default::default()
-        },
+        common::ceiling_light(),
         Material {
             reflectance: Vec3::ZERO,
             emitted_radiance: Vec3::splat(rng.range(1.0, 20.0)),

@@ -3,12 +3,14 @@
 //! meter counts what reaches the patches as input; a light moved through the engine gives
 //! what the same scene loaded with the light there gives; a picture's shadow edge is sharp.
 
+mod common;
+
 use glam::{Affine3A, Vec3};
 use shrad::engine::Engine;
 use shrad::render::{RenderOptions, Shading};
 use shrad::solver::SolverChoice;
 use shrad::PatchSizing;
-use shrad_scene::{box_mesh, quad, Camera, Light, LightKind, Material, Object, Role, Scene};
+use shrad_scene::{box_mesh, Camera, Light, LightKind, Material, Object, Role, Scene};
 use shrad_vis::Backend;
 
 const HALF: f32 = 2.0;
@@ -17,13 +19,7 @@ const RHO: f32 = 0.5;
 /// A floor of half-width [`HALF`] facing +Y, a box (half-size 0.25) on it at `box_at`, a
 /// point light of 683 cd (1 W/sr) at `light_at`.
 fn scene(light_at: Vec3, box_at: Vec3) -> Scene {
-    let a = HALF;
-    let floor = quad([
-        Vec3::new(-a, 0.0, -a),
-        Vec3::new(-a, 0.0, a),
-        Vec3::new(a, 0.0, a),
-        Vec3::new(a, 0.0, -a),
-    ]);
+    let floor = common::floor(HALF);
     Scene {
         source: "floor-and-box".into(),
         objects: vec![

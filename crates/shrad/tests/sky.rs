@@ -4,6 +4,8 @@
 //! integral `L dphi (sin^2 theta1 - sin^2 theta0) / 2`; a sky changed through the engine
 //! equals the scene loaded with it.
 
+mod common;
+
 use std::f32::consts::PI;
 use std::path::PathBuf;
 
@@ -12,7 +14,7 @@ use shrad::engine::Engine;
 use shrad::render::{RenderOptions, Shading};
 use shrad::solver::SolverChoice;
 use shrad::PatchSizing;
-use shrad_scene::{quad, Camera, EnvMap, Environment, Material, Object, Role, Scene};
+use shrad_scene::{Camera, EnvMap, Environment, Material, Object, Role, Scene};
 use shrad_vis::Backend;
 
 const HALF: f32 = 2.0;
@@ -20,13 +22,7 @@ const RHO: f32 = 0.5;
 
 /// A floor of half-width [`HALF`] facing +Y under `environment`, nothing else.
 fn scene(environment: Environment) -> Scene {
-    let a = HALF;
-    let floor = quad([
-        Vec3::new(-a, 0.0, -a),
-        Vec3::new(-a, 0.0, a),
-        Vec3::new(a, 0.0, a),
-        Vec3::new(a, 0.0, -a),
-    ]);
+    let floor = common::floor(HALF);
     Scene {
         source: "floor-under-sky".into(),
         objects: vec![Object {

@@ -5,6 +5,8 @@
 //! faces in the world under a negative determinant). Each goes through `write_gltf` and
 //! `load`. At one patch size all three must give the same patches and the same light.
 
+mod common;
+
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -25,17 +27,7 @@ fn cuboid(size: Vec3, inward: bool) -> Mesh {
 fn parts() -> Vec<(&'static str, Role, Mesh, Affine3A, Material)> {
     let diffuse = |r: f32, g: f32, b: f32| Material::diffuse(Vec3::new(r, g, b));
     let rot_y = |deg: f32| Quat::from_rotation_y(deg.to_radians());
-    let light_quad = Mesh {
-        // A unit square in y = 0 facing down (-y), counter-clockwise seen from below.
-        positions: vec![
-            Vec3::new(-0.5, 0.0, -0.5),
-            Vec3::new(0.5, 0.0, -0.5),
-            Vec3::new(0.5, 0.0, 0.5),
-            Vec3::new(-0.5, 0.0, 0.5),
-        ],
-        triangles: vec![[0, 1, 2], [0, 2, 3]],
-        ..Default::default()
-    };
+    let light_quad = common::ceiling_light();
     vec![
         (
             "room",

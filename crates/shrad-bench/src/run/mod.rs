@@ -4,7 +4,7 @@
 use std::time::Instant;
 
 use glam::Vec3;
-use shrad::dispersive::FrameStats;
+use shrad::frame::FrameStats;
 use shrad::reference::{solve, ReferenceOptions};
 use shrad::scene::Role;
 use shrad::vis::Backend;

@@ -5,8 +5,8 @@
 use std::time::Instant;
 
 use glam::Affine3A;
-use shrad::dispersive::FrameStats;
 use shrad::engine::Engine;
+use shrad::frame::FrameStats;
 use shrad::metrics::{relative_error, RelativeError};
 use shrad::scene::Role;
 use shrad::{Error, World};

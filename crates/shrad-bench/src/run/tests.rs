@@ -1,6 +1,5 @@
 use super::*;
 use crate::moving::moving_frames;
-use shrad::scene::RoomParams;
 
 #[test]
 fn median_of_even_and_odd() {
@@ -30,10 +29,10 @@ fn solvers_run_in_the_canonical_order() {
 
 #[test]
 fn small_room_runs_every_solver() {
-    let mut objects = tiny_spec(Table::Objects, 3, 1500);
+    let mut objects = SceneSpec::tiny(Table::Objects, 3, 1500);
     objects.name = "tiny-objects".into();
     let mut options = BenchOptions::new(true);
-    options.scenes = vec![tiny_spec(Table::Scaling, 2, 1500), objects];
+    options.scenes = vec![SceneSpec::tiny(Table::Scaling, 2, 1500), objects];
     options.reference = ReferenceOptions::fast();
     options.grid_timed = 2;
     options.grid_warmup = 1;
@@ -136,23 +135,11 @@ fn small_room_runs_every_solver() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-fn tiny_spec(table: Table, objects: usize, patches: usize) -> SceneSpec {
-    SceneSpec {
-        name: "tiny".into(),
-        table,
-        params: RoomParams {
-            objects,
-            patches,
-            big_object_patches: None,
-        },
-    }
-}
-
 /// Through `run_solver`: the moved reference is of a moved state (not of the rest the
 /// object goes back to) and two solvers whose windows end at the same place share it.
 #[test]
 fn run_solver_measures_the_error_while_moving() {
-    let spec = tiny_spec(Table::Scaling, 2, 1200);
+    let spec = SceneSpec::tiny(Table::Scaling, 2, 1200);
     let world = build_world(&spec, Backend::Auto).unwrap();
     let mut options = BenchOptions::new(true);
     options.reference = ReferenceOptions::fast();
@@ -194,15 +181,7 @@ fn run_solver_measures_the_error_while_moving() {
 
 #[test]
 fn the_moved_object_goes_back_where_it_rested() {
-    let spec = SceneSpec {
-        name: "tiny".into(),
-        table: Table::Scaling,
-        params: RoomParams {
-            objects: 2,
-            patches: 1200,
-            big_object_patches: None,
-        },
-    };
+    let spec = SceneSpec::tiny(Table::Scaling, 2, 1200);
     let world = build_world(&spec, Backend::Auto).unwrap();
     let centres = world.patches.centre.clone();
     let normals = world.patches.normal.clone();

@@ -7,8 +7,8 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use shrad::dispersive::FrameStats;
 use shrad::engine::Engine;
+use shrad::frame::FrameStats;
 use shrad::frame::SolverStats;
 use shrad::image_io::{write_exr, write_png, Tonemap};
 use shrad::metrics::RelativeError;

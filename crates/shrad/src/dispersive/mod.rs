@@ -30,7 +30,7 @@ use glam::Vec3;
 use shrad_scene::Role;
 
 use crate::energy::IncidentMeter;
-use crate::frame::SolverStats;
+use crate::frame::{Changes, DispersiveStats, Divergence, EnergyBalance, SolverStats};
 use crate::probes::ProbeCamera;
 use crate::World;
 
@@ -53,7 +53,10 @@ mod tests;
 mod tests_incremental;
 mod wall_rows;
 
-pub use frame::{Batch, Changes, DispersiveStats, Divergence, EnergyBalance, FrameStats};
+/// A second name for [`crate::frame::FrameStats`], kept only until `crates/shrad-view` (being
+/// reworked in parallel) names it `shrad::frame::FrameStats`; then remove it.
+pub use crate::frame::FrameStats;
+pub use frame::Batch;
 pub use options::{DispersiveOptions, ProbeRepair, Schedule, ToBoundary};
 pub use step3_to_boundary::splat_to_boundary;
 pub use step4_assemble::{WALL_ROWS_PER_FRAME, WALL_ROWS_WHILE_MOVING};

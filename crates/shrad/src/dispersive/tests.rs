@@ -22,6 +22,35 @@ fn relative_difference(world: &World, a: &[Vec3], b: &[Vec3]) -> f64 {
     d / t
 }
 
+/// The Cornell box cut into about `patches` patches.
+pub(super) fn cornell(patches: usize) -> World {
+    World::new(
+        shrad_scene::cornell_box(),
+        PatchSizing::Count(patches),
+        Backend::Auto,
+    )
+    .unwrap()
+}
+
+/// The index of the object of `world` named `name`.
+pub(super) fn object_named(world: &World, name: &str) -> usize {
+    let objects = &world.scene.objects;
+    objects.iter().position(|o| o.name == name).unwrap()
+}
+
+/// The error of the dispersive default against the reference after `frames` frames.
+fn default_error_after(world: &World, frames: usize) -> crate::metrics::RelativeError {
+    let mut d = Dispersive::new(world, DispersiveOptions::improved()).unwrap();
+    d.converge(world, frames);
+    let reference = crate::reference::solve(
+        world,
+        &crate::reference::ReferenceOptions::standard(),
+        &crate::NoProgress,
+    )
+    .0;
+    crate::metrics::relative_error(&world.patches, d.radiosity(), &reference)
+}
+
 /// A closed room (six inward walls) around one interior sphere.
 fn sphere_in_a_room() -> Scene {
     let mut room = shrad_scene::room(&shrad_scene::RoomParams {
@@ -144,12 +173,7 @@ fn object_sends_its_reflected_flux_to_a_closed_boundary() {
 
 #[test]
 fn a_static_scene_stops_changing() {
-    let world = World::new(
-        shrad_scene::cornell_box(),
-        PatchSizing::Count(3000),
-        Backend::Auto,
-    )
-    .unwrap();
+    let world = cornell(3000);
     for options in [DispersiveOptions::improved(), DispersiveOptions::paper()] {
         let mut d = Dispersive::new(
             &world,
@@ -176,12 +200,7 @@ fn a_static_scene_stops_changing() {
 fn probes_buried_in_the_floor_are_detected_and_repaired() {
     // Both Cornell blocks stand on the floor: with a margin, their 4 lower corner probes
     // lie under it and see its back.
-    let world = World::new(
-        shrad_scene::cornell_box(),
-        PatchSizing::Count(3000),
-        Backend::Auto,
-    )
-    .unwrap();
+    let world = cornell(3000);
     let options = DispersiveOptions {
         cube_res: 32,
         repair: ProbeRepair::None,
@@ -237,18 +256,8 @@ fn energy_balance_closes_in_a_closed_room() {
 /// object sees itself.
 #[test]
 fn transfer_of_a_convex_object_is_the_cosine_lobe() {
-    let world = World::new(
-        shrad_scene::cornell_box(),
-        PatchSizing::Count(2000),
-        Backend::Auto,
-    )
-    .unwrap();
-    let short = world
-        .scene
-        .objects
-        .iter()
-        .position(|o| o.name == "short_block")
-        .unwrap();
+    let world = cornell(2000);
+    let short = object_named(&world, "short_block");
     let (transfer, self_view) = self_transfer(&world, short, 3, 4096);
     let nc = num_coeffs(3);
     for (k, i) in world.patches.range(short).enumerate() {
@@ -270,21 +279,7 @@ fn transfer_of_a_convex_object_is_the_cosine_lobe() {
 /// figures); a regression guard with room for the reference's own noise.
 #[test]
 fn cornell_box_default_is_close_to_the_reference() {
-    let world = World::new(
-        shrad_scene::cornell_box(),
-        PatchSizing::Count(4000),
-        Backend::Auto,
-    )
-    .unwrap();
-    let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
-    d.converge(&world, 8);
-    let reference = crate::reference::solve(
-        &world,
-        &crate::reference::ReferenceOptions::standard(),
-        &crate::NoProgress,
-    )
-    .0;
-    let e = crate::metrics::relative_error(&world.patches, d.radiosity(), &reference);
+    let e = default_error_after(&cornell(4000), 8);
     assert!(e.overall < 0.11, "{e:?}");
 }
 
@@ -297,15 +292,7 @@ fn reflective_light_near_the_floor_bounces_light() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/example.toml");
     let scene = shrad_scene::load(&path, &Default::default()).unwrap();
     let world = World::new(scene, PatchSizing::Count(4000), Backend::Auto).unwrap();
-    let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
-    d.converge(&world, 8);
-    let reference = crate::reference::solve(
-        &world,
-        &crate::reference::ReferenceOptions::standard(),
-        &crate::NoProgress,
-    )
-    .0;
-    let e = crate::metrics::relative_error(&world.patches, d.radiosity(), &reference);
+    let e = default_error_after(&world, 8);
     assert!(e.overall < 0.08, "{e:?}");
 }
 
@@ -397,12 +384,7 @@ fn sleeping_scene_matches_a_never_sleeping_one_and_wakes() {
 /// converged radiosity as rows traced when the solver is made.
 #[test]
 fn lazily_built_wall_rows_converge_to_the_eager_ones() {
-    let world = World::new(
-        shrad_scene::cornell_box(),
-        PatchSizing::Count(3000),
-        Backend::Auto,
-    )
-    .unwrap();
+    let world = cornell(3000);
     let options = DispersiveOptions {
         sleep_tolerance: 0.0,
         ..DispersiveOptions::improved()

@@ -4,9 +4,9 @@
 
 use glam::{Affine3A, Vec3};
 
+use super::tests::{cornell, object_named};
 use super::*;
-use crate::patches::PatchSizing;
-use shrad_vis::Backend;
+use shrad_scene::Aabb;
 
 /// The largest relative difference between two irradiance arrays (0 where both are 0).
 fn max_relative(a: &[Vec3], b: &[Vec3]) -> f32 {
@@ -18,15 +18,8 @@ fn max_relative(a: &[Vec3], b: &[Vec3]) -> f32 {
 
 #[test]
 fn moving_an_occluder_keeps_direct_light_and_wall_rows_exact() {
-    let mut world = World::new(
-        shrad_scene::cornell_box(),
-        PatchSizing::Count(3000),
-        Backend::Auto,
-    )
-    .unwrap();
-    let block = (0..world.scene.objects.len())
-        .find(|&o| world.scene.objects[o].name == "short_block")
-        .unwrap();
+    let mut world = cornell(3000);
+    let block = object_named(&world, "short_block");
     let rest = world.patches.world_from_local[block]
         * Affine3A::from_mat3(world.patches.local_from_object[block]);
     let options = DispersiveOptions::improved();
@@ -129,33 +122,28 @@ fn moving_an_occluder_keeps_direct_light_and_wall_rows_exact() {
     );
 }
 
+/// Move `block` of the Cornell box well away from its place; returns its world box before and
+/// after.
+fn move_far(world: &mut World, block: usize) -> (Aabb, Aabb) {
+    let old = setup::world_box(world, block);
+    let m = world.patches.world_from_local[block]
+        * Affine3A::from_mat3(world.patches.local_from_object[block]);
+    let far = Affine3A::from_translation(Vec3::new(8.0, 0.0, -10.0)) * m;
+    world.move_object(block, far).unwrap();
+    (old, setup::world_box(world, block))
+}
+
 /// The cache's partial update equals a full recomputation with the same samples, also for
 /// receivers given in another order (the samples depend on the patch and the emitter only).
 #[test]
 fn direct_cache_update_equals_a_full_recomputation() {
-    let mut world = World::new(
-        shrad_scene::cornell_box(),
-        PatchSizing::Count(2000),
-        Backend::Auto,
-    )
-    .unwrap();
-    let block = (0..world.scene.objects.len())
-        .find(|&o| world.scene.objects[o].name == "tall_block")
-        .unwrap();
+    let mut world = cornell(2000);
+    let block = object_named(&world, "tall_block");
     let boundary: Vec<u32> = (0..world.patches.len() as u32)
         .filter(|&i| world.patches.role(i as usize) == Role::Boundary)
         .collect();
     let mut cache = crate::direct::DirectCache::new(&world, boundary.clone(), 16);
-    let old = setup::world_box(&world, block);
-    let m = world.patches.world_from_local[block]
-        * Affine3A::from_mat3(world.patches.local_from_object[block]);
-    world
-        .move_object(
-            block,
-            Affine3A::from_translation(Vec3::new(8.0, 0.0, -10.0)) * m,
-        )
-        .unwrap();
-    let new = setup::world_box(&world, block);
+    let (old, new) = move_far(&mut world, block);
     let changed = cache.update(&world, &[block as u32], &[old], &[new], |_| false, 16);
     assert!(
         !changed.is_empty(),
@@ -173,15 +161,8 @@ fn direct_cache_update_equals_a_full_recomputation() {
 /// first update where it rests: the cache then equals a fresh one.
 #[test]
 fn coarse_moving_receivers_are_exact_again_once_they_rest() {
-    let mut world = World::new(
-        shrad_scene::cornell_box(),
-        PatchSizing::Count(2000),
-        Backend::Auto,
-    )
-    .unwrap();
-    let block = (0..world.scene.objects.len())
-        .find(|&o| world.scene.objects[o].name == "tall_block")
-        .unwrap();
+    let mut world = cornell(2000);
+    let block = object_named(&world, "tall_block");
     // Boundary and the block's own patches, as Step 1 with `direct_on_interior`.
     let receivers: Vec<u32> = (0..world.patches.len() as u32)
         .filter(|&i| {
@@ -190,16 +171,7 @@ fn coarse_moving_receivers_are_exact_again_once_they_rest() {
         })
         .collect();
     let mut cache = crate::direct::DirectCache::new(&world, receivers.clone(), 16);
-    let old = setup::world_box(&world, block);
-    let m = world.patches.world_from_local[block]
-        * Affine3A::from_mat3(world.patches.local_from_object[block]);
-    world
-        .move_object(
-            block,
-            Affine3A::from_translation(Vec3::new(8.0, 0.0, -10.0)) * m,
-        )
-        .unwrap();
-    let new = setup::world_box(&world, block);
+    let (old, new) = move_far(&mut world, block);
     let on_block = |i: u32| world.patches.object[i as usize] as usize == block;
     let mut every_sample = cache.clone();
     let rays = |cache: &mut crate::direct::DirectCache, samples: u32| {

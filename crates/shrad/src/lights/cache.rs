@@ -21,13 +21,12 @@ use shrad_scene::Aabb;
 use super::LightState;
 use crate::direct::padded_swept;
 use crate::sampling::{hammersley, hash, unit};
+use crate::shadow_rays::ShadowRays;
 use crate::World;
 
 /// See the module docs.
 #[derive(Clone, Debug, Default)]
 pub struct PunctualCache {
-    samples: u32,
-    words: usize,
     receivers: Vec<u32>,
     /// The lights as traced (`None`: a light that was dark, whose column is zero).
     lights: Vec<Option<LightState>>,
@@ -35,8 +34,8 @@ pub struct PunctualCache {
     reach: Vec<f32>,
     /// `[k * lights + l]`: the same over the samples whose shadow ray is free.
     visible: Vec<f32>,
-    /// `[(k * lights + l) * words ..]`: bit `j` set when shadow ray `j` is blocked.
-    blocked: Vec<u64>,
+    /// Set `k * lights + l`: receiver `k`'s shadow rays towards light `l`.
+    shadows: ShadowRays,
     /// `[k]`: the irradiance.
     irradiance: Vec<Vec3>,
     /// The sky's part, kept the same way (`crate::sky`).
@@ -66,16 +65,13 @@ impl PunctualCache {
     /// Trace the punctual direct irradiance of `receivers` with `samples` points each.
     pub fn new(world: &World, receivers: Vec<u32>, samples: u32) -> PunctualCache {
         let samples = samples.max(1);
-        let words = (samples as usize).div_ceil(64);
         let nl = world.lights.len();
         let n = receivers.len();
         let mut cache = PunctualCache {
-            samples,
-            words,
             lights: world.lights.clone(),
             reach: vec![0.0; n * nl],
             visible: vec![0.0; n * nl],
-            blocked: vec![0; n * nl * words],
+            shadows: ShadowRays::new(n * nl, samples),
             irradiance: vec![Vec3::ZERO; n],
             sky: crate::sky::SkyCache::new(world, &receivers, samples),
             receivers,
@@ -100,7 +96,7 @@ impl PunctualCache {
 
     /// Sample points (shadow rays) per (receiver, light).
     pub fn samples(&self) -> u32 {
-        self.samples
+        self.shadows.samples()
     }
 
     /// The lights as last traced.
@@ -176,65 +172,41 @@ impl PunctualCache {
             return Vec::new();
         }
         let spheres: Vec<(Vec3, f32)> = old.iter().chain(&new).map(Aabb::bounding_sphere).collect();
-        let (nl, samples, words) = (self.lights.len(), self.samples, self.words);
+        let (nl, samples) = (self.lights.len(), self.shadows.samples());
         let far = world.far();
-        // Rays to re-trace: (receiver, light, sample, from, to).
-        let rays: Vec<(u32, u32, u32, Vec3, Vec3)> = (0..self.receivers.len())
+        // The (receiver, light) sets whose bundle of rays may meet a box.
+        let (lights, reach) = (&self.lights, &self.reach);
+        let sets: Vec<usize> = (0..self.receivers.len())
             .into_par_iter()
             .filter(|k| skip.binary_search(k).is_err())
             .flat_map_iter(|k| {
-                let i = self.receivers[k] as usize;
-                let n = world.patches.normal[i];
-                let (c, r) = footprint(world, i, 2.0 * eps);
-                let mut out = Vec::new();
-                for (l, light) in self.lights.iter().enumerate() {
-                    let Some(light) = light.filter(|_| !moved[l]) else {
-                        continue;
-                    };
-                    if self.reach[k * nl + l] <= 0.0
-                        || !spheres
-                            .iter()
-                            .any(|&(bc, br)| bundle_meets_sphere(&light, c, r, far, bc, br))
-                    {
-                        continue;
-                    }
-                    let bits = &self.blocked[(k * nl + l) * words..];
-                    for j in 0..samples {
-                        let blocked = bits[j as usize / 64] & (1 << (j % 64)) != 0;
-                        let boxes = if blocked { &old } else { &new };
-                        let x = sample(world, i, j, samples);
-                        if light.geometry(x, n, eps) <= 0.0 {
-                            continue;
-                        }
-                        let (from, to) = (x + n * eps, light.shadow_end(x, far));
-                        if boxes.iter().any(|b| b.meets_segment(from, to)) {
-                            out.push((k as u32, l as u32, j, from, to));
-                        }
-                    }
-                }
-                out.into_iter()
+                let (c, r) = footprint(world, self.receivers[k] as usize, 2.0 * eps);
+                let spheres = &spheres;
+                (0..nl)
+                    .filter(move |&l| {
+                        lights[l].filter(|_| !moved[l]).is_some_and(|light| {
+                            reach[k * nl + l] > 0.0
+                                && spheres
+                                    .iter()
+                                    .any(|&(bc, br)| bundle_meets_sphere(&light, c, r, far, bc, br))
+                        })
+                    })
+                    .map(move |l| k * nl + l)
             })
             .collect();
-        let from: Vec<Vec3> = rays.iter().map(|r| r.3).collect();
-        let to: Vec<Vec3> = rays.iter().map(|r| r.4).collect();
-        let mut blocked = vec![false; rays.len()];
-        world.vis.occluded(&from, &to, eps, &[], &mut blocked);
-        let mut changed: Vec<(usize, usize)> = Vec::new();
-        for (&(k, l, j, ..), &b) in rays.iter().zip(&blocked) {
-            let (k, l) = (k as usize, l as usize);
-            let w = &mut self.blocked[(k * nl + l) * words + j as usize / 64];
-            let bit = 1u64 << (j % 64);
-            if b != (*w & bit != 0) {
-                *w ^= bit;
-                changed.push((k, l));
-            }
+        let rays = self.shadows.near_movers(&sets, &old, &new, |set, j| {
+            let i = self.receivers[set / nl] as usize;
+            let light = self.lights[set % nl]?;
+            let n = world.patches.normal[i];
+            let x = sample(world, i, j, samples);
+            (light.geometry(x, n, eps) > 0.0).then(|| (x + n * eps, light.shadow_end(x, far)))
+        });
+        let changed = self.shadows.retrace(world, &rays);
+        for &set in &changed {
+            let (k, l) = (set / nl, set % nl);
+            self.visible[set] = self.sum(world, k, l).1;
         }
-        changed.sort_unstable();
-        changed.dedup();
-        for &(k, l) in &changed {
-            self.visible[k * nl + l] = self.sum(world, k, l).1;
-        }
-        let mut ks: Vec<usize> = changed.into_iter().map(|c| c.0).collect();
+        let mut ks: Vec<usize> = changed.into_iter().map(|set| set / nl).collect();
         ks.dedup();
         ks
     }
@@ -246,76 +218,44 @@ impl PunctualCache {
         };
         let i = self.receivers[k] as usize;
         let n = world.patches.normal[i];
-        let bits = &self.blocked[(k * self.lights.len() + l) * self.words..];
+        let (set, samples) = (k * self.lights.len() + l, self.shadows.samples());
         let (mut reach, mut visible) = (0.0, 0.0);
-        for j in 0..self.samples {
-            let g = light.geometry(sample(world, i, j, self.samples), n, world.eps);
+        for j in 0..samples {
+            let g = light.geometry(sample(world, i, j, samples), n, world.eps);
             reach += g;
-            if bits[j as usize / 64] & (1 << (j % 64)) == 0 {
+            if !self.shadows.is_blocked(set, j) {
                 visible += g;
             }
         }
-        let s = self.samples as f32;
+        let s = samples as f32;
         (reach / s, visible / s)
     }
 
     /// Trace light `l`'s shadow rays of receivers `ks` from scratch.
     fn trace(&mut self, world: &World, l: usize, ks: &[usize]) {
-        let (nl, words, samples) = (self.lights.len(), self.words, self.samples);
-        let s = samples as usize;
+        let nl = self.lights.len();
+        let sets: Vec<usize> = ks.iter().map(|&k| k * nl + l).collect();
         let Some(light) = self.lights[l] else {
-            for &k in ks {
-                self.reach[k * nl + l] = 0.0;
-                self.visible[k * nl + l] = 0.0;
-                self.blocked[(k * nl + l) * words..(k * nl + l + 1) * words].fill(0);
+            for &set in &sets {
+                self.reach[set] = 0.0;
+                self.visible[set] = 0.0;
+                self.shadows.clear(set);
             }
             return;
         };
-        let far = world.far();
-        let eps = world.eps;
-        const CHUNK: usize = 4096;
-        for ks in ks.chunks(CHUNK) {
-            // Per sample: (from, to, geometry); a sample the light does not reach casts no
-            // ray (its segment is degenerate and its bit stays clear).
-            let rays: Vec<(Vec3, Vec3, f32)> = ks
-                .par_iter()
-                .flat_map_iter(|&k| {
-                    let i = self.receivers[k] as usize;
-                    let n = world.patches.normal[i];
-                    (0..samples).map(move |j| {
-                        let x = sample(world, i, j, samples);
-                        let g = light.geometry(x, n, eps);
-                        if g > 0.0 {
-                            (x + n * eps, light.shadow_end(x, far), g)
-                        } else {
-                            (x, x, 0.0)
-                        }
-                    })
-                })
-                .collect();
-            let from: Vec<Vec3> = rays.iter().map(|r| r.0).collect();
-            let to: Vec<Vec3> = rays.iter().map(|r| r.1).collect();
-            let mut blocked = vec![false; rays.len()];
-            world.vis.occluded(&from, &to, eps, &[], &mut blocked);
-            for (c, &k) in ks.iter().enumerate() {
-                let bits = &mut self.blocked[(k * nl + l) * words..(k * nl + l + 1) * words];
-                bits.fill(0);
-                let (mut reach, mut visible) = (0.0, 0.0);
-                for j in 0..s {
-                    let g = rays[c * s + j].2;
-                    if g <= 0.0 {
-                        continue;
-                    }
-                    reach += g;
-                    if blocked[c * s + j] {
-                        bits[j / 64] |= 1 << (j % 64);
-                    } else {
-                        visible += g;
-                    }
-                }
-                self.reach[k * nl + l] = reach / s as f32;
-                self.visible[k * nl + l] = visible / s as f32;
-            }
+        let (far, eps, samples) = (world.far(), world.eps, self.shadows.samples());
+        let receivers = &self.receivers;
+        // A sample the light does not reach casts no ray (its bit stays clear).
+        let sums = self.shadows.trace(world, &sets, |set, j| {
+            let i = receivers[set / nl] as usize;
+            let n = world.patches.normal[i];
+            let x = sample(world, i, j, samples);
+            let g = light.geometry(x, n, eps);
+            (g > 0.0).then(|| (x + n * eps, light.shadow_end(x, far), g))
+        });
+        for (&set, (reach, visible)) in sets.iter().zip(sums) {
+            self.reach[set] = reach / samples as f32;
+            self.visible[set] = visible / samples as f32;
         }
     }
 
@@ -337,7 +277,7 @@ impl PunctualCache {
     pub fn bytes(&self) -> usize {
         self.receivers.len() * 16
             + (self.reach.len() + self.visible.len()) * 4
-            + self.blocked.len() * 8
+            + self.shadows.bytes()
             + self.sky.bytes()
     }
 

@@ -33,14 +33,14 @@
 use std::time::Instant;
 
 use glam::Vec3;
-use rayon::prelude::*;
 use shrad_scene::Aabb;
 
-use super::setup::receives_as_boundary;
 use super::{Changes, Dispersive};
-use crate::form_factors::{patch_rays, row_from_hits, some_patch_rays};
 use crate::sparse::SparseRows;
 use crate::World;
+
+mod check;
+mod retrace;
 
 /// At most `1 / WALL_RETRACE_SHARE` of the wall exchange's rays (boundary patches x
 /// `wall_rays`) are re-traced per frame where movers passed (whole rows at a time, so up to
@@ -51,7 +51,7 @@ use crate::World;
 pub const WALL_RETRACE_SHARE: usize = 128;
 
 /// At most `1 / WALL_CHECK_SHARE` of the wall rows are checked against the movers per frame
-/// (`wall_rows.rs`: as exact as checking all of them, only later). Checking all of them took
+/// (the module's docs: as exact as checking all of them, only later). Checking all of them took
 /// 16 ms a frame of a Cornell 20k drag on 2 cores (every row's rays span the box, so its
 /// bounds reject no mover); an eighth takes about 2 ms.
 pub const WALL_CHECK_SHARE: usize = 8;
@@ -78,7 +78,7 @@ impl Dispersive {
     /// Check an eighth of the wall rows against the objects that moved since each was last
     /// checked ([`WALL_CHECK_SHARE`]), marking the rays a move may have changed (those that
     /// hit a mover, those with a mover's box now in front of their hit, every ray of a moved
-    /// boundary object's rows: `wall_rows.rs`), and re-trace dirty rays, at most a 128th of
+    /// boundary object's rows: the module's docs), and re-trace dirty rays, at most a 128th of
     /// the boundary's rays per frame ([`WALL_RETRACE_SHARE`]), from cursors that go round:
     /// the dispersive idea applied to the walls, the cost of a frame stays bounded and what
     /// is left waits for the next frames.
@@ -94,13 +94,14 @@ impl Dispersive {
         let n = self.boundary_patches.len();
         let past = || deadline.is_some_and(|d| Instant::now() >= d);
         let tt = Instant::now();
-        rows.note_moves(&changes.moved); // `object_boxes`: every object's box now
-                                         // Half as much while something moves (what is left catches up once it rests).
+        rows.note_moves(&changes.moved);
+        // Half as much while something moves (what is left catches up once it rests).
         let moving = 1 + usize::from(!changes.moved.is_empty());
         let mut left = n.div_ceil(WALL_CHECK_SHARE).min(WALL_CHECK_MAX / moving);
         // Under a deadline a few rows at a time (the first even past it: always progress).
         let step = if deadline.is_some() { 256 } else { left };
         while left > 0 {
+            // `object_boxes`: every object's box now.
             let done = rows.check(
                 world,
                 &self.boundary_patches,
@@ -134,9 +135,6 @@ impl Dispersive {
     }
 }
 
-/// A row rebuilt from its rays: entries, box, mask of objects hit.
-type RebuiltRow = (Vec<(u32, f32)>, Aabb, u64);
-
 /// A ray that hit nothing.
 const MISS: u32 = u32::MAX;
 /// The side bit of a stored hit: set when the ray met the triangle's front face.
@@ -167,7 +165,7 @@ pub(super) struct WallRows {
     dirty: Vec<u64>,
     /// The row the next re-trace starts from (so every dirty ray gets its turn).
     cursor: usize,
-    /// Frames seen by [`WallRows::mark`].
+    /// Frames seen by [`WallRows::note_moves`].
     frame: u64,
     /// Per object: the last frame it moved in (0: never).
     moved_at: Vec<u64>,
@@ -302,7 +300,7 @@ impl WallRows {
         self.dirty.iter().map(|w| w.count_ones() as usize).sum()
     }
 
-    /// Rows not yet checked against a move (see [`WallRows::mark`]).
+    /// Rows not yet checked against a move (see [`WallRows::check`]).
     #[cfg(test)]
     pub(super) fn unchecked_rows(&self) -> usize {
         let last = self.moved_at.iter().copied().max().unwrap_or(0);
@@ -338,320 +336,6 @@ impl WallRows {
         let q = q.clamp(Vec3::ZERO, Vec3::splat(65535.0));
         [q.x as u16, q.y as u16, q.z as u16]
     }
-
-    /// Note this frame's movers (see [`WallRows::check`]). Once a frame.
-    pub(super) fn note_moves(&mut self, moved: &[usize]) {
-        self.frame += 1;
-        for &o in moved {
-            self.moved_at[o] = self.frame;
-        }
-    }
-
-    /// Check up to `budget` rows that have not
-    /// been checked since an object moved, from a cursor that goes round: mark dirty the rays
-    /// a move may have changed (see the module's docs): those that hit an object that moved
-    /// since the row's last check, those whose segment meets such an object's box now
-    /// (`boxes`: every object's world box at this frame), and every ray of the rows of
-    /// patches on such an object (their origins moved). [`WallRows::retrace`] re-traces
-    /// them.
-    /// May run several times a frame (a deadline checks a few rows at a time); returns the
-    /// rows checked.
-    pub(super) fn check(
-        &mut self,
-        world: &World,
-        boundary: &[u32],
-        boxes: &[Aabb],
-        budget: usize,
-    ) -> usize {
-        let last = self.moved_at.iter().copied().max().unwrap_or(0);
-        let n = boundary.len();
-        if n == 0 || last <= self.checked_all {
-            return 0;
-        }
-        // The rows to check this frame.
-        let mut rows: Vec<usize> = Vec::new();
-        let start = self.mark_cursor % n;
-        let mut next = start;
-        for step in 0..n {
-            let k = (start + step) % n;
-            next = (k + 1) % n;
-            if self.checked_at[k] < last {
-                rows.push(k);
-                if rows.len() >= budget.max(1) {
-                    break;
-                }
-            }
-        }
-        if rows.len() < budget.max(1) {
-            // The scan went round: these are all the rows left to check.
-            self.checked_all = last;
-        }
-        if rows.is_empty() {
-            return 0;
-        }
-        self.mark_cursor = next;
-        let p = &world.patches;
-        let (rays, words) = (self.rays, self.words);
-        // Slack for the float noise of hits on a mover's surface (a ray that grazes a padded
-        // box is only re-traced for nothing).
-        let padded: Vec<Aabb> = boxes
-            .iter()
-            .map(|b| b.padded(Vec3::splat(4.0 * world.eps + 1e-5 * b.diagonal())))
-            .collect();
-        let q = self.step();
-        // Per row: (row, rays newly dirty, whether all of them).
-        let marks: Vec<(usize, Vec<u64>, bool)> = rows
-            .par_iter()
-            .filter_map(|&k| {
-                // The objects that moved since this row was last checked.
-                let since = self.checked_at[k];
-                let moved: Vec<usize> = (0..self.moved_at.len())
-                    .filter(|&o| self.moved_at[o] > since)
-                    .collect();
-                let moved_mask = moved.iter().fold(0u64, |m, &o| m | 1 << (o % 64));
-                let new: Vec<Aabb> = moved
-                    .iter()
-                    .map(|&o| padded[o])
-                    .filter(|b| !b.is_empty())
-                    .collect();
-                let inside = new
-                    .iter()
-                    .all(|b| self.space.contains(b.min) && self.space.contains(b.max));
-                let i = boundary[k] as usize;
-                let bits = &self.dirty[k * words..(k + 1) * words];
-                if moved.contains(&(p.object[i] as usize)) {
-                    let mut all = vec![u64::MAX; words];
-                    if rays % 64 != 0 {
-                        all[words - 1] = u64::MAX >> (words * 64 - rays);
-                    }
-                    return (all != bits).then_some((k, all, true));
-                }
-                let mut out = vec![0u64; words];
-                let clean =
-                    |out: &[u64], j: usize| (out[j / 64] | bits[j / 64]) & (1 << (j % 64)) == 0;
-                let hits = &self.hit[k * rays..(k + 1) * rays];
-                // (1) Rays that hit a mover.
-                if self.objects_hit[k] & moved_mask != 0 {
-                    for (j, &h) in hits.iter().enumerate() {
-                        if h != MISS
-                            && clean(&out, j)
-                            && moved.contains(&(p.object[(h & !FRONT) as usize] as usize))
-                        {
-                            out[j / 64] |= 1 << (j % 64);
-                        }
-                    }
-                }
-                // (2) Rays with a mover's new place in front of their hit.
-                let (c, r) = patch_sphere(world, i);
-                let pad = Vec3::splat(r) + q;
-                let near: Vec<Aabb> = new
-                    .iter()
-                    .map(|b| b.padded(pad))
-                    .filter(|b| b.meets_box(&self.bounds[k]))
-                    .collect();
-                if !inside && self.leaves[k] {
-                    // A mover outside the quantised space: the whole rays, regenerated.
-                    let mut o = vec![Vec3::ZERO; rays];
-                    let mut d = vec![Vec3::ZERO; rays];
-                    patch_rays(world, i, &mut o, &mut d);
-                    for j in 0..rays {
-                        if clean(&out, j) && new.iter().any(|b| b.meets_ray(o[j], d[j])) {
-                            out[j / 64] |= 1 << (j % 64);
-                        }
-                    }
-                } else if !near.is_empty() {
-                    let ends = &self.end[k * rays..(k + 1) * rays];
-                    for j in 0..rays {
-                        if clean(&out, j) {
-                            let e = self.decode(ends[j]);
-                            if near.iter().any(|b| b.meets_segment(c, e)) {
-                                out[j / 64] |= 1 << (j % 64);
-                            }
-                        }
-                    }
-                }
-                out.iter().any(|&w| w != 0).then_some((k, out, false))
-            })
-            .collect();
-        for (k, bits, _) in marks {
-            let w = &mut self.dirty[k * words..(k + 1) * words];
-            w.iter_mut().zip(&bits).for_each(|(w, b)| *w |= b);
-        }
-        for &k in &rows {
-            self.checked_at[k] = self.frame;
-        }
-        rows.len()
-    }
-
-    /// Row `k`'s entries from its rays' hits.
-    fn row_entries(&self, world: &World, k: usize) -> Vec<(u32, f32)> {
-        let rays = self.rays;
-        row_from_hits(
-            self.hit[k * rays..(k + 1) * rays]
-                .iter()
-                .filter_map(|&h| seen(world, h))
-                .filter(|&s| receives_as_boundary(world, s))
-                .map(|s| s as u32),
-            rays,
-        )
-    }
-
-    /// Rays `js` of each row `k` in `rows`, regenerated, in that order.
-    fn regenerate(
-        &self,
-        world: &World,
-        boundary: &[u32],
-        rows: &[(usize, Vec<usize>)],
-    ) -> (Vec<Vec3>, Vec<Vec3>) {
-        let total: usize = rows.iter().map(|(_, js)| js.len()).sum();
-        let mut o = vec![Vec3::ZERO; total];
-        let mut d = vec![Vec3::ZERO; total];
-        let (mut os, mut ds) = (&mut o[..], &mut d[..]);
-        let mut jobs = Vec::with_capacity(rows.len());
-        for (k, js) in rows {
-            let (oc, rest_o) = os.split_at_mut(js.len());
-            let (dc, rest_d) = ds.split_at_mut(js.len());
-            (os, ds) = (rest_o, rest_d);
-            jobs.push((*k, js, oc, dc));
-        }
-        jobs.into_par_iter().for_each(|(k, js, oc, dc)| {
-            some_patch_rays(world, boundary[k] as usize, self.rays, js, oc, dc)
-        });
-        (o, d)
-    }
-
-    /// Rebuild rows `ks` from their rays' hits, with their boxes and masks.
-    fn rebuild(&mut self, world: &World, boundary: &[u32], ks: &[usize]) {
-        let rays = self.rays;
-        let p = &world.patches;
-        let rebuilt: Vec<RebuiltRow> = ks
-            .par_iter()
-            .map(|&k| {
-                let i = boundary[k] as usize;
-                let hits = &self.hit[k * rays..(k + 1) * rays];
-                let row = self.row_entries(world, k);
-                let (c, r) = patch_sphere(world, i);
-                let b = self.end[k * rays..(k + 1) * rays]
-                    .iter()
-                    .fold(Aabb::new(c, c).padded(Vec3::splat(r)), |b, &e| {
-                        b.grow(self.decode(e))
-                    });
-                let mask = hits.iter().filter(|&&h| h != MISS).fold(0u64, |m, &h| {
-                    m | 1 << (p.object[(h & !FRONT) as usize] % 64)
-                });
-                (row, b, mask)
-            })
-            .collect();
-        for (&k, (row, b, mask)) in ks.iter().zip(rebuilt) {
-            self.rows.set_row(k, &row);
-            self.bounds[k] = b;
-            self.objects_hit[k] = mask;
-        }
-    }
-
-    /// Re-trace dirty rays, whole rows at a time from the cursor round, until about
-    /// `budget` rays (at least one row's, at most `budget + rays`); rebuild those rows from
-    /// their rays' hits. Returns the rays traced.
-    pub(super) fn retrace(&mut self, world: &World, boundary: &[u32], budget: usize) -> usize {
-        let (rays, words) = (self.rays, self.words);
-        let n = boundary.len();
-        // Nothing to do on most frames of a static scene: one pass over the bits.
-        if n == 0 || self.dirty.iter().all(|&w| w == 0) {
-            return 0;
-        }
-        // Pick the rows.
-        let mut picked: Vec<usize> = Vec::new();
-        let mut count = 0;
-        let start = self.cursor % n;
-        let mut next = start;
-        for step in 0..n {
-            let k = (start + step) % n;
-            next = (k + 1) % n;
-            let c: usize = self.dirty[k * words..(k + 1) * words]
-                .iter()
-                .map(|w| w.count_ones() as usize)
-                .sum();
-            if c == 0 {
-                continue;
-            }
-            picked.push(k);
-            count += c;
-            if count >= budget {
-                break;
-            }
-        }
-        if picked.is_empty() {
-            return 0;
-        }
-        self.cursor = next;
-        // The dirty rays, regenerated.
-        let rows: Vec<(usize, Vec<usize>)> = picked
-            .iter()
-            .map(|&k| {
-                let bits = &self.dirty[k * words..(k + 1) * words];
-                let js = (0..rays)
-                    .filter(|j| bits[j / 64] & (1 << (j % 64)) != 0)
-                    .collect();
-                (k, js)
-            })
-            .collect();
-        let (o, d) = self.regenerate(world, boundary, &rows);
-        let which: Vec<(usize, usize)> = rows
-            .iter()
-            .enumerate()
-            .flat_map(|(c, (_, js))| js.iter().map(move |&j| (c, j)))
-            .collect();
-        let mut hits = vec![shrad_vis::Hit::MISS; o.len()];
-        world.vis.closest(&o, &d, 0.0, &[], &mut hits);
-        let ends: Vec<([u16; 3], bool)> = (0..which.len())
-            .into_par_iter()
-            .map(|r| {
-                let (o, d, h) = (o[r], d[r], &hits[r]);
-                let exit = exit_distance(&self.space, o, d);
-                let t = if h.is_hit() { h.t } else { f32::INFINITY };
-                (self.encode(o + d * t.min(exit)), t > exit)
-            })
-            .collect();
-        for ((&(c, j), h), &(e, _)) in which.iter().zip(&hits).zip(&ends) {
-            let k = picked[c];
-            self.hit[k * rays + j] = if h.is_hit() {
-                h.id | if h.front { FRONT } else { 0 }
-            } else {
-                MISS
-            };
-            self.end[k * rays + j] = e;
-        }
-        let mut leaving = vec![false; picked.len()];
-        for (&(c, _), &(_, l)) in which.iter().zip(&ends) {
-            leaving[c] |= l;
-        }
-        // Rebuild the rows, their boxes and masks.
-        self.rebuild(world, boundary, &picked);
-        for (c, &k) in picked.iter().enumerate() {
-            let (centre, _) = patch_sphere(world, boundary[k] as usize);
-            // A segment once outside stays outside until the row is traced again whole.
-            let all_traced = rows[c].1.len() == rays;
-            self.leaves[k] =
-                leaving[c] || !self.space.contains(centre) || (!all_traced && self.leaves[k]);
-            self.dirty[k * words..(k + 1) * words].fill(0);
-            if !self.built[k] {
-                self.built[k] = true;
-                self.pending -= 1;
-            }
-        }
-        which.len()
-    }
-}
-
-/// The patch a stored hit sees (its twin when the back was hit), as [`World::seen_patch`].
-fn seen(world: &World, h: u32) -> Option<usize> {
-    (h != MISS).then_some(())?;
-    world.seen_patch(&shrad_vis::Hit {
-        id: h & !FRONT,
-        object: 0,
-        t: 0.0,
-        front: h & FRONT != 0,
-    })
 }
 
 /// A sphere holding patch `i` and its rays' origins (which are `eps` above it).
@@ -664,15 +348,4 @@ fn patch_sphere(world: &World, i: usize) -> (Vec3, f32) {
         .map(|&v| (v - c).length())
         .fold(0.0, f32::max);
     (c, r * (1.0 + 1e-5) + 2.0 * world.eps)
-}
-
-/// Distance along `o + t d` to where it leaves `b` (0 when `o` is outside).
-fn exit_distance(b: &Aabb, o: Vec3, d: Vec3) -> f32 {
-    if !b.contains(o) {
-        return 0.0;
-    }
-    let inv = d.recip();
-    let t0 = (b.min - o) * inv;
-    let t1 = (b.max - o) * inv;
-    t0.max(t1).min_element().max(0.0)
 }

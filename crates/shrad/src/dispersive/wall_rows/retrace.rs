@@ -1,0 +1,197 @@
+//! Re-tracing the wall rows' dirty rays and rebuilding the rows from their hits (also how
+//! the rows are built in the first place: every ray starts dirty).
+
+use glam::Vec3;
+use rayon::prelude::*;
+use shrad_scene::Aabb;
+
+use super::{patch_sphere, WallRows, FRONT, MISS};
+use crate::dispersive::setup::receives_as_boundary;
+use crate::form_factors::{row_from_hits, some_patch_rays};
+use crate::World;
+
+/// A row rebuilt from its rays: entries, box, mask of objects hit.
+type RebuiltRow = (Vec<(u32, f32)>, Aabb, u64);
+
+impl WallRows {
+    /// Row `k`'s entries from its rays' hits.
+    fn row_entries(&self, world: &World, k: usize) -> Vec<(u32, f32)> {
+        let rays = self.rays;
+        row_from_hits(
+            self.hit[k * rays..(k + 1) * rays]
+                .iter()
+                .filter_map(|&h| seen(world, h))
+                .filter(|&s| receives_as_boundary(world, s))
+                .map(|s| s as u32),
+            rays,
+        )
+    }
+
+    /// Rays `js` of each row `k` in `rows`, regenerated, in that order.
+    fn regenerate(
+        &self,
+        world: &World,
+        boundary: &[u32],
+        rows: &[(usize, Vec<usize>)],
+    ) -> (Vec<Vec3>, Vec<Vec3>) {
+        let total: usize = rows.iter().map(|(_, js)| js.len()).sum();
+        let mut o = vec![Vec3::ZERO; total];
+        let mut d = vec![Vec3::ZERO; total];
+        let (mut os, mut ds) = (&mut o[..], &mut d[..]);
+        let mut jobs = Vec::with_capacity(rows.len());
+        for (k, js) in rows {
+            let (oc, rest_o) = os.split_at_mut(js.len());
+            let (dc, rest_d) = ds.split_at_mut(js.len());
+            (os, ds) = (rest_o, rest_d);
+            jobs.push((*k, js, oc, dc));
+        }
+        jobs.into_par_iter().for_each(|(k, js, oc, dc)| {
+            some_patch_rays(world, boundary[k] as usize, self.rays, js, oc, dc)
+        });
+        (o, d)
+    }
+
+    /// Rebuild rows `ks` from their rays' hits, with their boxes and masks.
+    fn rebuild(&mut self, world: &World, boundary: &[u32], ks: &[usize]) {
+        let rays = self.rays;
+        let p = &world.patches;
+        let rebuilt: Vec<RebuiltRow> = ks
+            .par_iter()
+            .map(|&k| {
+                let i = boundary[k] as usize;
+                let hits = &self.hit[k * rays..(k + 1) * rays];
+                let row = self.row_entries(world, k);
+                let (c, r) = patch_sphere(world, i);
+                let b = self.end[k * rays..(k + 1) * rays]
+                    .iter()
+                    .fold(Aabb::new(c, c).padded(Vec3::splat(r)), |b, &e| {
+                        b.grow(self.decode(e))
+                    });
+                let mask = hits.iter().filter(|&&h| h != MISS).fold(0u64, |m, &h| {
+                    m | 1 << (p.object[(h & !FRONT) as usize] % 64)
+                });
+                (row, b, mask)
+            })
+            .collect();
+        for (&k, (row, b, mask)) in ks.iter().zip(rebuilt) {
+            self.rows.set_row(k, &row);
+            self.bounds[k] = b;
+            self.objects_hit[k] = mask;
+        }
+    }
+
+    /// Re-trace dirty rays, whole rows at a time from the cursor round, until about
+    /// `budget` rays (at least one row's, at most `budget + rays`); rebuild those rows from
+    /// their rays' hits. Returns the rays traced.
+    pub(super) fn retrace(&mut self, world: &World, boundary: &[u32], budget: usize) -> usize {
+        let (rays, words) = (self.rays, self.words);
+        let n = boundary.len();
+        // Nothing to do on most frames of a static scene: one pass over the bits.
+        if n == 0 || self.dirty.iter().all(|&w| w == 0) {
+            return 0;
+        }
+        // Pick the rows.
+        let mut picked: Vec<usize> = Vec::new();
+        let mut count = 0;
+        let start = self.cursor % n;
+        let mut next = start;
+        for step in 0..n {
+            let k = (start + step) % n;
+            next = (k + 1) % n;
+            let c: usize = self.dirty[k * words..(k + 1) * words]
+                .iter()
+                .map(|w| w.count_ones() as usize)
+                .sum();
+            if c == 0 {
+                continue;
+            }
+            picked.push(k);
+            count += c;
+            if count >= budget {
+                break;
+            }
+        }
+        if picked.is_empty() {
+            return 0;
+        }
+        self.cursor = next;
+        // The dirty rays, regenerated.
+        let rows: Vec<(usize, Vec<usize>)> = picked
+            .iter()
+            .map(|&k| {
+                let bits = &self.dirty[k * words..(k + 1) * words];
+                let js = (0..rays)
+                    .filter(|j| bits[j / 64] & (1 << (j % 64)) != 0)
+                    .collect();
+                (k, js)
+            })
+            .collect();
+        let (o, d) = self.regenerate(world, boundary, &rows);
+        let which: Vec<(usize, usize)> = rows
+            .iter()
+            .enumerate()
+            .flat_map(|(c, (_, js))| js.iter().map(move |&j| (c, j)))
+            .collect();
+        let mut hits = vec![shrad_vis::Hit::MISS; o.len()];
+        world.vis.closest(&o, &d, 0.0, &[], &mut hits);
+        let ends: Vec<([u16; 3], bool)> = (0..which.len())
+            .into_par_iter()
+            .map(|r| {
+                let (o, d, h) = (o[r], d[r], &hits[r]);
+                let exit = exit_distance(&self.space, o, d);
+                let t = if h.is_hit() { h.t } else { f32::INFINITY };
+                (self.encode(o + d * t.min(exit)), t > exit)
+            })
+            .collect();
+        for ((&(c, j), h), &(e, _)) in which.iter().zip(&hits).zip(&ends) {
+            let k = picked[c];
+            self.hit[k * rays + j] = if h.is_hit() {
+                h.id | if h.front { FRONT } else { 0 }
+            } else {
+                MISS
+            };
+            self.end[k * rays + j] = e;
+        }
+        let mut leaving = vec![false; picked.len()];
+        for (&(c, _), &(_, l)) in which.iter().zip(&ends) {
+            leaving[c] |= l;
+        }
+        // Rebuild the rows, their boxes and masks.
+        self.rebuild(world, boundary, &picked);
+        for (c, &k) in picked.iter().enumerate() {
+            let (centre, _) = patch_sphere(world, boundary[k] as usize);
+            // A segment once outside stays outside until the row is traced again whole.
+            let all_traced = rows[c].1.len() == rays;
+            self.leaves[k] =
+                leaving[c] || !self.space.contains(centre) || (!all_traced && self.leaves[k]);
+            self.dirty[k * words..(k + 1) * words].fill(0);
+            if !self.built[k] {
+                self.built[k] = true;
+                self.pending -= 1;
+            }
+        }
+        which.len()
+    }
+}
+
+/// The patch a stored hit sees (its twin when the back was hit), as [`World::seen_patch`].
+fn seen(world: &World, h: u32) -> Option<usize> {
+    (h != MISS).then_some(())?;
+    world.seen_patch(&shrad_vis::Hit {
+        id: h & !FRONT,
+        object: 0,
+        t: 0.0,
+        front: h & FRONT != 0,
+    })
+}
+
+/// Distance along `o + t d` to where it leaves `b` (0 when `o` is outside).
+fn exit_distance(b: &Aabb, o: Vec3, d: Vec3) -> f32 {
+    if !b.contains(o) {
+        return 0.0;
+    }
+    let inv = d.recip();
+    let t0 = (b.min - o) * inv;
+    let t1 = (b.max - o) * inv;
+    t0.max(t1).min_element().max(0.0)
+}

@@ -1,0 +1,172 @@
+//! Shadow rays kept as which of them are blocked, so that a cache of direct light re-traces
+//! only the rays a mover may have changed: the sky's ([`crate::sky::SkyCache`], a set of
+//! rays a receiver) and the punctual lights' ([`crate::lights::PunctualCache`], a set a
+//! receiver and light). The rays themselves are regenerated from their sample index when
+//! needed; what changes between caches is how a sample makes its ray and weight.
+
+use std::ops::AddAssign;
+
+use glam::Vec3;
+use rayon::prelude::*;
+use shrad_scene::Aabb;
+
+use crate::World;
+
+/// Sets traced in one batch by [`ShadowRays::trace`] (bounds the rays held at once).
+const SETS_PER_BATCH: usize = 4096;
+
+/// Sets of `samples` shadow rays each: bit `j` of set `s` is set when ray `j` is blocked.
+#[derive(Clone, Debug, Default)]
+pub struct ShadowRays {
+    samples: u32,
+    /// `u64` words of bits per set.
+    words: usize,
+    /// `[s * words ..]`: set `s`'s bits.
+    blocked: Vec<u64>,
+}
+
+/// One shadow ray of a set to trace again: `sample` of `set`, from `from` to `to`.
+pub struct ShadowRay {
+    pub set: u32,
+    pub sample: u32,
+    pub from: Vec3,
+    pub to: Vec3,
+}
+
+impl ShadowRays {
+    /// `sets` sets of `samples` rays (at least one), none blocked.
+    pub fn new(sets: usize, samples: u32) -> ShadowRays {
+        let samples = samples.max(1);
+        let words = (samples as usize).div_ceil(64);
+        ShadowRays {
+            samples,
+            words,
+            blocked: vec![0; sets * words],
+        }
+    }
+
+    /// Rays per set.
+    pub fn samples(&self) -> u32 {
+        self.samples
+    }
+
+    /// Is ray `j` of set `s` blocked?
+    pub fn is_blocked(&self, s: usize, j: u32) -> bool {
+        self.blocked[s * self.words + j as usize / 64] & (1 << (j % 64)) != 0
+    }
+
+    /// Mark every ray of set `s` free.
+    pub fn clear(&mut self, s: usize) {
+        self.blocked[s * self.words..(s + 1) * self.words].fill(0);
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        self.blocked.len() * 8
+    }
+
+    /// Trace the rays of `sets` from scratch: `ray(s, j)` gives ray `j` of set `s` (from, to)
+    /// and its weight, or `None` for a sample that casts no ray (it stays free and weighs
+    /// nothing). Returns, per set of `sets` in order, the sum of its rays' weights and the
+    /// sum over its free rays (both in sample order).
+    pub fn trace<W>(
+        &mut self,
+        world: &World,
+        sets: &[usize],
+        ray: impl Fn(usize, u32) -> Option<(Vec3, Vec3, W)> + Sync,
+    ) -> Vec<(W, W)>
+    where
+        W: Copy + Default + AddAssign + Send + Sync,
+    {
+        let samples = self.samples;
+        let mut sums = Vec::with_capacity(sets.len());
+        for batch in sets.chunks(SETS_PER_BATCH) {
+            // (set's place in the batch, sample, from, to, weight).
+            let rays: Vec<(usize, u32, Vec3, Vec3, W)> = batch
+                .par_iter()
+                .enumerate()
+                .flat_map_iter(|(c, &s)| {
+                    let ray = &ray;
+                    (0..samples).filter_map(move |j| ray(s, j).map(|(f, t, w)| (c, j, f, t, w)))
+                })
+                .collect();
+            let from: Vec<Vec3> = rays.iter().map(|r| r.2).collect();
+            let to: Vec<Vec3> = rays.iter().map(|r| r.3).collect();
+            let mut blocked = vec![false; rays.len()];
+            world.vis.occluded(&from, &to, world.eps, &[], &mut blocked);
+            for &s in batch {
+                self.clear(s);
+            }
+            let mut batch_sums = vec![(W::default(), W::default()); batch.len()];
+            for (&(c, j, .., w), &b) in rays.iter().zip(&blocked) {
+                batch_sums[c].0 += w;
+                if b {
+                    self.blocked[batch[c] * self.words + j as usize / 64] |= 1 << (j % 64);
+                } else {
+                    batch_sums[c].1 += w;
+                }
+            }
+            sums.extend(batch_sums);
+        }
+        sums
+    }
+
+    /// The rays of `sets` a move may have changed: a blocked one whose segment meets an `old`
+    /// box (its blocker may have left), a free one whose segment meets a `new` box (boxes
+    /// padded as [`crate::direct::padded_swept`]). `ray(s, j)` gives ray `j` of set `s`, or
+    /// `None` for a sample that casts no ray.
+    pub fn near_movers(
+        &self,
+        sets: &[usize],
+        old: &[Aabb],
+        new: &[Aabb],
+        ray: impl Fn(usize, u32) -> Option<(Vec3, Vec3)> + Sync,
+    ) -> Vec<ShadowRay> {
+        sets.par_iter()
+            .flat_map_iter(|&s| {
+                let ray = &ray;
+                (0..self.samples).filter_map(move |j| {
+                    let (from, to) = ray(s, j)?;
+                    let boxes = if self.is_blocked(s, j) { old } else { new };
+                    boxes
+                        .iter()
+                        .any(|b| b.meets_segment(from, to))
+                        .then_some(ShadowRay {
+                            set: s as u32,
+                            sample: j,
+                            from,
+                            to,
+                        })
+                })
+            })
+            .collect()
+    }
+
+    /// Trace `rays` again and keep what they say now; returns the sets whose bits changed,
+    /// ascending.
+    pub fn retrace(&mut self, world: &World, rays: &[ShadowRay]) -> Vec<usize> {
+        let from: Vec<Vec3> = rays.iter().map(|r| r.from).collect();
+        let to: Vec<Vec3> = rays.iter().map(|r| r.to).collect();
+        let mut blocked = vec![false; rays.len()];
+        world.vis.occluded(&from, &to, world.eps, &[], &mut blocked);
+        self.keep(rays, &blocked)
+    }
+
+    /// Keep whether each of `rays` is `blocked` now (traced by the caller: against the movers
+    /// first, say); returns the sets whose bits changed, ascending.
+    pub fn keep(&mut self, rays: &[ShadowRay], blocked: &[bool]) -> Vec<usize> {
+        let mut changed: Vec<usize> = Vec::new();
+        for (r, &b) in rays.iter().zip(blocked) {
+            let (s, j) = (r.set as usize, r.sample);
+            let w = &mut self.blocked[s * self.words + j as usize / 64];
+            let bit = 1u64 << (j % 64);
+            if b != (*w & bit != 0) {
+                *w ^= bit;
+                changed.push(s);
+            }
+        }
+        changed.sort_unstable();
+        changed.dedup();
+        changed
+    }
+}

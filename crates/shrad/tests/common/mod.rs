@@ -1,0 +1,28 @@
+//! Meshes several of shrad's integration tests build the same way (each test binary uses
+//! part of them).
+#![allow(dead_code)]
+
+use glam::Vec3;
+use shrad_scene::{quad, Mesh};
+
+/// A square of half-width `half` in y = 0 facing up (+y): a floor.
+pub fn floor(half: f32) -> Mesh {
+    let a = half;
+    quad([
+        Vec3::new(-a, 0.0, -a),
+        Vec3::new(-a, 0.0, a),
+        Vec3::new(a, 0.0, a),
+        Vec3::new(a, 0.0, -a),
+    ])
+}
+
+/// A unit square in y = 0 facing down (-y), counter-clockwise seen from below: a ceiling
+/// light once moved up.
+pub fn ceiling_light() -> Mesh {
+    quad([
+        Vec3::new(-0.5, 0.0, -0.5),
+        Vec3::new(0.5, 0.0, -0.5),
+        Vec3::new(0.5, 0.0, 0.5),
+        Vec3::new(-0.5, 0.0, 0.5),
+    ])
+}
