@@ -105,8 +105,8 @@ fn a_point_light_moved_through_the_viewer_lights_the_scene_as_one_loaded_there()
         assert_eq!(kinds, ["point", "spot", "directional"], "{intro}");
         let units: Vec<&str> = lights.iter().map(|l| l["unit"].as_str().unwrap()).collect();
         assert_eq!(units, ["cd", "cd", "lx"]);
-        // 400 W of a point lamp: 400 / (4 pi) W/sr, 683 times that in candela.
-        let w_per_sr = 400.0 / (4.0 * std::f64::consts::PI);
+        // 60 W of a point lamp: 60 / (4 pi) W/sr, 683 times that in candela.
+        let w_per_sr = 60.0 / (4.0 * std::f64::consts::PI);
         let cd = lights[lamp]["intensity"].as_f64().unwrap();
         assert!((cd - 683.0 * w_per_sr).abs() < 1e-3 * cd, "{cd} cd");
         assert!(lights[1]["cone"]["outer"].as_f64().unwrap() > 0.5);
