@@ -1,8 +1,8 @@
 // The sky behind the scene: the `scene` message's uniform radiance, or the equirectangular
 // map the server sends once (binary kind 3), drawn where no surface is, under the same
 // exposure and tone mapping as the surfaces. The map is looked up as shrad's `Sky::radiance`
-// does (crates/shrad/src/sky.rs): top row +Y, centre column -Z, turned by `rotate_deg`
-// about +Y.
+// does (crates/shrad/src/sky.rs: `uv`, the nearest texel): top row +Y, turned by
+// `rotate_deg` about +Y.
 
 import * as THREE from 'three';
 import { world } from './view.js';
@@ -77,8 +77,8 @@ export function onSkyMap(s) {
     rgba[4 * i + 3] = one;
   }
   const texture = new THREE.DataTexture(rgba, s.width, s.height, THREE.RGBAFormat, THREE.HalfFloatType);
-  texture.wrapS = THREE.RepeatWrapping;
-  texture.magFilter = texture.minFilter = THREE.LinearFilter;
+  // The nearest texel, as the engine's `Sky::radiance` (a large map comes averaged down).
+  texture.magFilter = texture.minFilter = THREE.NearestFilter;
   texture.colorSpace = THREE.LinearSRGBColorSpace;
   texture.needsUpdate = true;
   material.uniforms.map.value?.dispose();

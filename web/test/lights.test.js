@@ -7,6 +7,8 @@
 
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
+import { mkdtempSync, rmSync, writeFileSync } from 'node:fs';
+import { tmpdir } from 'node:os';
 import path from 'node:path';
 import { dragBy, launch, openPage, repo, settled, shot, shrad, startServer, stopServer } from './harness.js';
 
@@ -79,5 +81,52 @@ test('lights and sky in the page: listed, drawn, steered', { timeout: 600_000 },
   } finally {
     await browser.close();
     await stopServer(server);
+  }
+});
+
+/** A Radiance .hdr of `width` x `height` linear RGB texels (rows from the top), flat
+ * scanlines (a width under 8 is never run-length encoded). */
+function hdr(width, height, texels) {
+  const head = Buffer.from(`#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y ${height} +X ${width}\n`, 'ascii');
+  const body = Buffer.alloc(4 * width * height);
+  texels.forEach((c, i) => {
+    const max = Math.max(...c);
+    if (max <= 0) return;
+    const e = Math.floor(Math.log2(max)) + 1; // max = m 2^e, m in [0.5, 1)
+    const k = 256 / 2 ** e;
+    body.set([Math.floor(c[0] * k), Math.floor(c[1] * k), Math.floor(c[2] * k), e + 128], 4 * i);
+  });
+  return Buffer.concat([head, body]);
+}
+
+test('a sky map is sent once and drawn behind the scene', { timeout: 300_000 }, async () => {
+  // A map whose upper half is one colour and lower half another, behind a lone floor.
+  const dir = mkdtempSync(path.join(tmpdir(), 'shrad-sky-'));
+  const [up, down] = [[0.25, 0.5, 0.75], [0.75, 0.375, 0.125]];
+  writeFileSync(path.join(dir, 'sky.hdr'), hdr(4, 2, [up, up, up, up, down, down, down, down]));
+  writeFileSync(path.join(dir, 'scene.toml'), [
+    '[camera]', 'eye = [0, 1.5, 6]', 'target = [0, 1, 0]', 'yfov_deg = 50',
+    '[environment]', 'file = "sky.hdr"', 'scale = 2.0',
+    '[[object]]', 'name = "floor"', 'role = "boundary"', 'shape = "quad"',
+    'corners = [[-3, 0, -3], [-3, 0, 3], [3, 0, 3], [3, 0, -3]]', 'reflectance = [0.5, 0.5, 0.5]',
+  ].join('\n'));
+  const server = await startServer([path.join(dir, 'scene.toml'), '--patches', '500']);
+  const browser = await launch();
+  try {
+    const { page, errors } = await openPage(browser.context, server.url);
+    await settled(page, 120_000);
+    await page.selectOption('#tonemap', 'linear');
+    const [w] = await shrad(page, () => window.__shrad.canvasSize());
+    const box = await shrad(page, () => { const r = window.__shrad.renderer.domElement.getBoundingClientRect(); return [r.left, r.top]; });
+    // The top of the picture looks above the horizon: the upper half's colour times 2.
+    const [top] = await shrad(page, (r) => window.__shrad.sample(r), [[box[0] + w / 2 - 4, box[1] + 4, 8, 8]]);
+    const want = up.map((x) => srgb(Math.min(1, 2 * x)));
+    for (let k = 0; k < 3; k++) assert.ok(Math.abs(top[k] - want[k]) <= 3, `sky pixel ${top}, not the map's upper half ${want}`);
+    assert.match(await page.innerText('#lights'), /sky: map .*sky\.hdr \(4×2, drawn at 4×2\)/);
+    assert.deepEqual(errors, [], `the page reported errors: ${errors.join('; ')}`);
+  } finally {
+    await browser.close();
+    await stopServer(server);
+    rmSync(dir, { recursive: true, force: true });
   }
 });
