@@ -186,7 +186,10 @@ impl EngineLoop {
 
     /// The preset the solver's settings are, or `custom` once a setting differs from each.
     fn preset(&self) -> &'static str {
-        self.engine.solver_choice().preset_name().unwrap_or("custom")
+        self.engine
+            .solver_choice()
+            .preset_name()
+            .unwrap_or("custom")
     }
 
     /// The length of the scene's animation (s; 0: none).

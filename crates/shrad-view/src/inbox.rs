@@ -379,14 +379,30 @@ mod tests {
                 r#"{{"v":1,"id":{id},"type":"set_light_transform","light":{l},"matrix":[1,0,0,0,0,1,0,0,0,0,1,0,{x},0,0,1]}}"#
             )
         };
-        assert!(inbox.push(pending(&light(1, "0", 0.1), &tx)).ok().unwrap().is_none());
+        assert!(inbox
+            .push(pending(&light(1, "0", 0.1), &tx))
+            .ok()
+            .unwrap()
+            .is_none());
         let colour = r#"{"v":1,"id":2,"type":"set_light_intensity","light":"bulb","color":[1,1,1],"intensity":3}"#;
         assert!(inbox.push(pending(colour, &tx)).ok().unwrap().is_none());
         // The same light by name; an object of the same index is another key.
-        let older = inbox.push(pending(&light(3, "\"bulb\"", 0.2), &tx)).ok().unwrap();
+        let older = inbox
+            .push(pending(&light(3, "\"bulb\"", 0.2), &tx))
+            .ok()
+            .unwrap();
         assert_eq!(older.map(|p| p.envelope.id), Some(Some(1)));
-        assert!(inbox.push(pending(&moved(4, "0", 0.4), &tx)).ok().unwrap().is_none());
-        let ids: Vec<_> = inbox.take().requests.iter().map(|p| p.envelope.id).collect();
+        assert!(inbox
+            .push(pending(&moved(4, "0", 0.4), &tx))
+            .ok()
+            .unwrap()
+            .is_none());
+        let ids: Vec<_> = inbox
+            .take()
+            .requests
+            .iter()
+            .map(|p| p.envelope.id)
+            .collect();
         assert_eq!(ids, [Some(2), Some(3), Some(4)]);
         // A light that does not exist has no key: the engine refuses it.
         let names = Names::default();

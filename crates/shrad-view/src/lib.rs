@@ -172,11 +172,8 @@ impl Server {
             .with_context(|| format!("cannot listen on {addr}"))?;
         let addr = listener.local_addr()?;
         let shared = Arc::new(Shared::new());
-        let (engine_loop, intro, frames) = EngineLoop::new(
-            engine,
-            shared.clone(),
-            (options.sizing, options.backend),
-        );
+        let (engine_loop, intro, frames) =
+            EngineLoop::new(engine, shared.clone(), (options.sizing, options.backend));
         let engine_thread = std::thread::Builder::new()
             .name("shrad-engine".to_string())
             .spawn(move || engine_loop.run())

@@ -100,7 +100,10 @@ pub fn sky_json(environment: Option<&Environment>) -> Value {
 /// across and half that down: width, height, texels (rows from the top).
 fn downsampled(map: &shrad::scene::EnvMap) -> (usize, usize, Vec<Vec3>) {
     let (w, h) = (map.width as usize, map.height as usize);
-    let k = w.div_ceil(SKY_MAX_WIDTH).max(h.div_ceil(SKY_MAX_WIDTH / 2)).max(1);
+    let k = w
+        .div_ceil(SKY_MAX_WIDTH)
+        .max(h.div_ceil(SKY_MAX_WIDTH / 2))
+        .max(1);
     let (dw, dh) = (w.div_ceil(k), h.div_ceil(k));
     let mut out = Vec::with_capacity(dw * dh);
     for y in 0..dh {
@@ -167,6 +170,9 @@ mod tests {
         assert_eq!(texel(dw - 1, dh - 1), 2.0 * (dw - 1) as f32);
         assert!(sky_map(&Environment::uniform(Vec3::ONE)).is_none());
         let j = sky_json(Some(&env));
-        assert_eq!((j["width"].as_u64(), j["kind"].as_str()), (Some(dw as u64), Some("map")));
+        assert_eq!(
+            (j["width"].as_u64(), j["kind"].as_str()),
+            (Some(dw as u64), Some("map"))
+        );
     }
 }

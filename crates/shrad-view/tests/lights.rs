@@ -17,8 +17,7 @@ mod common;
 use common::*;
 
 fn courtyard() -> shrad::scene::Scene {
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/courtyard.toml");
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/courtyard.toml");
     shrad::scene::load(&path, &Default::default()).unwrap()
 }
 
@@ -86,7 +85,12 @@ fn difference(a: &[f32], b: &[f32]) -> f32 {
 
 /// Whether the JSON numbers `v` are `want` (to f32's precision).
 fn close(v: &Value, want: [f64; 3]) -> bool {
-    let got: Vec<f64> = v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+    let got: Vec<f64> = v
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
     got.len() == 3 && got.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-6)
 }
 
@@ -111,7 +115,10 @@ fn a_point_light_moved_through_the_viewer_lights_the_scene_as_one_loaded_there()
         assert!((cd - 683.0 * w_per_sr).abs() < 1e-3 * cd, "{cd} cd");
         assert!(lights[1]["cone"]["outer"].as_f64().unwrap() > 0.5);
         assert_eq!(intro["sky"]["kind"], "uniform");
-        assert!(close(&intro["sky"]["radiance"], [0.35, 0.5, 0.9]), "{intro}");
+        assert!(
+            close(&intro["sky"]["radiance"], [0.35, 0.5, 0.9]),
+            "{intro}"
+        );
         let before = converged_colours(&mut ws, 1).await;
         let r = ask(
             &mut ws,
@@ -138,8 +145,15 @@ fn a_point_light_moved_through_the_viewer_lights_the_scene_as_one_loaded_there()
     let changed = difference(&before, &loaded);
     eprintln!("moved vs loaded: {d:.2e} of the brightest; before vs loaded: {changed:.3}");
     // (Halves keep 11 bits: 5e-4 of a value.)
-    assert!(d < 2e-3, "moved and loaded differ by {:.4} of the brightest", d);
-    assert!(changed > 0.05, "moving the lamp changed the colours by {changed} only");
+    assert!(
+        d < 2e-3,
+        "moved and loaded differ by {:.4} of the brightest",
+        d
+    );
+    assert!(
+        changed > 0.05,
+        "moving the lamp changed the colours by {changed} only"
+    );
 }
 
 #[test]

@@ -581,7 +581,10 @@ mod tests {
             )
             .unwrap()
         };
-        let (a, b) = (Vec3::new(150.0, 400.0, 200.0), Vec3::new(380.0, 300.0, 350.0));
+        let (a, b) = (
+            Vec3::new(150.0, 400.0, 200.0),
+            Vec3::new(380.0, 300.0, 350.0),
+        );
         let mut e = engine(a);
         assert_eq!(e.light_transform(0).unwrap(), at(a));
         assert_eq!(e.time(), 0.0);

@@ -119,30 +119,8 @@ impl EngineLoop {
                 self.changed();
                 Ok(json!({}))
             }
-            Request::SetLightTransform { light, matrix } => {
-                let l = self.light(&light)?;
-                let m = protocol::affine_from_columns(&matrix)?;
-                let now = &self.engine.world().scene.lights[l];
-                let (color, intensity) = (now.color, now.intensity);
-                self.engine
-                    .set_light(l, m, color, intensity)
-                    .map_err(|e| e.to_string())?;
-                self.changed();
-                Ok(json!({}))
-            }
-            Request::SetLightIntensity {
-                light,
-                color,
-                intensity,
-            } => {
-                let l = self.light(&light)?;
-                let m = self.engine.light_transform(l).map_err(|e| e.to_string())?;
-                let c = Vec3::new(color[0] as f32, color[1] as f32, color[2] as f32);
-                self.engine
-                    .set_light(l, m, c, intensity as f32)
-                    .map_err(|e| e.to_string())?;
-                self.changed();
-                Ok(json!({}))
+            Request::SetLightTransform { .. } | Request::SetLightIntensity { .. } => {
+                self.steer_light(request)
             }
             Request::SetTime { t } => {
                 if !t.is_finite() {
@@ -202,6 +180,41 @@ impl EngineLoop {
             | Request::Ack { .. }
             | Request::TakeSteering {}
             | Request::ReleaseSteering {} => Ok(json!({})),
+        }
+    }
+
+    /// A punctual light's move or its colour and intensity, through [`Engine::set_light`]
+    /// (what the request leaves out stays as the engine has it).
+    ///
+    /// [`Engine::set_light`]: shrad::engine::Engine::set_light
+    fn steer_light(&mut self, request: Request) -> Result<Value, String> {
+        match request {
+            Request::SetLightTransform { light, matrix } => {
+                let l = self.light(&light)?;
+                let m = protocol::affine_from_columns(&matrix)?;
+                let now = &self.engine.world().scene.lights[l];
+                let (color, intensity) = (now.color, now.intensity);
+                self.engine
+                    .set_light(l, m, color, intensity)
+                    .map_err(|e| e.to_string())?;
+                self.changed();
+                Ok(json!({}))
+            }
+            Request::SetLightIntensity {
+                light,
+                color,
+                intensity,
+            } => {
+                let l = self.light(&light)?;
+                let m = self.engine.light_transform(l).map_err(|e| e.to_string())?;
+                let c = Vec3::new(color[0] as f32, color[1] as f32, color[2] as f32);
+                self.engine
+                    .set_light(l, m, c, intensity as f32)
+                    .map_err(|e| e.to_string())?;
+                self.changed();
+                Ok(json!({}))
+            }
+            _ => Err(format!("{} is not a light's request", request.kind())),
         }
     }
 }
