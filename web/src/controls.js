@@ -1,9 +1,11 @@
 // Steering by mouse and keys: select an interior object, drag it over the surface it rests
-// on, rotate it (shift-drag, Q / E, the buttons). The page shows a move at once and the
-// engine's frames take over once they have it.
+// on, rotate it (shift-drag, Q / E, the buttons); drag a point or spot light's ball
+// (gizmos.js). The page shows a move at once and the engine's frames take over once they
+// have it.
 
 import * as THREE from 'three';
 import { send } from './connection.js';
+import { dragLight, pickLight, startLightDrag } from './gizmos.js';
 import { $, state } from './state.js';
 import { camera, controls, placeMesh, renderer, requestDraw } from './view.js';
 
@@ -93,6 +95,15 @@ renderer.domElement.addEventListener('pointerdown', (e) => {
   if (e.button !== 0 || !state.objects.length) return;
   // A watcher orbits and looks; only the client that steers moves objects.
   if (state.role === 'watch') return;
+  ndc(e);
+  const light = pickLight(raycaster);
+  if (light >= 0) {
+    state.drag = { ...startLightDrag(light, raycaster, e.shiftKey), isLight: true };
+    controls.enabled = false;
+    renderer.domElement.setPointerCapture(e.pointerId);
+    e.preventDefault();
+    return;
+  }
   const hit = pick(e);
   const o = hit ? hit.object.userData.object : -1;
   if (o < 0 || state.objects[o].meta.role !== 'interior') {
@@ -113,6 +124,7 @@ renderer.domElement.addEventListener('pointerdown', (e) => {
 
 renderer.domElement.addEventListener('pointermove', (e) => {
   if (!state.drag) return;
+  if (state.drag.isLight) { ndc(e); dragLight(state.drag, raycaster); return; }
   if (state.drag.rotate) {
     const angle = (e.clientX - state.drag.x0) * 0.01;
     steer(state.drag.object, rotated(state.drag.object, state.drag.startMatrix, angle, state.drag.normal), e.timeStamp);

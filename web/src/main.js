@@ -3,7 +3,8 @@
 // shows its state (stats, plot, probes, channels, roles). Protocol: docs/viewer-protocol.md.
 // By concern: connection.js (the socket), messages.js (each message to its handler),
 // scene.js (scene, geometry, frames), view.js (three.js and the draw loop), controls.js
-// (selection, drag, rotation), panels.js (stats, settings, probes, lights, animation),
+// (selection, drag, rotation), panels.js (stats, settings, probes, animation), lights.js
+// (the lights panel), gizmos.js (punctual lights in the view), sky.js (the background),
 // plot.js (the frame-time plot), state.js (what they share).
 
 import * as THREE from 'three';
@@ -33,6 +34,11 @@ window.__shrad = {
     const v = p.project(camera);
     const r = renderer.domElement.getBoundingClientRect();
     return { x: r.left + (v.x + 1) / 2 * r.width, y: r.top + (1 - v.y) / 2 * r.height };
+  },
+  /** Canvas-pixel position of punctual light `name` (where the page shows it). */
+  screenOfLight(name) {
+    const l = state.lights.find((x) => x.meta.name === name);
+    return l && l.gizmo ? this.screenOf(l.gizmo.position.toArray()) : null;
   },
   /** World box of object `name` ([lo, hi]). */
   boxOf(name) {

@@ -2,9 +2,11 @@
 // probes (panels.js), replies to requests, this client's role, errors.
 
 import { note, send } from './connection.js';
+import { onLightReply } from './gizmos.js';
 import { onProbes, showStats } from './panels.js';
-import { decodeColours, decodeGeometry, header, KIND_COLOURS, KIND_GEOMETRY } from './protocol.js';
+import { decodeColours, decodeGeometry, decodeSky, header, KIND_COLOURS, KIND_GEOMETRY, KIND_SKY } from './protocol.js';
 import { onColours, onFrame, onGeometry, onScene } from './scene.js';
+import { onSkyMap } from './sky.js';
 import { $, state } from './state.js';
 import { requestDraw } from './view.js';
 
@@ -21,6 +23,7 @@ export function onText(m) {
       // A refused move: show the engine's place again.
       const moved = localMoveOf(m.id);
       if (moved) { moved.local = null; requestDraw(); }
+      onLightReply(m);
       state.pendingSteer.delete(m.id);
       return note(m.message, true);
     }
@@ -47,6 +50,7 @@ export function onBinary(buffer) {
   const h = header(buffer);
   if (h.kind === KIND_GEOMETRY) return onGeometry(decodeGeometry(buffer));
   if (h.kind === KIND_COLOURS) return onColours(decodeColours(buffer));
+  if (h.kind === KIND_SKY) return onSkyMap(decodeSky(buffer));
   note(`unknown binary kind ${h.kind}`, true);
 }
 
@@ -67,6 +71,7 @@ function onOk(m) {
   }
   const moved = localMoveOf(m.id);
   if (moved) moved.local.untilFrame = m.frame;
+  if (m.request === 'set_light_transform') onLightReply(m);
   if (m.id !== undefined && state.pendingSteer.has(m.id)) {
     const now = performance.now();
     for (const t of state.pendingSteer.get(m.id)) {

@@ -1,5 +1,5 @@
 // The side panels: stats and the frame-time plot, the solver's and the display's controls,
-// the probes, the lights and the animation.
+// the probes and the animation (the lights: lights.js).
 
 import * as THREE from 'three';
 import { note, send } from './connection.js';
@@ -162,40 +162,6 @@ export function onProbes(m) {
     ring.material.color.set(p.state === 'invalid' ? 0xff3333 : 0xffdd33);
   });
   requestDraw();
-}
-
-// ---- lights ---------------------------------------------------------------------------
-function linearToHex(rgb) {
-  const max = Math.max(...rgb, 1e-9);
-  const c = new THREE.Color().setRGB(rgb[0] / max, rgb[1] / max, rgb[2] / max, THREE.LinearSRGBColorSpace);
-  return '#' + c.getHexString(THREE.SRGBColorSpace);
-}
-
-export function fillLights(m) {
-  const box = $('lights');
-  box.replaceChildren();
-  const lights = m.objects.map((o, i) => ({ ...o, index: i })).filter((o) => o.role === 'light' && Math.max(...o.emission) > 0);
-  $('lights-section').style.display = lights.length ? '' : 'none';
-  for (const l of lights) {
-    const base = Math.max(...l.emission);
-    const div = document.createElement('div');
-    div.className = 'light';
-    div.innerHTML = `<div>${l.name}</div>
-      <input type="color" value="${linearToHex(l.emission)}">
-      power <input type="range" min="0" max="4" step="0.05" value="1"> <span>1.00×</span>
-      <label style="display:inline"><input type="checkbox"> off</label>`;
-    const [colour, power, off] = div.querySelectorAll('input');
-    const label = div.querySelector('span');
-    const update = () => {
-      const c = new THREE.Color();
-      c.setStyle(colour.value, THREE.SRGBColorSpace);
-      const k = off.checked ? 0 : Number(power.value) * base;
-      label.textContent = `${Number(power.value).toFixed(2)}×`;
-      send('set_emission', { object: l.index, radiance: [c.r * k, c.g * k, c.b * k] });
-    };
-    colour.oninput = update; power.oninput = update; off.onchange = update;
-    box.appendChild(div);
-  }
 }
 
 // ---- animation ------------------------------------------------------------------------

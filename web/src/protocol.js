@@ -5,6 +5,7 @@ export const VERSION = 1;
 const MAGIC = 0x56524853; // "SHRV" little-endian
 export const KIND_COLOURS = 1;
 export const KIND_GEOMETRY = 2;
+export const KIND_SKY = 3;
 
 /** The 16-byte header of a binary message, or an Error saying what is wrong. */
 export function header(buffer) {
@@ -50,6 +51,17 @@ export function decodeColours(buffer) {
   const matrices = new Float32Array(buffer, 24, 16 * n);
   const halves = new Uint16Array(buffer, 24 + 64 * n, 3 * vertices);
   return { frame: h.frame, channel: h.channel, scale, matrices, halves };
+}
+
+/** The sky's map: its scale, size, turn about +Y (degrees) and RGB halves, rows from the top. */
+export function decodeSky(buffer) {
+  header(buffer);
+  const dv = new DataView(buffer);
+  const scale = dv.getFloat32(16, true);
+  const width = dv.getUint32(20, true), height = dv.getUint32(24, true);
+  const rotateDeg = dv.getFloat32(28, true);
+  if (buffer.byteLength !== 32 + 6 * width * height) throw new Error(`sky message of ${buffer.byteLength} bytes for a ${width}x${height} map`);
+  return { scale, width, height, rotateDeg, halves: new Uint16Array(buffer, 32, 3 * width * height) };
 }
 
 /** A control message as text. */

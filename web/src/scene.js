@@ -3,7 +3,9 @@
 
 import * as THREE from 'three';
 import { note } from './connection.js';
-import { fillLights, fillSolverControls, plot, showStats, syncLive } from './panels.js';
+import { fillLights, syncLights } from './lights.js';
+import { fillSolverControls, plot, showStats, syncLive } from './panels.js';
+import { showSky } from './sky.js';
 import { $, state } from './state.js';
 import { camera, controls, placeMesh, requestDraw, resize, world } from './view.js';
 
@@ -32,6 +34,7 @@ export function onScene(m) {
   resize();
   fillSolverControls(m);
   fillLights(m);
+  showSky(m.sky);
   $('anim-section').style.display = m.duration > 0 ? '' : 'none';
   $('time').max = String(m.duration);
 }
@@ -88,6 +91,7 @@ export function onFrame(m) {
   $('play').textContent = m.playing ? 'pause' : 'play';
   $('continuous').checked = m.continuous;
   syncLive(m);
+  syncLights(m);
 }
 
 export function onColours(c) {

@@ -6,6 +6,7 @@ export const params = new URLSearchParams(location.search);
 
 export const state = {
   scene: null, // the `scene` message
+  lights: [], // per punctual light: { meta (the scene message's), now (the last frame's), gizmo, local (a move shown ahead), inputs }
   objects: [], // per object: { mesh, overlay, meta, worldFromLocal (Matrix4), localFromObject (Matrix4) }
   lastFrame: null, // last `frame` message
   framesDrawn: 0,

@@ -14,81 +14,9 @@
 
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { spawn } from 'node:child_process';
-import { mkdtempSync, mkdirSync, rmSync, writeFileSync } from 'node:fs';
-import { tmpdir } from 'node:os';
+import { writeFileSync, mkdirSync } from 'node:fs';
 import path from 'node:path';
-import { fileURLToPath } from 'node:url';
-import { chromium } from 'playwright-core';
-
-const here = path.dirname(fileURLToPath(import.meta.url));
-const repo = path.resolve(here, '../..');
-const target = process.env.CARGO_TARGET_DIR || path.join(repo, 'target');
-const shots = path.resolve(process.env.SHRAD_VIEW_SHOTS || path.join(target, 'viewer-shots'));
-const output = path.join(repo, 'web/test-output');
-const command = process.env.SHRAD_VIEW_CMD
-  ? JSON.parse(process.env.SHRAD_VIEW_CMD)
-  : [path.join(target, 'release/shrad-view')];
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-
-/** Start the server on a free port; resolves with its URL and process. */
-function startServer(args) {
-  return new Promise((resolve, reject) => {
-    const child = spawn(command[0], [...command.slice(1), ...args, '--port', '0'], { stdio: ['ignore', 'pipe', 'pipe'] });
-    let out = '', err = '';
-    const timer = setTimeout(() => reject(new Error(`server did not print its URL within 180 s\n${err}`)), 180_000);
-    child.stdout.on('data', (d) => {
-      out += d;
-      const m = out.match(/(http:\/\/127\.0\.0\.1:\d+\/)/);
-      if (m) { clearTimeout(timer); resolve({ url: m[1], child, stderr: () => err }); }
-    });
-    child.stderr.on('data', (d) => { err += d; });
-    child.on('exit', (code) => { clearTimeout(timer); reject(new Error(`server exited with ${code}\n${err}`)); });
-  });
-}
-
-async function stopServer(server) {
-  const exited = new Promise((r) => server.child.once('exit', (code, signal) => r({ code, signal })));
-  server.child.kill('SIGINT');
-  const r = await Promise.race([exited, sleep(10_000).then(() => null)]);
-  if (!r) server.child.kill('SIGKILL');
-  return r;
-}
-
-async function launch() {
-  const profile = mkdtempSync(path.join(tmpdir(), 'shrad-view-chromium-'));
-  const context = await chromium.launchPersistentContext(profile, {
-    executablePath: '/usr/bin/chromium',
-    headless: true,
-    viewport: { width: 1200, height: 700 },
-    args: [
-      '--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-      '--disable-background-networking', '--disable-component-update', '--disable-sync',
-      '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
-    ],
-  });
-  return { context, close: async () => { await context.close(); rmSync(profile, { recursive: true, force: true }); } };
-}
-
-async function openPage(context, url) {
-  const page = context.pages()[0] || (await context.newPage());
-  const errors = [];
-  page.on('pageerror', (e) => errors.push(e.message));
-  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
-  await page.goto(url);
-  await page.waitForFunction(() => window.__shrad && window.__shrad.state.framesDrawn > 0, null, { timeout: 120_000 });
-  return { page, errors };
-}
-
-const shrad = (page, fn, arg) => page.evaluate(fn, arg);
-
-/** Wait until the engine says it has converged and the page drew that frame. */
-async function settled(page, timeout = 30_000) {
-  await page.waitForFunction(() => {
-    const s = window.__shrad.state;
-    return s.lastFrame && s.lastFrame.converged && s.lastDrawnFrame >= s.lastFrame.frame;
-  }, null, { timeout });
-}
+import { dragBy, launch, openPage, output, settled, shot, shrad, sleep, startServer, stopServer } from './harness.js';
 
 /** Canvas rects (8x8 px) around world points. */
 async function rectsAt(page, points) {
@@ -109,17 +37,6 @@ function around(box, reach = 0.35) {
 
 const luminance = (c) => 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
 const maxDiff = (a, b) => Math.max(...a.flatMap((c, i) => c.map((x, k) => Math.abs(x - b[i][k]))));
-
-/** Drag from canvas point `from` by (dx, dy) pixels in `steps` real mouse moves over `ms`. */
-async function dragBy(page, from, dx, dy, steps, ms) {
-  await page.mouse.move(from.x, from.y);
-  await page.mouse.down();
-  for (let i = 1; i <= steps; i++) {
-    await page.mouse.move(from.x + (dx * i) / steps, from.y + (dy * i) / steps);
-    await sleep(ms / steps);
-  }
-  await page.mouse.up();
-}
 
 /** Pointer moves dispatched by the page itself at `hz` for `seconds` (after a real mouse
  * down): their rate does not depend on how fast playwright's round trips are on a loaded
@@ -234,11 +151,6 @@ async function steady(page, seconds) {
   await shrad(page, () => window.__shrad.send('run', { continuous: false }));
   const secs = (b.t - a.t) / 1000;
   return { seconds: secs, drawn_per_s: (b.drawn - a.drawn) / secs, engine_frames_per_s: (b.engine - a.engine) / secs, last_step_ms: b.ms };
-}
-
-async function shot(page, name) {
-  mkdirSync(shots, { recursive: true });
-  await page.screenshot({ path: path.join(shots, name) });
 }
 
 test('shrad view in a real browser: lit, drag, solver, channels, probes, performance', { timeout: 900_000 }, async () => {

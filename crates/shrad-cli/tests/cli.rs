@@ -184,6 +184,52 @@ fn render_writes_png_exr_and_csv() {
 }
 
 #[test]
+fn info_lists_the_punctual_lights_with_both_units_and_where_they_are() {
+    let o = shrad(&[
+        "info",
+        repo().join("scenes/courtyard.toml").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = String::from_utf8_lossy(&o.stdout);
+    let line = |name: &str| {
+        s.lines()
+            .find(|l| l.split_whitespace().nth(1) == Some(name))
+            .unwrap_or_else(|| panic!("no line for {name}:\n{s}"))
+            .to_string()
+    };
+    // The number before `unit` on `line`.
+    let value = |line: &str, unit: &str| -> f64 {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let at = words.iter().position(|w| *w == unit).unwrap();
+        words[at - 1].parse().unwrap()
+    };
+    // The scene file gives the lamp 60 W: 60 / (4 pi) W/sr, 683 lm/W of that in candela.
+    let lamp = line("lamp");
+    let w = 60.0 / (4.0 * std::f64::consts::PI);
+    assert!(
+        lamp.contains("point") && lamp.contains("at 0.600 1.600 1.000"),
+        "{lamp}"
+    );
+    assert!((value(&lamp, "W/sr") - w).abs() < 1e-4 * w, "{lamp}");
+    assert!(
+        (value(&lamp, "cd") - 683.0 * w).abs() < 1e-4 * 683.0 * w,
+        "{lamp}"
+    );
+    let spot = line("spot");
+    assert!(
+        spot.contains("spot") && spot.contains("cone 15.0..30.0 deg"),
+        "{spot}"
+    );
+    let sun = line("sun");
+    assert!(
+        sun.contains("directional") && sun.contains("towards"),
+        "{sun}"
+    );
+    assert!((value(&sun, "W/m^2") - 1.5).abs() < 1e-5, "{sun}");
+    assert!((value(&sun, "lx") - 1.5 * 683.0).abs() < 1e-2, "{sun}");
+}
+
+#[test]
 fn info_prints_roles() {
     let o = shrad(&["info", repo().join("scenes/cornell.obj").to_str().unwrap()]);
     assert!(o.status.success());

@@ -223,6 +223,11 @@ pub async fn serve(socket: WebSocket, app: Arc<App>, seat: Seat) {
     {
         return;
     }
+    if let Some(sky) = &app.intro.sky {
+        if sink.send(Message::Binary(sky.clone())).await.is_err() {
+            return;
+        }
+    }
     // The engine may be idle: have it publish the channels this client now wants.
     app.shared.inbox.refresh();
     let flow = Flow::default();
@@ -394,7 +399,7 @@ async fn handle(
         return Some(protocol::error(id, &format!("{kind}: {refusal}")));
     }
     let pending = Pending {
-        key: Key::of(&envelope.request, &app.intro.objects),
+        key: Key::of(&envelope.request, &app.intro.names),
         envelope,
         reply: reply.clone(),
         received: Instant::now(),

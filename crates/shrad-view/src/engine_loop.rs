@@ -11,18 +11,18 @@ use std::time::{Duration, Instant};
 
 use axum::body::Bytes;
 use glam::Vec3;
-use serde_json::{json, Value};
+use serde_json::Value;
 use shrad::engine::Engine;
-use shrad::scene::Role;
-use shrad::view_data::{self, Channel, DisplayMesh};
+use shrad::view_data::DisplayMesh;
 use tokio::sync::watch;
 
-use crate::inbox::{Batch, Inbox, Pending};
-use crate::protocol::{self, Request};
-use crate::{probe_sphere, solvers};
+use crate::inbox::{Inbox, Names};
+use crate::probe_sphere;
 
+mod handle;
+mod intro;
 mod jobs;
-use jobs::option_text;
+mod publish;
 
 /// Shadow rays per (patch, light) when the viewer computes the direct channel itself.
 const DIRECT_SAMPLES: u32 = 16;
@@ -75,14 +75,16 @@ pub struct Frame {
     pub probes: Option<(u64, Arc<String>)>,
 }
 
-/// What the clients are told at connect (the `scene` message and the geometry).
+/// What the clients are told at connect (the `scene` message, the geometry, the sky's map).
 pub struct Intro {
     /// The `scene` JSON message.
     pub scene: String,
     /// The binary geometry message.
     pub geometry: Bytes,
-    /// The objects' names, by scene index (requests name objects either way).
-    pub objects: Vec<String>,
+    /// The binary sky message, when the sky is a map.
+    pub sky: Option<Bytes>,
+    /// The objects' and punctual lights' names, by index (requests name them either way).
+    pub names: Names,
 }
 
 /// What the engine took from the inbox at the start of the frame being computed (the
@@ -101,19 +103,16 @@ struct Steering {
     queued_ms: f64,
 }
 
-/// The engine loop's state.
+/// The engine loop's state. What the engine knows (the time, the solver and its preset,
+/// the lights) is read from it, never kept beside it.
 pub struct EngineLoop {
     engine: Engine,
     mesh: DisplayMesh,
     frames: watch::Sender<Arc<Frame>>,
     shared: Arc<Shared>,
     seq: u64,
-    solver_name: String,
-    preset: String,
     playing: bool,
     speed: f64,
-    time: f64,
-    duration: f64,
     continuous: bool,
     /// Frames since anything changed (the engine idles once the scene has converged).
     quiet_frames: usize,
@@ -140,18 +139,15 @@ pub struct EngineLoop {
 }
 
 impl EngineLoop {
-    /// Wrap `engine`; `solver_name` / `preset` say how its solver was chosen; `patching`:
-    /// how its world was patched, on which backend (the job worker's copy is made alike).
+    /// Wrap `engine`; `patching`: how its world was patched, on which backend (the job
+    /// worker's copy is made alike).
     pub fn new(
         engine: Engine,
-        solver_name: String,
-        preset: String,
         shared: Arc<Shared>,
         patching: (shrad::PatchSizing, shrad::vis::Backend),
     ) -> (EngineLoop, Intro, watch::Receiver<Arc<Frame>>) {
         let mesh = DisplayMesh::new(engine.world());
         let (frames, rx) = watch::channel(Arc::new(Frame::default()));
-        let duration = engine.world().scene.duration() as f64;
         let (probe_dirs, probe_triangles) = probe_sphere::probe_sphere(probe_sphere::SPLITS);
         let me = EngineLoop {
             jobs: jobs::Jobs::start(patching.0, patching.1, shared.clone()),
@@ -161,12 +157,8 @@ impl EngineLoop {
             frames,
             shared,
             seq: 0,
-            solver_name,
-            preset,
             playing: false,
             speed: 1.0,
-            time: 0.0,
-            duration,
             continuous: false,
             quiet_frames: 0,
             calm_frames: 0,
@@ -183,72 +175,26 @@ impl EngineLoop {
             last_step: None,
             steering: Steering::default(),
         };
-        let intro = Intro {
-            scene: me.scene_message(&probe_triangles),
-            geometry: Bytes::from(protocol::geometry(&me.mesh)),
-            objects: me
-                .engine
-                .world()
-                .scene
-                .objects
-                .iter()
-                .map(|o| o.name.clone())
-                .collect(),
-        };
+        let intro = me.intro(&probe_triangles);
         (me, intro, rx)
     }
 
-    fn scene_message(&self, probe_triangles: &[[u32; 3]]) -> String {
-        let world = self.engine.world();
-        let p = &world.patches;
-        let objects: Vec<Value> = world
-            .scene
-            .objects
-            .iter()
-            .enumerate()
-            .map(|(o, object)| {
-                let lfo = glam::Affine3A::from_mat3(p.local_from_object[o]);
-                json!({
-                    "name": object.name,
-                    "role": p.object_role[o].name(),
-                    "local_from_object": protocol::columns(lfo),
-                    "emission": object.material.emitted_radiance.to_array(),
-                    "patches": p.range(o).len(),
-                    "first_vertex": self.mesh.objects[o].first_vertex,
-                })
-            })
-            .collect();
-        let camera = world.scene.camera_or_default();
-        let shrad::scene::Aabb { min: lo, max: hi } = world
-            .scene
-            .bounds()
-            .unwrap_or(shrad::scene::Aabb::new(Vec3::ZERO, Vec3::ONE));
-        protocol::message(
-            "scene",
-            json!({
-                "source": world.scene.source,
-                "patches": p.len(),
-                "vertices": self.mesh.vertex_count(),
-                "objects": objects,
-                "camera": {
-                    "world_from_camera": protocol::columns(camera.world_from_camera),
-                    "yfov": camera.yfov,
-                },
-                "bounds": [lo.to_array(), hi.to_array()],
-                "duration": self.duration,
-                "solvers": shrad::settings::SOLVERS,
-                "presets": solvers::presets_json(),
-                "probe_sphere": {
-                    "directions": self.probe_dirs.iter().map(|d| d.to_array()).collect::<Vec<_>>(),
-                    "triangles": probe_triangles,
-                },
-                "limits": {
-                    "max_message_bytes": protocol::MAX_MESSAGE_BYTES,
-                    "max_wire_bytes": protocol::MAX_WIRE_BYTES,
-                    "max_in_flight_bytes": protocol::MAX_IN_FLIGHT_BYTES,
-                },
-            }),
-        )
+    /// The solver in use: `dispersive`, `grid` or `reference`.
+    fn solver_name(&self) -> &'static str {
+        self.engine.solver_choice().name()
+    }
+
+    /// The preset the solver's settings are, or `custom` once a setting differs from each.
+    fn preset(&self) -> &'static str {
+        self.engine
+            .solver_choice()
+            .preset_name()
+            .unwrap_or("custom")
+    }
+
+    /// The length of the scene's animation (s; 0: none).
+    fn duration(&self) -> f64 {
+        self.engine.world().scene.duration() as f64
     }
 
     /// Run until the server stops.
@@ -274,16 +220,7 @@ impl EngineLoop {
             self.finish_jobs();
             self.apply(batch);
             if self.playing {
-                let now = Instant::now();
-                let dt = now.duration_since(self.last_tick).as_secs_f64() * self.speed;
-                self.last_tick = now;
-                self.time += dt;
-                if self.duration > 0.0 {
-                    self.time = self.time.rem_euclid(self.duration);
-                }
-                if self.engine.set_time(self.time as f32).is_ok() {
-                    self.changed();
-                }
+                self.advance_time();
             }
             let start = Instant::now();
             if let Some(t) = self.last_step.replace(start) {
@@ -322,6 +259,21 @@ impl EngineLoop {
         self.previous.extend_from_slice(b);
     }
 
+    /// Move the animation on by the wall time since the last frame (times the speed),
+    /// wrapping at its end.
+    fn advance_time(&mut self) {
+        let now = Instant::now();
+        let dt = now.duration_since(self.last_tick).as_secs_f64() * self.speed;
+        self.last_tick = now;
+        let mut t = self.engine.time() as f64 + dt;
+        if self.duration() > 0.0 {
+            t = t.rem_euclid(self.duration());
+        }
+        if self.engine.set_time(t as f32).is_ok() {
+            self.changed();
+        }
+    }
+
     fn changed(&mut self) {
         self.quiet_frames = 0;
         self.calm_frames = 0;
@@ -330,260 +282,5 @@ impl EngineLoop {
 
     fn probes_due(&self) -> bool {
         self.probes_at.is_none_or(|t| t.elapsed() >= PROBE_PERIOD)
-    }
-
-    /// Publish the state after a frame (`stats`), or again without one.
-    fn publish(&mut self, stats: Option<&shrad::dispersive::FrameStats>) {
-        let now = Instant::now();
-        if stats.is_some() {
-            self.seq += 1;
-            self.recent.push_back(now);
-        }
-        while self
-            .recent
-            .front()
-            .is_some_and(|t| now.duration_since(*t) > Duration::from_secs(1))
-        {
-            self.recent.pop_front();
-        }
-        let wanted: [bool; 3] =
-            std::array::from_fn(|c| self.shared.channel_clients[c].load(Ordering::Relaxed) > 0);
-        let channels = [Channel::Total, Channel::Direct, Channel::Indirect];
-        if (wanted[1] || wanted[2]) && self.direct.is_none() {
-            self.direct =
-                Some(view_data::direct_irradiance(&self.engine, DIRECT_SAMPLES).into_owned());
-        }
-        let world_from_local = &self.engine.world().patches.world_from_local;
-        let frame32 = self.seq as u32;
-        let colours = std::array::from_fn(|c| {
-            wanted[c].then(|| {
-                let per_patch = view_data::channel_radiosity(
-                    &self.engine,
-                    channels[c],
-                    self.direct.as_deref().unwrap_or(&[]),
-                );
-                let per_vertex = shrad::render::vertex_radiosity(self.engine.world(), &per_patch);
-                let radiance: Vec<Vec3> = self
-                    .mesh
-                    .gather(&per_vertex)
-                    .into_iter()
-                    .map(|b| b * std::f32::consts::FRAC_1_PI)
-                    .collect();
-                Bytes::from(protocol::colour_frame(
-                    frame32,
-                    channels[c],
-                    world_from_local,
-                    &radiance,
-                ))
-            })
-        });
-        if self.shared.probe_clients.load(Ordering::Relaxed) > 0 && self.probes_due() {
-            self.probes_at = Some(now);
-            let message =
-                probe_sphere::message(&self.engine, &self.probe_dirs, self.seq, &self.solver_name);
-            self.probes = Some((self.seq, Arc::new(message)));
-        }
-        let stats_json = stats.map_or(Value::Null, |s| {
-            serde_json::to_value(s).unwrap_or(Value::Null)
-        });
-        let message = protocol::message(
-            "frame",
-            json!({
-                "frame": self.seq,
-                "solver": self.solver_name,
-                "preset": self.preset,
-                "settings": solvers::settings(&self.engine),
-                "time": self.time,
-                "playing": self.playing,
-                "continuous": self.continuous,
-                "converged": self.converged(),
-                "gi_updates_per_s": self.recent.len(),
-                // Wall time of the previous publication (colours, probes, messages).
-                "publish_ms": self.publish_ms,
-                // Wall time between the starts of the last two frames.
-                "loop_ms": self.loop_ms,
-                // What the engine applied at the start of this frame, and what waits now.
-                "steering": {
-                    "applied": self.steering.applied,
-                    "waited_frames": self.steering.waited_frames,
-                    "queued_ms": self.steering.queued_ms,
-                    "backlog": self.steering.backlog,
-                    "pending": self.shared.inbox.len(),
-                    "superseded": self.shared.inbox.counts().superseded,
-                },
-                "stats": stats_json,
-                "error": self.last_error,
-            }),
-        );
-        self.publish_ms = now.elapsed().as_secs_f64() * 1e3;
-        let frame = Frame {
-            seq: self.seq,
-            stats: message,
-            colours,
-            probes: self.probes.clone(),
-        };
-        self.frames.send_replace(Arc::new(frame));
-        self.shared.published.store(self.seq, Ordering::Relaxed);
-    }
-
-    /// Apply what the clients asked since the last frame (in order: each key's newest).
-    fn apply(&mut self, batch: Batch) {
-        if batch.refresh && self.seq > 0 {
-            self.publish(None);
-        }
-        let frame = self.seq + 1;
-        let mut steering = Steering::default();
-        for p in batch.requests {
-            let waited = frame.saturating_sub(p.received_at_frame);
-            steering.applied += 1;
-            steering.waited_frames = steering.waited_frames.max(waited);
-            steering.backlog += usize::from(waited > 2);
-            let queued_ms = p.received.elapsed().as_secs_f64() * 1e3;
-            steering.queued_ms = steering.queued_ms.max(queued_ms);
-            self.apply_one(p, queued_ms);
-        }
-        self.steering = steering;
-    }
-
-    fn apply_one(&mut self, p: Pending, queued_ms: f64) {
-        // Expensive requests run beside the frames (`jobs.rs`).
-        let Some(p) = self.defer(p) else {
-            return;
-        };
-        let Pending {
-            envelope,
-            reply,
-            received_at_frame,
-            ..
-        } = p;
-        if matches!(envelope.request, Request::SetTransform { .. }) {
-            self.shared
-                .inbox
-                .counters
-                .transforms_applied
-                .fetch_add(1, Ordering::Relaxed);
-        }
-        let id = envelope.id;
-        let kind = envelope.request.kind();
-        let answer = match self.handle(envelope.request) {
-            Ok(body) => {
-                let mut body = body;
-                if let Value::Object(m) = &mut body {
-                    m.insert("id".into(), json!(id));
-                    m.insert("request".into(), json!(kind));
-                    // The first frame that shows the change.
-                    m.insert("frame".into(), json!(self.seq + 1));
-                    // The newest frame when the server read the request, and how long it
-                    // waited for this frame to start.
-                    m.insert("received_at_frame".into(), json!(received_at_frame));
-                    m.insert("queued_ms".into(), json!(queued_ms));
-                }
-                protocol::message(if kind == "ping" { "pong" } else { "ok" }, body)
-            }
-            Err(message) => protocol::error(id, &format!("{kind}: {message}")),
-        };
-        // A client whose queue is full loses the reply; the engine never waits for one.
-        let _ = reply.try_send(answer);
-    }
-
-    fn object(&self, r: &protocol::ObjectRef) -> Result<usize, String> {
-        match r {
-            protocol::ObjectRef::Index(o) => self
-                .engine
-                .object(&o.to_string())
-                .map_err(|e| e.to_string()),
-            protocol::ObjectRef::Name(n) => self.engine.object(n).map_err(|e| e.to_string()),
-        }
-    }
-
-    fn handle(&mut self, request: Request) -> Result<Value, String> {
-        match request {
-            Request::SetTransform { object, matrix } => {
-                let o = self.object(&object)?;
-                let role = self.engine.roles()[o];
-                if role != Role::Interior {
-                    return Err(format!(
-                        "object '{}' is {}: only interior objects can be moved",
-                        self.engine.world().scene.objects[o].name,
-                        role.name()
-                    ));
-                }
-                let m = protocol::affine_from_columns(&matrix)?;
-                self.engine.set_transform(o, m).map_err(|e| e.to_string())?;
-                self.changed();
-                Ok(json!({}))
-            }
-            Request::SetEmission { object, radiance } => {
-                let o = self.object(&object)?;
-                let l = Vec3::new(radiance[0] as f32, radiance[1] as f32, radiance[2] as f32);
-                if !l.is_finite() {
-                    return Err(format!("radiance {radiance:?} is not finite"));
-                }
-                self.engine.set_emission(o, l).map_err(|e| e.to_string())?;
-                self.changed();
-                Ok(json!({}))
-            }
-            Request::SetTime { t } => {
-                if !t.is_finite() {
-                    return Err(format!("time {t} is not a finite number"));
-                }
-                self.playing = false;
-                self.time = if self.duration > 0.0 {
-                    t.clamp(0.0, self.duration)
-                } else {
-                    t.max(0.0)
-                };
-                self.engine
-                    .set_time(self.time as f32)
-                    .map_err(|e| e.to_string())?;
-                self.changed();
-                Ok(json!({ "time": self.time }))
-            }
-            Request::Play { playing, speed } => {
-                if let Some(s) = speed {
-                    if !(s.is_finite() && s > 0.0 && s <= 100.0) {
-                        return Err(format!("speed {s} must be in (0, 100]"));
-                    }
-                    self.speed = s;
-                }
-                if playing && self.duration <= 0.0 {
-                    return Err("the scene has no animation to play".to_string());
-                }
-                self.playing = playing;
-                self.last_tick = Instant::now();
-                self.changed();
-                Ok(json!({ "playing": playing }))
-            }
-            Request::SetSolver { solver, preset } => {
-                let preset = preset.unwrap_or_else(|| "default".to_string());
-                let choice = solvers::choice(&solver, &preset)?;
-                let rebuilt = self.engine.set_solver(choice).map_err(|e| e.to_string())?;
-                self.solver_name = solver;
-                self.preset = preset;
-                self.solver_epoch += 1;
-                self.last_error = None;
-                self.changed();
-                Ok(json!({ "precompute_ms": rebuilt.precompute_ms }))
-            }
-            Request::SetOption { key, value } => {
-                let value = option_text(&key, &value)?;
-                let detail = solvers::set_option(&mut self.engine, &key, &value)?;
-                self.changed();
-                Ok(detail)
-            }
-            // Run by the job worker (`defer`); never applied here.
-            Request::ComputeError {} => Err("the error is computed beside the frames".into()),
-            Request::Run { continuous } => {
-                self.continuous = continuous;
-                Ok(json!({ "continuous": continuous }))
-            }
-            Request::Ping {} => Ok(json!({})),
-            // Handled by the client's own task; never sent here.
-            Request::SetChannel { .. }
-            | Request::Probes { .. }
-            | Request::Ack { .. }
-            | Request::TakeSteering {}
-            | Request::ReleaseSteering {} => Ok(json!({})),
-        }
     }
 }

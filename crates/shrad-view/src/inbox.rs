@@ -29,8 +29,12 @@ pub const CAPACITY: usize = 256;
 pub enum Key {
     /// An object's transform (by scene index).
     Transform(usize),
-    /// A light's emission (by scene index).
+    /// A light surface's emission (by scene index).
     Emission(usize),
+    /// A punctual light's transform (by index in the scene's lights).
+    LightTransform(usize),
+    /// A punctual light's colour and intensity (by index).
+    LightIntensity(usize),
     /// A solver setting (by key).
     Setting(String),
     /// The animation's time.
@@ -43,18 +47,36 @@ pub enum Key {
     Solver,
 }
 
+/// The names requests may use for what they set: the scene's objects and punctual lights,
+/// by index.
+#[derive(Clone, Debug, Default)]
+pub struct Names {
+    /// The objects' names.
+    pub objects: Vec<String>,
+    /// The punctual lights' names.
+    pub lights: Vec<String>,
+}
+
+/// The index `r` names among `names` (a name resolves to its index).
+fn index_of(r: &ObjectRef, names: &[String]) -> Option<usize> {
+    match r {
+        ObjectRef::Index(o) => (*o < names.len()).then_some(*o),
+        ObjectRef::Name(n) => names.iter().position(|m| m == n),
+    }
+}
+
 impl Key {
-    /// The key of `request`; `objects` are the scene's object names (a name resolves to its
-    /// index, so that a move by name and one by index share their key). `None`: the
-    /// request sets nothing (or names no object) and waits in order.
-    pub fn of(request: &Request, objects: &[String]) -> Option<Key> {
-        let index = |r: &ObjectRef| match r {
-            ObjectRef::Index(o) => (*o < objects.len()).then_some(*o),
-            ObjectRef::Name(n) => objects.iter().position(|m| m == n),
-        };
+    /// The key of `request`; `names` are the scene's (a name resolves to its index, so that
+    /// a move by name and one by index share their key). `None`: the request sets nothing
+    /// (or names nothing that exists) and waits in order.
+    pub fn of(request: &Request, names: &Names) -> Option<Key> {
+        let object = |r: &ObjectRef| index_of(r, &names.objects);
+        let light = |r: &ObjectRef| index_of(r, &names.lights);
         match request {
-            Request::SetTransform { object, .. } => index(object).map(Key::Transform),
-            Request::SetEmission { object, .. } => index(object).map(Key::Emission),
+            Request::SetTransform { object: o, .. } => object(o).map(Key::Transform),
+            Request::SetEmission { object: o, .. } => object(o).map(Key::Emission),
+            Request::SetLightTransform { light: l, .. } => light(l).map(Key::LightTransform),
+            Request::SetLightIntensity { light: l, .. } => light(l).map(Key::LightIntensity),
             Request::SetOption { key, .. } => Some(Key::Setting(key.clone())),
             Request::SetTime { .. } => Some(Key::Time),
             Request::Play { .. } => Some(Key::Play),
@@ -262,7 +284,10 @@ mod tests {
 
     fn pending(text: &str, reply: &ReplyTo) -> Pending {
         let envelope = protocol::parse(text).unwrap();
-        let names = ["floor".to_string(), "short_block".to_string()];
+        let names = Names {
+            objects: vec!["floor".to_string(), "short_block".to_string()],
+            lights: vec!["bulb".to_string()],
+        };
         Pending {
             key: Key::of(&envelope.request, &names),
             envelope,
@@ -346,8 +371,51 @@ mod tests {
     }
 
     #[test]
+    fn moves_of_one_punctual_light_replace_each_other_and_its_colour_has_its_own_key() {
+        let (tx, _rx) = mpsc::channel(8);
+        let inbox = Inbox::default();
+        let light = |id: u64, l: &str, x: f64| {
+            format!(
+                r#"{{"v":1,"id":{id},"type":"set_light_transform","light":{l},"matrix":[1,0,0,0,0,1,0,0,0,0,1,0,{x},0,0,1]}}"#
+            )
+        };
+        assert!(inbox
+            .push(pending(&light(1, "0", 0.1), &tx))
+            .ok()
+            .unwrap()
+            .is_none());
+        let colour = r#"{"v":1,"id":2,"type":"set_light_intensity","light":"bulb","color":[1,1,1],"intensity":3}"#;
+        assert!(inbox.push(pending(colour, &tx)).ok().unwrap().is_none());
+        // The same light by name; an object of the same index is another key.
+        let older = inbox
+            .push(pending(&light(3, "\"bulb\"", 0.2), &tx))
+            .ok()
+            .unwrap();
+        assert_eq!(older.map(|p| p.envelope.id), Some(Some(1)));
+        assert!(inbox
+            .push(pending(&moved(4, "0", 0.4), &tx))
+            .ok()
+            .unwrap()
+            .is_none());
+        let ids: Vec<_> = inbox
+            .take()
+            .requests
+            .iter()
+            .map(|p| p.envelope.id)
+            .collect();
+        assert_eq!(ids, [Some(2), Some(3), Some(4)]);
+        // A light that does not exist has no key: the engine refuses it.
+        let names = Names::default();
+        let r = protocol::parse(&light(5, "0", 0.0)).unwrap().request;
+        assert_eq!(Key::of(&r, &names), None);
+    }
+
+    #[test]
     fn an_unknown_object_has_no_key_and_is_left_to_the_engine_to_refuse() {
-        let names = ["floor".to_string()];
+        let names = Names {
+            objects: vec!["floor".to_string()],
+            lights: Vec::new(),
+        };
         let r = protocol::parse(&moved(1, "\"nowhere\"", 0.0))
             .unwrap()
             .request;

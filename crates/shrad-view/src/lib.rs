@@ -38,6 +38,7 @@ mod client;
 mod engine_loop;
 mod http;
 pub mod inbox;
+mod lights;
 mod probe_sphere;
 pub mod protocol;
 pub mod solvers;
@@ -55,9 +56,10 @@ pub struct ServeOptions {
     pub sizing: PatchSizing,
     /// Visibility backend.
     pub backend: Backend,
-    /// Solver name the page shows (`dispersive`, `grid`, `reference`).
+    /// The solver to start with (`dispersive`, `grid`, `reference`), unless `choice` says.
     pub solver: String,
-    /// Preset name the page shows (`default`, `paper`).
+    /// Its preset (`default`, `paper`...). The page is told the solver and preset the
+    /// engine has (a preset's name while its settings are one, else `custom`).
     pub preset: String,
     /// The solver's settings; `None`: those of `solver` under `preset`.
     pub choice: Option<SolverChoice>,
@@ -170,13 +172,8 @@ impl Server {
             .with_context(|| format!("cannot listen on {addr}"))?;
         let addr = listener.local_addr()?;
         let shared = Arc::new(Shared::new());
-        let (engine_loop, intro, frames) = EngineLoop::new(
-            engine,
-            options.solver,
-            options.preset,
-            shared.clone(),
-            (options.sizing, options.backend),
-        );
+        let (engine_loop, intro, frames) =
+            EngineLoop::new(engine, shared.clone(), (options.sizing, options.backend));
         let engine_thread = std::thread::Builder::new()
             .name("shrad-engine".to_string())
             .spawn(move || engine_loop.run())

@@ -40,8 +40,10 @@ pub const MAGIC: u32 = u32::from_le_bytes(*b"SHRV");
 pub const KIND_COLOURS: u8 = 1;
 /// Geometry: every object's vertices (local frame) and triangles.
 pub const KIND_GEOMETRY: u8 = 2;
+/// The sky's equirectangular map (once, after the geometry, when the sky is a map).
+pub const KIND_SKY: u8 = 3;
 
-/// How a request names an object: its index, or its name.
+/// How a request names an object or a punctual light: its index, or its name.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(untagged)]
 pub enum ObjectRef {
@@ -69,6 +71,24 @@ pub enum Request {
         object: ObjectRef,
         /// `L_e`, linear RGB.
         radiance: [f64; 3],
+    },
+    /// Put punctual light `light` at `matrix` (world from light, as `set_transform`'s; it
+    /// shines along that frame's -Z), keeping its colour and intensity.
+    SetLightTransform {
+        /// The light (index or name in the `scene` message's `lights`).
+        light: ObjectRef,
+        /// World-from-light matrix.
+        matrix: Vec<f64>,
+    },
+    /// Set punctual light `light`'s colour and intensity, keeping it where it is.
+    SetLightIntensity {
+        /// The light.
+        light: ObjectRef,
+        /// Linear RGB.
+        color: [f64; 3],
+        /// Photometric, as glTF's `KHR_lights_punctual`: candela for a point or spot light,
+        /// lux for a directional one.
+        intensity: f64,
     },
     /// Go to `t` seconds on the scene's animation (pauses playback).
     SetTime {
@@ -136,6 +156,8 @@ impl Request {
         match self {
             Request::SetTransform { .. } => "set_transform",
             Request::SetEmission { .. } => "set_emission",
+            Request::SetLightTransform { .. } => "set_light_transform",
+            Request::SetLightIntensity { .. } => "set_light_intensity",
             Request::SetTime { .. } => "set_time",
             Request::Play { .. } => "play",
             Request::SetSolver { .. } => "set_solver",
@@ -159,6 +181,8 @@ impl Request {
             self,
             Request::SetTransform { .. }
                 | Request::SetEmission { .. }
+                | Request::SetLightTransform { .. }
+                | Request::SetLightIntensity { .. }
                 | Request::SetTime { .. }
                 | Request::Play { .. }
                 | Request::SetSolver { .. }
@@ -297,7 +321,7 @@ pub fn error(id: Option<u64>, message_text: &str) -> String {
     message("error", json!({ "id": id, "message": message_text }))
 }
 
-fn header(out: &mut Vec<u8>, kind: u8, channel: u8, frame: u32, extra: u32) {
+pub(crate) fn header(out: &mut Vec<u8>, kind: u8, channel: u8, frame: u32, extra: u32) {
     out.extend_from_slice(&MAGIC.to_le_bytes());
     out.extend_from_slice(&(VERSION as u16).to_le_bytes());
     out.push(kind);
@@ -324,18 +348,7 @@ pub fn colour_frame(
         frame,
         n as u32,
     );
-    let max = radiance
-        .iter()
-        .map(|c| c.max_element())
-        .filter(|x| x.is_finite())
-        .fold(0.0f32, f32::max);
-    // A power of two that brings the largest value to at most 2^14 (of half's 65504): the
-    // scale is exact, and values keep half's 11 significant bits.
-    let scale = if max > 0.0 {
-        2f32.powi((max.log2() - 14.0).ceil() as i32)
-    } else {
-        1.0
-    };
+    let scale = half_scale(radiance);
     out.extend_from_slice(&scale.to_le_bytes());
     out.extend_from_slice(&(radiance.len() as u32).to_le_bytes());
     for m in world_from_local {
@@ -343,13 +356,33 @@ pub fn colour_frame(
             out.extend_from_slice(&x.to_le_bytes());
         }
     }
-    for c in radiance {
+    push_halves(&mut out, radiance, scale);
+    out
+}
+
+/// A power of two that brings the largest finite value of `values` to at most 2^14 (of
+/// half's 65504): the scale is exact, and values keep half's 11 significant bits.
+pub(crate) fn half_scale(values: &[Vec3]) -> f32 {
+    let max = values
+        .iter()
+        .map(|c| c.max_element())
+        .filter(|x| x.is_finite())
+        .fold(0.0f32, f32::max);
+    if max > 0.0 {
+        2f32.powi((max.log2() - 14.0).ceil() as i32)
+    } else {
+        1.0
+    }
+}
+
+/// `values / scale` as RGB halves (negative and non-finite values as 0).
+pub(crate) fn push_halves(out: &mut Vec<u8>, values: &[Vec3], scale: f32) {
+    for c in values {
         for x in c.to_array() {
             let x = if x.is_finite() { x.max(0.0) } else { 0.0 };
             out.extend_from_slice(&half::f16::from_f32(x / scale).to_le_bytes());
         }
     }
-    out
 }
 
 /// The geometry message: header (extra: object count `N`), then per object `u32` vertex

@@ -195,6 +195,27 @@ impl Engine {
         Ok(())
     }
 
+    /// Where punctual light `l` is now: its node transform (it shines along that frame's
+    /// -Z), as [`Engine::set_light`] last put it, or for an animated light its pose at the
+    /// current time. An error names the lights when `l` is out of range.
+    pub fn light_transform(&self, l: usize) -> Result<Affine3A, Error> {
+        let lights = &self.world.scene.lights;
+        let light = lights.get(l).ok_or_else(|| {
+            Error::Invalid(format!(
+                "no light {l}: the scene has {} (0..{})",
+                lights.len(),
+                lights.len()
+            ))
+        })?;
+        Ok(light.world_from_light_at(self.world.time))
+    }
+
+    /// The time the world is at (seconds on the scene's animation; 0 until
+    /// [`Engine::set_time`]).
+    pub fn time(&self) -> f32 {
+        self.world.time
+    }
+
     /// Put the sky `environment` (`None`: none) in place of the scene's. A changed sky is a
     /// light change: the next frame re-traces the sky's direct light and wakes everything.
     pub fn set_sky(&mut self, environment: Option<shrad_scene::Environment>) -> Result<(), Error> {
@@ -535,6 +556,53 @@ mod tests {
         let wrong = Solver::new(&other.unwrap(), choice).unwrap();
         assert!(e.install_solver(wrong, choice, Changes::default()).is_err());
         assert_eq!(e.radiosity().len(), fresh.radiosity().len());
+    }
+
+    #[test]
+    fn a_light_reports_where_it_is_and_a_moved_one_lights_as_one_loaded_there() {
+        use shrad_scene::{Light, LightKind};
+        let at = |p: Vec3| Affine3A::from_translation(p);
+        let scene = |p: Vec3| {
+            let mut s = shrad_scene::cornell_box();
+            s.lights.push(Light {
+                world_from_light: at(p),
+                // (The box is 556 units wide: a bulb about as bright on the floor as the
+                // ceiling's light.)
+                ..Light::new("bulb", LightKind::Point, 5e8)
+            });
+            s
+        };
+        let engine = |p: Vec3| {
+            Engine::new(
+                scene(p),
+                PatchSizing::Count(400),
+                Backend::Auto,
+                SolverChoice::preset("reference", "fast").unwrap(),
+            )
+            .unwrap()
+        };
+        let (a, b) = (
+            Vec3::new(150.0, 400.0, 200.0),
+            Vec3::new(380.0, 300.0, 350.0),
+        );
+        let mut e = engine(a);
+        assert_eq!(e.light_transform(0).unwrap(), at(a));
+        assert_eq!(e.time(), 0.0);
+        let (color, intensity) = (Vec3::new(1.0, 0.5, 0.25), 8e8);
+        e.set_light(0, at(b), color, intensity).unwrap();
+        assert_eq!(e.light_transform(0).unwrap(), at(b));
+        let err = e.light_transform(1).unwrap_err().to_string();
+        assert!(err.contains("no light 1") && err.contains("has 1"), "{err}");
+        e.step();
+        let mut fresh = engine(b);
+        fresh.set_light(0, at(b), color, intensity).unwrap();
+        fresh.step();
+        // The reference solves the state from scratch: the same state, the same radiosity.
+        assert_eq!(e.radiosity(), fresh.radiosity());
+        // ... and not the state it moved from.
+        let mut before = engine(a);
+        before.step();
+        assert_ne!(e.radiosity(), before.radiosity());
     }
 
     #[test]

@@ -125,11 +125,9 @@ enum Work {
         preset: String,
         epoch: u64,
     },
-    /// Precompute `choice` (named `solver` / `preset`); `option`: the setting that asked.
+    /// Precompute `choice`; `option`: the setting that asked.
     Solver {
         choice: SolverChoice,
-        solver: String,
-        preset: String,
         option: Option<String>,
     },
 }
@@ -152,8 +150,6 @@ enum Done {
 struct SolverDone {
     solver: Solver,
     choice: SolverChoice,
-    name: String,
-    preset: String,
     option: Option<String>,
     state: State,
     pending: Pending,
@@ -328,18 +324,11 @@ fn run(
             let _ = job.pending.reply.try_send(protocol::message("ok", body));
             Ok(Some(Done::Error { value, epoch }))
         }
-        Work::Solver {
-            choice,
-            solver,
-            preset,
-            option,
-        } => {
+        Work::Solver { choice, option } => {
             let s = Solver::new(w, choice).map_err(|e| e.to_string())?;
             Ok(Some(Done::Solver(Box::new(SolverDone {
                 solver: s,
                 choice,
-                name: solver,
-                preset,
                 option,
                 state: job.state,
                 pending: job.pending,
@@ -369,8 +358,8 @@ impl EngineLoop {
             Request::ComputeError {} => Work::Error {
                 radiosity: self.engine.radiosity().to_vec(),
                 reference: *self.engine.reference_options(),
-                solver: self.solver_name.clone(),
-                preset: self.preset.clone(),
+                solver: self.solver_name().to_string(),
+                preset: self.preset().to_string(),
                 epoch: self.solver_epoch,
             },
             Request::SetSolver { solver, preset } => {
@@ -378,8 +367,6 @@ impl EngineLoop {
                 match solvers::choice(solver, &preset) {
                     Ok(choice) => Work::Solver {
                         choice,
-                        solver: solver.clone(),
-                        preset,
                         option: None,
                     },
                     // Refused at once, by the engine's own path.
@@ -391,8 +378,6 @@ impl EngineLoop {
                 match option_text(key, value).map(|v| next.set(key, &v).map(|s| s.rebuilds)) {
                     Ok(Ok(true)) => Work::Solver {
                         choice: next,
-                        solver: self.solver_name.clone(),
-                        preset: self.preset.clone(),
                         option: Some(key.clone()),
                     },
                     _ => return Some(p),
@@ -432,8 +417,6 @@ impl EngineLoop {
         let (id, kind) = (d.pending.envelope.id, d.pending.envelope.request.kind());
         let answer = match self.engine.install_solver(d.solver, d.choice, changes) {
             Ok(()) => {
-                self.solver_name = d.name;
-                self.preset = d.preset;
                 self.solver_epoch += 1;
                 self.last_error = None;
                 self.changed();

@@ -324,6 +324,15 @@ impl SolverChoice {
         }
     }
 
+    /// The preset these settings are, if they are one ([`presets`] of [`SolverChoice::name`],
+    /// the default first); `None` once a setting differs from every preset.
+    pub fn preset_name(&self) -> Option<&'static str> {
+        let list = presets(self.name()).ok()?;
+        list.iter()
+            .copied()
+            .find(|p| SolverChoice::preset(self.name(), p).is_ok_and(|c| c == *self))
+    }
+
     /// This solver's keys.
     pub fn keys(&self) -> &'static [KeySpec] {
         match self {

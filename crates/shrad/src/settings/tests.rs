@@ -57,6 +57,19 @@ fn presets_are_the_constructors() {
 }
 
 #[test]
+fn a_choice_knows_its_preset_until_a_setting_differs() {
+    for s in SOLVERS {
+        for p in presets(s).unwrap() {
+            let choice = SolverChoice::preset(s, p).unwrap();
+            assert_eq!(choice.preset_name(), Some(*p), "{s} {p}");
+        }
+    }
+    let mut c = SolverChoice::preset("dispersive", "default").unwrap();
+    c.set("per_frame", "7").unwrap();
+    assert_eq!(c.preset_name(), None);
+}
+
+#[test]
 fn out_of_range_values_are_errors_naming_key_and_range() {
     let mut c = SolverChoice::preset("dispersive", "default").unwrap();
     let before = c;
