@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates the figures and raw numbers behind docs/results.md (about 15 minutes on
-# 2 cores). Usage: docs/make_figures.sh [reference|static|concave|moving|blender|timing|all]
+# 2 cores). Usage: docs/make_figures.sh [reference|static|concave|moving|blender|timing|blotch|all]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 what=${1:-all}
@@ -144,4 +144,28 @@ gather|gather instead of splat|--set to_boundary=gather
 paperres|probes and emitters R 128 (gathers: 2 x 6 x 128^2 > boundary)|--set cube_res=128 --set emitter_res=128
 VARIANTS
   $PY docs/plot.py timing "$F"
+fi
+
+if [ "$what" = blotch ] || [ "$what" = all ]; then
+  # Issue 22: the animated room at 20k patches, dispersive (without and with wall_smoothing)
+  # beside the reference on the same patches (docs/results.md section 14).
+  scene=crates/shrad-scene/tests/data/blender/animated_room.glb
+  T=$(mktemp -d)
+  $S render "$scene" --patches 20000 --solver reference -o "$T/ref.png" --quiet
+  for v in false true; do
+    $S render "$scene" --patches 20000 --solver dispersive --set wall_smoothing=$v \
+      -o "$T/disp_$v.png" --quiet
+  done
+  $PY - "$T" docs/images <<'PY'
+import sys
+import matplotlib.image as mpimg
+import numpy as np
+t, out = sys.argv[1], sys.argv[2]
+ref = mpimg.imread(f"{t}/ref.png")
+gap = np.ones((ref.shape[0], 8, ref.shape[2]), ref.dtype)
+for v, name in (("false", "before"), ("true", "after")):
+    side = np.concatenate([mpimg.imread(f"{t}/disp_{v}.png"), gap, ref], axis=1)
+    mpimg.imsave(f"{out}/animated_room_blotch_{name}.png", side)
+PY
+  rm -r "$T"
 fi

@@ -100,11 +100,15 @@ pub struct Dispersive {
     swept_log: stale::SweptLog,
     /// Irradiance of boundary patches from other boundary patches.
     wall: Vec<Vec3>,
+    /// The same, each row's own gather before `wall_smoothing` averages it over the
+    /// patch's neighbours (empty when that is off).
+    wall_gathered: Vec<Vec3>,
     /// Form-factor rows among boundary patches (aligned with `boundary_patches`), if the
     /// wall exchange is on.
     wall_rows: Option<WallRows>,
     boundary_patches: Vec<u32>,
-    /// Boundary patches next to each patch (itself included), for `splat_smoothing`.
+    /// Boundary patches next to each patch (itself included), for `splat_smoothing` and
+    /// `wall_smoothing`.
     neighbours: Neighbours,
     /// World bounding box of every object at the last frame (to know where movers were).
     object_boxes: Vec<shrad_scene::Aabb>,
@@ -226,7 +230,12 @@ impl Dispersive {
             reached: vec![false; n],
             swept_log: Default::default(),
             wall: vec![Vec3::ZERO; n],
-            neighbours: if options.splat_smoothing {
+            wall_gathered: if options.wall_smoothing {
+                vec![Vec3::ZERO; n]
+            } else {
+                Vec::new()
+            },
+            neighbours: if options.splat_smoothing || options.wall_smoothing {
                 Neighbours::of_boundary(world)
             } else {
                 Neighbours::default()

@@ -117,6 +117,13 @@ pub struct DispersiveOptions {
     /// flux: the splat's texels and the patches are about the same size, so a patch gets
     /// 0, 1 or 2 texels and the raw splat is noisy (the paper's texel pattern).
     pub splat_smoothing: bool,
+    /// Average each boundary patch's wall-exchange irradiance (Step 4) over the patch and
+    /// its edge neighbours (area weighted, never across a crease): the rows' `wall_rays`
+    /// Monte-Carlo rays each hit one patch, so a small, very bright boundary patch (a ceiling
+    /// lit from 1 cm by a double-sided lamp) is hit by one ray of one row and not by its
+    /// neighbours' rows: a single-patch blotch, and a mottled wall wherever the reflected
+    /// light is uneven (issue 22: the animated room's three blotches; docs/results.md).
+    pub wall_smoothing: bool,
     /// Sleep and wake (beyond the paper, which updates some object every frame forever): an
     /// object whose update changed its patches' radiosity by less than this fraction (area
     /// weighted, over the object) sleeps, and is skipped by the scheduler until a light
@@ -161,6 +168,7 @@ impl DispersiveOptions {
             emitter_per_face: false,
             self_shadow_rays: 0,
             splat_smoothing: false,
+            wall_smoothing: false,
             sleep_tolerance: 0.0,
             coarse_while_moving: false,
             one_emitter_while_moving: false,
@@ -186,6 +194,7 @@ impl DispersiveOptions {
             emitter_per_face: true,
             self_shadow_rays: 64,
             splat_smoothing: true,
+            wall_smoothing: true,
             sleep_tolerance: 1e-4,
             coarse_while_moving: true,
             one_emitter_while_moving: true,

@@ -107,9 +107,7 @@ impl Dispersive {
                             .sum()
                     })
                     .collect();
-                for (&k, w) in ks.iter().zip(wall) {
-                    self.wall[self.boundary_patches[k] as usize] = w;
-                }
+                self.store_wall(&ks, wall, p);
             }
             (changed, total) = (0.0, 0.0);
             for &j in &self.boundary_patches {
@@ -140,6 +138,37 @@ impl Dispersive {
             changed / total
         } else {
             0.0
+        }
+    }
+
+    /// Store the wall gathers of rows `ks`: as they are, or with `wall_smoothing` each
+    /// averaged over its patch's neighbourhood (area weighted) from the latest gathers of
+    /// the neighbours (rows outside this frame's window keep their last gather).
+    fn store_wall(&mut self, ks: &[usize], wall: Vec<Vec3>, p: &crate::Patches) {
+        if !self.options.wall_smoothing {
+            for (&k, w) in ks.iter().zip(wall) {
+                self.wall[self.boundary_patches[k] as usize] = w;
+            }
+            return;
+        }
+        for (&k, w) in ks.iter().zip(wall) {
+            self.wall_gathered[self.boundary_patches[k] as usize] = w;
+        }
+        let (near, gathered) = (&self.neighbours, &self.wall_gathered);
+        let smoothed: Vec<Vec3> = ks
+            .par_iter()
+            .map(|&k| {
+                let j = self.boundary_patches[k] as usize;
+                let sum: Vec3 = near
+                    .of(j)
+                    .iter()
+                    .map(|&i| gathered[i as usize] * p.area[i as usize])
+                    .sum();
+                sum * near.inv_area[j]
+            })
+            .collect();
+        for (&k, w) in ks.iter().zip(smoothed) {
+            self.wall[self.boundary_patches[k] as usize] = w;
         }
     }
 
@@ -178,6 +207,7 @@ impl Dispersive {
             &mut self.probe_irradiance,
             &mut self.indirect,
             &mut self.wall,
+            &mut self.wall_gathered,
         ] {
             non_finite += crate::energy::reset_non_finite(v);
         }
@@ -239,6 +269,7 @@ impl Dispersive {
                 &mut self.probe_irradiance,
                 &mut self.indirect,
                 &mut self.wall,
+                &mut self.wall_gathered,
             ] {
                 v.iter_mut().for_each(|e| *e *= s);
             }

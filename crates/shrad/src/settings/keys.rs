@@ -194,6 +194,10 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
         "splat_smoothing",
         "spread each boundary patch's splatted flux over its edge neighbours, against the texel pattern",
     ),
+    flag(
+        "wall_smoothing",
+        "average each boundary patch's wall-exchange irradiance over its edge neighbours, against the rays' noise (blotches under bright small patches)",
+    ),
     float(
         "sleep_tolerance",
         0.0,

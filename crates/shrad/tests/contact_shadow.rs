@@ -1,0 +1,133 @@
+//! A contact shadow (issue 22): a box standing on the floor of a closed room under a ceiling
+//! light. The dispersive default, converged, against the reference solver on the same
+//! patches: the box's own error (interior) and the error of the floor next to the box (the
+//! contact shadow, which 8 probes at the box's corners cannot hold exactly) are bounded, and
+//! a wrong reference (the floor darker by 20 %) breaks the bound, so the check can fail.
+
+use glam::{Affine3A, Quat, Vec3};
+use shrad::dispersive::{Dispersive, DispersiveOptions};
+use shrad::metrics::relative_error;
+use shrad::reference::{solve, ReferenceOptions};
+use shrad::scene::{box_mesh, Material, Mesh, Object, Role, Scene};
+use shrad::vis::Backend;
+use shrad::{NoProgress, PatchSizing, World};
+
+/// Room 4 x 3 x 4 (floor at y = 0), box 0.8 x 0.8 x 0.8 on the floor off centre.
+const BOX_HALF: f32 = 0.4;
+const BOX_AT: Vec3 = Vec3::new(0.6, BOX_HALF, -0.3);
+/// "Near the box": floor patches within this distance of its footprint (and outside it).
+const NEAR: f32 = 0.5;
+
+// Bounds, with margin over what was measured when the test was written (2026-12, 2500
+// patches, the default with `wall_smoothing`): interior 8.8 %, floor near the box 8.1 %.
+// (Issue 22 asks for 5 % on the objects: these bound today's method, not the goal.)
+const INTERIOR_BOUND: f64 = 0.11;
+const FLOOR_NEAR_BOUND: f64 = 0.10;
+
+fn scene() -> Scene {
+    let mut room = Object::new(
+        "room",
+        box_mesh(Vec3::splat(0.5), true),
+        Material::diffuse(Vec3::new(0.7, 0.7, 0.7)),
+    );
+    room.role = Some(Role::Boundary);
+    room.world_from_object = Affine3A::from_scale_rotation_translation(
+        Vec3::new(4.0, 3.0, 4.0),
+        Quat::IDENTITY,
+        Vec3::new(0.0, 1.5, 0.0),
+    );
+    // A ceiling light facing down, 1 cm below the ceiling.
+    let mut light = Object::new(
+        "light",
+        Mesh {
+            positions: vec![
+                Vec3::new(-0.4, 2.99, -0.4),
+                Vec3::new(0.4, 2.99, -0.4),
+                Vec3::new(0.4, 2.99, 0.4),
+                Vec3::new(-0.4, 2.99, 0.4),
+            ],
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+            ..Default::default()
+        },
+        Material {
+            reflectance: Vec3::ZERO,
+            emitted_radiance: Vec3::splat(10.0),
+            double_sided: false,
+            ..Default::default()
+        },
+    );
+    light.role = Some(Role::Light);
+    let mut block = Object::new(
+        "block",
+        box_mesh(Vec3::splat(BOX_HALF), false),
+        Material::diffuse(Vec3::new(0.6, 0.5, 0.3)),
+    );
+    block.role = Some(Role::Interior);
+    block.world_from_object = Affine3A::from_translation(BOX_AT);
+    Scene {
+        source: "contact shadow".into(),
+        objects: vec![room, light, block],
+        ..Default::default()
+    }
+}
+
+/// Floor patches near the box but not under it.
+fn floor_near_box(world: &World) -> Vec<usize> {
+    let p = &world.patches;
+    (0..p.len())
+        .filter(|&i| {
+            let (c, n) = (p.centre[i], p.normal[i]);
+            let d = (Vec3::new(c.x, BOX_AT.y, c.z) - BOX_AT).abs() - Vec3::splat(BOX_HALF);
+            let outside = d.x > 0.0 || d.z > 0.0;
+            let distance = d.max(Vec3::ZERO).length();
+            p.role(i) == Role::Boundary && n.y > 0.9 && c.y < 0.01 && outside && distance < NEAR
+        })
+        .collect()
+}
+
+/// Area-weighted relative L2 error over `patches`.
+fn error_over(world: &World, patches: &[usize], b: &[Vec3], reference: &[Vec3]) -> f64 {
+    let a = &world.patches.area;
+    let (num, den) = patches.iter().fold((0f64, 0f64), |(x, y), &i| {
+        let w = a[i] as f64;
+        (
+            x + w * (b[i] - reference[i]).length_squared() as f64,
+            y + w * reference[i].length_squared() as f64,
+        )
+    });
+    (num / den).sqrt()
+}
+
+#[test]
+fn contact_shadow_and_box_are_near_the_reference() {
+    let world = World::new(scene(), PatchSizing::Count(2500), Backend::Auto).unwrap();
+    let (reference, _) = solve(&world, &ReferenceOptions::default(), &NoProgress);
+    let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
+    d.converge(&world, 8);
+    let b = d.radiosity();
+    let near = floor_near_box(&world);
+    assert!(
+        near.len() > 40,
+        "only {} floor patches near the box",
+        near.len()
+    );
+
+    let interior = relative_error(&world.patches, b, &reference).interior;
+    let floor = error_over(&world, &near, b, &reference);
+    println!(
+        "interior {:.2} %, floor near the box {:.2} %",
+        100.0 * interior,
+        100.0 * floor
+    );
+    assert!(interior < INTERIOR_BOUND, "interior error {interior}");
+    assert!(floor < FLOOR_NEAR_BOUND, "floor-near-the-box error {floor}");
+
+    // The check can fail: against a floor 20 % too dark, the floor's error breaks its bound.
+    let darker: Vec<Vec3> = (0..reference.len())
+        .map(|i| match near.contains(&i) {
+            true => reference[i] * 0.8,
+            false => reference[i],
+        })
+        .collect();
+    assert!(error_over(&world, &near, b, &darker) > FLOOR_NEAR_BOUND);
+}
