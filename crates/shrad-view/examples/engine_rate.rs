@@ -85,7 +85,7 @@ struct StepTimes {
 }
 
 impl StepTimes {
-    fn add(&mut self, stats: &shrad::dispersive::FrameStats) {
+    fn add(&mut self, stats: &shrad::frame::FrameStats) {
         self.frames += 1;
         self.ms[0] += stats.frame_ms;
         self.max = self.max.max(stats.frame_ms);

@@ -16,7 +16,7 @@ use crate::{probe_sphere, protocol, solvers};
 
 impl EngineLoop {
     /// Publish the state after a frame (`stats`), or again without one.
-    pub(super) fn publish(&mut self, stats: Option<&shrad::dispersive::FrameStats>) {
+    pub(super) fn publish(&mut self, stats: Option<&shrad::frame::FrameStats>) {
         let now = Instant::now();
         if stats.is_some() {
             self.seq += 1;
@@ -79,7 +79,7 @@ impl EngineLoop {
     }
 
     /// The `frame` message after a frame (`stats`), or of the state published again.
-    fn frame_message(&self, stats: Option<&shrad::dispersive::FrameStats>) -> String {
+    fn frame_message(&self, stats: Option<&shrad::frame::FrameStats>) -> String {
         let stats_json = stats.map_or(Value::Null, |s| {
             serde_json::to_value(s).unwrap_or(Value::Null)
         });

@@ -30,7 +30,7 @@ use glam::Vec3;
 use shrad_scene::Role;
 
 use crate::energy::IncidentMeter;
-use crate::frame::{Changes, DispersiveStats, Divergence, EnergyBalance, SolverStats};
+use crate::frame::{Changes, DispersiveStats, Divergence, EnergyBalance, FrameStats, SolverStats};
 use crate::probes::ProbeCamera;
 use crate::World;
 
@@ -53,9 +53,6 @@ mod tests;
 mod tests_incremental;
 mod wall_rows;
 
-/// A second name for [`crate::frame::FrameStats`], kept only until `crates/shrad-view` (being
-/// reworked in parallel) names it `shrad::frame::FrameStats`; then remove it.
-pub use crate::frame::FrameStats;
 pub use frame::Batch;
 pub use options::{DispersiveOptions, ProbeRepair, Schedule, ToBoundary};
 pub use step3_to_boundary::splat_to_boundary;
