@@ -33,123 +33,141 @@ impl Dispersive {
         steps: &mut DispersiveStats,
     ) -> Vec<usize> {
         let p = &world.patches;
-        let bands = self.options.bands;
-        let nc = num_coeffs(bands);
         for &k in &batch.0 {
             let t = Instant::now();
-            let ob = &self.objects[k];
-            let o = ob.object;
+            let o = self.objects[k].object;
             let m = p.world_from_local[o];
             let tt = Instant::now();
             let (probes, scale) = self.capture_corner_probes(world, k, m, steps);
             super::tr("capture_corner_probes", tt);
             let tt = Instant::now();
             self.objects[k].probe_scale = scale;
-            let range = p.range(o);
-            let ob = &self.objects[k];
-            let with_transfer = !ob.transfer.is_empty();
-            // With transfer vectors (object frame) the probes are rotated into the object's
-            // frame once: rotation is linear, so this equals rotating every patch's
-            // interpolated SH.
-            let probes: Vec<Option<ShRgb>> = if with_transfer {
-                let (_, rotation, _) = m.to_scale_rotation_translation();
-                let to_local = shrad_sh::ShRotation::from_quat(bands, rotation.inverse());
-                probes
-                    .iter()
-                    .map(|sh| {
-                        sh.as_ref().map(|sh| {
-                            let mut local = ShRgb::zeros(bands);
-                            to_local.rotate_rgb(sh, &mut local);
-                            local
-                        })
-                    })
-                    .collect()
-            } else {
-                probes
-            };
-            let e: Vec<Vec3> = range
-                .clone()
-                .into_par_iter()
-                .map(|i| {
-                    let k = i - range.start;
-                    let w = ob.weights[k];
-                    // Interpolate the probes to the patch (paper 2.3.3, trilinear weights,
-                    // renormalised over the valid probes).
-                    let mut l = [Vec3::ZERO; MAX_COEFFS];
-                    let mut sum_w = 0.0;
-                    for (sh, &wc) in probes.iter().zip(&w) {
-                        if let Some(sh) = sh {
-                            for (a, &b) in l[..nc].iter_mut().zip(sh.coeffs()) {
-                                *a += b * wc;
-                            }
-                            sum_w += wc;
-                        }
-                    }
-                    if sum_w <= 0.0 {
-                        return Vec3::ZERO;
-                    }
-                    // Dot with the patch's transfer vector (object frame), or with the
-                    // clamped-cosine lobe of its world normal.
-                    let mut lobe = [0f32; MAX_COEFFS];
-                    let weights: &[f32] = if with_transfer {
-                        &ob.transfer[k * nc..(k + 1) * nc]
-                    } else {
-                        cosine_lobe_sh(bands, p.normal[i], &mut lobe[..nc]);
-                        &lobe[..nc]
-                    };
-                    let dot: Vec3 = l[..nc].iter().zip(weights).map(|(a, &b)| *a * b).sum();
-                    // The object's own light in the directions it blocks (self form factors).
-                    let own: Vec3 = if with_transfer {
-                        ob.self_view(k)
-                            .iter()
-                            .map(|&(q, f)| {
-                                let q = range.start + q as usize;
-                                (self.radiosity[q] - world.exitance[q]) * f
-                            })
-                            .sum()
-                    } else {
-                        Vec3::ZERO
-                    };
-                    (dot / sum_w).max(Vec3::ZERO) + own
-                })
-                .collect();
+            let probes = self.probes_in_object_frame(k, m, probes);
+            let e = self.interpolate_probes(world, k, &probes);
             super::tr("interpolate", tt);
             let tt = Instant::now();
-            if self.objects[k].openness.len() != range.len() {
+            if self.objects[k].openness.len() != p.range(o).len() {
                 self.objects[k].openness = if self.options.contact_rays > 0 {
                     self.contact_openness(world, k)
                 } else {
-                    vec![1.0; range.len()]
+                    vec![1.0; p.range(o).len()]
                 };
             }
             super::tr("openness", tt);
             self.objects[k].coarse_light = self.cameras_for(k).2;
-            let openness = &self.objects[k].openness;
-            // How much the update changed the object's light (`sleep.rs`).
-            let (mut changed, mut total) = (0f64, 0f64);
-            for ((i, e), &v) in range.clone().zip(e).zip(openness) {
-                let e = e * v;
-                self.probe_irradiance[i] = e;
-                // The light surfaces' direct light when `direct_on_interior`, the punctual
-                // lights' always (a probe cannot see them): Step 1 leaves 0 otherwise.
-                let direct = self.direct[i];
-                let b = world.exitance[i] + world.reflectance[i] * (e + direct);
-                let a = p.area[i] as f64;
-                changed += a * (b - self.radiosity[i]).abs().element_sum() as f64;
-                total += a * b.element_sum() as f64;
-                self.radiosity[i] = b;
-            }
-            self.object_change[k] = if total > 0.0 {
-                changed / total
-            } else if changed > 0.0 {
-                f64::INFINITY
-            } else {
-                0.0
-            };
+            self.object_change[k] = self.store_object_light(world, k, e);
             self.scheduler.updated(k, self.frame, ms(t));
             stats.objects_updated.push(o);
         }
         batch.0
+    }
+
+    /// With transfer vectors (object frame) the probes are rotated into the object's frame
+    /// once: rotation is linear, so this equals rotating every patch's interpolated SH.
+    /// Without, they stay in the world frame.
+    fn probes_in_object_frame(
+        &self,
+        k: usize,
+        m: glam::Affine3A,
+        probes: Vec<Option<ShRgb>>,
+    ) -> Vec<Option<ShRgb>> {
+        if self.objects[k].transfer.is_empty() {
+            return probes;
+        }
+        let bands = self.options.bands;
+        let (_, rotation, _) = m.to_scale_rotation_translation();
+        let to_local = shrad_sh::ShRotation::from_quat(bands, rotation.inverse());
+        probes
+            .iter()
+            .map(|sh| {
+                sh.as_ref().map(|sh| {
+                    let mut local = ShRgb::zeros(bands);
+                    to_local.rotate_rgb(sh, &mut local);
+                    local
+                })
+            })
+            .collect()
+    }
+
+    /// Each patch of object `k` lit from the probes (paper 2.3.3 Step 4): the SH interpolated
+    /// trilinearly (renormalised over the valid probes), dotted with the patch's transfer
+    /// vector or clamped-cosine lobe, plus the object's own light in the directions it
+    /// blocks (self form factors).
+    fn interpolate_probes(&self, world: &World, k: usize, probes: &[Option<ShRgb>]) -> Vec<Vec3> {
+        let p = &world.patches;
+        let nc = num_coeffs(self.options.bands);
+        let ob = &self.objects[k];
+        let range = p.range(ob.object);
+        let with_transfer = !ob.transfer.is_empty();
+        range
+            .clone()
+            .into_par_iter()
+            .map(|i| {
+                let k = i - range.start;
+                let mut l = [Vec3::ZERO; MAX_COEFFS];
+                let mut sum_w = 0.0;
+                for (sh, &wc) in probes.iter().zip(&ob.weights[k]) {
+                    if let Some(sh) = sh {
+                        for (a, &b) in l[..nc].iter_mut().zip(sh.coeffs()) {
+                            *a += b * wc;
+                        }
+                        sum_w += wc;
+                    }
+                }
+                if sum_w <= 0.0 {
+                    return Vec3::ZERO;
+                }
+                let mut lobe = [0f32; MAX_COEFFS];
+                let weights: &[f32] = if with_transfer {
+                    &ob.transfer[k * nc..(k + 1) * nc]
+                } else {
+                    cosine_lobe_sh(self.options.bands, p.normal[i], &mut lobe[..nc]);
+                    &lobe[..nc]
+                };
+                let dot: Vec3 = l[..nc].iter().zip(weights).map(|(a, &b)| *a * b).sum();
+                let own: Vec3 = if with_transfer {
+                    ob.self_view(k)
+                        .iter()
+                        .map(|&(q, f)| {
+                            let q = range.start + q as usize;
+                            (self.radiosity[q] - world.exitance[q]) * f
+                        })
+                        .sum()
+                } else {
+                    Vec3::ZERO
+                };
+                (dot / sum_w).max(Vec3::ZERO) + own
+            })
+            .collect()
+    }
+
+    /// Store object `k`'s new light `e` (probe irradiance, before contact openness) and its
+    /// radiosity; returns how much the update changed its light (`sleep.rs`: area weighted,
+    /// relative).
+    fn store_object_light(&mut self, world: &World, k: usize, e: Vec<Vec3>) -> f64 {
+        let p = &world.patches;
+        let range = p.range(self.objects[k].object);
+        let openness = &self.objects[k].openness;
+        let (mut changed, mut total) = (0f64, 0f64);
+        for ((i, e), &v) in range.zip(e).zip(openness) {
+            let e = e * v;
+            self.probe_irradiance[i] = e;
+            // The light surfaces' direct light when `direct_on_interior`, the punctual
+            // lights' always (a probe cannot see them): Step 1 leaves 0 otherwise.
+            let direct = self.direct[i];
+            let b = world.exitance[i] + world.reflectance[i] * (e + direct);
+            let a = p.area[i] as f64;
+            changed += a * (b - self.radiosity[i]).abs().element_sum() as f64;
+            total += a * b.element_sum() as f64;
+            self.radiosity[i] = b;
+        }
+        if total > 0.0 {
+            changed / total
+        } else if changed > 0.0 {
+            f64::INFINITY
+        } else {
+            0.0
+        }
     }
 
     /// Per patch of object `k`, the (cosine-weighted) fraction of its hemisphere that is not
