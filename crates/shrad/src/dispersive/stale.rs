@@ -79,7 +79,12 @@ impl SweptLog {
             .filter(|s| frame.is_none_or(|f| s.frame > f));
         let (mut boxes, mut moved, mut boundary) = (Vec::new(), Vec::new(), false);
         for s in after {
-            boxes.extend_from_slice(&s.boxes);
+            // One mover's new box of a frame is its old box of the next: test it once.
+            for b in &s.boxes {
+                if !boxes.contains(b) {
+                    boxes.push(*b);
+                }
+            }
             moved.extend_from_slice(&s.moved);
             boundary |= s.boundary_moved;
         }

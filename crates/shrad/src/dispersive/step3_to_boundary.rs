@@ -77,22 +77,10 @@ impl Dispersive {
             .zip(&cache.lobes)
             .map(|((_, members), lobes)| self.emitter_intensity(world, k, members, lobes))
             .collect();
-        let soften = |members: &mut dyn Iterator<Item = &u32>| {
-            let range = p.range(o);
-            match self.options.emitter_per_face {
-                true => {
-                    members
-                        .map(|&k| p.area[range.start + k as usize])
-                        .sum::<f32>()
-                        * std::f32::consts::FRAC_1_PI
-                }
-                false => 0.0,
-            }
-        };
         let pieces = if merged {
             let mut total = ShRgb::zeros(self.options.bands);
             intensities.iter().for_each(|i| total.add(i));
-            let soften = soften(&mut ob.emitters.iter().flat_map(|(_, m)| m));
+            let soften = self.soften(world, k, ob.emitters.iter().flat_map(|(_, m)| m));
             self.emit_one(world, k, &mut cache.rays[0], &total, soften)
         } else {
             // The emitters in parallel: each has its own rays.
@@ -102,7 +90,7 @@ impl Dispersive {
                 .zip(cache.rays.par_iter_mut())
                 .zip(&intensities)
                 .map(|(((_, members), rays), intensity)| {
-                    self.emit_one(world, k, rays, intensity, soften(&mut members.iter()))
+                    self.emit_one(world, k, rays, intensity, self.soften(world, k, members))
                 })
                 .collect();
             each.concat()
@@ -131,6 +119,26 @@ impl Dispersive {
             }
         }
         ShRgb::from_coeffs(intensity)
+    }
+
+    /// A gather emitter's regularisation of `1 / r^2` (see [`Self::gather`]): its members'
+    /// area over pi with one emitter per face, 0 otherwise.
+    fn soften<'a>(
+        &self,
+        world: &World,
+        k: usize,
+        members: impl IntoIterator<Item = &'a u32>,
+    ) -> f32 {
+        if !self.options.emitter_per_face {
+            return 0.0;
+        }
+        let p = &world.patches;
+        let start = p.range(self.objects[k].object).start;
+        let area: f32 = members
+            .into_iter()
+            .map(|&m| p.area[start + m as usize])
+            .sum();
+        area * std::f32::consts::FRAC_1_PI
     }
 
     /// One emitter of object `k` sent along its cached rays.
