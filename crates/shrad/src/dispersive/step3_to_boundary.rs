@@ -121,8 +121,7 @@ impl Dispersive {
         ShRgb::from_coeffs(intensity)
     }
 
-    /// A gather emitter's regularisation of `1 / r^2` (see [`Self::gather`]): its members'
-    /// area over pi with one emitter per face, 0 otherwise.
+    /// A gather emitter's `1 / r^2` regularisation ([`Self::gather`]): members' area / pi.
     fn soften<'a>(
         &self,
         world: &World,
