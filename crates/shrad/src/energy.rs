@@ -108,15 +108,16 @@ pub fn escaped(world: &World, radiosity: &[Vec3], rays: u32) -> f64 {
 /// The bound on reflected flux for the world's current emission (see the module docs), with
 /// `punctual` the flux the punctual lights deliver to the patches.
 pub fn reflected_bound(world: &World, punctual: f64) -> f64 {
-    let emitted: f64 = (0..world.patches.len())
-        .map(|i| avg(world.exitance[i]) * world.patches.area[i] as f64)
+    // In parallel: every frame of every solver meters its state (a pass over all patches).
+    let emitted: f64 = (world.exitance.par_iter().zip(&world.patches.area))
+        .map(|(m, a)| avg(*m) * *a as f64)
         .sum::<f64>()
         + punctual;
     let max_rho = world
         .reflectance
-        .iter()
+        .par_iter()
         .map(|r| r.max_element())
-        .fold(0.0f32, f32::max)
+        .reduce(|| 0.0f32, f32::max)
         .min(0.999_999) as f64;
     emitted * max_rho / (1.0 - max_rho)
 }
@@ -129,33 +130,45 @@ pub fn balance(
     world: &World,
     irradiance: &[Vec3],
     punctual: &[Vec3],
-    reflects: impl Fn(usize) -> bool,
+    reflects: impl Fn(usize) -> bool + Sync,
 ) -> EnergyBalance {
     let p = &world.patches;
     let punctual_flux: f64 = punctual
-        .iter()
+        .par_iter()
         .zip(&p.area)
         .map(|(e, a)| avg(*e) * *a as f64)
         .sum();
-    let mut e = EnergyBalance {
+    // Per patch: [emitted, received, reflected, absorbed], summed in parallel (a pass over
+    // every patch, every frame).
+    let add = |a: [f64; 4], b: [f64; 4]| std::array::from_fn(|k| a[k] + b[k]);
+    let [emitted, received, reflected, absorbed] = (0..p.len())
+        .into_par_iter()
+        .map(|i| {
+            let a = p.area[i] as f64;
+            let irr = irradiance[i];
+            let (reflected, absorbed) = if reflects(i) {
+                let rho = world.reflectance[i];
+                (avg(rho * irr) * a, avg((Vec3::ONE - rho) * irr) * a)
+            } else {
+                (0.0, avg(irr) * a)
+            };
+            [
+                avg(world.exitance[i]) * a,
+                avg(irr) * a,
+                reflected,
+                absorbed,
+            ]
+        })
+        .reduce(|| [0.0; 4], add);
+    EnergyBalance {
         reflected_bound: reflected_bound(world, punctual_flux),
-        emitted: punctual_flux,
+        emitted: punctual_flux + emitted,
         punctual: punctual_flux,
+        received,
+        reflected,
+        absorbed,
         ..Default::default()
-    };
-    for i in 0..p.len() {
-        let a = p.area[i] as f64;
-        let irr = irradiance[i];
-        e.emitted += avg(world.exitance[i]) * a;
-        e.received += avg(irr) * a;
-        if reflects(i) {
-            e.reflected += avg(world.reflectance[i] * irr) * a;
-            e.absorbed += avg((Vec3::ONE - world.reflectance[i]) * irr) * a;
-        } else {
-            e.absorbed += avg(irr) * a;
-        }
     }
-    e
 }
 
 /// Irradiance of a few patches measured by cosine-weighted rays (see the module docs).
@@ -338,14 +351,15 @@ pub const BOUND_TOLERANCE: f64 = 1.05;
 
 /// Replace every non-finite component of `values` by 0; returns how many values had one.
 pub fn reset_non_finite(values: &mut [Vec3]) -> usize {
-    let mut n = 0;
-    for v in values {
-        if !v.is_finite() {
-            *v = Vec3::select(v.is_finite_mask(), *v, Vec3::ZERO);
-            n += 1;
-        }
+    // A parallel read first: a state is finite on every frame but a broken one.
+    if values.par_iter().all(|v| v.is_finite()) {
+        return 0;
     }
-    n
+    values
+        .par_iter_mut()
+        .filter(|v| !v.is_finite())
+        .map(|v| *v = Vec3::select(v.is_finite_mask(), *v, Vec3::ZERO))
+        .count()
 }
 
 /// Checks a state against the bound: `Some(scale)` by which the reflected part must be

@@ -176,6 +176,7 @@ impl Dispersive {
     pub(super) fn energy(&self, world: &World) -> EnergyBalance {
         let p = &world.patches;
         let mut irradiance: Vec<Vec3> = (0..p.len())
+            .into_par_iter()
             .map(|i| match p.role(i) {
                 // Step 1 leaves `direct` 0 where it does not light (`direct_on_interior`).
                 Role::Interior => self.probe_irradiance[i] + self.direct[i],
