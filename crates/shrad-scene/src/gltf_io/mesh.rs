@@ -246,6 +246,7 @@ impl Walk<'_> {
             }
         }
         mesh.uvs.truncate(sets);
+        self.lightmap_uvs(reader, mesh, who);
         if let Some(colors) = reader.read_colors(0) {
             let colors: Vec<Vec3> = colors.into_rgb_f32().map(Vec3::from).collect();
             if colors.len() != n {
@@ -275,6 +276,38 @@ impl Walk<'_> {
             }
         }
         Ok(())
+    }
+}
+
+impl Walk<'_> {
+    /// `TEXCOORD_1`, kept as the lightmap's layout (a Blender lightmap UV layer is exported
+    /// as it) whether or not a texture reads it: floats, or (`KHR_mesh_quantization`, already
+    /// dequantized by `unpack`) normalized integers. One that cannot be used is dropped with
+    /// a warning naming the primitive; a lightmap bake then makes its own charts.
+    fn lightmap_uvs<'a, 's, F>(
+        &mut self,
+        reader: &gltf::mesh::Reader<'a, 's, F>,
+        mesh: &mut Mesh,
+        who: &str,
+    ) where
+        F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
+    {
+        let Some(set) = reader.read_tex_coords(1) else {
+            return;
+        };
+        let uvs: Vec<glam::Vec2> = set.into_f32().map(glam::Vec2::from).collect();
+        let n = mesh.positions.len();
+        let why = if uvs.len() != n {
+            format!("has {} elements for {n} positions", uvs.len())
+        } else if let Some(k) = uvs.iter().position(|p| !p.is_finite()) {
+            format!("element {k} is not finite")
+        } else {
+            mesh.lightmap_uvs = uvs;
+            return;
+        };
+        self.scene.warnings.push(format!(
+            "{who}.attributes.TEXCOORD_1: {why}: not used as a lightmap layout"
+        ));
     }
 }
 

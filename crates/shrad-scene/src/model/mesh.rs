@@ -15,6 +15,11 @@ pub struct Mesh {
     /// Vertex colours (glTF `COLOR_0`, linear RGB in [0, 1], alpha dropped): empty, or one
     /// per vertex. They multiply the material's reflectance.
     pub colors: Vec<Vec3>,
+    /// The lightmap's texture coordinates (glTF `TEXCOORD_1`, kept whether or not a texture
+    /// reads it: a lightmap UV layer made in Blender is `TEXCOORD_1`): empty, or one per
+    /// vertex, finite. `shrad bake --lightmap` lays the object out by them when they are
+    /// usable (crates/shrad/src/lightmap/uv_chart.rs).
+    pub lightmap_uvs: Vec<Vec2>,
 }
 
 impl Mesh {
@@ -62,7 +67,8 @@ impl Mesh {
             ..Default::default()
         }
     }
-    /// Append another mesh (texture coordinates a side lacks are 0, colours 1).
+    /// Append another mesh (texture coordinates a side lacks are 0, colours 1; lightmap
+    /// coordinates are kept only when both sides have them).
     pub fn append(&mut self, other: &Mesh) {
         let base = self.positions.len() as u32;
         let (n, m) = (self.positions.len(), other.positions.len());
@@ -82,6 +88,13 @@ impl Mesh {
                 self.colors.extend_from_slice(&other.colors);
             }
         }
+        // A lightmap layout only when both sides have one: zeros would fold the other
+        // side's triangles onto one point.
+        if self.lightmap_uvs.len() == n && other.lightmap_uvs.len() == m {
+            self.lightmap_uvs.extend_from_slice(&other.lightmap_uvs);
+        } else {
+            self.lightmap_uvs.clear();
+        }
         self.positions.extend_from_slice(&other.positions);
         self.triangles
             .extend(other.triangles.iter().map(|t| t.map(|i| i + base)));
@@ -97,6 +110,7 @@ impl Mesh {
             triangles: self.triangles.clone(),
             uvs: self.uvs.clone(),
             colors: self.colors.clone(),
+            lightmap_uvs: self.lightmap_uvs.clone(),
         }
     }
 }

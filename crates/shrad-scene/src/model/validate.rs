@@ -72,6 +72,15 @@ fn attribute_problem(o: &Object) -> Option<String> {
             o.mesh.uvs[k].len()
         ));
     }
+    let lightmap = o.mesh.lightmap_uvs.len();
+    if lightmap != 0 && lightmap != n {
+        return Some(format!(
+            "{lightmap} lightmap texture coordinates for {n} vertices"
+        ));
+    }
+    if let Some(i) = o.mesh.lightmap_uvs.iter().position(|p| !p.is_finite()) {
+        return Some(format!("lightmap texture coordinate {i} is not finite"));
+    }
     let colors = o.mesh.colors.len();
     if colors != 0 && colors != n {
         return Some(format!("{colors} vertex colours for {n} vertices"));
