@@ -21,9 +21,20 @@ const UV1: [[f32; 2]; 4] = [[0.25, 0.5], [0.25, 1.0], [0.75, 1.0], [0.75, 0.5]];
 
 /// A floor quad whose TEXCOORD_1 is `uv_bytes` of `component_type` (`normalized`), with
 /// `count` elements; the extension list `used`.
-fn quad(uv_bytes: &[u8], component_type: u32, normalized: bool, count: usize, used: &[&str]) -> Value {
+fn quad(
+    uv_bytes: &[u8],
+    component_type: u32,
+    normalized: bool,
+    count: usize,
+    used: &[&str],
+) -> Value {
     let mut bin = Vec::new();
-    for p in [[0.0f32, 0.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, 0.0]] {
+    for p in [
+        [0.0f32, 0.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 1.0],
+        [1.0, 0.0, 0.0],
+    ] {
         for c in p {
             bin.extend_from_slice(&c.to_le_bytes());
         }
@@ -61,7 +72,10 @@ fn quad(uv_bytes: &[u8], component_type: u32, normalized: bool, count: usize, us
                      "uri": format!("data:application/octet-stream;base64,{}", base64::encode(&bin))}]
     });
     if !normalized {
-        root["accessors"][2].as_object_mut().unwrap().remove("normalized");
+        root["accessors"][2]
+            .as_object_mut()
+            .unwrap()
+            .remove("normalized");
     }
     if !used.is_empty() {
         root["extensionsUsed"] = json!(used);
@@ -109,10 +123,17 @@ fn quantized_texcoord_1_reads_to_the_same_values() {
         assert!((*a - b).abs().max_element() < 1e-4, "{a} vs {b}");
     }
     // 0.25 is not a multiple of 1/255: unsigned bytes give the nearest steps.
-    let u8s: Vec<u8> = UV1.iter().flatten().map(|&c| (c * 255.0).round() as u8).collect();
+    let u8s: Vec<u8> = UV1
+        .iter()
+        .flatten()
+        .map(|&c| (c * 255.0).round() as u8)
+        .collect();
     let s = load_json("u8", &quad(&u8s, 5121, true, 4, &q)).unwrap();
     for (a, b) in s.objects[0].mesh.lightmap_uvs.iter().zip(expected()) {
-        assert!((*a - b).abs().max_element() < 0.5 / 255.0 + 1e-6, "{a} vs {b}");
+        assert!(
+            (*a - b).abs().max_element() < 0.5 / 255.0 + 1e-6,
+            "{a} vs {b}"
+        );
     }
 }
 

@@ -65,6 +65,8 @@ pub(super) fn shape_mesh(object: &Object, local_from_object: Mat3) -> Mesh {
     Mesh {
         uvs,
         colors: mesh.colors.clone(),
+        // Texture space: the same whatever the transform.
+        lightmap_uvs: mesh.lightmap_uvs.clone(),
         positions: mesh
             .positions
             .iter()
