@@ -343,6 +343,8 @@ struct Tally {
     zero_by_indices: usize,
     /// Where those copies are written.
     scratch: PathBuf,
+    /// Invalid files that loaded: (file, the validator's error codes, the warnings).
+    invalid_loaded: Vec<(String, String, String)>,
     failures: Vec<String>,
 }
 
@@ -436,14 +438,16 @@ impl Tally {
 
     /// An invalid file that loaded with `warnings`.
     fn invalid_loaded(&mut self, rel: &str, report: &Value, warnings: &[String]) {
+        let codes: Vec<&str> = report["issues"]["messages"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter(|m| m["severity"] == 0)
+            .filter_map(|m| m["code"].as_str())
+            .collect();
+        self.invalid_loaded
+            .push((rel.to_string(), codes.join(", "), warnings.join(" | ")));
         if warnings.is_empty() && !INVALID_LOADED.iter().any(|(f, _)| *f == rel) {
-            let codes: Vec<&str> = report["issues"]["messages"]
-                .as_array()
-                .into_iter()
-                .flatten()
-                .filter(|m| m["severity"] == 0)
-                .filter_map(|m| m["code"].as_str())
-                .collect();
             self.failures.push(format!(
                 "{rel}: invalid ({}) but loaded without a warning",
                 codes.join(", ")
@@ -483,6 +487,9 @@ impl Tally {
         }
         for (kind, n) in &self.no_mesh {
             println!("valid files refused: {kind}: {n}");
+        }
+        for (f, codes, warnings) in &self.invalid_loaded {
+            println!("  invalid, loaded: `{f}` ({codes}): {warnings}");
         }
         for f in &self.failures {
             println!("FAIL {f}");
