@@ -387,6 +387,7 @@ fn build(engine: &Engine, exposure: f32, at: BufferAt<'_>) -> (Value, Vec<u8>, B
 /// buffer in a `.bin` of the same name beside it. `exposure` scales `COLOR_0` (`None`:
 /// [`auto_exposure`]). The file (and its `.bin`) is written whole or not at all.
 pub fn write_gltf(engine: &Engine, path: &Path, exposure: Option<f32>) -> Result<Baked, Error> {
+    nothing_to_bake(engine)?;
     let mut staged = StagedFiles::new();
     let baked = stage_gltf(engine, path, exposure, &mut staged)?;
     staged.commit()?;

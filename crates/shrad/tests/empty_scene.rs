@@ -97,6 +97,10 @@ fn exercise(mut e: Engine, background: Vec3, what: &str) {
         msg.contains("empty.gltf") && msg.contains("nothing to bake"),
         "{what}: {msg}"
     );
+    let msg = shrad::bake::write_gltf(&e, &out, None)
+        .unwrap_err()
+        .to_string();
+    assert!(msg.contains("nothing to bake"), "{what}: {msg}");
     assert!(!out.exists(), "{what}");
 }
 

@@ -226,20 +226,21 @@ impl Reader<'_> {
         let mut samplers = Vec::with_capacity(samplers_raw.len());
         for (k, s) in samplers_raw.iter().enumerate() {
             let here = format!("{}.samplers[{k}]", anim.at);
-            let why = match super::unpack::no_data::skipped(s) {
+            let sampler = match super::unpack::no_data::skipped(s) {
                 Some(why) => Err(format!("{here}.{why}")),
                 None => self.sampler(s, &here)?,
             };
             // A sampler that cannot play is skipped, not the file (a viewer plays the rest).
-            samplers.push(
-                why.map_err(|why| {
+            match sampler {
+                Ok(sampler) => samplers.push(Some(sampler)),
+                Err(why) => {
                     self.warnings.push(format!(
                         "{}: {why}: the sampler is skipped, and its channels do not play",
                         anim.label
                     ));
-                })
-                .ok(),
-            );
+                    samplers.push(None);
+                }
+            }
         }
         let channels = a.get("channels").and_then(Value::as_array);
         let channels: &[Value] = channels.map_or(&[], Vec::as_slice);
