@@ -377,3 +377,33 @@ def test_help_is_useful():
     assert "matrix" in shrad.Engine.set_transform.__doc__
     assert "(N, 3)" in shrad.Engine.radiosity.__doc__
     assert "patches" in shrad.load.__doc__
+
+
+def test_a_gltf_with_nothing_to_light_loads_empty_and_runs(tmp_path):
+    # A valid glTF whose one triangle has zero area (POSITION without bufferView: zeros)
+    # loads empty, as a viewer opens it, saying why; the engine on it gives empty arrays and
+    # a black picture, and refuses to bake it.
+    p = tmp_path / "zeros.gltf"
+    p.write_text(
+        '{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],'
+        ' "nodes": [{"mesh": 0}], "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],'
+        ' "accessors": [{"componentType": 5126, "count": 3, "type": "VEC3",'
+        ' "min": [0, 0, 0], "max": [0, 0, 0]}]}'
+    )
+    scene = shrad.load(p, patches=100)
+    assert scene.objects == []
+    assert any(w.startswith("nothing to light: every triangle") for w in scene.warnings), scene.warnings
+    for solver in ["reference", "dispersive", "grid"]:
+        e = shrad.Engine(scene, solver=solver)
+        e.step()
+        assert len(e) == 0
+        for a in [e.radiosity, e.centres, e.normals, e.vertex_colors]:
+            assert a.shape == (0, 3), solver
+        assert e.areas.shape == (0,) and e.object_ids.shape == (0,)
+        img = e.render(16, 8, spp=1)
+        assert img.shape == (8, 16, 3) and not img.any(), solver
+        with pytest.raises(ValueError, match="nothing to bake"):
+            e.bake(tmp_path / "out.glb")
+        with pytest.raises(ValueError, match="nothing to bake"):
+            e.export_gltf(tmp_path / "out.glb")
+    assert not (tmp_path / "out.glb").exists()

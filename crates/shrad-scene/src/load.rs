@@ -51,6 +51,12 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
         ));
     }
     let mut scene = read_any(path, animation)?.0;
+    if format_of(path)? == Format::Gltf && scene.objects.is_empty() {
+        // A valid glTF whose scene has nothing to light loads empty (its reader said why).
+        clamp_reflectance(&mut scene);
+        scene.validate_may_be_empty(path, opts.drop_degenerate)?;
+        return Ok(scene);
+    }
     finish(&mut scene, path, opts)?;
     Ok(scene)
 }

@@ -65,14 +65,14 @@ fn matches_original(file: &str, bits: u32) {
     let step = (hi - lo).max_element() / (1u32 << bits) as f32;
     for (i, oa) in a.objects.iter().enumerate() {
         // gltfpack moves each mesh to an unnamed child of its named node (the child holds
-        // the dequantizing transform), so objects are matched by name where they keep it,
-        // else by order.
+        // the dequantizing transform): the object takes its parent's name and roles.
         let j = b
             .objects
             .iter()
             .position(|o| o.name == oa.name)
-            .unwrap_or(i);
+            .unwrap_or_else(|| panic!("{file}: no object named {}", oa.name));
         let ob = &b.objects[j];
+        assert_eq!(oa.role, ob.role, "{file}: {} role", oa.name);
         assert_eq!(
             oa.mesh.triangles.len(),
             ob.mesh.triangles.len(),

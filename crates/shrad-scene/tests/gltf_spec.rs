@@ -139,6 +139,21 @@ fn refused_file(p: &Path, faults: &[&str]) -> String {
     msg
 }
 
+/// Load `root` as `name`: a scene without objects, whose warnings say each of `warnings`.
+fn assert_loads_empty(dir: &Path, name: &str, root: &Value, warnings: &[&str]) -> Scene {
+    let p = write_json(dir, name, root);
+    let s = load_no_panic(&p).unwrap_or_else(|e| panic!("{name}: refused: {e}"));
+    assert!(s.objects.is_empty(), "{name}: {} objects", s.objects.len());
+    for w in warnings {
+        assert!(
+            s.warnings.iter().any(|x| x.contains(w)),
+            "{name}: no warning says '{w}': {:?}",
+            s.warnings
+        );
+    }
+    s
+}
+
 /// A change to a glTF's JSON.
 type Edit = Box<dyn Fn(&mut Value)>;
 
@@ -724,13 +739,18 @@ fn buffers_data_uris_and_glb_chunks() {
         &quad_with(|v| v["buffers"][0]["uri"] = json!("quad%FF.bin")),
         &["buffers[0].uri", "cannot read", "quad\u{FFFD}.bin"],
     );
-    assert_refused(
+    // A buffer without uri in a .gltf has no data (valid: the validator does not look into
+    // it): the primitive that reads it is skipped, naming what it reads, and the file loads.
+    assert_loads_empty(
         &dir,
         "nouri.gltf",
         &quad_with(|v| {
             v["buffers"][0].as_object_mut().unwrap().remove("uri");
         }),
-        &["bufferView 0 reads buffer 0, which has no data", "no uri"],
+        &[
+            "meshes[0].primitives[0] (nodes[0] 'floor'): skipped, its data is not in the file: accessors[0]: bufferView 0 reads buffer 0, which has no data (no uri",
+            "nothing to light: the scene draws no triangle with area (skipped: 1 primitive(s) whose data is not in the file); the scene is empty",
+        ],
     );
     assert_refused(
         &dir,
@@ -1442,17 +1462,18 @@ fn a_file_without_scenes_is_a_library_of_meshes() {
         glam::Vec3A::new(0.0, 2.0, 0.0)
     );
     assert_eq!(s.objects[1].world_from_object, glam::Affine3A::IDENTITY);
-    // A scene that draws no mesh draws nothing: the file's scene says what is in it.
-    assert_refused(
+    // A scene that draws no mesh draws nothing: the file's scene says what is in it. It
+    // loads empty, as a viewer opens it, saying so.
+    assert_loads_empty(
         &dir,
         "scene-without-mesh.gltf",
         &quad_with(|v| {
             v["nodes"][0].as_object_mut().unwrap().remove("mesh");
         }),
-        &["no node of the scene instances a triangle mesh (the file has 1 mesh(es))"],
+        &["nothing to light: no node of the scene instances a triangle mesh (the file has 1 mesh(es)); the scene is empty"],
     );
     // Points only: nothing to light, said so.
-    assert_refused(
+    assert_loads_empty(
         &dir,
         "points.gltf",
         &quad_with(|v| v["meshes"][0]["primitives"][0]["mode"] = json!(0)),
@@ -1514,5 +1535,49 @@ fn accessor_types_gltf_2_0_does_not_define() {
             .any(|w| w.contains("glTF 2.1 read as glTF 2.0")),
         "{:?}",
         s.warnings
+    );
+}
+
+/// gltfpack (meshoptimizer) moves each mesh of a named node to an unnamed child (which holds
+/// the dequantizing transform): an unnamed mesh node with a named parent takes the parent's
+/// name, and the roles of the parent's extras when it has none of its own. A named child
+/// keeps its name; an unnamed one without a named parent is named by its mesh.
+#[test]
+fn an_unnamed_mesh_node_takes_its_named_parents_name_and_roles() {
+    use shrad_scene::Role;
+    let dir = temp_dir("parent-name");
+    let p = write_json(
+        &dir,
+        "packed.gltf",
+        &quad_with(|v| {
+            v["scenes"][0]["nodes"] = json!([0, 2, 4, 6]);
+            v["nodes"] = json!([
+                {"name": "panel", "children": [1],
+                 "extras": {"shrad_role": "interior", "shrad_patch_size": 0.25}},
+                {"mesh": 0, "scale": [2.0, 2.0, 2.0]},
+                {"name": "group", "children": [3], "extras": {"shrad_role": "boundary"}},
+                {"name": "lamp", "mesh": 0},
+                {"name": "shelf", "children": [5], "extras": {"shrad_role": "boundary"}},
+                {"mesh": 0, "extras": {"shrad_role": "interior"}},
+                {"children": [7]},
+                {"mesh": 0}
+            ]);
+        }),
+    );
+    let s = load_no_panic(&p).unwrap();
+    let got: Vec<(&str, Option<Role>, Option<f32>)> = s
+        .objects
+        .iter()
+        .map(|o| (o.name.as_str(), o.role, o.patch_size))
+        .collect();
+    // The quad is emissive: a role not given is inferred as a light.
+    assert_eq!(
+        got,
+        [
+            ("panel", Some(Role::Interior), Some(0.25)),
+            ("lamp", Some(Role::Light), None),
+            ("shelf", Some(Role::Interior), None),
+            ("quad", Some(Role::Light), None),
+        ]
     );
 }

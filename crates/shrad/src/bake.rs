@@ -124,6 +124,20 @@ pub fn bake_with_progress(
     )
 }
 
+/// An empty scene (a valid glTF with nothing to light loads empty) is refused before any
+/// file is written: a bake is light on surfaces, and a file without a mesh would be one
+/// that shrad itself, and most importers, refuse or show as nothing; in a pipeline, an
+/// error says where the light went, an empty file does not.
+fn nothing_to_bake(engine: &Engine) -> Result<(), Error> {
+    if engine.world().patches.is_empty() {
+        return Err(Error::Invalid(format!(
+            "{}: nothing to bake: the scene has no surface to light (see its load warnings)",
+            engine.world().scene.source
+        )));
+    }
+    Ok(())
+}
+
 /// Writes one file of a bake (the engine's state at `exposure`) to staged names.
 pub type StageFile<'a> = dyn Fn(&Engine, &Path, f32, &mut StagedFiles) -> Result<Baked, Error> + 'a;
 
@@ -140,6 +154,7 @@ pub fn bake_files(
     if let Some(e) = options.exposure {
         check_exposure(e)?;
     }
+    nothing_to_bake(engine)?;
     let times = times(engine, options)?;
     let reference = matches!(engine.solver_choice(), SolverChoice::Reference(_));
     let (file_bar, step_bar): (&dyn Progress, &dyn Progress) = if reference {
@@ -372,6 +387,7 @@ fn build(engine: &Engine, exposure: f32, at: BufferAt<'_>) -> (Value, Vec<u8>, B
 /// buffer in a `.bin` of the same name beside it. `exposure` scales `COLOR_0` (`None`:
 /// [`auto_exposure`]). The file (and its `.bin`) is written whole or not at all.
 pub fn write_gltf(engine: &Engine, path: &Path, exposure: Option<f32>) -> Result<Baked, Error> {
+    nothing_to_bake(engine)?;
     let mut staged = StagedFiles::new();
     let baked = stage_gltf(engine, path, exposure, &mut staged)?;
     staged.commit()?;

@@ -111,13 +111,9 @@ impl World {
     pub fn new(scene: Scene, sizing: PatchSizing, backend: Backend) -> Result<World, Error> {
         let plan = Patches::plan(&scene, sizing);
         crate::limits::check_patches(&scene.source, plan)?;
+        // A scene without patches (a valid glTF with nothing to light loads empty) is a
+        // world too: every solver, picture and bake of it is empty or the background.
         let patches = Patches::build(&scene, PatchSizing::Size(plan.patch_size));
-        if patches.is_empty() {
-            return Err(Error::Invalid(format!(
-                "{}: the scene has no patches",
-                scene.source
-            )));
-        }
         let meshes: Vec<MeshRef<'_>> = patches
             .meshes
             .iter()

@@ -37,11 +37,31 @@ fn extras_of(raw: &gltf::json::Extras, what: &str) -> Result<(Option<Role>, Opti
     Ok((role, patch))
 }
 
+/// The named parent whose name and extras an unnamed mesh node takes, if it has one.
+/// gltfpack (meshoptimizer) moves each mesh of a named node to an unnamed child, so that the
+/// names and `extras` a file gave its objects (roles: light, boundary, interior) are on the
+/// parent; a viewer's outliner shows the parent's name.
+fn named_parent<'a, 'd>(inst: &Instance<'a, 'd>) -> Option<&'a gltf::Node<'d>> {
+    inst.node
+        .filter(|n| n.name().is_none())
+        .and(inst.parent)
+        .filter(|p| p.name().is_some())
+}
+
+/// Why `prim` is skipped, if `unpack` marked it so (its data is not in the file).
+fn no_data_mark(prim: &gltf::Primitive) -> Option<String> {
+    let raw = prim.extras().as_ref()?;
+    let v: Value = serde_json::from_str(raw.get()).ok()?;
+    super::unpack::no_data::skipped(&v).map(str::to_string)
+}
+
 /// Where a mesh is drawn: by a node, or (a file without scenes, a library of meshes) once at
 /// the origin.
 pub(super) struct Instance<'a, 'd> {
     /// The node that instances the mesh; None for a mesh of a library placed at the origin.
     pub node: Option<&'a gltf::Node<'d>>,
+    /// That node's parent, if any.
+    pub parent: Option<&'a gltf::Node<'d>>,
     /// The node's world transform.
     pub world: Mat4,
     /// How messages name the instance: `nodes[3] 'lamp'`, or `placed at the origin`.
@@ -53,15 +73,26 @@ impl Walk<'_> {
     pub(super) fn mesh(&mut self, inst: &Instance, mesh: &gltf::Mesh) -> Result<(), SceneError> {
         let path = self.path;
         let bad = |m: String| SceneError::invalid(path, m);
-        let (node_role, node_patch) = match inst.node {
+        let (mut node_role, mut node_patch) = match inst.node {
             Some(node) => extras_of(node.extras(), &inst.label).map_err(bad)?,
             None => (None, None),
         };
         let (mesh_role, mesh_patch) =
             extras_of(mesh.extras(), &format!("meshes[{}]", mesh.index())).map_err(bad)?;
-        let base_name = inst
+        let named = named_parent(inst);
+        if let Some(parent) = named {
+            // gltfpack moves a named node's mesh to an unnamed child: the object is the
+            // parent's, by name and by the roles its extras give.
+            let label = format!("nodes[{}]", parent.index());
+            let (role, patch) = extras_of(parent.extras(), &label).map_err(bad)?;
+            node_role = node_role.or(role);
+            node_patch = node_patch.or(patch);
+        }
+        let node_name = inst
             .node
             .and_then(gltf::Node::name)
+            .or(named.and_then(gltf::Node::name));
+        let base_name = node_name
             .or(mesh.name())
             .map(str::to_string)
             .unwrap_or_else(|| match inst.node {
@@ -104,7 +135,7 @@ impl Walk<'_> {
             object.patch_size = node_patch.or(mesh_patch);
             self.scene.objects.push(object);
             self.names.push(PartNames {
-                node: inst.node.and_then(gltf::Node::name).map(str::to_string),
+                node: node_name.map(str::to_string),
                 mesh: mesh.name().map(str::to_string),
             });
         }
@@ -119,6 +150,13 @@ impl Walk<'_> {
         at: &Place,
     ) -> Result<Option<Mesh>, String> {
         let (who, inst) = (&at.who, &at.inst);
+        if let Some(why) = no_data_mark(prim) {
+            self.scene.warnings.push(format!(
+                "{who}{inst}: skipped, its data is not in the file: {why}"
+            ));
+            self.skipped.no_data += 1;
+            return Ok(None);
+        }
         let mode = prim.mode();
         if !matches!(
             mode,

@@ -50,6 +50,8 @@ pub(super) struct Skipped {
     pub zero_area_primitives: usize,
     /// Primitives without POSITION (in the file: the gltf crate never sees them).
     pub no_position: usize,
+    /// Primitives whose data is not in the file (a buffer without data).
+    pub no_data: usize,
 }
 
 impl Walk<'_> {
@@ -101,9 +103,12 @@ impl Walk<'_> {
         self.scene.lights.push(light);
     }
 
+    /// Walk `node` (child of `parent_node`, whose world transform is `parent`) and its
+    /// descendants.
     pub(super) fn node(
         &mut self,
         node: gltf::Node,
+        parent_node: Option<&gltf::Node>,
         parent: Mat4,
         depth: usize,
     ) -> Result<(), SceneError> {
@@ -155,13 +160,14 @@ impl Walk<'_> {
         if let Some(mesh) = node.mesh() {
             let inst = super::mesh::Instance {
                 node: Some(&node),
+                parent: parent_node,
                 world,
                 label: node_label,
             };
             self.mesh(&inst, &mesh)?;
         }
         for child in node.children() {
-            self.node(child, world, depth + 1)?;
+            self.node(child, Some(&node), world, depth + 1)?;
         }
         Ok(())
     }
@@ -169,8 +175,8 @@ impl Walk<'_> {
 
 impl Walk<'_> {
     /// Walk the default scene (else the first), or, in a file without scenes, every root
-    /// node and then every mesh that no node instances, once at the origin. Errors when
-    /// nothing is left to light, saying why.
+    /// node and then every mesh that no node instances, once at the origin. A scene left
+    /// with nothing to light is empty, with a warning saying why.
     pub(super) fn scene(&mut self) -> Result<(), SceneError> {
         let doc = self.doc;
         let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
@@ -189,13 +195,16 @@ impl Walk<'_> {
             }
         };
         for node in roots {
-            self.node(node, Mat4::IDENTITY, 0)?;
+            self.node(node, None, Mat4::IDENTITY, 0)?;
         }
         if doc.scenes().len() == 0 {
             self.library_meshes()?;
         }
+        // A valid file loads even when nothing in it can be lit, as a viewer opens it
+        // empty: the scene is returned without objects, saying why.
         if self.scene.objects.is_empty() {
-            return Err(SceneError::invalid(self.path, self.nothing_to_light()));
+            let why = self.nothing_to_light();
+            self.scene.warnings.push(why);
         }
         Ok(())
     }
@@ -230,6 +239,7 @@ impl Walk<'_> {
         for m in free {
             let inst = super::mesh::Instance {
                 node: None,
+                parent: None,
                 world: Mat4::IDENTITY,
                 label: "placed at the origin".into(),
             };
@@ -261,16 +271,22 @@ impl Walk<'_> {
                 s.no_position
             ));
         }
+        if s.no_data > 0 {
+            parts.push(format!(
+                "{} primitive(s) whose data is not in the file",
+                s.no_data
+            ));
+        }
         match parts.len() {
             0 => format!(
-                "no node of the scene instances a triangle mesh (the file has {n} mesh(es)): nothing to light"
+                "nothing to light: no node of the scene instances a triangle mesh (the file has {n} mesh(es)); the scene is empty"
             ),
             1 if s.zero_area_primitives > 0 => format!(
-                "nothing to light: every triangle the scene draws has zero area ({} triangle(s) in {} primitive(s), dropped)",
+                "nothing to light: every triangle the scene draws has zero area ({} triangle(s) in {} primitive(s), dropped); the scene is empty",
                 s.zero_area_triangles, s.zero_area_primitives
             ),
             _ => format!(
-                "nothing to light: the scene draws no triangle with area (skipped: {})",
+                "nothing to light: the scene draws no triangle with area (skipped: {}); the scene is empty",
                 parts.join(", ")
             ),
         }

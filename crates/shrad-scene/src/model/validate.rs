@@ -12,6 +12,17 @@ impl Scene {
         if self.objects.is_empty() {
             return Err(SceneError::invalid(path, "the scene has no objects"));
         }
+        self.validate_may_be_empty(path, drop_degenerate)
+    }
+
+    /// [`Scene::validate`] for a scene that may have no objects: a valid glTF file whose
+    /// scene draws nothing to light loads empty, as a viewer opens it (its reader has
+    /// warned why); the engine takes an empty scene and its pictures are the background.
+    pub(crate) fn validate_may_be_empty(
+        &mut self,
+        path: &Path,
+        drop_degenerate: bool,
+    ) -> Result<(), SceneError> {
         self.validate_lights(path)?;
         for (oi, o) in self.objects.iter_mut().enumerate() {
             let who = format!("object {oi} '{}'", o.name);
@@ -24,7 +35,7 @@ impl Scene {
                 return Err(SceneError::invalid(path, format!("{who}: {why}")));
             }
         }
-        if !self.has_emitter() {
+        if !self.has_emitter() && !self.objects.is_empty() {
             self.warnings
                 .push("the scene has no emitter: every result will be black".to_string());
         }

@@ -15,6 +15,10 @@ pub(super) fn size_for_count(
 ) -> f32 {
     let count = |h: f32| count_patches(scene, shaped, faces, h);
     let total_area: f32 = shaped.iter().map(|(_, _, m)| m.area()).sum();
+    if total_area.is_nan() || total_area <= 0.0 {
+        // Nothing to cut (an empty scene): any size makes no patch.
+        return 1.0;
+    }
     let mut lo = (total_area / (n.max(1) as f32) / 50.0).sqrt();
     let mut hi = (total_area / (n.max(1) as f32) * 50.0).sqrt().max(lo * 2.0);
     for _ in 0..40 {

@@ -223,11 +223,25 @@ impl Reader<'_> {
         };
         let samplers_raw = a.get("samplers").and_then(Value::as_array);
         let samplers_raw: &[Value] = samplers_raw.map_or(&[], Vec::as_slice);
-        let samplers = samplers_raw
-            .iter()
-            .enumerate()
-            .map(|(k, s)| self.sampler(s, &format!("{}.samplers[{k}]", anim.at)))
-            .collect::<Result<Vec<_>, _>>()?;
+        let mut samplers = Vec::with_capacity(samplers_raw.len());
+        for (k, s) in samplers_raw.iter().enumerate() {
+            let here = format!("{}.samplers[{k}]", anim.at);
+            let sampler = match super::unpack::no_data::skipped(s) {
+                Some(why) => Err(format!("{here}.{why}")),
+                None => self.sampler(s, &here)?,
+            };
+            // A sampler that cannot play is skipped, not the file (a viewer plays the rest).
+            match sampler {
+                Ok(sampler) => samplers.push(Some(sampler)),
+                Err(why) => {
+                    self.warnings.push(format!(
+                        "{}: {why}: the sampler is skipped, and its channels do not play",
+                        anim.label
+                    ));
+                    samplers.push(None);
+                }
+            }
+        }
         let channels = a.get("channels").and_then(Value::as_array);
         let channels: &[Value] = channels.map_or(&[], Vec::as_slice);
         if channels.is_empty() {
@@ -241,8 +255,12 @@ impl Reader<'_> {
         Ok(entry)
     }
 
-    /// One sampler's key times, checked (SCALAR FLOAT, finite, strictly increasing).
-    fn sampler(&self, s: &Value, here: &str) -> Result<Sampler, String> {
+    /// One sampler's key times, checked (SCALAR FLOAT, finite, strictly increasing). The
+    /// inner error is a sampler to skip (with a warning): key times not strictly
+    /// increasing, as an accessor without data (all zeros) has them. glTF 2.0 requires them
+    /// increasing, but the glTF-Validator does not look into data that is not there, and
+    /// viewers play the other channels; the outer error refuses the file.
+    fn sampler(&self, s: &Value, here: &str) -> Result<Result<Sampler, String>, String> {
         let interpolation = interpolation_of(s, here)?;
         let input = s["input"].as_u64().unwrap_or(0) as usize;
         let output = s["output"].as_u64().unwrap_or(0) as usize;
@@ -268,11 +286,11 @@ impl Reader<'_> {
             ));
         }
         if let Some(e) = (1..times.len()).find(|&e| times[e] <= times[e - 1]) {
-            return Err(format!(
+            return Ok(Err(format!(
                 "{here}.input: key times of accessor {input} must be strictly increasing (key {e}: {} after {})",
                 times[e],
                 times[e - 1]
-            ));
+            )));
         }
         if interpolation == Interpolation::CubicSpline && times.len() < 2 {
             return Err(format!(
@@ -280,12 +298,12 @@ impl Reader<'_> {
                 times.len()
             ));
         }
-        Ok(Sampler {
+        Ok(Ok(Sampler {
             times,
             interpolation,
             input,
             output,
-        })
+        }))
     }
 
     /// Channel `ci`: checked always, its track put on its node when the animation plays
@@ -296,7 +314,7 @@ impl Reader<'_> {
         anim: &Current,
         ci: usize,
         c: &Value,
-        samplers: &[Sampler],
+        samplers: &[Option<Sampler>],
     ) -> Result<(), String> {
         let here = format!("{}.channels[{ci}]", anim.at);
         let Some(Target { node, path }) = self.target(entry, anim, ci, c, &here)? else {
@@ -308,6 +326,11 @@ impl Reader<'_> {
                 "{here}.sampler: sampler {si} does not exist (the animation has {})",
                 samplers.len()
             ));
+        };
+        let Some(sampler) = sampler else {
+            // Skipped, with a warning naming the sampler.
+            entry.ignored += 1;
+            return Ok(());
         };
         let sh = format!("{}.samplers[{si}].output", anim.at);
         let values = self.output_values(sampler, path, &sh, &here)?;
@@ -460,20 +483,25 @@ impl Reader<'_> {
 
     /// The animation's time range: its played channels', or (when it does not play, its
     /// channels checked all the same) its samplers'; 0..0 when it has neither.
-    fn close_range(&mut self, entry: &mut AnimationInfo, anim: &Current, samplers: &[Sampler]) {
+    fn close_range(
+        &mut self,
+        entry: &mut AnimationInfo,
+        anim: &Current,
+        samplers: &[Option<Sampler>],
+    ) {
         if !entry.start.is_finite() {
             entry.start = 0.0;
             entry.end = 0.0;
             if anim.playing && entry.ignored > 0 {
                 self.warnings.push(format!(
-                    "{} has no playable channel (only morph weights, pointers or extension channels): nothing moves",
+                    "{} has no playable channel (only morph weights, pointers, extension channels or skipped samplers): nothing moves",
                     anim.label
                 ));
             }
         }
         if !anim.playing {
             let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
-            for s in samplers {
+            for s in samplers.iter().flatten() {
                 lo = lo.min(s.times[0]);
                 hi = hi.max(s.times[s.times.len() - 1]);
             }

@@ -22,6 +22,9 @@ pub(super) fn decode_primitives(u: &mut Unpack) -> Result<(), String> {
             .map_or(0, Vec::len);
         for p in 0..n_prims {
             let prim = &u.root["meshes"][m]["primitives"][p];
+            if super::no_data::skipped(prim).is_some() {
+                continue;
+            }
             let Some(ext) = prim.pointer(&format!("/extensions/{EXT}")).cloned() else {
                 continue;
             };

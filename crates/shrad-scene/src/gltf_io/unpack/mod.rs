@@ -3,6 +3,8 @@
 //!
 //! In this order:
 //! 1. `meshopt`: `EXT_meshopt_compression` buffer views decoded (meshopt-rs);
+//!    then `no_data`: primitives and animation samplers whose data is not in the file
+//!    marked to be skipped (nothing below reads them);
 //! 2. `draco`: `KHR_draco_mesh_compression` primitives decoded (draco-oxide-decoder) into
 //!    their accessors (as FLOAT attributes and UNSIGNED_INT indices);
 //! 3. accessors without `bufferView` given one of zeros, as the specification says they are
@@ -30,6 +32,7 @@
 
 mod draco;
 mod meshopt;
+pub(super) mod no_data;
 
 use serde_json::{json, Value};
 
@@ -56,6 +59,7 @@ pub(super) fn unpack(root: &mut Value, buffers: &[Vec<u8>]) -> Result<Vec<u8>, S
         out: Vec::new(),
     };
     meshopt::decode_views(&mut u)?;
+    u.mark_without_data();
     draco::decode_primitives(&mut u)?;
     u.fill_zeros()?;
     u.dequantize()?;
@@ -285,6 +289,9 @@ impl Unpack<'_> {
         let mut todo: Vec<usize> = Vec::new();
         for mesh in self.root["meshes"].as_array().into_iter().flatten() {
             for prim in mesh["primitives"].as_array().into_iter().flatten() {
+                if no_data::skipped(prim).is_some() {
+                    continue;
+                }
                 let Some(attrs) = prim["attributes"].as_object() else {
                     continue;
                 };

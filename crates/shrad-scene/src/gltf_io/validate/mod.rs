@@ -410,18 +410,27 @@ pub(super) fn check_json(
     .run(glb_bin)
 }
 
+/// Why buffer view `v` of `root` reads a buffer without data (a placeholder: no uri, no
+/// BIN chunk), if it does.
+fn without_data(root: &Value, buffers: &[Vec<u8>], v: usize) -> Option<String> {
+    let b = root["bufferViews"][v]["buffer"].as_u64().unwrap_or(0) as usize;
+    buffers.get(b).is_none_or(Vec::is_empty).then(|| {
+        format!(
+            "bufferView {v} reads buffer {b}, which has no data (no uri, and not a GLB's BIN chunk)"
+        )
+    })
+}
+
 /// The bytes of buffer view `v` of `root`, or why there are none.
 fn view_data<'b>(root: &Value, buffers: &'b [Vec<u8>], v: usize) -> Result<&'b [u8], String> {
+    if let Some(e) = without_data(root, buffers, v) {
+        return Err(e);
+    }
     let view = &root["bufferViews"][v];
     let b = view["buffer"].as_u64().unwrap_or(0) as usize;
     let start = view["byteOffset"].as_u64().unwrap_or(0) as usize;
     let len = view["byteLength"].as_u64().unwrap_or(0) as usize;
     let data = buffers.get(b).map_or(&[][..], Vec::as_slice);
-    if data.is_empty() {
-        return Err(format!(
-            "bufferView {v} reads buffer {b}, which has no data (no uri, and not a GLB's BIN chunk)"
-        ));
-    }
     data.get(start..start.saturating_add(len)).ok_or_else(|| {
         format!(
             "bufferView {v} lies outside buffer {b} ({} bytes)",
@@ -430,12 +439,28 @@ fn view_data<'b>(root: &Value, buffers: &'b [Vec<u8>], v: usize) -> Result<&'b [
     })
 }
 
-/// Every buffer view an accessor (sparse parts included) or an image reads has its bytes:
-/// a placeholder buffer (no uri, no BIN chunk) may only be referred to by views nothing
-/// reads, or by compressed views already decoded.
+/// Whether accessor `a` reads a buffer without data: then nothing reads it (`unpack`'s
+/// `no_data` marked every primitive and animation sampler that does, to be skipped).
+fn accessor_without_data(root: &Value, buffers: &[Vec<u8>], a: &Value) -> bool {
+    [
+        &a["bufferView"],
+        &a["sparse"]["indices"]["bufferView"],
+        &a["sparse"]["values"]["bufferView"],
+    ]
+    .into_iter()
+    .filter_map(Value::as_u64)
+    .any(|v| without_data(root, buffers, v as usize).is_some())
+}
+
+/// Every buffer view an accessor (sparse parts included) or an image reads has its bytes
+/// within its buffer. An accessor that reads a placeholder buffer (no uri, no BIN chunk) is
+/// read by nothing (see [`accessor_without_data`]); an image that does is refused.
 pub(super) fn check_views_have_data(root: &Value, buffers: &[Vec<u8>]) -> Result<(), String> {
     let view = |v: &Value| v["bufferView"].as_u64().map(|v| v as usize);
     for (i, a) in array(root, "accessors", "")?.iter().enumerate() {
+        if accessor_without_data(root, buffers, a) {
+            continue;
+        }
         let at = format!("accessors[{i}]");
         for (part, v) in [
             ("", view(a)),
@@ -463,6 +488,9 @@ pub(super) fn check_sparse_indices(root: &Value, buffers: &[Vec<u8>]) -> Result<
         let Some(sp) = a.get("sparse").filter(|v| !v.is_null()) else {
             continue;
         };
+        if accessor_without_data(root, buffers, a) {
+            continue;
+        }
         let at = format!("accessors[{i}].sparse.indices");
         let count = a["count"].as_u64().unwrap_or(0);
         let n = sp["count"].as_u64().unwrap_or(0) as usize;
