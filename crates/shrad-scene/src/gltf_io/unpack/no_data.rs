@@ -85,35 +85,15 @@ impl Unpack<'_> {
     /// anything reads an accessor.
     pub(super) fn mark_without_data(&mut self) {
         let mut marks: Vec<(String, String)> = Vec::new();
-        for (m, mesh) in self.root["meshes"]
-            .as_array()
-            .into_iter()
-            .flatten()
-            .enumerate()
-        {
-            for (p, prim) in mesh["primitives"]
-                .as_array()
-                .into_iter()
-                .flatten()
-                .enumerate()
-            {
+        for (m, mesh) in items(&self.root["meshes"]) {
+            for (p, prim) in items(&mesh["primitives"]) {
                 if let Some(why) = self.primitive_without_data(prim) {
                     marks.push((format!("/meshes/{m}/primitives/{p}"), why));
                 }
             }
         }
-        for (i, anim) in self.root["animations"]
-            .as_array()
-            .into_iter()
-            .flatten()
-            .enumerate()
-        {
-            for (s, sampler) in anim["samplers"]
-                .as_array()
-                .into_iter()
-                .flatten()
-                .enumerate()
-            {
+        for (i, anim) in items(&self.root["animations"]) {
+            for (s, sampler) in items(&anim["samplers"]) {
                 let why = ["input", "output"].into_iter().find_map(|k| {
                     let a = sampler[k].as_u64()? as usize;
                     Some(format!("{k}: {}", self.accessor_without_data(a)?))
@@ -135,4 +115,9 @@ impl Unpack<'_> {
             }
         }
     }
+}
+
+/// The elements of a JSON array with their indices (none when `v` is not an array).
+fn items(v: &Value) -> impl Iterator<Item = (usize, &Value)> {
+    v.as_array().into_iter().flatten().enumerate()
 }
