@@ -117,6 +117,11 @@ pub struct Dispersive {
     /// Step 1's direct light of the punctual lights, likewise, and the light surfaces' part
     /// of `direct` apart.
     punctual: step1_direct::PunctualDirect,
+    /// What Step 1 last saw (a budget's deadline may carry Step 1 to the next frame).
+    direct_sync: step1_direct::DirectSync,
+    /// Under a budget: the last frame updated no object because none fitted what was left,
+    /// so this one updates one (and carries Step 1 over if it must): no object starves.
+    objects_owed: bool,
     frame: u64,
     /// The reflected flux of the last frame within the bound (the guard lets the light held
     /// from before a light dimmed drain: [`crate::energy::over_bound`]).
@@ -201,7 +206,7 @@ impl Dispersive {
         let wall_rows = options
             .wall_exchange
             .then(|| WallRows::new(world, &boundary_patches, options.wall_rays, false, progress));
-        let object_boxes = (0..world.scene.objects.len())
+        let object_boxes: Vec<shrad_scene::Aabb> = (0..world.scene.objects.len())
             .map(|o| world_box(world, o))
             .collect();
         let n = p.len();
@@ -240,10 +245,14 @@ impl Dispersive {
             wall_rows,
             wall_cursor: 0,
             boundary_patches,
-            object_boxes,
             direct_valid: false,
             direct_cache: Default::default(),
             punctual: Default::default(),
+            direct_sync: step1_direct::DirectSync {
+                boxes: object_boxes.clone(),
+                ..Default::default()
+            },
+            objects_owed: false,
             frame: 0,
             light_held: Default::default(),
             light_meter: IncidentMeter::new(
@@ -261,6 +270,7 @@ impl Dispersive {
             caching: true,
             drift: 0.0,
             object_change: vec![f64::INFINITY; n_objects],
+            object_boxes,
             quiet_frames: 0,
             last_energy: EnergyBalance::default(),
             tail_ms: 0.0,
@@ -343,29 +353,46 @@ impl Dispersive {
         if self.everything_sleeps(changes) {
             return self.sleeping_frame(frame_start);
         }
-        // A budget is a deadline for the whole frame; the wall rows may take a fifth of it.
+        // A budget is a deadline for the whole frame: Step 1 and the objects take what fits
+        // after Step 4's and the meter's expected cost (`tail_ms`), the wall rows a fifth.
         let budget_ms = match self.scheduler.schedule_in_use() {
             Schedule::Budget { ms, .. } => Some(ms as f64),
             _ => None,
         };
         let at = |share: f64| budget_ms.map(|b| frame_start + secs(b * share));
+        let left = |tail: f64| budget_ms.map_or(f64::INFINITY, |b| b - ms(frame_start) - tail);
 
         // Step 1 (2.3.2), and the wall rows a mover passed through.
         let t = Instant::now();
         let swept = self.swept_boxes(world, changes);
         self.log_swept(world, changes, &swept);
         let tt = Instant::now();
-        self.direct_to_boundary(world, changes, &swept);
+        let carry = self.may_carry_direct(world, changes)
+            && !self.direct_sync.moved.is_empty()
+            && (self.objects_owed || self.direct_sync.cost_ms > left(self.tail_ms));
+        self.direct_sync.carried = carry;
+        if !carry {
+            let moving = !self.direct_sync.moved.is_empty();
+            self.direct_to_boundary(world, changes);
+            if moving {
+                self.direct_sync.cost_ms = ms(tt);
+            }
+        }
         tr("direct_to_boundary", tt);
         let tt = Instant::now();
         self.refresh_wall_rows(world, changes, at(0.2));
         tr("refresh_wall_rows", tt);
         steps.direct_ms = ms(t);
 
-        // Step 2 (2.3.3) for the objects the scheduler picks.
-        // What the objects may spend: the budget less what is spent and Step 4's expected cost.
-        let objects_ms = budget_ms.map(|b| b - ms(frame_start) - self.tail_ms);
-        let batch = self.scheduler.schedule(self.frame, objects_ms);
+        // Step 2 (2.3.3) for the objects the scheduler picks: under a budget, what fits what
+        // is left after Step 4's expected cost, or one that is owed.
+        let objects_ms = budget_ms.map(|_| left(self.tail_ms));
+        let batch = self
+            .scheduler
+            .schedule(self.frame, objects_ms, self.objects_owed);
+        self.objects_owed = budget_ms.is_some()
+            && batch.0.is_empty()
+            && self.scheduler.asleep() < self.objects.len();
         let t = Instant::now();
         let tt = Instant::now();
         self.forget_stale_caches(world, &batch.0);

@@ -138,8 +138,11 @@ impl Scheduler {
     }
 
     /// The objects `frame` updates (spec 4.3), never a sleeping one. A budget schedule
-    /// spends `objects_ms` at most (what the frame's budget leaves after Steps 1 and 4).
-    pub(super) fn schedule(&mut self, frame: u64, objects_ms: Option<f64>) -> Batch {
+    /// spends `objects_ms` at most (what the frame's budget leaves after Steps 1 and 4), by
+    /// the objects' last measured costs, in priority order; when the first does not fit it
+    /// takes none, unless that one is over the staleness bound or `owed` (the last frame
+    /// took none), and then that one alone if nothing else fits.
+    pub(super) fn schedule(&mut self, frame: u64, objects_ms: Option<f64>, owed: bool) -> Batch {
         let n = self.objects.len();
         let awake = n - self.asleep();
         if awake == 0 {
@@ -179,7 +182,8 @@ impl Scheduler {
                 let mut picked = Vec::new();
                 for o in order {
                     let cost = self.objects[o].cost_ms.max(0.01);
-                    if !picked.is_empty() && spent + cost > budget {
+                    let must = picked.is_empty() && (owed || self.over_stale(o, frame, max_staleness));
+                    if !must && spent + cost > budget {
                         break;
                     }
                     spent += cost;
@@ -188,6 +192,14 @@ impl Scheduler {
                 Batch(picked)
             }
         }
+    }
+
+    /// Whether object `o` was last updated `max_staleness` frames or more before `frame`
+    /// (or never).
+    fn over_stale(&self, o: usize, frame: u64, max_staleness: usize) -> bool {
+        self.objects[o]
+            .last_update
+            .is_none_or(|f| frame - f >= max_staleness as u64)
     }
 
     /// Objects in decreasing priority: over-stale objects first, then staleness x weight;
@@ -218,7 +230,7 @@ mod tests {
     fn run(s: &mut Scheduler, frames: u64, cost: impl Fn(usize) -> f64) -> Vec<Vec<usize>> {
         (0..frames)
             .map(|frame| {
-                let batch = s.schedule(frame, None);
+                let batch = s.schedule(frame, None, false);
                 for &k in &batch.0 {
                     s.updated(k, frame, cost(k));
                 }
@@ -237,7 +249,7 @@ mod tests {
         assert_eq!(s.frames_per_pass(), 3);
         // More per frame than objects: each object once.
         let mut s = Scheduler::new(Schedule::RoundRobin { per_frame: 9 }, 3);
-        assert_eq!(s.schedule(0, None).0, [0, 1, 2]);
+        assert_eq!(s.schedule(0, None, false).0, [0, 1, 2]);
     }
 
     /// A sleeping object is never picked and never stale; it wakes when disturbed or when
@@ -258,7 +270,7 @@ mod tests {
             // Frames 3..15, after the first run's 0..3 (frames never go back).
             let mut picked = Vec::new();
             for frame in 3..15 {
-                let batch = s.schedule(frame, None);
+                let batch = s.schedule(frame, None, false);
                 for &k in &batch.0 {
                     s.updated(k, frame, 1.0);
                 }
@@ -280,10 +292,10 @@ mod tests {
             s.sleep(0, 0.0);
             s.sleep(1, 0.0);
             s.sleep(2, 0.0);
-            assert!(s.schedule(20, None).0.is_empty() && s.stalest(20) == 0);
+            assert!(s.schedule(20, None, false).0.is_empty() && s.stalest(20) == 0);
             s.disturb(2, 2.0);
             assert_eq!(
-                s.schedule(21, None).0,
+                s.schedule(21, None, false).0,
                 [2],
                 "{schedule:?}: disturbing wakes"
             );
@@ -293,10 +305,10 @@ mod tests {
     #[test]
     fn full_updates_every_object_and_none_is_empty() {
         let mut s = Scheduler::new(Schedule::Full, 4);
-        assert_eq!(s.schedule(0, None).0, [0, 1, 2, 3]);
+        assert_eq!(s.schedule(0, None, false).0, [0, 1, 2, 3]);
         assert_eq!(s.frames_per_pass(), 1);
         let mut none = Scheduler::new(Schedule::Full, 0);
-        assert!(none.schedule(0, None).0.is_empty());
+        assert!(none.schedule(0, None, false).0.is_empty());
         assert_eq!(none.stalest(7), 0);
     }
 
@@ -332,7 +344,7 @@ mod tests {
         for frame in 3..40 {
             // Object 0 moves every frame: weight 4 against the others' 1.
             s.disturb(0, 4.0);
-            let batch = s.schedule(frame, None);
+            let batch = s.schedule(frame, None, false);
             assert_eq!(batch.0.len(), 1);
             let k = batch.0[0];
             s.updated(k, frame, 1.0);
@@ -356,7 +368,7 @@ mod tests {
         let mut count = [0; 3];
         for frame in 3..43 {
             s2.disturb(0, 4.0);
-            let k = s2.schedule(frame, None).0[0];
+            let k = s2.schedule(frame, None, false).0[0];
             s2.updated(k, frame, 1.0);
             count[k] += 1;
         }
@@ -366,30 +378,65 @@ mod tests {
 
     /// A budget takes objects by priority while their last costs fit, and at least one.
     #[test]
-    fn budget_takes_what_fits_and_at_least_one() {
+    fn budget_takes_what_fits_and_one_when_owed_or_over_stale() {
         let cost = |k: usize| [3.0, 4.0, 5.0, 100.0][k];
-        let mut s = Scheduler::new(
-            Schedule::Budget {
-                ms: 8.0,
-                max_staleness: 1000,
-            },
-            4,
-        );
+        let budget = |max_staleness| {
+            Scheduler::new(
+                Schedule::Budget {
+                    ms: 8.0,
+                    max_staleness,
+                },
+                4,
+            )
+        };
+        let mut s = budget(1000);
         // Costs unknown (0, counted as 0.01 ms): the first frame takes everything.
         assert_eq!(run(&mut s, 1, cost), [vec![0, 1, 2, 3]]);
         // Now all equally stale: by index while the sum fits 8 ms (3 + 4; + 5 would not).
-        assert_eq!(s.schedule(1, None).0, [0, 1]);
-        // An object dearer than the whole budget still goes when it is first.
-        let mut s = Scheduler::new(
-            Schedule::Budget {
-                ms: 8.0,
-                max_staleness: 1000,
-            },
-            4,
-        );
+        assert_eq!(s.schedule(1, None, false).0, [0, 1]);
+        // An object dearer than the whole budget first in line: the frame takes none (its
+        // work is carried over) ...
+        let mut s = budget(1000);
         run(&mut s, 1, cost);
         s.disturb(3, 4.0);
-        assert_eq!(s.schedule(1, None).0, [3]);
+        assert!(s.schedule(1, None, false).0.is_empty());
+        // ... and the next, owed, takes it alone.
+        assert_eq!(s.schedule(1, None, true).0, [3]);
+        // Over the staleness bound it goes whatever the budget; the others follow as they fit.
+        let mut s = budget(4);
+        run(&mut s, 1, cost);
+        s.disturb(3, 4.0);
+        assert_eq!(s.schedule(4, Some(7.5), false).0, [3]);
         assert_eq!(s.frames_per_pass(), 4);
+    }
+
+    /// A budget far below every object's cost: frames alternate between none and one owed
+    /// object, and no object waits longer than the staleness bound.
+    #[test]
+    fn a_budget_below_every_cost_starves_no_object() {
+        let mut s = Scheduler::new(
+            Schedule::Budget {
+                ms: 0.001,
+                max_staleness: 6,
+            },
+            5,
+        );
+        let mut owed = false;
+        let mut last = [0u64; 5];
+        for frame in 0..200u64 {
+            let batch = s.schedule(frame, Some(0.001), owed);
+            assert!(batch.0.len() <= 5);
+            for &k in &batch.0 {
+                s.updated(k, frame, 10.0 + k as f64);
+                last[k] = frame;
+            }
+            owed = batch.0.is_empty();
+            if frame > 20 {
+                assert!(batch.0.len() <= 1, "frame {frame} took {:?}", batch.0);
+                for (k, &f) in last.iter().enumerate() {
+                    assert!(frame - f <= 10, "object {k} not updated since frame {f} (now {frame})");
+                }
+            }
+        }
     }
 }

@@ -39,6 +39,7 @@ impl Dispersive {
         changes.moved.is_empty()
             && !changes.light_changed()
             && self.direct_valid
+            && self.direct_sync.moved.is_empty()
             && !self.direct_cache.has_coarse()
             && self.scheduler.asleep() == self.objects.len()
             && self.quiet_frames >= self.frames_per_wall_sweep()

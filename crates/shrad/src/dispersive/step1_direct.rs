@@ -83,6 +83,9 @@ impl Dispersive {
             swept.push(old);
             swept.push(new);
             self.object_boxes[o] = new;
+            if !self.direct_sync.moved.contains(&o) {
+                self.direct_sync.moved.push(o);
+            }
         }
         swept
     }
@@ -94,29 +97,29 @@ impl Dispersive {
     /// they swept are re-traced (exactly what a full recomputation would give); a light
     /// surface that moved or changed recomputes the light surfaces' part, a punctual light
     /// that moved re-traces its own term and one that changed strength only rescales it.
-    pub(super) fn direct_to_boundary(&mut self, world: &World, changes: &Changes, swept: &[Aabb]) {
+    ///
+    /// What moved is taken from [`DirectSync`]: every object that moved since Step 1 last
+    /// ran, from where it was then to where it is now, so a Step 1 carried over frames by a
+    /// budget's deadline catches up exactly.
+    pub(super) fn direct_to_boundary(&mut self, world: &World, changes: &Changes) {
         // A frame without changes still traces, with every sample, the receivers a mover
         // left with fewer (`coarse_while_moving`).
         if self.direct_valid
-            && changes.moved.is_empty()
+            && self.direct_sync.moved.is_empty()
             && !changes.light_changed()
             && !self.direct_cache.has_coarse()
         {
             return;
         }
         let p = &world.patches;
+        let moved = std::mem::take(&mut self.direct_sync.moved);
         let surface_changed = !changes.relit.is_empty()
-            || changes.moved.iter().any(|&o| {
-                p.object_role[o] == Role::Light
-                    || world.exitance[p.range(o).start].max_element() > 0.0
-            });
+            || moved.iter().any(|&o| emits(world, o));
         let samples = self.options.direct_samples.max(1);
         let everything = !self.direct_valid;
-        // `swept` holds each mover's old box then its new one.
-        let old: Vec<Aabb> = swept.iter().step_by(2).copied().collect();
-        let new: Vec<Aabb> = swept.iter().skip(1).step_by(2).copied().collect();
+        let old: Vec<Aabb> = moved.iter().map(|&o| self.direct_sync.boxes[o]).collect();
+        let new: Vec<Aabb> = moved.iter().map(|&o| self.object_boxes[o]).collect();
         // Patches of a moved object moved themselves: recomputed whole.
-        let moved: Vec<usize> = changes.moved.clone();
         let whole = |i: u32| moved.contains(&(p.object[i as usize] as usize));
         let parts = &mut self.punctual;
         parts.area.resize(p.len(), Vec3::ZERO);
@@ -136,7 +139,7 @@ impl Dispersive {
                 .collect();
             self.direct_cache = DirectCache::new(world, receivers, samples);
             changed.extend(self.direct_cache.receivers());
-        } else if !changes.moved.is_empty() || self.direct_cache.has_coarse() {
+        } else if !moved.is_empty() || self.direct_cache.has_coarse() {
             let movers: Vec<u32> = moved.iter().map(|&o| o as u32).collect();
             // A moving receiver with a quarter of the samples (`coarse_while_moving`).
             let moving_samples = if self.options.coarse_while_moving {
@@ -164,12 +167,52 @@ impl Dispersive {
             self.direct[i] = parts.area[i] + parts.by_patch.get(i).copied().unwrap_or(Vec3::ZERO);
         }
         self.direct_valid = true;
+        // In sync: every object is where Step 1 now has it.
+        match everything {
+            true => self.direct_sync.boxes.clone_from(&self.object_boxes),
+            false => moved
+                .iter()
+                .for_each(|&o| self.direct_sync.boxes[o] = self.object_boxes[o]),
+        }
+    }
+
+    /// Whether a budget's deadline may carry Step 1 over to the next frame: never two
+    /// frames running, never when a light or an emitting surface changed (every later step
+    /// reads that light), never before it first ran.
+    pub(super) fn may_carry_direct(&self, world: &World, changes: &Changes) -> bool {
+        self.direct_valid
+            && !self.direct_sync.carried
+            && !changes.light_changed()
+            && changes.relit.is_empty()
+            && !self.direct_sync.moved.iter().any(|&o| emits(world, o))
     }
 
     /// The punctual lights' direct irradiance of every patch (empty without punctual lights).
     pub fn punctual_irradiance(&self) -> &[Vec3] {
         &self.punctual.by_patch
     }
+}
+
+/// Whether object `o` is a light or emits (Step 1 then recomputes the light surfaces' part).
+fn emits(world: &World, o: usize) -> bool {
+    let p = &world.patches;
+    p.object_role[o] == Role::Light || world.exitance[p.range(o).start].max_element() > 0.0
+}
+
+/// What Step 1 last saw, so that it can be carried to a later frame (a budget's deadline)
+/// and then catch up exactly: a shadow ray's outcome can only have changed if its segment
+/// meets where a mover was when Step 1 last ran (a blocker gone) or where it is now (a new
+/// blocker); where it passed in between does not matter.
+#[derive(Clone, Debug, Default)]
+pub(super) struct DirectSync {
+    /// Every object's world box when Step 1 last ran.
+    pub(super) boxes: Vec<Aabb>,
+    /// The objects that moved since, in the order they first moved.
+    pub(super) moved: Vec<usize>,
+    /// Whether the last frame carried Step 1 over (the next one runs it).
+    pub(super) carried: bool,
+    /// Measured cost of Step 1 at its last run with a mover (ms), for the deadline.
+    pub(super) cost_ms: f64,
 }
 
 /// Step 1's punctual lights: their cached direct light and, per patch, its value and the
