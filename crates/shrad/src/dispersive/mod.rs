@@ -60,7 +60,7 @@ pub use step4_assemble::{WALL_ROWS_PER_FRAME, WALL_ROWS_WHILE_MOVING};
 pub use wall_rows::WALL_RETRACE_SHARE;
 
 use object_state::ObjectProbes;
-use scheduler::Scheduler;
+use scheduler::{Must, Scheduler};
 use setup::{outer_sides, receives_as_boundary, world_box, Neighbours, LIGHT_METER_RAYS};
 use wall_rows::WallRows;
 
@@ -353,46 +353,36 @@ impl Dispersive {
         if self.everything_sleeps(changes) {
             return self.sleeping_frame(frame_start);
         }
-        // A budget is a deadline for the whole frame: Step 1 and the objects take what fits
-        // after Step 4's and the meter's expected cost (`tail_ms`), the wall rows a fifth.
+        // A budget is a deadline for the whole frame: the wall rows take a fifth of it, the
+        // objects what is left after Step 1 and the expected cost of Step 4 and the meter
+        // (`tail_ms`). Step 1 and an object that does not fit with it take turns.
         let budget_ms = match self.scheduler.schedule_in_use() {
             Schedule::Budget { ms, .. } => Some(ms as f64),
             _ => None,
         };
         let at = |share: f64| budget_ms.map(|b| frame_start + secs(b * share));
-        let left = |tail: f64| budget_ms.map_or(f64::INFINITY, |b| b - ms(frame_start) - tail);
-
-        // Step 1 (2.3.2), and the wall rows a mover passed through.
-        let t = Instant::now();
         let swept = self.swept_boxes(world, changes);
         self.log_swept(world, changes, &swept);
-        let tt = Instant::now();
-        let carry = self.may_carry_direct(world, changes)
-            && !self.direct_sync.moved.is_empty()
-            && (self.objects_owed || self.direct_sync.cost_ms > left(self.tail_ms));
+        let (batch, carry) = self.schedule_within(world, changes, budget_ms);
+
+        // Step 1 (2.3.2), unless carried to the next frame, and the wall rows a mover passed
+        // through.
+        let t = Instant::now();
         self.direct_sync.carried = carry;
         if !carry {
             let moving = !self.direct_sync.moved.is_empty();
             self.direct_to_boundary(world, changes);
             if moving {
-                self.direct_sync.cost_ms = ms(tt);
+                self.direct_sync.cost_ms = ms(t);
             }
         }
-        tr("direct_to_boundary", tt);
+        tr("direct_to_boundary", t);
         let tt = Instant::now();
         self.refresh_wall_rows(world, changes, at(0.2));
         tr("refresh_wall_rows", tt);
         steps.direct_ms = ms(t);
 
-        // Step 2 (2.3.3) for the objects the scheduler picks: under a budget, what fits what
-        // is left after Step 4's expected cost, or one that is owed.
-        let objects_ms = budget_ms.map(|_| left(self.tail_ms));
-        let batch = self
-            .scheduler
-            .schedule(self.frame, objects_ms, self.objects_owed);
-        self.objects_owed = budget_ms.is_some()
-            && batch.0.is_empty()
-            && self.scheduler.asleep() < self.objects.len();
+        // Step 2 (2.3.3) for the objects the scheduler picked.
         let t = Instant::now();
         let tt = Instant::now();
         self.forget_stale_caches(world, &batch.0);
@@ -447,6 +437,41 @@ impl Dispersive {
         stats.solver = SolverStats::Dispersive(steps);
         self.frame += 1;
         stats
+    }
+
+    /// The objects this frame updates, and whether Step 1 is carried to the next frame.
+    /// Under a budget the objects take what fits after Step 1's expected cost (its last
+    /// run with a mover), Step 4's and the meter's (`tail_ms`) and the wall rows' fifth. What
+    /// must go although it does not fit (the object the last frame owed, or one over the
+    /// staleness bound) takes Step 1's turn, which then waits a frame (never two); when
+    /// Step 1 cannot wait, the over-stale wait a frame instead (owed to the next).
+    fn schedule_within(
+        &mut self,
+        world: &World,
+        changes: &Changes,
+        budget_ms: Option<f64>,
+    ) -> (Batch, bool) {
+        let Some(b) = budget_ms else {
+            let batch = self.scheduler.schedule(self.frame, None, Must::OverStale);
+            return (batch, false);
+        };
+        let direct_due = !self.direct_sync.moved.is_empty();
+        let may_carry = direct_due && self.may_carry_direct(world, changes);
+        let direct_ms = if direct_due {
+            self.direct_sync.cost_ms
+        } else {
+            0.0
+        };
+        let objects_ms = 0.8 * b - direct_ms - self.tail_ms;
+        let must = match (self.objects_owed, direct_due && !may_carry) {
+            (true, _) => Must::First,
+            (false, true) => Must::Nothing,
+            (false, false) => Must::OverStale,
+        };
+        let batch = self.scheduler.schedule(self.frame, Some(objects_ms), must);
+        let carry = may_carry && self.scheduler.cost_of(&batch.0) > objects_ms;
+        self.objects_owed = batch.0.is_empty() && self.scheduler.asleep() < self.objects.len();
+        (batch, carry)
     }
 
     /// Run frames on a static world until every object was updated `passes` times.

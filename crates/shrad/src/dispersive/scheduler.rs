@@ -140,9 +140,8 @@ impl Scheduler {
     /// The objects `frame` updates (spec 4.3), never a sleeping one. A budget schedule
     /// spends `objects_ms` at most (what the frame's budget leaves after Steps 1 and 4), by
     /// the objects' last measured costs, in priority order; when the first does not fit it
-    /// takes none, unless that one is over the staleness bound or `owed` (the last frame
-    /// took none), and then that one alone if nothing else fits.
-    pub(super) fn schedule(&mut self, frame: u64, objects_ms: Option<f64>, owed: bool) -> Batch {
+    /// takes none, unless `must` says it goes anyway.
+    pub(super) fn schedule(&mut self, frame: u64, objects_ms: Option<f64>, must: Must) -> Batch {
         let n = self.objects.len();
         let awake = n - self.asleep();
         if awake == 0 {
@@ -182,8 +181,13 @@ impl Scheduler {
                 let mut picked = Vec::new();
                 for o in order {
                     let cost = self.objects[o].cost_ms.max(0.01);
-                    let must = picked.is_empty() && (owed || self.over_stale(o, frame, max_staleness));
-                    if !must && spent + cost > budget {
+                    let goes = picked.is_empty()
+                        && match must {
+                            Must::First => true,
+                            Must::OverStale => self.over_stale(o, frame, max_staleness),
+                            Must::Nothing => false,
+                        };
+                    if !goes && spent + cost > budget {
                         break;
                     }
                     spent += cost;
@@ -192,6 +196,11 @@ impl Scheduler {
                 Batch(picked)
             }
         }
+    }
+
+    /// The measured cost of updating `batch` (ms; 0 for objects never updated).
+    pub(super) fn cost_of(&self, batch: &[usize]) -> f64 {
+        batch.iter().map(|&o| self.objects[o].cost_ms).sum()
     }
 
     /// Whether object `o` was last updated `max_staleness` frames or more before `frame`
@@ -222,6 +231,18 @@ impl Scheduler {
     }
 }
 
+/// Under a budget, what a frame updates even when it does not fit what is left (so that no
+/// object starves); without a budget every schedule takes what it takes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Must {
+    /// The first in line, when it is over the staleness bound.
+    OverStale,
+    /// The first in line, whatever it costs (the last frame updated none).
+    First,
+    /// Nothing: this frame's must-do is Step 1's; the over-stale wait one frame more.
+    Nothing,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -230,7 +251,7 @@ mod tests {
     fn run(s: &mut Scheduler, frames: u64, cost: impl Fn(usize) -> f64) -> Vec<Vec<usize>> {
         (0..frames)
             .map(|frame| {
-                let batch = s.schedule(frame, None, false);
+                let batch = s.schedule(frame, None, Must::OverStale);
                 for &k in &batch.0 {
                     s.updated(k, frame, cost(k));
                 }
@@ -249,7 +270,7 @@ mod tests {
         assert_eq!(s.frames_per_pass(), 3);
         // More per frame than objects: each object once.
         let mut s = Scheduler::new(Schedule::RoundRobin { per_frame: 9 }, 3);
-        assert_eq!(s.schedule(0, None, false).0, [0, 1, 2]);
+        assert_eq!(s.schedule(0, None, Must::OverStale).0, [0, 1, 2]);
     }
 
     /// A sleeping object is never picked and never stale; it wakes when disturbed or when
@@ -270,7 +291,7 @@ mod tests {
             // Frames 3..15, after the first run's 0..3 (frames never go back).
             let mut picked = Vec::new();
             for frame in 3..15 {
-                let batch = s.schedule(frame, None, false);
+                let batch = s.schedule(frame, None, Must::OverStale);
                 for &k in &batch.0 {
                     s.updated(k, frame, 1.0);
                 }
@@ -292,10 +313,10 @@ mod tests {
             s.sleep(0, 0.0);
             s.sleep(1, 0.0);
             s.sleep(2, 0.0);
-            assert!(s.schedule(20, None, false).0.is_empty() && s.stalest(20) == 0);
+            assert!(s.schedule(20, None, Must::OverStale).0.is_empty() && s.stalest(20) == 0);
             s.disturb(2, 2.0);
             assert_eq!(
-                s.schedule(21, None, false).0,
+                s.schedule(21, None, Must::OverStale).0,
                 [2],
                 "{schedule:?}: disturbing wakes"
             );
@@ -305,10 +326,10 @@ mod tests {
     #[test]
     fn full_updates_every_object_and_none_is_empty() {
         let mut s = Scheduler::new(Schedule::Full, 4);
-        assert_eq!(s.schedule(0, None, false).0, [0, 1, 2, 3]);
+        assert_eq!(s.schedule(0, None, Must::OverStale).0, [0, 1, 2, 3]);
         assert_eq!(s.frames_per_pass(), 1);
         let mut none = Scheduler::new(Schedule::Full, 0);
-        assert!(none.schedule(0, None, false).0.is_empty());
+        assert!(none.schedule(0, None, Must::OverStale).0.is_empty());
         assert_eq!(none.stalest(7), 0);
     }
 
@@ -344,7 +365,7 @@ mod tests {
         for frame in 3..40 {
             // Object 0 moves every frame: weight 4 against the others' 1.
             s.disturb(0, 4.0);
-            let batch = s.schedule(frame, None, false);
+            let batch = s.schedule(frame, None, Must::OverStale);
             assert_eq!(batch.0.len(), 1);
             let k = batch.0[0];
             s.updated(k, frame, 1.0);
@@ -368,7 +389,7 @@ mod tests {
         let mut count = [0; 3];
         for frame in 3..43 {
             s2.disturb(0, 4.0);
-            let k = s2.schedule(frame, None, false).0[0];
+            let k = s2.schedule(frame, None, Must::OverStale).0[0];
             s2.updated(k, frame, 1.0);
             count[k] += 1;
         }
@@ -393,20 +414,20 @@ mod tests {
         // Costs unknown (0, counted as 0.01 ms): the first frame takes everything.
         assert_eq!(run(&mut s, 1, cost), [vec![0, 1, 2, 3]]);
         // Now all equally stale: by index while the sum fits 8 ms (3 + 4; + 5 would not).
-        assert_eq!(s.schedule(1, None, false).0, [0, 1]);
+        assert_eq!(s.schedule(1, None, Must::OverStale).0, [0, 1]);
         // An object dearer than the whole budget first in line: the frame takes none (its
         // work is carried over) ...
         let mut s = budget(1000);
         run(&mut s, 1, cost);
         s.disturb(3, 4.0);
-        assert!(s.schedule(1, None, false).0.is_empty());
+        assert!(s.schedule(1, None, Must::OverStale).0.is_empty());
         // ... and the next, owed, takes it alone.
-        assert_eq!(s.schedule(1, None, true).0, [3]);
+        assert_eq!(s.schedule(1, None, Must::First).0, [3]);
         // Over the staleness bound it goes whatever the budget; the others follow as they fit.
         let mut s = budget(4);
         run(&mut s, 1, cost);
         s.disturb(3, 4.0);
-        assert_eq!(s.schedule(4, Some(7.5), false).0, [3]);
+        assert_eq!(s.schedule(4, Some(7.5), Must::OverStale).0, [3]);
         assert_eq!(s.frames_per_pass(), 4);
     }
 
@@ -424,7 +445,11 @@ mod tests {
         let mut owed = false;
         let mut last = [0u64; 5];
         for frame in 0..200u64 {
-            let batch = s.schedule(frame, Some(0.001), owed);
+            let batch = s.schedule(
+                frame,
+                Some(0.001),
+                if owed { Must::First } else { Must::OverStale },
+            );
             assert!(batch.0.len() <= 5);
             for &k in &batch.0 {
                 s.updated(k, frame, 10.0 + k as f64);
@@ -434,7 +459,10 @@ mod tests {
             if frame > 20 {
                 assert!(batch.0.len() <= 1, "frame {frame} took {:?}", batch.0);
                 for (k, &f) in last.iter().enumerate() {
-                    assert!(frame - f <= 10, "object {k} not updated since frame {f} (now {frame})");
+                    assert!(
+                        frame - f <= 10,
+                        "object {k} not updated since frame {f} (now {frame})"
+                    );
                 }
             }
         }

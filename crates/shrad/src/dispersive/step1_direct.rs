@@ -113,8 +113,7 @@ impl Dispersive {
         }
         let p = &world.patches;
         let moved = std::mem::take(&mut self.direct_sync.moved);
-        let surface_changed = !changes.relit.is_empty()
-            || moved.iter().any(|&o| emits(world, o));
+        let surface_changed = !changes.relit.is_empty() || moved.iter().any(|&o| emits(world, o));
         let samples = self.options.direct_samples.max(1);
         let everything = !self.direct_valid;
         let old: Vec<Aabb> = moved.iter().map(|&o| self.direct_sync.boxes[o]).collect();

@@ -475,8 +475,14 @@ fn a_budget_far_below_one_object_still_progresses_and_loses_nothing() {
         );
     }
     // Every other frame updates an object, and Step 1 waits in those.
-    assert!((19..=21).contains(&updated), "{updated} updates in 40 frames");
-    assert!(carried >= 15, "Step 1 carried over in {carried} of 40 frames");
+    assert!(
+        (19..=21).contains(&updated),
+        "{updated} updates in 40 frames"
+    );
+    assert!(
+        carried >= 15,
+        "Step 1 carried over in {carried} of 40 frames"
+    );
     let rows = budgeted.wall_rows.as_ref().unwrap();
     assert!(
         !rows.settled(),
@@ -496,7 +502,10 @@ fn a_budget_far_below_one_object_still_progresses_and_loses_nothing() {
     let mut fresh = Dispersive::new(&world, options).unwrap();
     fresh.step(&world, &still);
     let gap = relative_difference(&world, &budgeted.direct, &fresh.direct);
-    assert!(gap < 1e-6, "direct light after carried Step 1s differs by {gap:e}");
+    assert!(
+        gap < 1e-6,
+        "direct light after carried Step 1s differs by {gap:e}"
+    );
 }
 
 /// `coarse_while_moving`: while the block moves, its updates trace fewer rays than at full

@@ -98,8 +98,10 @@ impl Dispersive {
         // Half as much while something moves (what is left catches up once it rests).
         let moving = 1 + usize::from(!changes.moved.is_empty());
         let mut left = n.div_ceil(WALL_CHECK_SHARE).min(WALL_CHECK_MAX / moving);
-        // Under a deadline a few rows at a time (the first even past it: always progress).
-        let step = if deadline.is_some() { 256 } else { left };
+        // Under a deadline a few rows at a time (the first even past it: always progress,
+        // a quarter as much when the frame is already late).
+        let late = if past() { 4 } else { 1 };
+        let step = if deadline.is_some() { 256 / late } else { left };
         while left > 0 {
             // `object_boxes`: every object's box now.
             let done = rows.check(
@@ -123,7 +125,11 @@ impl Dispersive {
                 .min(WALL_RETRACE_MAX / moving)
         }
         .max(1);
-        let step = if deadline.is_some() { 1024 } else { left };
+        let step = if deadline.is_some() {
+            1024 / late
+        } else {
+            left
+        };
         while left > 0 {
             let done = rows.retrace(world, &self.boundary_patches, step.min(left));
             left = left.saturating_sub(done);
