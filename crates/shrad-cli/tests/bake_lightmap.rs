@@ -3,7 +3,7 @@
 //! (validation/bake/validate.mjs, node; `npm ci` there is done by scripts/setup-python);
 //! bad lightmap options exit non-zero naming the option and leave no file.
 
-mod common;
+use crate::common;
 
 use std::process::Command;
 

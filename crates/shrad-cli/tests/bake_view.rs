@@ -2,7 +2,7 @@
 //! light in COLOR_0; bad input exits non-zero naming the problem and leaves no file; the
 //! viewer starts, prints its URL and answers on it.
 
-mod common;
+use crate::common;
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::process::{Command, Stdio};

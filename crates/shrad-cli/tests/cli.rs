@@ -1,7 +1,7 @@
 //! The command line as a user meets it: bad input gives a clear error naming the file, a
 //! non-zero exit, no panic and no output file; good input writes what it says.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::Output;

@@ -3,7 +3,7 @@
 //! opens it: `shrad render` writes the background with a warning saying why and exits 0;
 //! `shrad bake` refuses it saying there is nothing to bake, and writes nothing.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 

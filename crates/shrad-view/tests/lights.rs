@@ -13,7 +13,7 @@ use serde_json::{json, Value};
 use shrad_view::{ServeOptions, Server};
 use tokio_tungstenite::tungstenite::Message;
 
-mod common;
+use crate::common;
 use common::*;
 
 fn courtyard() -> shrad::scene::Scene {

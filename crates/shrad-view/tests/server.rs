@@ -14,7 +14,7 @@ use shrad_view::{ServeOptions, Server};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio_tungstenite::tungstenite::Message;
 
-mod common;
+use crate::common;
 use common::*;
 
 #[test]

@@ -11,7 +11,7 @@ use serde_json::{json, Value};
 use shrad_view::AccessOptions;
 use tokio_tungstenite::tungstenite::{self, Message};
 
-mod common;
+use crate::common;
 use common::*;
 
 const TOKEN: &str = "s3cret-token-0123456789";

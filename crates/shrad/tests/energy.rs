@@ -3,7 +3,7 @@
 //! and preset. The published state never exceeds the energy bound and never holds a
 //! non-finite value; the reference's meter closes within 1 % in a closed room.
 
-mod common;
+use crate::common;
 
 use glam::{Affine3A, Quat, Vec3};
 use shrad::dispersive::{Dispersive, DispersiveOptions};

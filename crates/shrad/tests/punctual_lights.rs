@@ -3,7 +3,7 @@
 //! meter counts what reaches the patches as input; a light moved through the engine gives
 //! what the same scene loaded with the light there gives; a picture's shadow edge is sharp.
 
-mod common;
+use crate::common;
 
 use glam::{Affine3A, Vec3};
 use shrad::engine::Engine;

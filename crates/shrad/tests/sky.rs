@@ -4,7 +4,7 @@
 //! integral `L dphi (sin^2 theta1 - sin^2 theta0) / 2`; a sky changed through the engine
 //! equals the scene loaded with it.
 
-mod common;
+use crate::common;
 
 use std::f32::consts::PI;
 use std::path::PathBuf;

@@ -5,7 +5,7 @@
 //! faces in the world under a negative determinant). Each goes through `write_gltf` and
 //! `load`. At one patch size all three must give the same patches and the same light.
 
-mod common;
+use crate::common;
 
 use std::collections::HashMap;
 use std::path::Path;

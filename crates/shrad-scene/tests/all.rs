@@ -1,0 +1,16 @@
+//! Every integration test of this crate in one binary: one link instead of one per file
+//! (the suite's build time, `scripts/test`). Each file is a module; run one with
+//! `cargo test --test all FILE::`.
+//! `validator_suite`, `fuzz_regressions`, `compressed` and `gltf_spec` keep binaries of their
+//! own (Cargo.toml): each installs a panic hook that counts panics, which tests running
+//! beside it would disturb.
+
+mod blender_animation;
+mod blender_camera;
+mod environment;
+mod gltf_animation;
+mod gltf_camera_animation;
+mod gltf_lights;
+mod io;
+mod lightmap_uvs;
+mod scene_file_lights;
