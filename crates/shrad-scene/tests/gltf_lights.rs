@@ -182,4 +182,13 @@ fn bad_light_values_name_the_file_and_json_path() {
         let e = load(&p, &LoadOptions::default()).unwrap_err().to_string();
         assert!(e.contains(name) && e.contains(path), "{name}: {e}");
     }
+    // Equal cones, as Blender's exporter writes a spot of blend 0: refused, with a hint.
+    let mut v = file();
+    v["extensions"]["KHR_lights_punctual"]["lights"][1]["spot"]["innerConeAngle"] = json!(0.6);
+    let p = write(&dir, "equal-cones.gltf", &v);
+    let e = load(&p, &LoadOptions::default()).unwrap_err().to_string();
+    assert!(
+        e.contains("lights[1].spot.innerConeAngle") && e.contains("blend above 0"),
+        "{e}"
+    );
 }

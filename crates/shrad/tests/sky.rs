@@ -2,7 +2,8 @@
 //! an open upward floor `E = pi L`; a map bright in its upper half alone gives the same
 //! floor `pi L` (the top row is +Y); a map with one bright texel gives the texel's own
 //! integral `L dphi (sin^2 theta1 - sin^2 theta0) / 2`; a sky changed through the engine
-//! equals the scene loaded with it.
+//! equals the scene loaded with it; the map's centre column looks along +Z (Mitsuba's
+//! `envmap`), and `rotate_deg` turns it counter-clockwise seen from above.
 
 use crate::common;
 
@@ -222,4 +223,58 @@ fn a_sky_set_through_the_engine_equals_the_scene_loaded_with_it() {
             .iter()
             .all(|p| (*p - l).abs().max_element() < 1e-5));
     }
+}
+
+/// The map's orientation, as Mitsuba 3's `envmap` reads it (checked against Mitsuba and
+/// Blender by `validation/env_orientation.py`): the top row is +Y, the centre column looks
+/// along +Z, the left and right edges (the seam) along -Z, u = 1/4 along +X; `rotate_deg`
+/// turns the map counter-clockwise seen from above, so `rotate_deg = 90` puts the centre
+/// column along +X, where Blender's Environment Texture has it.
+#[test]
+fn the_map_s_centre_column_looks_along_plus_z() {
+    use shrad::sky::Sky;
+    // 5 columns (an odd count: a centre column) x 3 rows, each texel its own colour.
+    let m = map("columns.exr", 5, 3, |x, y| {
+        Vec3::new(x as f32, y as f32, 1.0)
+    });
+    let look = |sky: &Sky, d: Vec3| {
+        let t = sky.radiance(d.normalize());
+        (t.x as u32, t.y as u32)
+    };
+    let sky = Sky::new(&Environment::from_map(m.clone()));
+    // (column, row) seen along each direction, 20 degrees above the horizon: the middle row.
+    let up = 20f32.to_radians().tan();
+    for (name, d, column) in [
+        ("+Z", Vec3::new(0.0, up, 1.0), 2),
+        ("+X", Vec3::new(1.0, up, 0.0), 1),
+        ("-X", Vec3::new(-1.0, up, 0.0), 3),
+        ("-Z, a little towards +X", Vec3::new(0.1, up, -1.0), 0),
+        ("-Z, a little towards -X", Vec3::new(-0.1, up, -1.0), 4),
+    ] {
+        assert_eq!(look(&sky, d), (column, 1), "looking along {name}");
+    }
+    assert_eq!(
+        look(&sky, Vec3::new(0.0, 1.0, 0.01)).1,
+        0,
+        "up: the top row"
+    );
+    assert_eq!(
+        look(&sky, Vec3::new(0.0, -1.0, 0.01)).1,
+        2,
+        "down: the bottom row"
+    );
+    let turned = Sky::new(&Environment {
+        rotate_deg: 90.0,
+        ..Environment::from_map(m)
+    });
+    assert_eq!(
+        look(&turned, Vec3::new(1.0, up, 0.0)),
+        (2, 1),
+        "turned 90: +X"
+    );
+    assert_eq!(
+        look(&turned, Vec3::new(0.0, up, 1.0)),
+        (3, 1),
+        "turned 90: +Z"
+    );
 }

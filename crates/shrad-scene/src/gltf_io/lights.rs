@@ -54,8 +54,15 @@ fn light(v: &Value, i: usize, warnings: &mut Vec<String>) -> Result<Option<Light
                 return Err(format!("{here}.innerConeAngle: {inner} must be >= 0"));
             }
             if inner >= outer {
+                // Blender's exporter writes inner = outer (1 - blend): equal cones for a
+                // spot of blend 0, which the extension forbids.
+                let hint = if inner == outer {
+                    " (Blender writes equal cones for a spot whose blend is 0: give it a blend above 0)"
+                } else {
+                    ""
+                };
                 return Err(format!(
-                    "{here}.innerConeAngle: {inner} must be less than outerConeAngle ({outer})"
+                    "{here}.innerConeAngle: {inner} must be less than outerConeAngle ({outer}){hint}"
                 ));
             }
             if outer > std::f64::consts::FRAC_PI_2 + 1e-9 {

@@ -1,9 +1,11 @@
 //! The sky: light from outside the scene, met by every ray that leaves it. A uniform
 //! radiance, or an equirectangular map (linear OpenEXR or Radiance `.hdr`) whose top row is
-//! +Y (glTF's up) and whose centre column looks along -Z, as Mitsuba 3's `envmap`: the
-//! direction of texel coordinates `(u, v)` in [0, 1]^2 is
+//! +Y (glTF's up) and whose centre column looks along +Z (its left and right edges along
+//! -Z), as Mitsuba 3's `envmap`: the direction of texel coordinates `(u, v)` in [0, 1]^2 is
 //! `(sin(2 pi u) sin(pi v), cos(pi v), -cos(2 pi u) sin(pi v))`, turned by `rotate_deg`
-//! about +Y, and its radiance is the texel's times `scale`.
+//! about +Y (counter-clockwise seen from above), and its radiance is the texel's times
+//! `scale`. Blender's Environment Texture has its centre column along +X (glTF axes):
+//! `rotate_deg = 90` shows a map as Blender does.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
