@@ -363,7 +363,11 @@ impl Dispersive {
         let at = |share: f64| budget_ms.map(|b| frame_start + secs(b * share));
         let swept = self.swept_boxes(world, changes);
         self.log_swept(world, changes, &swept);
-        let (batch, carry) = self.schedule_within(world, changes, budget_ms);
+        let (batch, over) = self.schedule_within(world, changes, budget_ms);
+        // An object that goes although it does not fit takes Step 1's turn (when Step 1 may
+        // wait) and the wall rows' fifth (they take their smallest step).
+        let carry = over && self.may_carry_direct(world, changes);
+        let walls_until = if over { Some(frame_start) } else { at(0.2) };
 
         // Step 1 (2.3.2), unless carried to the next frame, and the wall rows a mover passed
         // through.
@@ -378,7 +382,7 @@ impl Dispersive {
         }
         tr("direct_to_boundary", t);
         let tt = Instant::now();
-        self.refresh_wall_rows(world, changes, at(0.2));
+        self.refresh_wall_rows(world, changes, walls_until);
         tr("refresh_wall_rows", tt);
         steps.direct_ms = ms(t);
 
@@ -439,7 +443,8 @@ impl Dispersive {
         stats
     }
 
-    /// The objects this frame updates, and whether Step 1 is carried to the next frame.
+    /// The objects this frame updates, and whether they go over what the budget leaves them
+    /// (then Step 1, if it may, is carried to the next frame).
     /// Under a budget the objects take what fits after Step 1's expected cost (its last
     /// run with a mover), Step 4's and the meter's (`tail_ms`) and the wall rows' fifth. What
     /// must go although it does not fit (the object the last frame owed, or one over the
@@ -456,7 +461,7 @@ impl Dispersive {
             return (batch, false);
         };
         let direct_due = !self.direct_sync.moved.is_empty();
-        let may_carry = direct_due && self.may_carry_direct(world, changes);
+        let may_carry = self.may_carry_direct(world, changes);
         let direct_ms = if direct_due {
             self.direct_sync.cost_ms
         } else {
@@ -469,9 +474,9 @@ impl Dispersive {
             (false, false) => Must::OverStale,
         };
         let batch = self.scheduler.schedule(self.frame, Some(objects_ms), must);
-        let carry = may_carry && self.scheduler.cost_of(&batch.0) > objects_ms;
+        let over = !batch.0.is_empty() && self.scheduler.cost_of(&batch.0) > objects_ms;
         self.objects_owed = batch.0.is_empty() && self.scheduler.asleep() < self.objects.len();
-        (batch, carry)
+        (batch, over)
     }
 
     /// Run frames on a static world until every object was updated `passes` times.

@@ -135,7 +135,11 @@ impl Dispersive {
                 let ob = &mut self.objects[k];
                 ob.probe_cache = ProbeCache::default();
                 ob.emitter_cache = EmitterCache::default();
-                ob.openness.clear();
+                // A coarse mover's openness is not a cache but its stand-in until it rests
+                // (`note_changes`).
+                if !(ob.moving && self.options.coarse_while_moving) {
+                    ob.openness.clear();
+                }
                 continue;
             }
             let (boxes, moved, boundary_moved) = self.swept_log.since(checked);

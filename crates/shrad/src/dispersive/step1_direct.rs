@@ -47,14 +47,21 @@ impl Dispersive {
         for (k, ob) in self.objects.iter_mut().enumerate() {
             ob.moving = changes.moved.contains(&ob.object);
             if !ob.moving && ob.coarse_light {
-                // It stopped with light from a coarse update: full resolution soon.
+                // It stopped with light from a coarse update: full resolution soon, with its
+                // contact openness measured where it rests.
                 self.scheduler.disturb(k, 4.0);
+                ob.openness.clear();
             }
             if ob.moving {
                 self.scheduler.disturb(k, 4.0);
                 // Its surroundings changed: probes go back to the corners and are re-checked.
                 ob.probe_scale = [1.0; 8];
-                ob.openness.clear();
+                // Contact openness is measured again at every update, except while coarse
+                // updates stand in for it (`coarse_while_moving`): then the last measure
+                // serves until it rests (above).
+                if !self.options.coarse_while_moving {
+                    ob.openness.clear();
+                }
                 continue;
             }
             if lights_changed {
