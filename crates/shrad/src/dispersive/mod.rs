@@ -363,10 +363,11 @@ impl Dispersive {
         let at = |share: f64| budget_ms.map(|b| frame_start + secs(b * share));
         let swept = self.swept_boxes(world, changes);
         self.log_swept(world, changes, &swept);
-        let (batch, over) = self.schedule_within(world, changes, budget_ms);
+        let may_carry = self.may_carry_direct(world, changes);
+        let (batch, over) = self.schedule_within(budget_ms, may_carry);
         // An object that goes although it does not fit takes Step 1's turn (when Step 1 may
         // wait) and the wall rows' fifth (they take their smallest step).
-        let carry = over && self.may_carry_direct(world, changes);
+        let carry = over && may_carry;
         let walls_until = if over { Some(frame_start) } else { at(0.2) };
 
         // Step 1 (2.3.2), unless carried to the next frame, and the wall rows a mover passed
@@ -450,18 +451,13 @@ impl Dispersive {
     /// must go although it does not fit (the object the last frame owed, or one over the
     /// staleness bound) takes Step 1's turn, which then waits a frame (never two); when
     /// Step 1 cannot wait, the over-stale wait a frame instead (owed to the next).
-    fn schedule_within(
-        &mut self,
-        world: &World,
-        changes: &Changes,
-        budget_ms: Option<f64>,
-    ) -> (Batch, bool) {
+    /// `may_carry`: whether Step 1 may wait this frame ([`Dispersive::may_carry_direct`]).
+    fn schedule_within(&mut self, budget_ms: Option<f64>, may_carry: bool) -> (Batch, bool) {
         let Some(b) = budget_ms else {
             let batch = self.scheduler.schedule(self.frame, None, Must::OverStale);
             return (batch, false);
         };
         let direct_due = !self.direct_sync.moved.is_empty();
-        let may_carry = self.may_carry_direct(world, changes);
         let direct_ms = if direct_due {
             self.direct_sync.cost_ms
         } else {
