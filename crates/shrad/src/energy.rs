@@ -105,64 +105,59 @@ pub fn escaped(world: &World, radiosity: &[Vec3], rays: u32) -> f64 {
         .sum()
 }
 
-/// The bound on reflected flux for the world's current emission (see the module docs), with
-/// `punctual` the flux the punctual lights deliver to the patches.
-pub fn reflected_bound(world: &World, punctual: f64) -> f64 {
-    // In parallel: every frame of every solver meters its state (a pass over all patches).
-    let emitted: f64 = (world.exitance.par_iter().zip(&world.patches.area))
-        .map(|(m, a)| avg(*m) * *a as f64)
-        .sum::<f64>()
-        + punctual;
-    let max_rho = world
-        .reflectance
-        .par_iter()
-        .map(|r| r.max_element())
-        .reduce(|| 0.0f32, f32::max)
-        .min(0.999_999) as f64;
+/// The bound on reflected flux for a world that emits `emitted` (light surfaces and
+/// punctual lights) and whose most reflective patch reflects `max_rho` (see the module docs).
+pub fn reflected_bound(emitted: f64, max_rho: f32) -> f64 {
+    let max_rho = max_rho.min(0.999_999) as f64;
     emitted * max_rho / (1.0 - max_rho)
 }
 
-/// The balance of a state with irradiance `irradiance` on every patch, of which `punctual`
-/// (per patch, or empty) came straight from the punctual lights: that part is input, counted
-/// in `emitted` and in the bound. `reflects(i)`: does patch `i` reflect in this solver (else
-/// all that reaches it is absorbed)?
+/// The balance of a state with irradiance `irradiance(i)` on every patch `i`, of which
+/// `punctual` (per patch, or empty) came straight from the punctual lights: that part is
+/// input, counted in `emitted` and in the bound. `reflects(i)`: does patch `i` reflect in
+/// this solver (else all that reaches it is absorbed)?
+///
+/// One parallel pass over the patches (every frame of every solver meters its state), the
+/// irradiance taken where it is, not gathered into a vector first.
 pub fn balance(
     world: &World,
-    irradiance: &[Vec3],
+    irradiance: impl Fn(usize) -> Vec3 + Sync,
     punctual: &[Vec3],
     reflects: impl Fn(usize) -> bool + Sync,
 ) -> EnergyBalance {
     let p = &world.patches;
-    let punctual_flux: f64 = punctual
-        .par_iter()
-        .zip(&p.area)
-        .map(|(e, a)| avg(*e) * *a as f64)
-        .sum();
-    // Per patch: [emitted, received, reflected, absorbed], summed in parallel (a pass over
-    // every patch, every frame).
-    let add = |a: [f64; 4], b: [f64; 4]| std::array::from_fn(|k| a[k] + b[k]);
-    let [emitted, received, reflected, absorbed] = (0..p.len())
+    // Per patch: [emitted, received, reflected, absorbed, punctual] and the largest
+    // reflectance.
+    let add = |(a, ra): ([f64; 5], f32), (b, rb): ([f64; 5], f32)| {
+        (std::array::from_fn(|k| a[k] + b[k]), ra.max(rb))
+    };
+    let ([emitted, received, reflected, absorbed, punctual_flux], max_rho) = (0..p.len())
         .into_par_iter()
+        .with_min_len(1024)
         .map(|i| {
             let a = p.area[i] as f64;
-            let irr = irradiance[i];
+            let irr = irradiance(i);
+            let rho = world.reflectance[i];
             let (reflected, absorbed) = if reflects(i) {
-                let rho = world.reflectance[i];
                 (avg(rho * irr) * a, avg((Vec3::ONE - rho) * irr) * a)
             } else {
                 (0.0, avg(irr) * a)
             };
-            [
+            let punctual = punctual.get(i).map_or(0.0, |e| avg(*e) * a);
+            let sums = [
                 avg(world.exitance[i]) * a,
                 avg(irr) * a,
                 reflected,
                 absorbed,
-            ]
+                punctual,
+            ];
+            (sums, rho.max_element())
         })
-        .reduce(|| [0.0; 4], add);
+        .reduce(|| ([0.0; 5], 0.0f32), add);
+    let emitted = punctual_flux + emitted;
     EnergyBalance {
-        reflected_bound: reflected_bound(world, punctual_flux),
-        emitted: punctual_flux + emitted,
+        reflected_bound: reflected_bound(emitted, max_rho),
+        emitted,
         punctual: punctual_flux,
         received,
         reflected,
@@ -320,17 +315,22 @@ impl IncidentMeter {
         n
     }
 
-    /// Write the measured irradiance of the metered patches into `irradiance`.
-    pub fn measure(&self, radiosity: &[Vec3], irradiance: &mut [Vec3]) {
-        for (k, &i) in self.patches.iter().enumerate() {
-            let seen = &self.seen[k * self.rays..(k + 1) * self.rays];
-            let sum: Vec3 = seen
-                .iter()
-                .filter(|&&j| j != u32::MAX)
-                .map(|&j| radiosity[j as usize])
-                .sum();
-            irradiance[i as usize] = sum / self.rays as f32;
-        }
+    /// The measured irradiance of the metered patches: (patch, irradiance), ascending by
+    /// patch.
+    pub fn measure(&self, radiosity: &[Vec3]) -> Vec<(u32, Vec3)> {
+        let mut out: Vec<(u32, Vec3)> = (self.patches.iter().enumerate())
+            .map(|(k, &i)| {
+                let seen = &self.seen[k * self.rays..(k + 1) * self.rays];
+                let sum: Vec3 = seen
+                    .iter()
+                    .filter(|&&j| j != u32::MAX)
+                    .map(|&j| radiosity[j as usize])
+                    .sum();
+                (i, sum / self.rays as f32)
+            })
+            .collect();
+        out.sort_unstable_by_key(|&(i, _)| i);
+        out
     }
 }
 

@@ -197,7 +197,7 @@ impl Grid {
         let mut irradiance = irradiance;
         let non_finite = crate::energy::reset_non_finite(&mut irradiance);
         let mut energy =
-            crate::energy::balance(world, &irradiance, &self.punctual_by_patch, |_| true);
+            crate::energy::balance(world, |i| irradiance[i], &self.punctual_by_patch, |_| true);
         let mut diverged = (non_finite > 0).then(|| crate::energy::Divergence {
             message: format!("{non_finite} non-finite irradiance value(s) reset to 0"),
             non_finite,
@@ -208,7 +208,8 @@ impl Grid {
                 "reflected flux {:.4e} exceeds the bound {:.4e} that the lights can sustain; probe light damped by {s:.3}",
                 energy.reflected, energy.reflected_bound
             );
-            energy = crate::energy::balance(world, &irradiance, &self.punctual_by_patch, |_| true);
+            energy =
+                crate::energy::balance(world, |i| irradiance[i], &self.punctual_by_patch, |_| true);
             diverged = Some(crate::energy::Divergence {
                 message: diverged.map_or(message.clone(), |d| d.message + "; " + &message),
                 non_finite,

@@ -66,3 +66,12 @@ pub enum Error {
     #[error("{0}: cannot write: {1}")]
     Output(PathBuf, String),
 }
+
+/// With `SHRAD_TRACE` set, print the time since `t` of a part of the frame to stderr (the
+/// per-function table of docs/results.md §5 comes from `examples/moving_frame.rs` run so).
+pub(crate) fn trace_part(label: &str, t: std::time::Instant) {
+    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    if *ON.get_or_init(|| std::env::var_os("SHRAD_TRACE").is_some()) {
+        eprintln!("  {label}: {:.2}", t.elapsed().as_secs_f64() * 1e3);
+    }
+}

@@ -181,7 +181,7 @@ pub fn solve_parts(
                     .sum::<Vec3>()
         })
         .collect();
-    stats.energy = crate::energy::balance(world, &irradiance, &punctual, |_| true);
+    stats.energy = crate::energy::balance(world, |i| irradiance[i], &punctual, |_| true);
     let radiosity = reflected
         .iter()
         .zip(&world.exitance)

@@ -40,6 +40,11 @@ pub struct DirectCache {
     /// [`DirectCache::update`]) and its blocked bits are not kept: it is traced whole, with
     /// every sample, at the first update where it does not move.
     coarse: Vec<bool>,
+    /// `[k * emitters + e]`: the visible fraction of a coarse receiver's last trace, which
+    /// the frames between its traces hold ([`DirectCache::update`]'s `whole_stride`).
+    held: Vec<f32>,
+    /// Which of every `whole_stride` moving receivers the next update traces.
+    phase: usize,
     /// Where each shadow ray ends, quantised ([`SampleEnds`]), so that finding the rays a
     /// mover may have changed is a segment test per ray, not a regenerated sample.
     ends: SampleEnds,
@@ -70,13 +75,32 @@ fn block_sphere(world: &World, receivers: &[u32]) -> (Vec3, f32) {
 }
 
 /// Whether a shadow ray from anywhere in the sphere `(oc, or)` to anywhere in the sphere
-/// `(lc, lr)` may meet the sphere `(bc, br)`: such a segment lies within `max(or, lr)` of the
-/// segment between the centres (it is a convex mix of the two centres plus offsets of at
-/// most `or` and `lr`).
+/// `(lc, lr)` may meet the sphere `(bc, br)`. The ray's point at `s` in [0, 1] is
+/// `(1 - s) y0 + s y1` with `y0` within `or` of `oc` and `y1` within `lr` of `lc`: within
+/// `(1 - s) or + s lr` of the axis point `a(s) = oc + s (lc - oc)`. So it may meet the sphere
+/// when `|bc - a(s)| - (1 - s) or - s lr <= br` for some `s`; the left side is convex in
+/// `s`, and its minimum is found as in [`cone_meets_sphere`] (a tapered capsule: near a
+/// block of receivers it is as thin as the block, not as wide as the light).
 fn capsule_meets_sphere(oc: Vec3, or: f32, lc: Vec3, lr: f32, bc: Vec3, br: f32) -> bool {
     let axis = lc - oc;
-    let t = ((bc - oc).dot(axis) / axis.length_squared().max(1e-30)).clamp(0.0, 1.0);
-    (bc - (oc + axis * t)).length() <= br + or.max(lr) + 1e-6 * (1.0 + axis.length())
+    let len = axis.length();
+    let slack = br + 1e-6 * (1.0 + len);
+    if len <= 1e-20 {
+        return (bc - oc).length() <= slack + or.max(lr);
+    }
+    // d(s) = |bc - a(s)|, the radius r(s) = or + s (lr - or); minimise d(s) - r(s).
+    let s0 = (bc - oc).dot(axis) / (len * len);
+    let perp = (bc - (oc + axis * s0)).length();
+    let grow = (lr - or) / len;
+    let s = if grow.abs() < 1.0 {
+        s0 + grow * perp / ((1.0 - grow * grow).sqrt() * len)
+    } else if grow > 0.0 {
+        1.0
+    } else {
+        0.0
+    }
+    .clamp(0.0, 1.0);
+    (bc - (oc + axis * s)).length() - (or + s * (lr - or)) <= slack
 }
 
 /// `[(k * emitters + e) * samples + j]`: the end of shadow ray `j` of receiver `k` towards
@@ -152,6 +176,8 @@ impl DirectCache {
             blocked: vec![0; receivers.len() * ne * words],
             irradiance: vec![Vec3::ZERO; receivers.len()],
             coarse: vec![false; receivers.len()],
+            held: vec![1.0; receivers.len() * ne],
+            phase: 0,
             ends: SampleEnds::new(world, receivers.len() * ne * samples as usize),
             blocks: receivers
                 .chunks(BLOCK)
@@ -200,29 +226,34 @@ impl DirectCache {
             + self.blocked.len() * 8
             + self.irradiance.len() * 12
             + self.coarse.len()
+            + self.held.len() * 4
             + self.ends.end.len() * 6
             + self.blocks.len() * 16
     }
 
-    /// After occluders moved from the boxes `old` to the boxes `new`: re-trace the shadow
-    /// rays that may have changed, and recompute whole the receivers `whole` accepts (those
-    /// that moved). A blocked ray can only be freed if its blocker moved, so if its segment
-    /// meets an old box; a free ray can only be blocked by a mover's new place, so if its
-    /// segment meets a new box. The receivers `whole` accepts are traced with `whole_samples`
+    /// After the objects `movers` moved from the boxes `old` to the boxes `new`: re-trace the
+    /// shadow rays that may have changed, and recompute whole the receivers that are the
+    /// movers' own patches. A blocked ray can only be freed if its blocker moved, so if its
+    /// segment meets an old box; a free ray can only be blocked by a mover's new place, so if
+    /// its segment meets a new box. The movers' own receivers are traced with `whole_samples`
     /// shadow rays (fewer than the cache's: the light of a moving receiver, whole again with
     /// every sample once it rests). Those rays are first traced against the `movers` alone (the
     /// objects that moved): a free ray can only be blocked by them, and a blocked ray they
     /// still block stays blocked; only a blocked ray they no longer block is traced against
-    /// the whole scene. Returns the indices of the receivers whose irradiance was
-    /// recomputed, ascending; [`DirectCache::irradiance`] holds the new values.
+    /// the whole scene. With `whole_samples` below the cache's and `whole_stride` above 1,
+    /// only one in `whole_stride` of the movers' receivers is traced (in turn, a different
+    /// one each update); the others keep the visible fraction of their last trace under
+    /// their exact unoccluded irradiance where they are now (a moving object's shadows lag
+    /// by at most `whole_stride - 1` updates; whole again, with every sample, once it rests).
+    /// Returns the indices of the receivers whose irradiance was recomputed, ascending;
+    /// [`DirectCache::irradiance`] holds the new values.
     pub fn update(
         &mut self,
         world: &World,
         movers: &[u32],
-        old: &[Aabb],
-        new: &[Aabb],
-        whole: impl Fn(u32) -> bool + Sync,
+        (old, new): (&[Aabb], &[Aabb]),
         whole_samples: u32,
+        whole_stride: usize,
     ) -> Vec<usize> {
         let ems = emitters(world);
         if ems.is_empty() || self.receivers.is_empty() {
@@ -234,12 +265,16 @@ impl DirectCache {
         let eps = world.eps;
         let (old, new) = (padded_swept(old, eps), padded_swept(new, eps));
         let spheres: Vec<(Vec3, f32)> = old.iter().chain(&new).map(Aabb::bounding_sphere).collect();
-        // Coarse receivers that rest now are traced whole too, with every sample.
-        let is_whole = |k: usize| whole(self.receivers[k]) || self.coarse[k];
-        let (whole_ks, settled_ks): (Vec<usize>, Vec<usize>) = (0..self.receivers.len())
-            .into_par_iter()
-            .filter(|&k| is_whole(k))
-            .partition(|&k| whole(self.receivers[k]));
+        // The movers' own patches are traced whole (they moved), and so are coarse receivers
+        // that rest now, with every sample.
+        let whole_ks = self.receivers_of(world, movers);
+        let mut is_whole = self.coarse.clone();
+        whole_ks.iter().for_each(|&k| is_whole[k] = true);
+        let settled_ks: Vec<usize> = (self.coarse.iter().enumerate())
+            .filter(|&(k, &c)| c && whole_ks.binary_search(&k).is_err())
+            .map(|(k, _)| k)
+            .collect();
+        let is_whole = |k: usize| is_whole[k];
         let rays = self.rays_to_retrace(world, &ems, (&old, &new), &spheres, is_whole);
         let blocked = self.trace_movers_first(world, movers, &rays, ne);
         let mut touched: Vec<usize> = Vec::new();
@@ -262,13 +297,39 @@ impl DirectCache {
             self.irradiance[k] = v;
         }
         // The receivers that moved, and the coarse ones that rest now: everything again.
-        self.recompute(world, &ems, &whole_ks, whole_samples);
+        let stride = match whole_samples < samples {
+            true => whole_stride.max(1),
+            false => 1,
+        };
+        let phase = self.phase % stride;
+        self.phase = self.phase.wrapping_add(1);
+        let (traced, held): (Vec<usize>, Vec<usize>) =
+            whole_ks.iter().partition(|&&k| k % stride == phase);
+        self.recompute(world, &ems, &traced, whole_samples);
+        self.hold(world, &ems, &held);
         self.recompute(world, &ems, &settled_ks, samples);
         self.refresh_blocks(world, &whole_ks);
         touched.extend(whole_ks.iter().chain(&settled_ks));
         touched.sort_unstable();
         touched.dedup();
         touched
+    }
+
+    /// The indices of the receivers that are patches of `objects`, ascending: a binary
+    /// search per object (receivers ascend, and an object's patches are a range), not a pass
+    /// over every receiver.
+    fn receivers_of(&self, world: &World, objects: &[u32]) -> Vec<usize> {
+        debug_assert!(self.receivers.is_sorted());
+        let mut out: Vec<usize> = Vec::new();
+        for &o in objects {
+            let r = world.patches.range(o as usize);
+            let lo = self.receivers.partition_point(|&i| (i as usize) < r.start);
+            let hi = self.receivers.partition_point(|&i| (i as usize) < r.end);
+            out.extend(lo..hi);
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
     }
 
     /// The shadow rays (receiver, emitter, sample, from, to) that a mover may have changed:
@@ -398,6 +459,55 @@ impl DirectCache {
         blocked
     }
 
+    /// Receivers `ks` (which moved) not traced this update: their exact unoccluded
+    /// irradiance where they are now, under the visible fraction of their last trace (held
+    /// from a coarse trace, or from the cache's full one). They are coarse from now on.
+    fn hold(&mut self, world: &World, ems: &[Emitter], ks: &[usize]) {
+        let p = &world.patches;
+        let ne = ems.len();
+        let this = &*self;
+        let parts: Vec<(Vec3, Vec<(f32, f32)>)> = ks
+            .par_iter()
+            .map(|&k| {
+                let i = this.receivers[k] as usize;
+                let (x, n) = (p.centre[i], p.normal[i]);
+                let mut e_total = Vec3::ZERO;
+                let per_emitter = (ems.iter().enumerate())
+                    .map(|(e, em)| {
+                        let unoccluded = unoccluded_irradiance(em, x, n);
+                        let fraction = match this.coarse[k] {
+                            true => this.held[k * ne + e],
+                            false => {
+                                let bits = &this.blocked[(k * ne + e) * this.words..];
+                                let blocked = |j: u32| bits[j as usize / 64] & (1 << (j % 64)) != 0;
+                                let shift = sample_shift(i, em);
+                                visible_fraction(
+                                    em,
+                                    (x, n),
+                                    shift,
+                                    this.samples,
+                                    world.eps,
+                                    blocked,
+                                )
+                            }
+                        };
+                        e_total += em.radiance * (unoccluded * fraction);
+                        (unoccluded, fraction)
+                    })
+                    .collect();
+                (e_total, per_emitter)
+            })
+            .collect();
+        for (&k, (value, per_emitter)) in ks.iter().zip(parts) {
+            for (e, (unoccluded, fraction)) in per_emitter.into_iter().enumerate() {
+                self.unoccluded[k * ne + e] = unoccluded;
+                self.held[k * ne + e] = fraction;
+            }
+            self.irradiance[k] = value;
+            self.coarse[k] = true;
+        }
+    }
+
     /// Trace receivers `ks` from scratch (unoccluded irradiance, shadow rays, irradiance)
     /// with `samples` shadow rays per emitter: the cache's count, or fewer for a coarse
     /// receiver, whose irradiance is then kept but not its rays.
@@ -453,6 +563,7 @@ impl DirectCache {
                             eps,
                             |j| blocked[c * s + j as usize],
                         );
+                        self.held[k * ne + e] = fraction;
                         coarse_value[c] += em.radiance * (unoccluded[c] * fraction);
                     }
                     continue;
@@ -512,5 +623,63 @@ impl DirectCache {
             out += em.radiance * (u * fraction);
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The tapered capsule is conservative: any segment from a point of the first sphere to
+    /// a point of the second that passes within the third is accepted; and it is tighter
+    /// than the plain capsule: a sphere beside the thin end is rejected.
+    #[test]
+    fn capsule_test_accepts_every_segment_that_meets_the_sphere() {
+        let mut seed = 12345u64;
+        let mut rnd = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 40) as f32) / (1u64 << 24) as f32
+        };
+        let mut v = |s: f32| Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * s;
+        let mut accepted = 0;
+        for _ in 0..20_000 {
+            let (oc, or) = (v(4.0), 0.5 * v(1.0).x.abs());
+            let (lc, lr) = (v(4.0) + Vec3::Y * 3.0, 2.0 * v(1.0).x.abs());
+            let (t, r) = (v(1.0) + Vec3::splat(0.5), v(3.0));
+            let (bc, br) = (oc.lerp(lc, t.x) + r, 0.2 + 0.5 * t.y);
+            let unit = |mut d: Vec3| {
+                while d.length() > 0.5 {
+                    d *= 0.5;
+                }
+                d * 2.0
+            };
+            let y0 = oc + unit(v(1.0)) * or;
+            let y1 = lc + unit(v(1.0)) * lr;
+            // Closest point of the segment y0 y1 to bc.
+            let d = y1 - y0;
+            let t = ((bc - y0).dot(d) / d.length_squared().max(1e-30)).clamp(0.0, 1.0);
+            if (bc - (y0 + d * t)).length() <= br {
+                accepted += 1;
+                assert!(
+                    capsule_meets_sphere(oc, or, lc, lr, bc, br),
+                    "{oc} {or} {lc} {lr} {bc} {br} {y0} {y1}"
+                );
+            }
+        }
+        assert!(accepted > 1000, "only {accepted} segments met the sphere");
+        // Beside the thin end (radius 0.1 at the origin), 1.5 away, with a wide light far
+        // above: the plain capsule (radius 5 everywhere) would accept it.
+        let (oc, lc) = (Vec3::ZERO, Vec3::Y * 20.0);
+        assert!(!capsule_meets_sphere(oc, 0.1, lc, 5.0, Vec3::X * 1.5, 0.2));
+        assert!(capsule_meets_sphere(
+            oc,
+            0.1,
+            lc,
+            5.0,
+            Vec3::new(1.5, 10.0, 0.0),
+            0.2
+        ));
     }
 }

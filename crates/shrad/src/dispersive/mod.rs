@@ -489,13 +489,10 @@ impl Dispersive {
     }
 }
 
-/// With `SHRAD_TRACE` set, print the time since `t` of a part of the frame to stderr (the
-/// per-function table of docs/results.md §5 comes from `examples/moving_frame.rs` run so).
+/// With `SHRAD_TRACE` set, print the time since `t` of a part of the frame to stderr
+/// ([`crate::trace_part`]).
 pub(super) fn tr(label: &str, t: Instant) {
-    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    if *ON.get_or_init(|| std::env::var_os("SHRAD_TRACE").is_some()) {
-        eprintln!("  {label}: {:.2}", ms(t));
-    }
+    crate::trace_part(label, t);
 }
 
 /// `ms` milliseconds as a duration (0 if negative).

@@ -21,6 +21,12 @@ use crate::direct::DirectCache;
 use crate::lights::PunctualCache;
 use crate::World;
 
+/// While an object moves with `coarse_while_moving`, Step 1 traces one in this many of its
+/// own patches each frame (in turn); the others keep their last visible fraction under their
+/// exact unoccluded light where they are now. Its shadows lag at most 3 frames behind it;
+/// every patch is traced whole, with every sample, when it rests.
+const MOVING_STRIDE: usize = 4;
+
 impl Dispersive {
     /// Mark objects near what moved (or every object, when a light changed) as disturbed.
     pub(super) fn note_changes(&mut self, world: &World, changes: &Changes) {
@@ -153,9 +159,13 @@ impl Dispersive {
             } else {
                 samples
             };
-            let ks = self
-                .direct_cache
-                .update(world, &movers, &old, &new, whole, moving_samples);
+            let ks = self.direct_cache.update(
+                world,
+                &movers,
+                (&old, &new),
+                moving_samples,
+                MOVING_STRIDE,
+            );
             changed.extend(ks.iter().map(|&k| self.direct_cache.receivers()[k]));
         }
         let (receivers, e) = (

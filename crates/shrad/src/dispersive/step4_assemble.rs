@@ -175,16 +175,19 @@ impl Dispersive {
     /// Flux balance of the current state, the lights' absorption included.
     pub(super) fn energy(&self, world: &World) -> EnergyBalance {
         let p = &world.patches;
-        let mut irradiance: Vec<Vec3> = (0..p.len())
-            .into_par_iter()
-            .map(|i| match p.role(i) {
-                // Step 1 leaves `direct` 0 where it does not light (`direct_on_interior`).
-                Role::Interior => self.probe_irradiance[i] + self.direct[i],
-                _ => self.direct[i] + self.indirect[i] + self.wall[i],
-            })
-            .collect();
-        self.light_meter.measure(&self.radiosity, &mut irradiance);
-        crate::energy::balance(world, &irradiance, self.punctual_irradiance(), |i| {
+        // The lights that reflect nothing are metered by rays (`IncidentMeter`).
+        let metered = self.light_meter.measure(&self.radiosity);
+        let irradiance = |i: usize| match p.role(i) {
+            // Step 1 leaves `direct` 0 where it does not light (`direct_on_interior`).
+            Role::Interior => self.probe_irradiance[i] + self.direct[i],
+            Role::Light if !metered.is_empty() => metered
+                .binary_search_by_key(&(i as u32), |&(j, _)| j)
+                .map_or(self.direct[i] + self.indirect[i] + self.wall[i], |k| {
+                    metered[k].1
+                }),
+            _ => self.direct[i] + self.indirect[i] + self.wall[i],
+        };
+        crate::energy::balance(world, irradiance, self.punctual_irradiance(), |i| {
             p.role(i) != Role::Light || receives_as_boundary(world, i)
         })
     }

@@ -144,7 +144,7 @@ fn direct_cache_update_equals_a_full_recomputation() {
         .collect();
     let mut cache = crate::direct::DirectCache::new(&world, boundary.clone(), 16);
     let (old, new) = move_far(&mut world, block);
-    let changed = cache.update(&world, &[block as u32], &[old], &[new], |_| false, 16);
+    let changed = cache.update(&world, &[block as u32], (&[old], &[new]), 16, 1);
     assert!(
         !changed.is_empty(),
         "moving the tall block changed no shadow"
@@ -172,11 +172,10 @@ fn coarse_moving_receivers_are_exact_again_once_they_rest() {
         .collect();
     let mut cache = crate::direct::DirectCache::new(&world, receivers.clone(), 16);
     let (old, new) = move_far(&mut world, block);
-    let on_block = |i: u32| world.patches.object[i as usize] as usize == block;
     let mut every_sample = cache.clone();
     let rays = |cache: &mut crate::direct::DirectCache, samples: u32| {
         let before = world.rays_cast();
-        cache.update(&world, &[block as u32], &[old], &[new], on_block, samples);
+        cache.update(&world, &[block as u32], (&[old], &[new]), samples, 4);
         world.rays_cast() - before
     };
     let (coarse, fine) = (rays(&mut cache, 4), rays(&mut every_sample, 16));
@@ -187,7 +186,7 @@ fn coarse_moving_receivers_are_exact_again_once_they_rest() {
     assert!(coarse < fine, "coarse {coarse} rays, every sample {fine}");
     let full = crate::direct::DirectCache::new(&world, receivers.clone(), 16);
     // At rest: nothing moves, and the coarse receivers are traced whole again.
-    let changed = cache.update(&world, &[], &[], &[], |_| false, 16);
+    let changed = cache.update(&world, &[], (&[], &[]), 16, 1);
     assert!(!changed.is_empty() && !cache.has_coarse());
     assert_eq!(cache.irradiance(), full.irradiance());
 }
