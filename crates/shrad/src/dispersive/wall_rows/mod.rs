@@ -96,7 +96,7 @@ impl Dispersive {
         let tt = Instant::now();
         rows.note_moves(&changes.moved);
         // Half as much while something moves (what is left catches up once it rests).
-        let moving = 1 + usize::from(!changes.moved.is_empty());
+        let moving = 1 + 3 * usize::from(!changes.moved.is_empty());
         let mut left = n.div_ceil(WALL_CHECK_SHARE).min(WALL_CHECK_MAX / moving);
         // Under a deadline a few rows at a time (the first even past it: always progress,
         // a quarter as much when the frame is already late).
