@@ -275,8 +275,12 @@ impl DirectCache {
             .map(|(k, _)| k)
             .collect();
         let is_whole = |k: usize| is_whole[k];
+        let t = std::time::Instant::now();
         let rays = self.rays_to_retrace(world, &ems, (&old, &new), &spheres, is_whole);
+        crate::trace_part("    find_rays_to_retrace", t);
+        let t = std::time::Instant::now();
         let blocked = self.trace_movers_first(world, movers, &rays, ne);
+        crate::trace_part("    retrace", t);
         let mut touched: Vec<usize> = Vec::new();
         for (&(k, e, j, ..), &b) in rays.iter().zip(&blocked) {
             let w = &mut self.blocked[(k as usize * ne + e as usize) * words + j as usize / 64];
@@ -305,9 +309,11 @@ impl DirectCache {
         self.phase = self.phase.wrapping_add(1);
         let (traced, held): (Vec<usize>, Vec<usize>) =
             whole_ks.iter().partition(|&&k| k % stride == phase);
+        let t = std::time::Instant::now();
         self.recompute(world, &ems, &traced, whole_samples);
         self.hold(world, &ems, &held);
         self.recompute(world, &ems, &settled_ks, samples);
+        crate::trace_part("    movers_own_patches", t);
         self.refresh_blocks(world, &whole_ks);
         touched.extend(whole_ks.iter().chain(&settled_ks));
         touched.sort_unstable();

@@ -370,6 +370,8 @@ impl Dispersive {
         let carry = over && may_carry;
         let walls_until = if over { Some(frame_start) } else { at(0.2) };
 
+        tr("what_changed_and_schedule", frame_start);
+
         // Step 1 (2.3.2), unless carried to the next frame, and the wall rows a mover passed
         // through.
         let t = Instant::now();
@@ -431,7 +433,9 @@ impl Dispersive {
         self.meter_ms = ms(tt);
         self.tail_ms = steps.assemble_ms + self.meter_ms;
         tr("meter_and_guard", tt);
+        let tt = Instant::now();
         self.note_settling(changes, &updated, change, &stats);
+        tr("note_settling", tt);
         tr("frame", frame_start);
 
         stats.frame_ms = ms(frame_start);
