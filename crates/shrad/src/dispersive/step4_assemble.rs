@@ -206,15 +206,25 @@ impl Dispersive {
         updated: &[usize],
     ) -> Option<Divergence> {
         let mut non_finite = 0;
-        for v in [
+        // The balance summed every irradiance the state is made of (direct, objects', walls',
+        // probes'; radiosity is made of them): finite sums, a finite state, and no pass over
+        // the six arrays.
+        let sums_finite = [balance.received, balance.reflected, balance.absorbed]
+            .iter()
+            .all(|s| s.is_finite());
+        let arrays = [
             &mut self.radiosity,
             &mut self.direct,
             &mut self.probe_irradiance,
             &mut self.indirect,
             &mut self.wall,
             &mut self.wall_gathered,
-        ] {
-            non_finite += crate::energy::reset_non_finite(v);
+        ];
+        if !sums_finite {
+            non_finite += arrays
+                .into_iter()
+                .map(|v| crate::energy::reset_non_finite(v))
+                .sum::<usize>();
         }
         // Only the objects updated this frame sent new light (the others were checked when
         // they were: a scene of many objects must not cost a pass over all their shares).
