@@ -174,6 +174,58 @@ fn the_quad_itself_loads() {
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
 }
 
+/// Rules about what shrad reads past (morph targets, KHR_materials_variants, extension
+/// declarations) broken: the file loads as before, with a warning naming the JSON path and
+/// the rule (`gltf_io/validate/lint*.rs`).
+#[test]
+fn broken_rules_of_what_shrad_ignores_are_warnings() {
+    let dir = temp_dir("lint");
+    let cases: Vec<(&str, Edit, &str)> = vec![
+        (
+            "morph_count.gltf",
+            Box::new(|v: &mut Value| {
+                v["accessors"].as_array_mut().unwrap().push(json!({
+                    "componentType": 5126, "count": 3, "type": "VEC3",
+                    "min": [0.0, 0.0, 0.0], "max": [0.0, 0.0, 0.0]}));
+                v["meshes"][0]["primitives"][0]["targets"] = json!([{"POSITION": 2}]);
+            }),
+            "meshes[0].primitives[0].targets[0].POSITION: accessor 2 count 3 differs from the primitive's POSITION count 4 (glTF 2.0, Morph Targets)",
+        ),
+        (
+            "weights.gltf",
+            Box::new(|v: &mut Value| v["meshes"][0]["weights"] = json!([0.5])),
+            "meshes[0].weights: 1 weight(s), but the primitives have 0 morph target(s)",
+        ),
+        (
+            "variants.gltf",
+            Box::new(|v: &mut Value| {
+                v["extensionsUsed"] = json!(["KHR_materials_variants"]);
+                v["extensions"] = json!({"KHR_materials_variants": {"variants": [{"name": "a"}]}});
+                v["meshes"][0]["primitives"][0]["extensions"] = json!({"KHR_materials_variants":
+                    {"mappings": [{"material": 5, "variants": [0]}]}});
+            }),
+            "mappings[0].material: material 5 does not exist (the file has 1) (KHR_materials_variants)",
+        ),
+        (
+            "undeclared.gltf",
+            Box::new(|v: &mut Value| {
+                v["materials"][0]["extensions"] = json!({"KHR_materials_sheen": {}});
+            }),
+            "materials[0].extensions.KHR_materials_sheen: extension 'KHR_materials_sheen' is not listed in extensionsUsed (glTF 2.0, Specifying Extensions)",
+        ),
+    ];
+    for (name, edit, warning) in cases {
+        let p = write_json(&dir, name, &quad_with(edit));
+        let s = load_no_panic(&p).unwrap_or_else(|e| panic!("{name}: refused: {e}"));
+        assert_eq!(s.objects.len(), 1, "{name}");
+        assert!(
+            s.warnings.iter().any(|w| w.contains(warning)),
+            "{name}: no warning says '{warning}': {:?}",
+            s.warnings
+        );
+    }
+}
+
 #[test]
 fn version_must_be_2() {
     let dir = temp_dir("version");

@@ -10,7 +10,10 @@
 //!   saying so;
 //! - a valid file without a mesh is refused with a message that says so;
 //! - every invalid file is refused, or loads with at least one warning, except those listed
-//!   in [`INVALID_LOADED`] with why shrad may read them as it does.
+//!   in [`INVALID_LOADED`] with why shrad may read them as it does; and one that loads has a
+//!   warning of what is wrong with it (not only [`INCIDENTAL`] ones, such as "nothing to
+//!   light"), except those in [`INVALID_UNREAD_VALUES`], with why;
+//! - no valid file that loads is warned of a broken rule ([`cites_rule`]).
 //!
 //! The counts (valid / invalid x loaded / refused / crashed) are printed as the table of
 //! `docs/results.md` ("glTF conformance"); run with `--nocapture` to see it.
@@ -71,6 +74,49 @@ const VALID_NO_MESH_REFUSED: &[(&str, &str)] = &[(
 
 /// Invalid files that load without a warning, and why that is right for shrad.
 const INVALID_LOADED: &[(&str, &str)] = &[];
+
+/// Warnings that say what shrad left out or changed, not what is wrong with the file: an
+/// invalid file that loads needs at least one warning besides these (the validator's reason).
+const INCIDENTAL: &[&str] = &[
+    "nothing to light",
+    "glTF has no scene",
+    "reflectance",
+    "have zero area and were dropped",
+    "skipped, its data is not in the file",
+    "is used but not implemented by shrad",
+    "glTF skins ignored",
+    "primitive skipped (only triangles are used)",
+    "has no image shrad can read",
+];
+
+/// Invalid files that load with incidental warnings only, and why: (file, why). Their
+/// errors lie in the values of data shrad never reads; checking those is not done.
+const INVALID_UNREAD_VALUES: &[(&str, &str)] = &[
+    (
+        "base/data/mesh_data/joints_weights_complex.gltf",
+        "joint indices and weights of a points primitive (skipped: shrad lights triangles and \
+         does not skin)",
+    ),
+    (
+        "base/data/mesh_data/normals_tangents_non_unit_invalid_sign.gltf",
+        "non-unit normals and tangents, a tangent w not +-1: shrad reads neither (it computes \
+         face normals)",
+    ),
+];
+
+/// A warning that cites the rule the file breaks, as the checks of what shrad reads past
+/// (`gltf_io/validate/lint*.rs`) end theirs: "(glTF 2.0, Section)" or "(KHR_... / EXT_...)".
+fn cites_rule(w: &str) -> bool {
+    let Some(i) = w.rfind(" (") else {
+        return false;
+    };
+    let tail = &w[i + 2..];
+    tail.ends_with(')')
+        && !tail.contains('(')
+        && ["glTF 2.0, ", "KHR_", "EXT_"]
+            .iter()
+            .any(|p| tail.starts_with(p))
+}
 
 fn suite_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/gltf-validator-suite")
@@ -345,6 +391,10 @@ struct Tally {
     scratch: PathBuf,
     /// Invalid files that loaded: (file, the validator's error codes, the warnings).
     invalid_loaded: Vec<(String, String, String)>,
+    /// Of those, warned of what is wrong (a warning not [`INCIDENTAL`]).
+    invalid_with_reason: usize,
+    /// Of those, listed in [`INVALID_UNREAD_VALUES`].
+    invalid_unread: usize,
     failures: Vec<String>,
 }
 
@@ -359,6 +409,10 @@ fn why_empty(warnings: &[String]) -> Option<&str> {
 impl Tally {
     /// A valid file that loaded as `scene`.
     fn valid_loaded(&mut self, p: &Path, rel: &str, scene: &shrad_scene::Scene) {
+        if let Some(w) = scene.warnings.iter().find(|w| cites_rule(w)) {
+            self.failures
+                .push(format!("{rel}: valid, but warned of a broken rule: {w}"));
+        }
         let warned = VALID_WARNED.iter().find(|(f, _, _)| *f == rel);
         if let Some((_, fragment, _)) = warned {
             if !scene.warnings.iter().any(|w| w.contains(fragment)) {
@@ -453,6 +507,19 @@ impl Tally {
                 codes.join(", ")
             ));
         }
+        let reason = |w: &&String| !INCIDENTAL.iter().any(|i| w.contains(i));
+        let unread = INVALID_UNREAD_VALUES.iter().any(|(f, _)| *f == rel);
+        match (warnings.iter().any(|w| reason(&w)), unread) {
+            (true, false) => self.invalid_with_reason += 1,
+            (false, true) => self.invalid_unread += 1,
+            (true, true) => self.failures.push(format!(
+                "{rel}: now warned of its error: take it out of INVALID_UNREAD_VALUES"
+            )),
+            (false, false) => self.failures.push(format!(
+                "{rel}: invalid ({}) but loaded without a warning of what is wrong",
+                codes.join(", ")
+            )),
+        }
     }
 
     fn print(&self, n: usize, dir: &Path) {
@@ -488,6 +555,10 @@ impl Tally {
         for (kind, n) in &self.no_mesh {
             println!("valid files refused: {kind}: {n}");
         }
+        println!(
+            "invalid files loaded: {} warned of what is wrong, {} whose errors lie in values shrad does not read",
+            self.invalid_with_reason, self.invalid_unread
+        );
         for (f, codes, warnings) in &self.invalid_loaded {
             println!("  invalid, loaded: `{f}` ({codes}): {warnings}");
         }
@@ -581,7 +652,8 @@ fn validator_suite_loads_the_valid_and_refuses_the_invalid() {
             }
         }
     }
-    for (f, _, _) in VALID_WARNED {
+    let listed = VALID_WARNED.iter().map(|v| v.0);
+    for f in listed.chain(INVALID_UNREAD_VALUES.iter().map(|v| v.0)) {
         if !all.iter().any(|p| p.ends_with(f)) {
             t.failures
                 .push(format!("{f}: listed, but not in the suite: take it out"));

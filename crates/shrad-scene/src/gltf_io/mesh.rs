@@ -183,6 +183,7 @@ impl Walk<'_> {
         let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.0.as_slice()));
         let positions = read_positions(&reader, pos_acc.count(), at)?;
         let indices = read_indices(&reader, prim, positions.len(), at)?;
+        self.warn_primitive_restart(prim, &indices, at);
         if mode == Mode::Triangles && indices.len() % 3 != 0 {
             self.scene.warnings.push(format!(
                 "{who}{inst}: {} index(es) beyond the last whole triangle ignored",
@@ -198,6 +199,24 @@ impl Walk<'_> {
             return Ok(None);
         }
         Ok(Some(Mesh::new(positions, triangles)))
+    }
+
+    /// glTF 2.0 ("Meshes") forbids the largest value of the indices' component type (a GPU
+    /// takes it as a primitive restart); shrad reads it as a plain index, so this warns.
+    fn warn_primitive_restart(&mut self, prim: &gltf::Primitive, indices: &[u32], at: &Place) {
+        use gltf::accessor::DataType;
+        let (name, restart) = match prim.indices().map(|a| a.data_type()) {
+            Some(DataType::U8) => ("UNSIGNED_BYTE", u32::from(u8::MAX)),
+            Some(DataType::U16) => ("UNSIGNED_SHORT", u32::from(u16::MAX)),
+            Some(DataType::U32) => ("UNSIGNED_INT", u32::MAX),
+            _ => return,
+        };
+        if let Some(k) = indices.iter().position(|&i| i == restart) {
+            self.scene.warnings.push(format!(
+                "{}.indices{}: index {restart} (element {k}) is the primitive restart value of {name} indices, which must not occur (glTF 2.0, Meshes)",
+                at.who, at.inst
+            ));
+        }
     }
 
     /// Drop a primitive's zero-area triangles with a warning. The specification does not

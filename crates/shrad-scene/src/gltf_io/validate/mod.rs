@@ -5,9 +5,13 @@
 //!
 //! Here: the JSON accessors, the asset and extensions; `data`: buffers, buffer views,
 //! accessors and meshes; `scene`: materials, textures, cameras, nodes, scenes, skins and
-//! animations.
+//! animations. Then `lint`, `lint_layout` and `lint_ext`: rules about what shrad reads past
+//! or ignores (morph targets, skins, vertex layout, extensions), which only warn.
 
 mod data;
+mod lint;
+mod lint_ext;
+mod lint_layout;
 mod scene;
 
 use serde_json::Value;
@@ -302,6 +306,7 @@ impl JsonCheck<'_> {
         self.nodes()?;
         self.scenes()?;
         self.skins_and_animations()?;
+        self.lints(&accessors);
         Ok(())
     }
 
