@@ -110,15 +110,26 @@ impl Dispersive {
                     .collect();
                 self.store_wall(&ks, wall, p);
             }
-            (changed, total) = (0.0, 0.0);
-            for &j in &self.boundary_patches {
-                let j = j as usize;
-                let b = world.exitance[j]
-                    + world.reflectance[j] * (self.direct[j] + self.indirect[j] + self.wall[j]);
-                let a = p.area[j] as f64;
-                changed += a * (b - self.radiosity[j]).abs().element_sum() as f64;
-                total += a * b.element_sum() as f64;
-                self.radiosity[j] = b;
+            // In parallel, then stored: a pass over the boundary on every frame.
+            let this = &*self;
+            let radiosity: Vec<Vec3> = (this.boundary_patches.par_iter())
+                .with_min_len(4096)
+                .map(|&j| {
+                    let j = j as usize;
+                    world.exitance[j]
+                        + world.reflectance[j] * (this.direct[j] + this.indirect[j] + this.wall[j])
+                })
+                .collect();
+            (changed, total) = (this.boundary_patches.par_iter().zip(&radiosity))
+                .with_min_len(4096)
+                .map(|(&j, b)| {
+                    let a = p.area[j as usize] as f64;
+                    let change = (*b - this.radiosity[j as usize]).abs().element_sum() as f64;
+                    (a * change, a * b.element_sum() as f64)
+                })
+                .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
+            for (&j, b) in self.boundary_patches.iter().zip(radiosity) {
+                self.radiosity[j as usize] = b;
             }
             if self.wall_rows.is_none() {
                 break;

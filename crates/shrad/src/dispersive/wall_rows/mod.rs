@@ -95,7 +95,7 @@ impl Dispersive {
         let past = || deadline.is_some_and(|d| Instant::now() >= d);
         let tt = Instant::now();
         rows.note_moves(&changes.moved);
-        // Half as much while something moves (what is left catches up once it rests).
+        // A quarter as much while something moves (what is left catches up once it rests).
         let moving = 1 + 3 * usize::from(!changes.moved.is_empty());
         let mut left = n.div_ceil(WALL_CHECK_SHARE).min(WALL_CHECK_MAX / moving);
         // Under a deadline a few rows at a time (the first even past it: always progress,
@@ -117,8 +117,10 @@ impl Dispersive {
         }
         super::tr("  mark", tt);
         let tt = Instant::now();
+        // Rows still to build (a large scene's lazy start) take their share too: a quarter
+        // while something moves, so that a drag costs what moved.
         let mut left = if rows.pending_rows() > 0 {
-            rows.build_per_frame
+            rows.build_per_frame / moving
         } else {
             (n * self.options.wall_rays.max(1) as usize)
                 .div_ceil(WALL_RETRACE_SHARE)
