@@ -185,7 +185,8 @@ impl Dispersive {
             }
         };
         let coarse_camera = ProbeCamera::new(half(options.cube_res), options.bands);
-        let coarse_emitter_camera = ProbeCamera::new(half(options.emitter_res), options.bands);
+        let coarse_emitter_camera =
+            ProbeCamera::new(half(options.emitter_res) * 3 / 4, options.bands);
         let interior: Vec<usize> = (0..world.scene.objects.len())
             .filter(|&o| p.object_role[o] == Role::Interior)
             .collect();

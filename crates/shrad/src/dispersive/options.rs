@@ -132,10 +132,12 @@ pub struct DispersiveOptions {
     /// their sweeps change the boundary by less than it, and a frame in which everything
     /// sleeps costs no tracing and no sweep. 0: never sleep (the paper).
     pub sleep_tolerance: f32,
-    /// An object that moved since the last frame is updated from cube maps of half the
-    /// resolution (`cube_res / 2` probes, `emitter_res / 2` splat: a quarter of the rays),
-    /// its own patches' direct light from a quarter of `direct_samples`, and again at full
-    /// resolution as soon as it stops (beyond the paper: the light of a
+    /// An object that moved since the last frame is updated from coarser cube maps
+    /// (`cube_res / 2` probes, a quarter of the rays; `3 emitter_res / 8` splat, a ninth:
+    /// at the 77k room 24^2 against 32^2 cost 0.04 points of error while moving and 1.5 ms),
+    /// its own patches' direct light from a quarter of `direct_samples`, a quarter of them
+    /// each frame in turn, and again at full resolution as soon as it stops (beyond the
+    /// paper: the light of a
     /// moving object is wrong by its motion anyway, so the frame spends its rays on
     /// following it; the light settles at full resolution once it rests).
     pub coarse_while_moving: bool,
