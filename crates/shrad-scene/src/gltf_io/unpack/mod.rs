@@ -375,7 +375,7 @@ mod tests {
             }],
             "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}]
         });
-        let out = unpack(&mut root, &[buf.clone()]).unwrap();
+        let out = unpack(&mut root, &[buf.clone()]).unwrap().bytes;
         let a = &root["accessors"][0];
         assert_eq!(a["componentType"], 5126);
         assert!(a.get("sparse").is_none());
@@ -395,7 +395,7 @@ mod tests {
         let mut root = json!({
             "accessors": [{"componentType": 5126, "type": "MAT4", "count": 1u64 << 40}]
         });
-        let e = unpack(&mut root, &[]).unwrap_err();
+        let e = unpack(&mut root, &[]).err().unwrap();
         assert!(e.starts_with("accessors[0]: would decode to"), "{e}");
     }
 }

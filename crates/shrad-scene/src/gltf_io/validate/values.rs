@@ -265,8 +265,8 @@ fn unit_vectors(
     let mut sign = Offenders::<f64>::default();
     let mut unit = |k: usize, v: [f64; 3]| {
         let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        // Negated so that a NaN component counts as not unit.
-        if !((len - 1.0).abs() <= UNIT_LENGTH_TOLERANCE) {
+        // A NaN component counts as not unit.
+        if (len - 1.0).abs() > UNIT_LENGTH_TOLERANCE || len.is_nan() {
             length.add(k, len);
         }
     };
@@ -326,7 +326,6 @@ fn unit_vectors(
 /// joint index with a zero weight is left alone: it "should" be 0, a warning of the
 /// validator, not an error. A set of another count than POSITION's or of a type glTF 2.0
 /// does not allow (the lints warn of both) is not read.
-#[allow(clippy::too_many_arguments)]
 fn influences(
     accessors: &[gltf::Accessor],
     buffers: &[gltf::buffer::Data],
@@ -397,8 +396,8 @@ fn influences(
                 }
             }
         }
-        let tolerance = WEIGHT_SUM_STEP * (((used.len() + 1) / 2) as f64 - 1.0);
-        if !((f64::from(sum) - 1.0).abs() <= tolerance) {
+        let tolerance = WEIGHT_SUM_STEP * (used.len().div_ceil(2) as f64 - 1.0);
+        if (f64::from(sum) - 1.0).abs() > tolerance || sum.is_nan() {
             sums.add(k, sum);
         }
     }
