@@ -226,6 +226,101 @@ fn broken_rules_of_what_shrad_ignores_are_warnings() {
     }
 }
 
+/// `v` with one more buffer (a data URI of `data`) and a view of all of it; returns the view.
+fn add_buffer_view(v: &mut Value, data: &[u8]) -> usize {
+    let b = v["buffers"].as_array().unwrap().len();
+    v["buffers"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"byteLength": data.len(),
+        "uri": format!("data:application/octet-stream;base64,{}", b64(data))}));
+    let views = v["bufferViews"].as_array_mut().unwrap();
+    views.push(json!({"buffer": b, "byteLength": data.len()}));
+    views.len() - 1
+}
+
+fn le_bytes<T: Copy, const N: usize>(values: &[T], to: impl Fn(T) -> [u8; N]) -> Vec<u8> {
+    values.iter().flat_map(|&x| to(x)).collect()
+}
+
+/// glTF 2.0 ("Meshes", "Skins") rules on the values of attributes shrad does not use:
+/// normals and tangents of unit length, a tangent's W 1 or -1, joint indices within the
+/// skin, weights summing to 1. Broken, the file loads with its object, warned once for each
+/// accessor with how many elements break the rule and the first.
+#[test]
+fn values_of_unused_attributes_are_checked_and_only_warn() {
+    let dir = temp_dir("values");
+    let normals: [f32; 12] = [0.0, 0.5, 0.0, 0.0, 1.0, 0.0, 0.0, 2.0, 0.0, 0.0, 1.0, 0.0];
+    let tangents: [f32; 16] = [
+        1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, -1.0, 1.0, 0.0, 0.0, 1.0,
+    ];
+    let joints: [u8; 16] = [0, 0, 0, 0, 0, 0, 0, 0, 0, 3, 0, 0, 0, 0, 0, 0];
+    let weights: [f32; 16] = [
+        1.0, 0.0, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.5, 0.5, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0,
+    ];
+    let attribute = |v: &mut Value, name: &str, data: Vec<u8>, ty: &str, ct: u32| {
+        let view = add_buffer_view(v, &data);
+        let accessors = v["accessors"].as_array_mut().unwrap();
+        accessors.push(json!({"bufferView": view, "componentType": ct, "count": 4, "type": ty}));
+        let a = accessors.len() - 1;
+        v["meshes"][0]["primitives"][0]["attributes"][name] = json!(a);
+    };
+    let file = quad_with(|v| {
+        attribute(
+            v,
+            "NORMAL",
+            le_bytes(&normals, f32::to_le_bytes),
+            "VEC3",
+            5126,
+        );
+        attribute(
+            v,
+            "TANGENT",
+            le_bytes(&tangents, f32::to_le_bytes),
+            "VEC4",
+            5126,
+        );
+        attribute(v, "JOINTS_0", joints.to_vec(), "VEC4", 5121);
+        attribute(
+            v,
+            "WEIGHTS_0",
+            le_bytes(&weights, f32::to_le_bytes),
+            "VEC4",
+            5126,
+        );
+        v["nodes"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!({"name": "bone"}));
+        v["nodes"][0]["skin"] = json!(0);
+        v["scenes"][0]["nodes"] = json!([0, 1]);
+        v["skins"] = json!([{"joints": [1]}]);
+    });
+    let p = write_json(&dir, "values.gltf", &file);
+    let s = load_no_panic(&p).unwrap_or_else(|e| panic!("refused: {e}"));
+    assert_eq!(s.objects.len(), 1, "{:?}", s.warnings);
+    let at = "meshes[0].primitives[0].attributes";
+    for w in [
+        format!("{at}.NORMAL: accessor 2: 2 of 4 normals are not unit length (first: element 0, length 0.5000); a NORMAL is a unit XYZ vector (glTF 2.0, Meshes)"),
+        format!("{at}.TANGENT: accessor 3: 1 of 4 tangents have a W that is neither 1 nor -1 (first: element 1, W 0)"),
+        format!("{at}.JOINTS_0: accessor 4: 1 of 4 vertices have a joint index not below the 1 joints of skins[0], which skins this mesh (first: vertex 2, component 1, joint 3) (glTF 2.0, Skins)"),
+        format!("{at}: 2 of 4 vertices have weights (WEIGHTS_0, accessor(s) 5) that do not sum to 1 (first: vertex 1, sum 0.5) (glTF 2.0, Skins)"),
+    ] {
+        assert!(
+            s.warnings.iter().any(|x| x.contains(&w)),
+            "no warning says '{w}': {:#?}",
+            s.warnings
+        );
+    }
+    assert!(
+        !s.warnings
+            .iter()
+            .any(|w| w.contains("TANGENT: accessor 3: ") && w.contains("unit length")),
+        "the tangents' XYZ are unit: {:#?}",
+        s.warnings
+    );
+}
+
 #[test]
 fn version_must_be_2() {
     let dir = temp_dir("version");

@@ -12,7 +12,8 @@
 //! - every invalid file is refused, or loads with at least one warning, except those listed
 //!   in [`INVALID_LOADED`] with why shrad may read them as it does; and one that loads has a
 //!   warning of what is wrong with it (not only [`INCIDENTAL`] ones, such as "nothing to
-//!   light"), except those in [`INVALID_UNREAD_VALUES`], with why;
+//!   light"), except those in [`INVALID_UNREAD_VALUES`], with why (none now); those in
+//!   [`INVALID_VALUES_WARNED`] warn of each error the validator finds in their values;
 //! - no valid file that loads is warned of a broken rule ([`cites_rule`]).
 //!
 //! The counts (valid / invalid x loaded / refused / crashed) are printed as the table of
@@ -90,17 +91,35 @@ const INCIDENTAL: &[&str] = &[
 ];
 
 /// Invalid files that load with incidental warnings only, and why: (file, why). Their
-/// errors lie in the values of data shrad never reads; checking those is not done.
-const INVALID_UNREAD_VALUES: &[(&str, &str)] = &[
+/// errors would lie in the values of data shrad never reads; none is left since the values
+/// of normals, tangents, joints and weights are checked (`gltf_io/validate/values.rs`).
+const INVALID_UNREAD_VALUES: &[(&str, &str)] = &[];
+
+/// Invalid files whose errors lie in the values of attributes shrad does not use, with what
+/// their warnings must say (the validator's errors, one fragment each): (file, fragments).
+const INVALID_VALUES_WARNED: &[(&str, &[&str])] = &[
     (
         "base/data/mesh_data/joints_weights_complex.gltf",
-        "joint indices and weights of a points primitive (skipped: shrad lights triangles and \
-         does not skin)",
+        &[
+            // ACCESSOR_JOINTS_INDEX_OOB (skin 1 has 8 joints; the mesh is skinned by both)
+            "attributes.JOINTS_1: accessor 2: 1 of 2 vertices have a joint index not below the 8 joints of skins[1]",
+            // ACCESSOR_JOINTS_INDEX_DUPLICATE
+            "attributes.JOINTS_1: accessor 2: 1 of 2 vertices have a joint more than once",
+            // ACCESSOR_WEIGHTS_NEGATIVE
+            "attributes.WEIGHTS_1: accessor 4: 1 of 2 vertices have a negative weight",
+            // ACCESSOR_WEIGHTS_NON_NORMALIZED (the validator reports it on both sets)
+            "1 of 2 vertices have weights (WEIGHTS_0 + WEIGHTS_1, accessor(s) 3, 4) that do not sum to 1",
+        ],
     ),
     (
         "base/data/mesh_data/normals_tangents_non_unit_invalid_sign.gltf",
-        "non-unit normals and tangents, a tangent w not +-1: shrad reads neither (it computes \
-         face normals)",
+        &[
+            // ACCESSOR_VECTOR3_NON_UNIT
+            "attributes.NORMAL: accessor 1: 1 of 3 normals are not unit length (first: element 2",
+            "attributes.TANGENT: accessor 2: 1 of 3 tangents are not unit length (first: element 2",
+            // ACCESSOR_INVALID_SIGN
+            "attributes.TANGENT: accessor 2: 1 of 3 tangents have a W that is neither 1 nor -1 (first: element 1",
+        ],
     ),
 ];
 
@@ -507,6 +526,14 @@ impl Tally {
                 codes.join(", ")
             ));
         }
+        for (_, fragments) in INVALID_VALUES_WARNED.iter().filter(|(f, _)| *f == rel) {
+            for f in fragments.iter() {
+                if !warnings.iter().any(|w| w.contains(f)) {
+                    self.failures
+                        .push(format!("{rel}: does not warn '{f}': {warnings:?}"));
+                }
+            }
+        }
         let reason = |w: &&String| !INCIDENTAL.iter().any(|i| w.contains(i));
         let unread = INVALID_UNREAD_VALUES.iter().any(|(f, _)| *f == rel);
         match (warnings.iter().any(|w| reason(&w)), unread) {
@@ -653,7 +680,8 @@ fn validator_suite_loads_the_valid_and_refuses_the_invalid() {
         }
     }
     let listed = VALID_WARNED.iter().map(|v| v.0);
-    for f in listed.chain(INVALID_UNREAD_VALUES.iter().map(|v| v.0)) {
+    let listed = listed.chain(INVALID_UNREAD_VALUES.iter().map(|v| v.0));
+    for f in listed.chain(INVALID_VALUES_WARNED.iter().map(|v| v.0)) {
         if !all.iter().any(|p| p.ends_with(f)) {
             t.failures
                 .push(format!("{f}: listed, but not in the suite: take it out"));

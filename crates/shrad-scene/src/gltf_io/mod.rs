@@ -11,6 +11,8 @@
 //! - `buffers`: the buffers loaded (GLB BIN chunk, data URIs, files);
 //! - `unpack`: compressed (meshopt, Draco), quantized and implicit (zero) data decoded into
 //!   plain buffer views of one new buffer, so the gltf crate reads only what it can;
+//! - `validate` again, once the gltf crate has the document: the values of the attributes
+//!   shrad does not use (normals, tangents, joints, weights), warnings only;
 //! - `anim`: the animations, into a node graph;
 //! - `walk`, `mesh`, `material`: the default scene's nodes walked into objects.
 //!
@@ -307,12 +309,14 @@ fn read_bytes(
     }
     let base = path.parent().unwrap_or(Path::new("."));
     let mut buffers = buffers::load_buffers(path, base, &value, blob.map(<[u8]>::to_vec))?;
-    let decoded = unpack::unpack(&mut value, &buffers).map_err(bad)?;
-    if !decoded.is_empty() {
-        buffers.push(decoded);
+    let unpacked = unpack::unpack(&mut value, &buffers).map_err(bad)?;
+    if !unpacked.bytes.is_empty() {
+        buffers.push(unpacked.bytes);
     }
     validate::check_views_have_data(&value, &buffers).map_err(bad)?;
     validate::check_sparse_indices(&value, &buffers).map_err(bad)?;
+    // Planned on the JSON before the skins are taken out of it; read once the crate has it.
+    let value_checks = validate::plan_values(&value, &unpacked.zeros);
     choose_texture_sources(&mut value);
     let ForCrate {
         kept,
@@ -325,6 +329,7 @@ fn read_bytes(
         serde_json::from_value(root).map_err(|e| bad(format!("invalid glTF: {e}")))?;
     let doc = gltf::Document::from_json(root).map_err(|e| bad(e.to_string()))?;
     let buffers: Vec<gltf::buffer::Data> = buffers.into_iter().map(gltf::buffer::Data).collect();
+    validate::check_values(&value_checks, &doc, &buffers, &mut warnings);
     let animations =
         anim::read(&raw_animations, &doc, &buffers, animation, &mut warnings).map_err(bad)?;
     let mut cx = walk::Walk {

@@ -47,16 +47,28 @@ pub(super) struct Unpack<'a> {
     pub(super) buffers: &'a [Vec<u8>],
     /// The new buffer (index `buffers.len()`).
     out: Vec<u8>,
+    /// Accessors given zeros by `fill_zeros` without sparse values on top: their values are
+    /// not in the file (the validator does not look into them, nor do the value checks).
+    zeros: Vec<usize>,
+}
+
+/// What [`unpack`] gives: the bytes of the one new buffer (empty when nothing was decoded),
+/// and the accessors whose values are implicit zeros only.
+pub(super) struct Unpacked {
+    pub(super) bytes: Vec<u8>,
+    pub(super) zeros: Vec<usize>,
 }
 
 /// Rewrite `root` so that every compressed, quantized or implicit (zero) piece of data the
 /// reader needs lies in a plain buffer view; returns the bytes of the one new buffer (empty
-/// when nothing was decoded), whose `buffers` entry has been appended to `root`.
-pub(super) fn unpack(root: &mut Value, buffers: &[Vec<u8>]) -> Result<Vec<u8>, String> {
+/// when nothing was decoded), whose `buffers` entry has been appended to `root`, and the
+/// accessors given zeros only.
+pub(super) fn unpack(root: &mut Value, buffers: &[Vec<u8>]) -> Result<Unpacked, String> {
     let mut u = Unpack {
         root,
         buffers,
         out: Vec::new(),
+        zeros: Vec::new(),
     };
     meshopt::decode_views(&mut u)?;
     u.mark_without_data();
@@ -75,7 +87,10 @@ pub(super) fn unpack(root: &mut Value, buffers: &[Vec<u8>]) -> Result<Vec<u8>, S
             b.push(json!({ "byteLength": out.len(), "name": "decoded by shrad" }));
         }
     }
-    Ok(out)
+    Ok(Unpacked {
+        bytes: out,
+        zeros: u.zeros,
+    })
 }
 
 /// Size in bytes of a component type (checked by `validate`).
@@ -203,6 +218,9 @@ impl Unpack<'_> {
             self.budget(bytes, &at)?;
             let v = self.push_view(&vec![0; bytes as usize])?;
             let a = &mut self.root["accessors"][i];
+            if a.get("sparse").is_none_or(Value::is_null) {
+                self.zeros.push(i);
+            }
             a["bufferView"] = json!(v);
             if let Some(o) = a.as_object_mut() {
                 o.remove("byteOffset");
@@ -357,7 +375,7 @@ mod tests {
             }],
             "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}]
         });
-        let out = unpack(&mut root, &[buf.clone()]).unwrap();
+        let out = unpack(&mut root, &[buf.clone()]).unwrap().bytes;
         let a = &root["accessors"][0];
         assert_eq!(a["componentType"], 5126);
         assert!(a.get("sparse").is_none());
@@ -377,7 +395,7 @@ mod tests {
         let mut root = json!({
             "accessors": [{"componentType": 5126, "type": "MAT4", "count": 1u64 << 40}]
         });
-        let e = unpack(&mut root, &[]).unwrap_err();
+        let e = unpack(&mut root, &[]).err().unwrap();
         assert!(e.starts_with("accessors[0]: would decode to"), "{e}");
     }
 }

@@ -6,13 +6,18 @@
 //! Here: the JSON accessors, the asset and extensions; `data`: buffers, buffer views,
 //! accessors and meshes; `scene`: materials, textures, cameras, nodes, scenes, skins and
 //! animations. Then `lint`, `lint_layout` and `lint_ext`: rules about what shrad reads past
-//! or ignores (morph targets, skins, vertex layout, extensions), which only warn.
+//! or ignores (morph targets, skins, vertex layout, extensions), which only warn; `values`:
+//! rules on the values of attributes shrad does not use (normals, tangents, joints and
+//! weights), which only warn, checked once the buffers are loaded.
 
 mod data;
 mod lint;
 mod lint_ext;
 mod lint_layout;
 mod scene;
+mod values;
+
+pub(super) use values::{check as check_values, plan as plan_values};
 
 use serde_json::Value;
 
