@@ -5,6 +5,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::Aabb;
 
+use super::sample_ends::SampleEnds;
 use super::{
     cone_meets_sphere, emitters, emitting_objects, padded_swept, sample_shift, shadow_sample,
     unoccluded_irradiance, visible_fraction, Emitter,
@@ -102,63 +103,6 @@ fn capsule_meets_sphere(oc: Vec3, or: f32, lc: Vec3, lr: f32, bc: Vec3, br: f32)
     }
     .clamp(0.0, 1.0);
     (bc - (oc + axis * s)).length() - (or + s * (lr - or)) <= slack
-}
-
-/// `[(k * emitters + e) * samples + j]`: the end of shadow ray `j` of receiver `k` towards
-/// emitter `e` (a point on the emitter), quantised to 16 bits an axis in `space` (6 bytes a
-/// ray; 7 MB at the 77k room). Finding the rays a mover's box meets then costs a slab test
-/// per ray against the box padded by the quantisation step (a superset: each ray found is
-/// regenerated and tested exactly before it is re-traced). Left empty above
-/// [`SampleEnds::MAX_RAYS`] rays, where the samples are regenerated instead.
-#[derive(Clone, Debug, Default)]
-struct SampleEnds {
-    space: Option<Aabb>,
-    end: Vec<[u16; 3]>,
-}
-
-impl SampleEnds {
-    /// At most this many rays' ends are kept (48 MB).
-    const MAX_RAYS: usize = 1 << 23;
-
-    fn new(world: &World, rays: usize) -> SampleEnds {
-        let space = world.scene.bounds().filter(|_| rays <= Self::MAX_RAYS);
-        let space = space.map(|b| b.padded(Vec3::splat(1e-3) + 0.01 * b.size()));
-        SampleEnds {
-            end: vec![[0; 3]; if space.is_some() { rays } else { 0 }],
-            space,
-        }
-    }
-
-    /// Quantisation step, per axis.
-    fn step(space: &Aabb) -> Vec3 {
-        space.size().max(Vec3::splat(1e-6)) / 65535.0
-    }
-
-    fn put(&mut self, at: usize, p: Vec3) {
-        if let Some(space) = &self.space {
-            if !space.contains(p) {
-                // An end outside (an emitter beyond the scene's bounds): keep none.
-                *self = SampleEnds::default();
-                return;
-            }
-            let q = ((p - space.min) / Self::step(space)).round();
-            let q = q.clamp(Vec3::ZERO, Vec3::splat(65535.0));
-            self.end[at] = [q.x as u16, q.y as u16, q.z as u16];
-        }
-    }
-
-    fn get(&self, at: usize) -> Option<Vec3> {
-        let space = self.space.as_ref()?;
-        let e = self.end[at];
-        Some(space.min + Vec3::new(e[0] as f32, e[1] as f32, e[2] as f32) * Self::step(space))
-    }
-
-    /// `boxes` padded by the quantisation step: a segment to a stored end misses them only
-    /// if the segment to the exact end misses the boxes unpadded.
-    fn pad(&self, boxes: &[Aabb]) -> Vec<Aabb> {
-        let q = self.space.as_ref().map_or(Vec3::ZERO, Self::step);
-        boxes.iter().map(|b| b.padded(q)).collect()
-    }
 }
 
 impl DirectCache {

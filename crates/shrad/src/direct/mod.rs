@@ -17,6 +17,7 @@ use crate::sampling::{hammersley, hash, hash2, unit};
 use crate::World;
 
 mod cache;
+mod sample_ends;
 pub use cache::DirectCache;
 
 /// One emitting object, in world space at the current time.

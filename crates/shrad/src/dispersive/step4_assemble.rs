@@ -216,41 +216,7 @@ impl Dispersive {
         earlier: Option<Divergence>,
         updated: &[usize],
     ) -> Option<Divergence> {
-        let mut non_finite = 0;
-        // The balance summed every irradiance the state is made of (direct, objects', walls',
-        // probes'; radiosity is made of them): finite sums, a finite state, and no pass over
-        // the six arrays.
-        let sums_finite = [balance.received, balance.reflected, balance.absorbed]
-            .iter()
-            .all(|s| s.is_finite());
-        let arrays = [
-            &mut self.radiosity,
-            &mut self.direct,
-            &mut self.probe_irradiance,
-            &mut self.indirect,
-            &mut self.wall,
-            &mut self.wall_gathered,
-        ];
-        if !sums_finite {
-            non_finite += arrays
-                .into_iter()
-                .map(|v| crate::energy::reset_non_finite(v))
-                .sum::<usize>();
-        }
-        // Only the objects updated this frame sent new light (the others were checked when
-        // they were: a scene of many objects must not cost a pass over all their shares).
-        for ob in self
-            .objects
-            .iter_mut()
-            .filter(|ob| updated.contains(&ob.object))
-        {
-            for (_, e) in &mut ob.to_boundary {
-                if !e.is_finite() {
-                    *e = Vec3::ZERO;
-                    non_finite += 1;
-                }
-            }
-        }
+        let non_finite = self.reset_non_finite(balance, updated);
         let scale = crate::energy::over_bound(balance, self.light_held.get());
         if scale.is_none() && non_finite == 0 {
             return earlier;
@@ -311,5 +277,46 @@ impl Dispersive {
             message,
             non_finite,
         })
+    }
+
+    /// Reset the state's non-finite values to 0 (the guard's first half); returns how many.
+    /// `updated`: the objects (scene indices) updated this frame, whose shares are checked.
+    fn reset_non_finite(&mut self, balance: &EnergyBalance, updated: &[usize]) -> usize {
+        let mut non_finite = 0;
+        // The balance summed every irradiance the state is made of (direct, objects', walls',
+        // probes'; radiosity is made of them): finite sums, a finite state, and no pass over
+        // the six arrays.
+        let sums_finite = [balance.received, balance.reflected, balance.absorbed]
+            .iter()
+            .all(|s| s.is_finite());
+        let arrays = [
+            &mut self.radiosity,
+            &mut self.direct,
+            &mut self.probe_irradiance,
+            &mut self.indirect,
+            &mut self.wall,
+            &mut self.wall_gathered,
+        ];
+        if !sums_finite {
+            non_finite += arrays
+                .into_iter()
+                .map(|v| crate::energy::reset_non_finite(v))
+                .sum::<usize>();
+        }
+        // Only the objects updated this frame sent new light (the others were checked when
+        // they were: a scene of many objects must not cost a pass over all their shares).
+        for ob in self
+            .objects
+            .iter_mut()
+            .filter(|ob| updated.contains(&ob.object))
+        {
+            for (_, e) in &mut ob.to_boundary {
+                if !e.is_finite() {
+                    *e = Vec3::ZERO;
+                    non_finite += 1;
+                }
+            }
+        }
+        non_finite
     }
 }

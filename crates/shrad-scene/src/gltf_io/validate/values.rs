@@ -360,10 +360,13 @@ fn influences(
         weights.push(ws);
     }
     let n = sets.len();
-    let mut oob: Vec<Offenders<(usize, u16)>> = (0..n).map(|_| Offenders::default()).collect();
-    let mut twice: Vec<Offenders<(usize, u16)>> = (0..n).map(|_| Offenders::default()).collect();
-    let mut negative: Vec<Offenders<(usize, f64)>> = (0..n).map(|_| Offenders::default()).collect();
-    let mut sums = Offenders::<f32>::default();
+    let mut found = Influences::new(n);
+    let Influences {
+        oob,
+        twice,
+        negative,
+        sums,
+    } = &mut found;
     let mut used: Vec<u16> = Vec::with_capacity(4 * n);
     let limit = skin.map(|s| s.0);
     'vertices: for k in 0..vertices {
@@ -401,6 +404,44 @@ fn influences(
             sums.add(k, sum);
         }
     }
+    report_influences(&found, at, sets, vertices, skin, warnings);
+}
+
+/// What [`influences`] found wrong, per JOINTS_n / WEIGHTS_n set (the sums per vertex).
+struct Influences {
+    oob: Vec<Offenders<(usize, u16)>>,
+    twice: Vec<Offenders<(usize, u16)>>,
+    negative: Vec<Offenders<(usize, f64)>>,
+    sums: Offenders<f32>,
+}
+
+impl Influences {
+    fn new(sets: usize) -> Self {
+        Influences {
+            oob: (0..sets).map(|_| Offenders::default()).collect(),
+            twice: (0..sets).map(|_| Offenders::default()).collect(),
+            negative: (0..sets).map(|_| Offenders::default()).collect(),
+            sums: Offenders::default(),
+        }
+    }
+}
+
+/// One warning per set and rule [`influences`] found broken.
+fn report_influences(
+    found: &Influences,
+    at: &str,
+    sets: &[(usize, usize)],
+    vertices: usize,
+    skin: Option<(usize, usize)>,
+    warnings: &mut Vec<String>,
+) {
+    let Influences {
+        oob,
+        twice,
+        negative,
+        sums,
+    } = found;
+    let n = sets.len();
     for (s, &(j, w)) in sets.iter().enumerate() {
         let joints_at = format!("{at}.attributes.JOINTS_{s}");
         if let (Some((k, (c, joint))), Some((count, sk))) = (oob[s].first, skin) {
