@@ -7,7 +7,9 @@
 //! ([`DirectCache`]) and only the shadow rays a mover may have changed are re-traced: a
 //! blocked ray whose segment meets a mover's old box, a free one whose segment meets its new
 //! box (receivers whose cone to a light misses every box are skipped at once). The result is
-//! what a full recomputation with the same samples gives. The light surfaces' part is
+//! what a full recomputation with the same samples gives, except on a moving object's own
+//! patches under `coarse_while_moving` (fewer samples, a quarter of its patches traced a
+//! frame: [`MOVING_STRIDE`]), which are traced whole again when it rests. The light surfaces' part is
 //! recomputed when one of them moved or changed; a punctual light that moved re-traces only
 //! its own term, one whose colour or intensity changed is rescaled (`lights/cache.rs`).
 
