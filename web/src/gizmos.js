@@ -46,27 +46,35 @@ export function makeGizmos() {
   requestDraw();
 }
 
-/** Put light `l`'s gizmo at `s` (`position`, `direction`, `color`). */
+/** Put light `l`'s gizmo at `s` (`position`, `direction`, `color`); whether that changed it. */
 function place(l, s) {
-  if (!l.gizmo) return;
+  if (!l.gizmo) return false;
+  const key = JSON.stringify([s.position, s.direction, s.color]);
+  if (key === l.gizmo.userData.placed) return false;
+  l.gizmo.userData.placed = key;
   l.gizmo.position.fromArray(s.position);
   const cone = l.gizmo.userData.cone;
   if (cone) cone.quaternion.setFromUnitVectors(new THREE.Vector3(0, -1, 0), new THREE.Vector3().fromArray(s.direction).normalize());
   for (const part of l.gizmo.children) part.material.color.copy(hue(s.color));
+  return true;
 }
 
 /** A `frame` message's lights: where the engine has them now (a move the page shows ahead
- * stays until the frame that has it). */
+ * stays until the frame that has it). Every `frame` message has `lights` (an empty list when
+ * the scene has no punctual light), so this asks for a draw only when a gizmo changed: a draw
+ * per message kept the software rasteriser busy with frames that showed nothing new, and the
+ * colour frames waited behind them. */
 export function syncGizmos(m) {
   if (!m.lights) return;
+  let moved = false;
   m.lights.forEach((s, i) => {
     const l = state.lights[i];
     if (!l) return;
     l.now = { ...l.meta, ...s };
     if (l.local && l.local.untilFrame !== undefined && m.frame >= l.local.untilFrame) l.local = null;
-    place(l, l.local ? { ...l.now, position: l.local.position } : l.now);
+    if (place(l, l.local ? { ...l.now, position: l.local.position } : l.now)) moved = true;
   });
-  requestDraw();
+  if (moved) requestDraw();
 }
 
 /** The light whose gizmo `raycaster` meets first, or -1. */
