@@ -19,8 +19,8 @@ pub(super) struct SampleEnds {
 }
 
 impl SampleEnds {
-    /// At most this many rays' ends are kept (48 MB).
-    pub(super) const MAX_RAYS: usize = 1 << 23;
+    /// At most this many rays' ends are kept (192 MB; the 1M room's 16M rays take 96 MB).
+    pub(super) const MAX_RAYS: usize = 1 << 25;
 
     pub(super) fn new(world: &World, rays: usize) -> SampleEnds {
         let space = world.scene.bounds().filter(|_| rays <= Self::MAX_RAYS);
