@@ -3,7 +3,7 @@
 //! forth along x before every frame (as `shrad bench` does), and then left still. Prints the
 //! medians of the frame and of each step, the rays cast, and the still frames after.
 //!
-//! `cargo run --release --example moving_frame [patches] [objects] [frames] [budget_ms|-] [key=value ...] [error] [smallest]`
+//! `cargo run --release --example moving_frame [patches] [objects] [frames] [budget_ms|-] [key=value ...] [error] [smallest] [built]`
 use glam::{Affine3A, Vec3};
 use shrad::engine::Engine;
 use shrad::frame::FrameStats;
@@ -71,6 +71,9 @@ fn main() {
     // and `smallest`: move the smallest interior object instead of the largest (the bench's
     // objects scenes).
     let smallest = rest.iter().any(|a| a == "smallest");
+    // and `built`: before moving, still frames until a large scene's lazily built wall rows
+    // are all ready (the moving frame once loading is over, not while it goes on).
+    let built = rest.iter().any(|a| a == "built");
     let scene = room(&RoomParams {
         objects,
         patches,
@@ -102,6 +105,21 @@ fn main() {
     .expect("an interior object");
     println!("mover: object {mover}, {} patches", p.range(mover).len());
     engine.converge(2);
+    if built {
+        let t = std::time::Instant::now();
+        let mut frames = 0;
+        while engine
+            .step()
+            .dispersive()
+            .is_some_and(|d| d.wall_rows_pending > 0)
+        {
+            frames += 1;
+        }
+        println!(
+            "wall rows built in {frames} more still frames, {:.1} s",
+            t.elapsed().as_secs_f64()
+        );
+    }
     let rest = engine.transform(mover);
     let reach = 0.05 * engine.world().scene.bounds().unwrap().size().x;
     // Phase marks for `scripts/trace-table`, among the SHRAD_TRACE lines.

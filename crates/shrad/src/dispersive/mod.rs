@@ -204,9 +204,10 @@ impl Dispersive {
             .filter(|&i| receives_as_boundary(world, i as usize))
             .collect();
         // Rays that pass where an object moves are re-traced then (`refresh_wall_rows`).
+        let wall_rays = wall_rows::wall_rays_for(boundary_patches.len(), options.wall_rays);
         let wall_rows = options
             .wall_exchange
-            .then(|| WallRows::new(world, &boundary_patches, options.wall_rays, false, progress));
+            .then(|| WallRows::new(world, &boundary_patches, wall_rays, false, progress));
         let object_boxes: Vec<shrad_scene::Aabb> = (0..world.scene.objects.len())
             .map(|o| world_box(world, o))
             .collect();

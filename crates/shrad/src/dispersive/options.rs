@@ -87,7 +87,8 @@ pub struct DispersiveOptions {
     /// Carry boundary-to-boundary light (precomputed sparse form factors among the static
     /// boundary patches, one Jacobi sweep per frame).
     pub wall_exchange: bool,
-    /// Form-factor rays per boundary patch for the wall exchange.
+    /// Form-factor rays per boundary patch for the wall exchange (halved on boundaries too
+    /// large for them all: `wall_rows::wall_rays_for`).
     pub wall_rays: u32,
     /// Capture probes with the object's own geometry transparent (else its texels are 0).
     pub see_through_self: bool,

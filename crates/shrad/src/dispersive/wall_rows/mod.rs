@@ -74,6 +74,24 @@ pub const WALL_EAGER_RAYS: usize = 1 << 23;
 /// See [`WALL_EAGER_RAYS`].
 pub const WALL_BUILD_PER_FRAME: usize = 1 << 18;
 
+/// At most this many wall-exchange rays in all (about 900 MB of rows and ray records at 64
+/// rays a patch; the 1M-patch room's 850k boundary patches x 64 took 1.94 GB of peak memory
+/// with its rows built, against the 1.5 GiB asked). A boundary larger than this allows gets
+/// fewer rays a patch ([`wall_rays_for`]).
+pub const WALL_MAX_RAYS: usize = 1 << 25;
+
+/// Rays a patch for a boundary of `patches` patches, with `asked` rays a patch asked: halved
+/// (never below 16) until all of them fit in [`WALL_MAX_RAYS`]. Such a boundary's patches are
+/// small, so its rays per unit of area stay above those of a smaller scene at `asked`: the
+/// 1M room at 32 casts 6x the 77k room's at 64 per square metre of wall.
+pub fn wall_rays_for(patches: usize, asked: u32) -> u32 {
+    let mut rays = asked.max(1);
+    while rays > 16 && patches * rays as usize > WALL_MAX_RAYS {
+        rays /= 2;
+    }
+    rays
+}
+
 impl Dispersive {
     /// Check an eighth of the wall rows against the objects that moved since each was last
     /// checked ([`WALL_CHECK_SHARE`]), marking the rays a move may have changed (those that
@@ -122,7 +140,7 @@ impl Dispersive {
         let mut left = if rows.pending_rows() > 0 {
             rows.build_per_frame / moving
         } else {
-            (n * self.options.wall_rays.max(1) as usize)
+            (n * rows.rays)
                 .div_ceil(WALL_RETRACE_SHARE)
                 .min(WALL_RETRACE_MAX / moving)
         }
@@ -356,4 +374,22 @@ fn patch_sphere(world: &World, i: usize) -> (Vec3, f32) {
         .map(|&v| (v - c).length())
         .fold(0.0, f32::max);
     (c, r * (1.0 + 1e-5) + 2.0 * world.eps)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{wall_rays_for, WALL_MAX_RAYS};
+
+    #[test]
+    fn rays_a_patch_halve_only_on_boundaries_too_large_for_them() {
+        // The 77k and 129k rooms keep what is asked; the 1M room's 850k patches get 32.
+        assert_eq!(wall_rays_for(70_000, 64), 64);
+        assert_eq!(wall_rays_for(WALL_MAX_RAYS / 64, 64), 64);
+        assert_eq!(wall_rays_for(WALL_MAX_RAYS / 64 + 1, 64), 32);
+        assert_eq!(wall_rays_for(850_000, 64), 32);
+        // Never below 16, and never above what is asked.
+        assert_eq!(wall_rays_for(100_000_000, 64), 16);
+        assert_eq!(wall_rays_for(10, 8), 8);
+        assert_eq!(wall_rays_for(10, 0), 1);
+    }
 }
