@@ -299,6 +299,11 @@ impl WallRows {
         self.pending
     }
 
+    /// Rays a row (as built: [`wall_rays_for`]).
+    pub(super) fn rays(&self) -> usize {
+        self.rays
+    }
+
     /// Row `k` (aligned with the boundary patches): `(patch seen, F)`.
     pub(super) fn row(&self, k: usize) -> &[(u32, f32)] {
         self.rows.row(k)
