@@ -5,6 +5,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::Aabb;
 
+use super::blocks::{block_sphere, capsule_meets_sphere, BLOCK};
+use super::recent_moves::RecentMoves;
 use super::sample_ends::SampleEnds;
 use super::{
     cone_meets_sphere, emitters, emitting_objects, padded_swept, sample_shift, shadow_sample,
@@ -44,8 +46,16 @@ pub struct DirectCache {
     /// `[k * emitters + e]`: the visible fraction of a coarse receiver's last trace, which
     /// the frames between its traces hold ([`DirectCache::update`]'s `whole_stride`).
     held: Vec<f32>,
-    /// Which of every `whole_stride` moving receivers the next update traces.
+    /// Which of every `whole_stride` moving receivers the next update traces (and which of
+    /// every `whole_stride` receivers has its shadow rays found).
     phase: usize,
+    /// The moves of the last updates, while receivers' shadow rays are found in turn.
+    recent_moves: RecentMoves,
+    /// Shadow rays the last update found, or would have found had every receiver taken its
+    /// turn (an estimate: those found times the turns).
+    shadow_rays_found: usize,
+    /// [`SHADOW_RAYS_AT_ONCE`] (lower in tests).
+    shadow_rays_at_once: usize,
     /// Where each shadow ray ends, quantised ([`SampleEnds`]), so that finding the rays a
     /// mover may have changed is a segment test per ray, not a regenerated sample.
     ends: SampleEnds,
@@ -54,56 +64,15 @@ pub struct DirectCache {
     blocks: Vec<(Vec3, f32)>,
 }
 
+/// Above this many shadow rays a mover may have changed in one update (the last update's,
+/// see [`DirectCache::update`]), receivers take turns while it moves: about 3 ms of finding
+/// and re-tracing on 2 cores. The 77k and 129k rooms' largest movers change 14k and 23k a
+/// frame and stay exact; the 1M room's 43k-patch mover changes 160k (38 ms), a quarter
+/// of them found per frame.
+pub const SHADOW_RAYS_AT_ONCE: usize = 1 << 15;
+
 /// A shadow ray to re-trace: (receiver, emitter, sample, from, to).
 type Retrace = (u32, u32, u32, Vec3, Vec3);
-
-/// Receivers per block of [`DirectCache`]'s rejection test (consecutive receivers are
-/// patches of one object, near one another). At the 77k room with its largest object moving,
-/// 7.7k receivers are left for the per-receiver cone test with blocks of 16, 25k with 64.
-const BLOCK: usize = 16;
-
-/// Bounding sphere of the centres of `receivers` (padded by the shadow rays' offset).
-fn block_sphere(world: &World, receivers: &[u32]) -> (Vec3, f32) {
-    let p = &world.patches;
-    let pts = receivers.iter().map(|&i| p.centre[i as usize]);
-    let (lo, hi) = pts
-        .clone()
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), c| {
-            (a.min(c), b.max(c))
-        });
-    let c = 0.5 * (lo + hi);
-    let r = pts.map(|q| (q - c).length()).fold(0.0, f32::max);
-    (c, r + 2.0 * world.eps)
-}
-
-/// Whether a shadow ray from anywhere in the sphere `(oc, or)` to anywhere in the sphere
-/// `(lc, lr)` may meet the sphere `(bc, br)`. The ray's point at `s` in [0, 1] is
-/// `(1 - s) y0 + s y1` with `y0` within `or` of `oc` and `y1` within `lr` of `lc`: within
-/// `(1 - s) or + s lr` of the axis point `a(s) = oc + s (lc - oc)`. So it may meet the sphere
-/// when `|bc - a(s)| - (1 - s) or - s lr <= br` for some `s`; the left side is convex in
-/// `s`, and its minimum is found as in [`cone_meets_sphere`] (a tapered capsule: near a
-/// block of receivers it is as thin as the block, not as wide as the light).
-fn capsule_meets_sphere(oc: Vec3, or: f32, lc: Vec3, lr: f32, bc: Vec3, br: f32) -> bool {
-    let axis = lc - oc;
-    let len = axis.length();
-    let slack = br + 1e-6 * (1.0 + len);
-    if len <= 1e-20 {
-        return (bc - oc).length() <= slack + or.max(lr);
-    }
-    // d(s) = |bc - a(s)|, the radius r(s) = or + s (lr - or); minimise d(s) - r(s).
-    let s0 = (bc - oc).dot(axis) / (len * len);
-    let perp = (bc - (oc + axis * s0)).length();
-    let grow = (lr - or) / len;
-    let s = if grow.abs() < 1.0 {
-        s0 + grow * perp / ((1.0 - grow * grow).sqrt() * len)
-    } else if grow > 0.0 {
-        1.0
-    } else {
-        0.0
-    }
-    .clamp(0.0, 1.0);
-    (bc - (oc + axis * s)).length() - (or + s * (lr - or)) <= slack
-}
 
 impl DirectCache {
     /// Compute the direct irradiance of `receivers` with `samples` shadow rays per
@@ -123,6 +92,9 @@ impl DirectCache {
             coarse: vec![false; receivers.len()],
             held: vec![1.0; receivers.len() * ne],
             phase: 0,
+            recent_moves: Default::default(),
+            shadow_rays_found: 0,
+            shadow_rays_at_once: SHADOW_RAYS_AT_ONCE,
             ends: SampleEnds::new(world, receivers.len() * ne * samples as usize),
             blocks: receivers
                 .chunks(BLOCK)
@@ -151,6 +123,20 @@ impl DirectCache {
     /// at its last update); the next [`DirectCache::update`] traces it whole.
     pub fn has_coarse(&self) -> bool {
         self.coarse.iter().any(|&c| c)
+    }
+
+    /// Whether the next [`DirectCache::update`] has work even if nothing moves: a coarse
+    /// receiver to trace whole, or receivers whose shadow rays were not found since an
+    /// object moved (found in turn while it moved).
+    pub fn catching_up(&self) -> bool {
+        self.has_coarse() || !self.recent_moves.is_empty()
+    }
+
+    /// Receivers take turns above `rays` shadow rays an update instead of
+    /// [`SHADOW_RAYS_AT_ONCE`] (for tests on small scenes).
+    #[cfg(test)]
+    pub(crate) fn take_turns_above(&mut self, rays: usize) {
+        self.shadow_rays_at_once = rays;
     }
 
     /// Shadow rays per (receiver, emitter).
@@ -190,6 +176,11 @@ impl DirectCache {
     /// one each update); the others keep the visible fraction of their last trace under
     /// their exact unoccluded irradiance where they are now (a moving object's shadows lag
     /// by at most `whole_stride - 1` updates; whole again, with every sample, once it rests).
+    /// Likewise the other receivers, when the last update found more than
+    /// [`SHADOW_RAYS_AT_ONCE`] shadow rays to re-trace: one in `whole_stride` has its shadow
+    /// rays found and re-traced each update (in turn), against every move since its last
+    /// turn, so the shadow a mover casts lags by at most `whole_stride - 1` updates too, and
+    /// every receiver is exact again at the first update without a mover.
     /// Returns the indices of the receivers whose irradiance was recomputed, ascending;
     /// [`DirectCache::irradiance`] holds the new values.
     pub fn update(
@@ -208,7 +199,21 @@ impl DirectCache {
         let ne = ems.len();
         let (samples, words) = (self.samples, self.words);
         let eps = world.eps;
-        let (old, new) = (padded_swept(old, eps), padded_swept(new, eps));
+        let stride = match whole_samples < samples && !movers.is_empty() {
+            true => whole_stride.max(1),
+            false => 1,
+        };
+        let phase = self.phase;
+        self.phase = self.phase.wrapping_add(1);
+        // The shadow rays of one receiver in `turns` are found (in turn) when the last update
+        // found more than `SHADOW_RAYS_AT_ONCE`, against every move since that receiver's
+        // last turn (`all_movers`, `left`, `now`).
+        let turns = match self.shadow_rays_found > self.shadow_rays_at_once {
+            true => stride,
+            false => 1,
+        };
+        let (all_movers, left, now) = self.recent_moves.since_last_turn(movers, (old, new), turns);
+        let (old, new) = (padded_swept(&left, eps), padded_swept(&now, eps));
         let spheres: Vec<(Vec3, f32)> = old.iter().chain(&new).map(Aabb::bounding_sphere).collect();
         // The movers' own patches are traced whole (they moved), and so are coarse receivers
         // that rest now, with every sample.
@@ -219,12 +224,13 @@ impl DirectCache {
             .filter(|&(k, &c)| c && whole_ks.binary_search(&k).is_err())
             .map(|(k, _)| k)
             .collect();
-        let is_whole = |k: usize| is_whole[k];
+        let find = |k: usize| !is_whole[k] && k % turns == phase % turns;
         let t = std::time::Instant::now();
-        let rays = self.rays_to_retrace(world, &ems, (&old, &new), &spheres, is_whole);
+        let rays = self.rays_to_retrace(world, &ems, (&old, &new), &spheres, find);
         crate::trace_part("    find_rays_to_retrace", t);
+        self.shadow_rays_found = rays.len() * turns;
         let t = std::time::Instant::now();
-        let blocked = self.trace_movers_first(world, movers, &rays, ne);
+        let blocked = self.trace_movers_first(world, &all_movers, &rays, ne);
         crate::trace_part("    retrace", t);
         let mut touched: Vec<usize> = Vec::new();
         for (&(k, e, j, ..), &b) in rays.iter().zip(&blocked) {
@@ -246,14 +252,9 @@ impl DirectCache {
             self.irradiance[k] = v;
         }
         // The receivers that moved, and the coarse ones that rest now: everything again.
-        let stride = match whole_samples < samples {
-            true => whole_stride.max(1),
-            false => 1,
-        };
-        let phase = self.phase % stride;
-        self.phase = self.phase.wrapping_add(1);
-        let (traced, held): (Vec<usize>, Vec<usize>) =
-            whole_ks.iter().partition(|&&k| k % stride == phase);
+        let (traced, held): (Vec<usize>, Vec<usize>) = whole_ks
+            .iter()
+            .partition(|&&k| k % stride == phase % stride);
         let t = std::time::Instant::now();
         self.recompute(world, &ems, &traced, whole_samples);
         self.hold(world, &ems, &held);
@@ -284,15 +285,15 @@ impl DirectCache {
     }
 
     /// The shadow rays (receiver, emitter, sample, from, to) that a mover may have changed:
-    /// of the receivers not traced whole, those blocked whose segment meets an `old` box,
-    /// those free whose segment meets a `new` one (`spheres`: the boxes' bounding spheres).
+    /// of the receivers to `find`, those blocked whose segment meets an `old` box, those
+    /// free whose segment meets a `new` one (`spheres`: the boxes' bounding spheres).
     fn rays_to_retrace(
         &self,
         world: &World,
         ems: &[Emitter],
         (old, new): (&[Aabb], &[Aabb]),
         spheres: &[(Vec3, f32)],
-        is_whole: impl Fn(usize) -> bool + Sync,
+        find: impl Fn(usize) -> bool + Sync,
     ) -> Vec<Retrace> {
         let ne = ems.len();
         let (samples, words) = (self.samples, self.words);
@@ -315,7 +316,7 @@ impl DirectCache {
             .into_par_iter()
             .filter(|&b| block_may_meet(b))
             .flat_map_iter(|b| b * BLOCK..((b + 1) * BLOCK).min(n))
-            .filter(|&k| !is_whole(k))
+            .filter(|&k| find(k))
             .flat_map_iter(|k| {
                 let i = self.receivers[k] as usize;
                 let (x, n) = (p.centre[i], p.normal[i]);
@@ -574,63 +575,5 @@ impl DirectCache {
             out += em.radiance * (u * fraction);
         }
         out
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The tapered capsule is conservative: any segment from a point of the first sphere to
-    /// a point of the second that passes within the third is accepted; and it is tighter
-    /// than the plain capsule: a sphere beside the thin end is rejected.
-    #[test]
-    fn capsule_test_accepts_every_segment_that_meets_the_sphere() {
-        let mut seed = 12345u64;
-        let mut rnd = move || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 40) as f32) / (1u64 << 24) as f32
-        };
-        let mut v = |s: f32| Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * s;
-        let mut accepted = 0;
-        for _ in 0..20_000 {
-            let (oc, or) = (v(4.0), 0.5 * v(1.0).x.abs());
-            let (lc, lr) = (v(4.0) + Vec3::Y * 3.0, 2.0 * v(1.0).x.abs());
-            let (t, r) = (v(1.0) + Vec3::splat(0.5), v(3.0));
-            let (bc, br) = (oc.lerp(lc, t.x) + r, 0.2 + 0.5 * t.y);
-            let unit = |mut d: Vec3| {
-                while d.length() > 0.5 {
-                    d *= 0.5;
-                }
-                d * 2.0
-            };
-            let y0 = oc + unit(v(1.0)) * or;
-            let y1 = lc + unit(v(1.0)) * lr;
-            // Closest point of the segment y0 y1 to bc.
-            let d = y1 - y0;
-            let t = ((bc - y0).dot(d) / d.length_squared().max(1e-30)).clamp(0.0, 1.0);
-            if (bc - (y0 + d * t)).length() <= br {
-                accepted += 1;
-                assert!(
-                    capsule_meets_sphere(oc, or, lc, lr, bc, br),
-                    "{oc} {or} {lc} {lr} {bc} {br} {y0} {y1}"
-                );
-            }
-        }
-        assert!(accepted > 1000, "only {accepted} segments met the sphere");
-        // Beside the thin end (radius 0.1 at the origin), 1.5 away, with a wide light far
-        // above: the plain capsule (radius 5 everywhere) would accept it.
-        let (oc, lc) = (Vec3::ZERO, Vec3::Y * 20.0);
-        assert!(!capsule_meets_sphere(oc, 0.1, lc, 5.0, Vec3::X * 1.5, 0.2));
-        assert!(capsule_meets_sphere(
-            oc,
-            0.1,
-            lc,
-            5.0,
-            Vec3::new(1.5, 10.0, 0.0),
-            0.2
-        ));
     }
 }

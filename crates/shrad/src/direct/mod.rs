@@ -16,7 +16,9 @@ use shrad_scene::Aabb;
 use crate::sampling::{hammersley, hash, hash2, unit};
 use crate::World;
 
+mod blocks;
 mod cache;
+mod recent_moves;
 mod sample_ends;
 pub use cache::DirectCache;
 

@@ -7,9 +7,10 @@
 //! ([`DirectCache`]) and only the shadow rays a mover may have changed are re-traced: a
 //! blocked ray whose segment meets a mover's old box, a free one whose segment meets its new
 //! box (receivers whose cone to a light misses every box are skipped at once). The result is
-//! what a full recomputation with the same samples gives, except on a moving object's own
-//! patches under `coarse_while_moving` (fewer samples, a quarter of its patches traced a
-//! frame: [`MOVING_STRIDE`]), which are traced whole again when it rests. The light surfaces' part is
+//! what a full recomputation with the same samples gives, except while an object moves under
+//! `coarse_while_moving`: its own patches with fewer samples, a quarter of them traced a
+//! frame, and a quarter of the other receivers' shadow rays found a frame ([`MOVING_STRIDE`]);
+//! all exact again at the first frame after it rests. The light surfaces' part is
 //! recomputed when one of them moved or changed; a punctual light that moved re-traces only
 //! its own term, one whose colour or intensity changed is rescaled (`lights/cache.rs`).
 
@@ -25,8 +26,12 @@ use crate::World;
 
 /// While an object moves with `coarse_while_moving`, Step 1 traces one in this many of its
 /// own patches each frame (in turn); the others keep their last visible fraction under their
-/// exact unoccluded light where they are now. Its shadows lag at most 3 frames behind it;
-/// every patch is traced whole, with every sample, when it rests.
+/// exact unoccluded light where they are now (its light lags at most 3 frames behind it).
+/// When a mover changes more shadow rays than `SHADOW_RAYS_AT_ONCE` (`direct/cache.rs`; the 1M
+/// room's largest object, not the 77k or 129k room's), one in this many of the other
+/// receivers has them found in turn too, against every move since its last turn: finding
+/// and re-tracing them took 38 ms a frame there (under load), 12 ms in turns, and its shadow
+/// lags as its light does. Every patch is exact again, with every sample, when it rests.
 const MOVING_STRIDE: usize = 4;
 
 impl Dispersive {
@@ -122,7 +127,7 @@ impl Dispersive {
         if self.direct_valid
             && self.direct_sync.moved.is_empty()
             && !changes.light_changed()
-            && !self.direct_cache.has_coarse()
+            && !self.direct_cache.catching_up()
         {
             return;
         }
@@ -153,7 +158,7 @@ impl Dispersive {
                 .collect();
             self.direct_cache = DirectCache::new(world, receivers, samples);
             changed.extend(self.direct_cache.receivers());
-        } else if !moved.is_empty() || self.direct_cache.has_coarse() {
+        } else if !moved.is_empty() || self.direct_cache.catching_up() {
             let movers: Vec<u32> = moved.iter().map(|&o| o as u32).collect();
             // A moving receiver with a quarter of the samples (`coarse_while_moving`).
             let moving_samples = if self.options.coarse_while_moving {

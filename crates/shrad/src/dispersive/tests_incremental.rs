@@ -190,3 +190,51 @@ fn coarse_moving_receivers_are_exact_again_once_they_rest() {
     assert!(!changed.is_empty() && !cache.has_coarse());
     assert_eq!(cache.irradiance(), full.irradiance());
 }
+
+/// While a block moves and receivers take turns, one in 4 has its shadow rays found per
+/// update, against every move since its last turn: at its turn a receiver's light is what a
+/// full recomputation gives there and then, and every receiver is exact again at the first
+/// update after the block rests. Fails if a turn forgets an earlier move's boxes (a receiver would keep a shadow the
+/// block has left) or if the rest does not catch up.
+#[test]
+fn shadow_receivers_found_in_turn_are_exact_at_their_turn_and_at_rest() {
+    let mut world = cornell(2000);
+    let block = object_named(&world, "tall_block");
+    let boundary: Vec<u32> = (0..world.patches.len() as u32)
+        .filter(|&i| world.patches.role(i as usize) == Role::Boundary)
+        .collect();
+    let mut cache = crate::direct::DirectCache::new(&world, boundary.clone(), 16);
+    // Turns whatever the count (the Cornell box at 2k patches changes far fewer rays than
+    // `SHADOW_RAYS_AT_ONCE`).
+    cache.take_turns_above(0);
+    let start = world.patches.world_from_local[block]
+        * Affine3A::from_mat3(world.patches.local_from_object[block]);
+    let mut lagging = 0;
+    for step in 1..=6 {
+        let old = setup::world_box(&world, block);
+        let at = Affine3A::from_translation(Vec3::new(0.5 * step as f32, 0.0, 0.0)) * start;
+        world.move_object(block, at).unwrap();
+        let new = setup::world_box(&world, block);
+        // Fewer samples for moving receivers: the in-turn finding is on (stride 4).
+        cache.update(&world, &[block as u32], (&[old], &[new]), 4, 4);
+        let full = crate::direct::DirectCache::new(&world, boundary.clone(), 16);
+        let phase = (step - 1) % 4;
+        for k in 0..boundary.len() {
+            let (got, want) = (cache.irradiance()[k], full.irradiance()[k]);
+            if k % 4 == phase {
+                assert_eq!(got, want, "receiver {k} at its turn, update {step}");
+            } else if got != want {
+                lagging += 1;
+            }
+        }
+    }
+    assert!(
+        lagging > 0,
+        "no receiver lagged: the test exercised nothing"
+    );
+    assert!(cache.catching_up());
+    let changed = cache.update(&world, &[], (&[], &[]), 16, 1);
+    assert!(!changed.is_empty() && !cache.catching_up());
+    let full = crate::direct::DirectCache::new(&world, boundary, 16);
+    assert_eq!(cache.irradiance(), full.irradiance());
+}
