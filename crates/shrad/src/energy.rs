@@ -112,6 +112,14 @@ pub fn reflected_bound(emitted: f64, max_rho: f32) -> f64 {
     emitted * max_rho / (1.0 - max_rho)
 }
 
+/// Patches a chunk of [`balance`]'s partial sums holds: a solver that knows which chunks a
+/// frame changed sums only those again ([`chunk_sums`], [`balance_of`]).
+pub const CHUNK: usize = 1024;
+
+/// The partial sums of one chunk of patches: [emitted, received, reflected, absorbed,
+/// punctual] (W) and the largest reflectance.
+pub type Sums = ([f64; 5], f32);
+
 /// The balance of a state with irradiance `irradiance(i)` on every patch `i`, of which
 /// `punctual` (per patch, or empty) came straight from the punctual lights: that part is
 /// input, counted in `emitted` and in the bound. `reflects(i)`: does patch `i` reflect in
@@ -125,35 +133,49 @@ pub fn balance(
     punctual: &[Vec3],
     reflects: impl Fn(usize) -> bool + Sync,
 ) -> EnergyBalance {
-    let p = &world.patches;
-    // Per patch: [emitted, received, reflected, absorbed, punctual] and the largest
-    // reflectance.
-    let add = |(a, ra): ([f64; 5], f32), (b, rb): ([f64; 5], f32)| {
-        (std::array::from_fn(|k| a[k] + b[k]), ra.max(rb))
-    };
-    let ([emitted, received, reflected, absorbed, punctual_flux], max_rho) = (0..p.len())
+    let chunks: Vec<Sums> = (0..world.patches.len().div_ceil(CHUNK))
         .into_par_iter()
-        .with_min_len(1024)
-        .map(|i| {
-            let a = p.area[i] as f64;
-            let irr = irradiance(i);
-            let rho = world.reflectance[i];
-            let (reflected, absorbed) = if reflects(i) {
-                (avg(rho * irr) * a, avg((Vec3::ONE - rho) * irr) * a)
-            } else {
-                (0.0, avg(irr) * a)
-            };
-            let punctual = punctual.get(i).map_or(0.0, |e| avg(*e) * a);
-            let sums = [
-                avg(world.exitance[i]) * a,
-                avg(irr) * a,
-                reflected,
-                absorbed,
-                punctual,
-            ];
-            (sums, rho.max_element())
-        })
-        .reduce(|| ([0.0; 5], 0.0f32), add);
+        .map(|c| chunk_sums(world, &irradiance, punctual, &reflects, c))
+        .collect();
+    balance_of(&chunks)
+}
+
+/// [`balance`]'s sums over chunk `c` (patches `c * CHUNK ..`).
+pub fn chunk_sums(
+    world: &World,
+    irradiance: &impl Fn(usize) -> Vec3,
+    punctual: &[Vec3],
+    reflects: &impl Fn(usize) -> bool,
+    c: usize,
+) -> Sums {
+    let p = &world.patches;
+    let mut sums = [0.0; 5];
+    let mut max_rho = 0.0f32;
+    for i in c * CHUNK..((c + 1) * CHUNK).min(p.len()) {
+        let a = p.area[i] as f64;
+        let irr = irradiance(i);
+        let rho = world.reflectance[i];
+        let (reflected, absorbed) = if reflects(i) {
+            (avg(rho * irr) * a, avg((Vec3::ONE - rho) * irr) * a)
+        } else {
+            (0.0, avg(irr) * a)
+        };
+        sums[0] += avg(world.exitance[i]) * a;
+        sums[1] += avg(irr) * a;
+        sums[2] += reflected;
+        sums[3] += absorbed;
+        sums[4] += punctual.get(i).map_or(0.0, |e| avg(*e) * a);
+        max_rho = max_rho.max(rho.max_element());
+    }
+    (sums, max_rho)
+}
+
+/// The balance from every chunk's [`Sums`], in order.
+pub fn balance_of(chunks: &[Sums]) -> EnergyBalance {
+    let ([emitted, received, reflected, absorbed, punctual_flux], max_rho) =
+        chunks.iter().fold(([0.0; 5], 0.0f32), |(a, ra), (b, rb)| {
+            (std::array::from_fn(|k| a[k] + b[k]), ra.max(*rb))
+        });
     let emitted = punctual_flux + emitted;
     EnergyBalance {
         reflected_bound: reflected_bound(emitted, max_rho),

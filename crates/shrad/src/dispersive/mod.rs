@@ -51,6 +51,7 @@ mod step4_assemble;
 mod tests;
 #[cfg(test)]
 mod tests_incremental;
+mod touched;
 mod wall_rows;
 
 pub use frame::Batch;
@@ -97,6 +98,14 @@ pub struct Dispersive {
     swept_log: stale::SweptLog,
     /// Irradiance of boundary patches from other boundary patches.
     wall: Vec<Vec3>,
+    /// Which chunks of patches the frame changed the light of (`touched.rs`).
+    touched: touched::Touched,
+    /// The energy meter's sums per chunk, and Step 4's `sum A B` over the boundary per chunk,
+    /// as last computed (each frame computes those of the chunks touched).
+    energy_chunks: Vec<crate::energy::Sums>,
+    boundary_chunks: Vec<f64>,
+    /// How many chunks the last meter summed again.
+    chunks_metered: usize,
     /// The same, each row's own gather before `wall_smoothing` averages it over the
     /// patch's neighbours (empty when that is off).
     wall_gathered: Vec<Vec3>,
@@ -234,6 +243,10 @@ impl Dispersive {
             reached: vec![false; n],
             swept_log: Default::default(),
             wall: vec![Vec3::ZERO; n],
+            touched: touched::Touched::new(n),
+            energy_chunks: vec![([0.0; 5], 0.0); n.div_ceil(crate::energy::CHUNK)],
+            boundary_chunks: vec![0.0; n.div_ceil(crate::energy::CHUNK)],
+            chunks_metered: 0,
             wall_gathered: if options.wall_smoothing {
                 vec![Vec3::ZERO; n]
             } else {
@@ -363,6 +376,11 @@ impl Dispersive {
             _ => None,
         };
         let at = |share: f64| budget_ms.map(|b| frame_start + secs(b * share));
+        // What a frame changed is marked as it is written (`touched.rs`); a frame without a
+        // mover, or with a light changed, meters and assembles everything.
+        if changes.moved.is_empty() || changes.light_changed() {
+            self.touched.everything();
+        }
         let swept = self.swept_boxes(world, changes);
         self.log_swept(world, changes, &swept);
         let may_carry = self.may_carry_direct(world, changes);

@@ -188,6 +188,7 @@ impl Dispersive {
         for i in changed {
             let i = i as usize;
             self.direct[i] = parts.area[i] + parts.by_patch.get(i).copied().unwrap_or(Vec3::ZERO);
+            self.touched.patch(i);
         }
         self.direct_valid = true;
         // In sync: every object is where Step 1 now has it.

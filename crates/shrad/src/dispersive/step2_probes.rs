@@ -147,6 +147,7 @@ impl Dispersive {
     fn store_object_light(&mut self, world: &World, k: usize, e: Vec<Vec3>) -> f64 {
         let p = &world.patches;
         let range = p.range(self.objects[k].object);
+        self.touched.range(range.clone());
         let openness = &self.objects[k].openness;
         let (mut changed, mut total) = (0f64, 0f64);
         for ((i, e), &v) in range.zip(e).zip(openness) {

@@ -262,10 +262,12 @@ impl Dispersive {
         let area = &world.patches.area;
         for &(j, e) in &self.objects[k].to_boundary {
             self.indirect[j as usize] -= e;
+            self.touched.patch(j as usize);
         }
         let mut flux = 0.0;
         for &(j, e) in &contribution {
             self.indirect[j as usize] += e;
+            self.touched.patch(j as usize);
             flux += (e * area[j as usize]).element_sum() as f64 / 3.0;
         }
         self.objects[k].to_boundary = contribution;

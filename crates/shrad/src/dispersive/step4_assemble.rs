@@ -13,6 +13,7 @@ use shrad_scene::Role;
 
 use super::setup::receives_as_boundary;
 use super::{Changes, Dispersive, Divergence, EnergyBalance, FrameStats};
+use crate::energy::CHUNK;
 use crate::World;
 
 /// Wall-exchange rows gathered per frame (Step 4's Jacobi window): at most this many, so a
@@ -56,6 +57,7 @@ impl Dispersive {
             non_finite: 0,
         });
         if let Some(d) = self.guard(world, &stats.energy, earlier, &stats.objects_updated) {
+            self.touched.everything();
             stats.energy = EnergyBalance {
                 object_emitters: stats.energy.object_emitters,
                 ..self.energy(world)
@@ -63,6 +65,7 @@ impl Dispersive {
             stats.diverged = Some(d);
         }
         self.light_held.note(&stats.energy);
+        self.touched.clear();
     }
 
     /// Step 4 (paper 2.3.5): boundary radiosity from direct, object and wall light.
@@ -116,27 +119,7 @@ impl Dispersive {
                     .collect();
                 self.store_wall(&ks, wall, p);
             }
-            // In parallel, then stored: a pass over the boundary on every frame.
-            let this = &*self;
-            let radiosity: Vec<Vec3> = (this.boundary_patches.par_iter())
-                .with_min_len(4096)
-                .map(|&j| {
-                    let j = j as usize;
-                    world.exitance[j]
-                        + world.reflectance[j] * (this.direct[j] + this.indirect[j] + this.wall[j])
-                })
-                .collect();
-            (changed, total) = (this.boundary_patches.par_iter().zip(&radiosity))
-                .with_min_len(4096)
-                .map(|(&j, b)| {
-                    let a = p.area[j as usize] as f64;
-                    let change = (*b - this.radiosity[j as usize]).abs().element_sum() as f64;
-                    (a * change, a * b.element_sum() as f64)
-                })
-                .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
-            for (&j, b) in self.boundary_patches.iter().zip(radiosity) {
-                self.radiosity[j as usize] = b;
-            }
+            (changed, total) = self.boundary_radiosity(world);
             if self.wall_rows.is_none() {
                 break;
             }
@@ -159,10 +142,52 @@ impl Dispersive {
         }
     }
 
+    /// Each boundary patch's radiosity from its irradiance, `B = M + ρ (E_direct + Σ E_o +
+    /// E_walls)`, in the chunks of patches touched this frame (`touched.rs`: every chunk
+    /// when nothing moves), in parallel, then stored. Returns the change `sum A |dB|` and the
+    /// total `sum A B` over the boundary (the untouched chunks' totals as they were).
+    fn boundary_radiosity(&mut self, world: &World) -> (f64, f64) {
+        let p = &world.patches;
+        let this = &*self;
+        let boundary = &this.boundary_patches;
+        let chunks: Vec<_> = (this.touched.chunks().into_par_iter())
+            .map(|c| {
+                let lo = boundary.partition_point(|&j| (j as usize) < c * CHUNK);
+                let hi = boundary.partition_point(|&j| (j as usize) < (c + 1) * CHUNK);
+                let (mut change, mut total) = (0.0, 0.0);
+                let b: Vec<Vec3> = (boundary[lo..hi].iter())
+                    .map(|&j| {
+                        let j = j as usize;
+                        let b = world.exitance[j]
+                            + world.reflectance[j]
+                                * (this.direct[j] + this.indirect[j] + this.wall[j]);
+                        let a = p.area[j] as f64;
+                        change += a * (b - this.radiosity[j]).abs().element_sum() as f64;
+                        total += a * b.element_sum() as f64;
+                        b
+                    })
+                    .collect();
+                (c, lo, b, change, total)
+            })
+            .collect();
+        let mut changed = 0.0;
+        for (c, lo, b, change, total) in chunks {
+            for (k, b) in (lo..).zip(b) {
+                self.radiosity[self.boundary_patches[k] as usize] = b;
+            }
+            changed += change;
+            self.boundary_chunks[c] = total;
+        }
+        (changed, self.boundary_chunks.iter().sum())
+    }
+
     /// Store the wall gathers of rows `ks`: as they are, or with `wall_smoothing` each
     /// averaged over its patch's neighbourhood (area weighted) from the latest gathers of
     /// the neighbours (rows outside this frame's window keep their last gather).
     fn store_wall(&mut self, ks: &[usize], wall: Vec<Vec3>, p: &crate::Patches) {
+        for &k in ks {
+            self.touched.patch(self.boundary_patches[k] as usize);
+        }
         if !self.options.wall_smoothing {
             for (&k, w) in ks.iter().zip(wall) {
                 self.wall[self.boundary_patches[k] as usize] = w;
@@ -190,11 +215,15 @@ impl Dispersive {
         }
     }
 
-    /// Flux balance of the current state, the lights' absorption included.
-    pub(super) fn energy(&self, world: &World) -> EnergyBalance {
+    /// Flux balance of the current state, the lights' absorption included: the sums of the
+    /// chunks of patches touched this frame again (`touched.rs`), the others' as they were.
+    pub(super) fn energy(&mut self, world: &World) -> EnergyBalance {
         let p = &world.patches;
-        // The lights that reflect nothing are metered by rays (`IncidentMeter`).
+        // The lights that reflect nothing are metered by rays (`IncidentMeter`), every frame.
         let metered = self.light_meter.measure(&self.radiosity);
+        for &(i, _) in &metered {
+            self.touched.patch(i as usize);
+        }
         let irradiance = |i: usize| match p.role(i) {
             // Step 1 leaves `direct` 0 where it does not light (`direct_on_interior`).
             Role::Interior => self.probe_irradiance[i] + self.direct[i],
@@ -205,9 +234,21 @@ impl Dispersive {
                 }),
             _ => self.direct[i] + self.indirect[i] + self.wall[i],
         };
-        crate::energy::balance(world, irradiance, self.punctual_irradiance(), |i| {
-            p.role(i) != Role::Light || receives_as_boundary(world, i)
-        })
+        let reflects = |i: usize| p.role(i) != Role::Light || receives_as_boundary(world, i);
+        let punctual = self.punctual_irradiance();
+        let chunks = self.touched.chunks();
+        let metered_now = chunks.len();
+        let sums: Vec<(usize, crate::energy::Sums)> = (chunks.into_par_iter())
+            .map(|c| {
+                let s = crate::energy::chunk_sums(world, &irradiance, punctual, &reflects, c);
+                (c, s)
+            })
+            .collect();
+        for (c, s) in sums {
+            self.energy_chunks[c] = s;
+        }
+        self.chunks_metered = metered_now;
+        crate::energy::balance_of(&self.energy_chunks)
     }
 
     /// Reset non-finite values and damp a state that breaks the energy bound (spec 2): the
