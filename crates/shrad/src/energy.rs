@@ -340,7 +340,7 @@ impl IncidentMeter {
     /// The measured irradiance of the metered patches: (patch, irradiance), ascending by
     /// patch.
     pub fn measure(&self, radiosity: &[Vec3]) -> Vec<(u32, Vec3)> {
-        let mut out: Vec<(u32, Vec3)> = (self.patches.iter().enumerate())
+        let mut out: Vec<(u32, Vec3)> = (self.patches.par_iter().enumerate())
             .map(|(k, &i)| {
                 let seen = &self.seen[k * self.rays..(k + 1) * self.rays];
                 let sum: Vec3 = seen

@@ -43,6 +43,8 @@ pub struct DirectCache {
     /// [`DirectCache::update`]) and its blocked bits are not kept: it is traced whole, with
     /// every sample, at the first update where it does not move.
     coarse: Vec<bool>,
+    /// The coarse receivers, ascending (so that an update need not look at every receiver).
+    coarse_ks: Vec<usize>,
     /// `[k * emitters + e]`: the visible fraction of a coarse receiver's last trace, which
     /// the frames between its traces hold ([`DirectCache::update`]'s `whole_stride`).
     held: Vec<f32>,
@@ -90,6 +92,7 @@ impl DirectCache {
             blocked: vec![0; receivers.len() * ne * words],
             irradiance: vec![Vec3::ZERO; receivers.len()],
             coarse: vec![false; receivers.len()],
+            coarse_ks: Vec::new(),
             held: vec![1.0; receivers.len() * ne],
             phase: 0,
             recent_moves: Default::default(),
@@ -122,7 +125,7 @@ impl DirectCache {
     /// Whether some receiver's irradiance is from fewer samples than the cache's (it moved
     /// at its last update); the next [`DirectCache::update`] traces it whole.
     pub fn has_coarse(&self) -> bool {
-        self.coarse.iter().any(|&c| c)
+        !self.coarse_ks.is_empty()
     }
 
     /// Whether the next [`DirectCache::update`] has work even if nothing moves: a coarse
@@ -218,13 +221,12 @@ impl DirectCache {
         // The movers' own patches are traced whole (they moved), and so are coarse receivers
         // that rest now, with every sample.
         let whole_ks = self.receivers_of(world, movers);
-        let mut is_whole = self.coarse.clone();
-        whole_ks.iter().for_each(|&k| is_whole[k] = true);
-        let settled_ks: Vec<usize> = (self.coarse.iter().enumerate())
-            .filter(|&(k, &c)| c && whole_ks.binary_search(&k).is_err())
-            .map(|(k, _)| k)
+        let settled_ks: Vec<usize> = (self.coarse_ks.iter())
+            .filter(|&k| whole_ks.binary_search(k).is_err())
+            .copied()
             .collect();
-        let find = |k: usize| !is_whole[k] && k % turns == phase % turns;
+        let is_whole = |k: usize| self.coarse[k] || whole_ks.binary_search(&k).is_ok();
+        let find = |k: usize| k % turns == phase % turns && !is_whole(k);
         let t = std::time::Instant::now();
         let rays = self.rays_to_retrace(world, &ems, (&old, &new), &spheres, find);
         crate::trace_part("    find_rays_to_retrace", t);
@@ -261,6 +263,11 @@ impl DirectCache {
         self.recompute(world, &ems, &settled_ks, samples);
         crate::trace_part("    movers_own_patches", t);
         self.refresh_blocks(world, &whole_ks);
+        self.coarse_ks = whole_ks
+            .iter()
+            .copied()
+            .filter(|&k| self.coarse[k])
+            .collect();
         touched.extend(whole_ks.iter().chain(&settled_ks));
         touched.sort_unstable();
         touched.dedup();

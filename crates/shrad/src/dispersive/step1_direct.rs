@@ -143,6 +143,8 @@ impl Dispersive {
         let parts = &mut self.punctual;
         parts.area.resize(p.len(), Vec3::ZERO);
         let mut changed: Vec<u32> = Vec::new();
+        // The cache's receivers whose light it recomputed (None: all of them).
+        let mut recomputed: Option<Vec<usize>> = None;
         if everything
             || surface_changed
             || self.direct_cache.samples() != samples
@@ -174,13 +176,19 @@ impl Dispersive {
                 MOVING_STRIDE,
             );
             changed.extend(ks.iter().map(|&k| self.direct_cache.receivers()[k]));
+            recomputed = Some(ks);
         }
         let (receivers, e) = (
             self.direct_cache.receivers(),
             self.direct_cache.irradiance(),
         );
-        for (&i, &e) in receivers.iter().zip(e) {
-            parts.area[i as usize] = e;
+        match recomputed {
+            // Only what the update changed: a pass over the 1M-patch room's receivers cost
+            // more than the update of a small mover.
+            Some(ks) => ks
+                .into_iter()
+                .for_each(|k| parts.area[receivers[k] as usize] = e[k]),
+            None => (receivers.iter().zip(e)).for_each(|(&i, &e)| parts.area[i as usize] = e),
         }
         changed.extend(parts.update(world, everything, samples, &old, &new, whole));
         changed.par_sort_unstable();
