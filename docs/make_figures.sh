@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates the figures and raw numbers behind docs/results.md (about 15 minutes on
-# 2 cores). Usage: docs/make_figures.sh [reference|static|concave|moving|blender|timing|blotch|all]
+# 2 cores). Usage: docs/make_figures.sh [reference|static|concave|moving|blender|timing|blotch|stability|all]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 what=${1:-all}
@@ -144,6 +144,15 @@ gather|gather instead of splat|--set to_boundary=gather
 paperres|probes and emitters R 128 (gathers: 2 x 6 x 128^2 > boundary)|--set cube_res=128 --set emitter_res=128
 VARIANTS
   $PY docs/plot.py timing "$F"
+fi
+
+if [ "$what" = stability ] || [ "$what" = all ]; then
+  # Is the light stable in time (issue 22 item 3)? Settling after a stop, a still scene,
+  # slow motion against the reference (room, 20k patches; about a minute).
+  mkdir -p "$F/stability"
+  cargo run --release --locked -p shrad --example stability -- 20000 "$F/stability" \
+    | tee "$F/stability/summary.txt"
+  $PY docs/plot.py stability "$F/stability"
 fi
 
 if [ "$what" = blotch ] || [ "$what" = all ]; then

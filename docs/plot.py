@@ -65,5 +65,39 @@ def timing(folder):
             )
 
 
+def stability(folder):
+    """The three runs of `examples/stability.rs`: settling after a stop, a still scene, and
+    slow motion's far-wall change against the reference's."""
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.4))
+    r = rows(f"{folder}/settling.csv")
+    frames = [int(x["frame_after_stop"]) for x in r]
+    for key, label in [("overall_pct", "overall"), ("boundary_pct", "boundary"), ("interior_pct", "interior")]:
+        axes[0].plot(frames, [float(x[key]) for x in r], label=label)
+    axes[0].set_xlabel("frames after the object stops")
+    axes[0].set_ylabel("error vs reference of the stopped state (%)")
+    axes[0].set_title("Settling after a stop")
+    axes[0].legend(fontsize=8)
+    r = rows(f"{folder}/still.csv")
+    for sleep, label in [("true", "sleep on (default)"), ("false", "sleep off")]:
+        s = [x for x in r if x["sleep"] == sleep]
+        axes[1].plot([int(x["frame"]) for x in s], [float(x["largest_patch_change_pct"]) for x in s], label=label)
+    axes[1].set_xlabel("frame, converged scene left still")
+    axes[1].set_ylabel("largest patch change since the frame before (%)")
+    axes[1].set_title("A still scene")
+    axes[1].legend(fontsize=8)
+    r = rows(f"{folder}/slow.csv")
+    f = [int(x["frame"]) for x in r]
+    axes[2].plot(f, [float(x["dispersive_far_change_pct"]) for x in r], label="dispersive default")
+    axes[2].plot(f, [float(x["reference_far_change_pct"]) for x in r], label="reference, same states")
+    axes[2].set_xlabel("frame, object moving 0.25 % of the room a frame")
+    axes[2].set_ylabel("far walls' change since the frame before (%)")
+    axes[2].set_title("Slow motion: flicker far away")
+    axes[2].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(f"{folder}/stability.png", dpi=100)
+
+
 if __name__ == "__main__":
-    {"moving": moving, "blender": blender, "timing": timing}[sys.argv[1]](sys.argv[2])
+    {"moving": moving, "blender": blender, "timing": timing, "stability": stability}[sys.argv[1]](
+        sys.argv[2]
+    )
