@@ -88,6 +88,9 @@ pub struct Baked {
     pub vertices: usize,
     /// Triangles over all meshes.
     pub triangles: usize,
+    /// What the user should know about this file (a lightmap: an object's own UVs that
+    /// could not be used).
+    pub warnings: Vec<String>,
 }
 
 /// The file of frame `frame` of a sequence: `out.glb` -> `out_0007.glb`.

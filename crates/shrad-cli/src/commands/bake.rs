@@ -205,6 +205,13 @@ pub fn run(args: BakeArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     } else {
         bake_with_progress(&mut engine, &args.output, &options, &*progress)?
     };
+    // A sequence repeats the same layout's warnings: each once.
+    let mut warned = std::collections::HashSet::new();
+    for w in baked.iter().flat_map(|b| &b.warnings) {
+        if warned.insert(w) {
+            eprintln!("warning: {w}");
+        }
+    }
     if args.probes.is_some() {
         write_probes(&engine, &args.output, quiet)?;
     }

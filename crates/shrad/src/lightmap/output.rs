@@ -65,10 +65,14 @@ fn chart_meshes(world: &World, layout: &Layout) -> Vec<ChartMesh> {
             let corners = super::chart::patch_corners(world, i);
             let ids: Vec<u32> = (0..corners.len())
                 .map(|k| {
-                    *index.entry((c, p.corner_vertex[i][k])).or_insert_with(|| {
+                    // Welded by shading vertex and atlas point: an object's own UVs may
+                    // have seams inside one chart.
+                    let xy = layout.corners[i][k];
+                    let key = (c, p.corner_vertex[i][k], (xy * 256.0).round().as_ivec2());
+                    *index.entry(key).or_insert_with(|| {
                         m.positions.push(corners[k]);
                         m.normals.push(p.normal[i]);
-                        m.uv1.push(layout.uv(c, corners[k]));
+                        m.uv1.push(layout.uv(xy));
                         m.positions.len() as u32 - 1
                     })
                 })
@@ -312,5 +316,6 @@ pub fn stage(
         staged.stage_bytes(path, &json)?;
     }
     baked.path = path.to_path_buf();
+    baked.warnings = layout.warnings;
     Ok(baked)
 }
