@@ -13,6 +13,8 @@ mod engine;
 mod files_from_other_tools;
 mod gltf_animation;
 mod lightmap;
+mod lightmap_curved;
+mod lightmap_uv1;
 mod punctual_lights;
 mod reference;
 mod scenes;
