@@ -63,8 +63,8 @@ pub struct LightmapOptions {
     pub resolution: Option<u32>,
     /// Texels of padding around each chart (at least 1).
     pub padding: u32,
-    /// Largest angle (degrees) between a grown chart's seed and its patches
-    /// ([`grow::MAX_ANGLE_DEG`]); 0: planar charts only, a curved mesh a chart per input
+    /// Largest angle (degrees) between a grown chart's axis (its mean normal) and its
+    /// patches ([`grow::MAX_ANGLE_DEG`]); 0: planar charts only, a curved mesh a chart per input
     /// triangle.
     pub max_chart_angle: f32,
 }
