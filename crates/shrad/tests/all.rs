@@ -14,6 +14,7 @@ mod files_from_other_tools;
 mod gltf_animation;
 mod lightmap;
 mod lightmap_curved;
+mod lightmap_rgbm;
 mod lightmap_uv1;
 mod punctual_lights;
 mod reference;

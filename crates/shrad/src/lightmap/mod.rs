@@ -13,12 +13,13 @@
 //!   punctual irradiance with a shadow ray, [`crate::lights::point_irradiance`]); the
 //!   padding is filled by dilation so bilinear filtering never reads black;
 //! - **Output** ([`output`]): the glTF with `TEXCOORD_1`, the lightmap as PNGs inside it and
-//!   as a linear OpenEXR beside it.
+//!   beside it as a linear OpenEXR or, for 8-bit pipelines, an RGBM PNG ([`rgbm`]).
 
 pub mod chart;
 pub mod grow;
 pub mod output;
 pub mod pack;
+pub mod rgbm;
 pub mod texel;
 pub mod uv_chart;
 pub mod view;
@@ -67,6 +68,34 @@ pub struct LightmapOptions {
     /// patches ([`grow::MAX_ANGLE_DEG`]); 0: planar charts only, a curved mesh a chart per input
     /// triangle.
     pub max_chart_angle: f32,
+    /// The lightmap file beside the glTF.
+    pub format: LightmapFormat,
+}
+
+/// The lightmap file beside the glTF: both hold `E / pi` (W/m^2/sr) unclamped.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightmapFormat {
+    /// `OUT.lightmap.exr`: linear OpenEXR, 32-bit float RGB.
+    #[default]
+    Exr,
+    /// `OUT.lightmap.png`: RGBM in an 8-bit RGBA PNG, the multiplier in the glTF ([`rgbm`]).
+    Rgbm,
+}
+
+impl LightmapFormat {
+    /// The names `--lightmap-format` takes.
+    pub const NAMES: [&'static str; 2] = ["exr", "rgbm"];
+
+    /// The format called `name` (as [`Self::NAMES`]); an error lists the names.
+    pub fn from_name(name: &str) -> Result<LightmapFormat, Error> {
+        match name {
+            "exr" => Ok(LightmapFormat::Exr),
+            "rgbm" => Ok(LightmapFormat::Rgbm),
+            _ => Err(Error::Invalid(format!(
+                "unknown lightmap format '{name}': use exr or rgbm"
+            ))),
+        }
+    }
 }
 
 impl Default for LightmapOptions {
@@ -76,6 +105,7 @@ impl Default for LightmapOptions {
             resolution: None,
             padding: 2,
             max_chart_angle: grow::MAX_ANGLE_DEG,
+            format: LightmapFormat::Exr,
         }
     }
 }
