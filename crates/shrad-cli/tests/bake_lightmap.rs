@@ -61,6 +61,39 @@ fn bake_lightmap_passes_the_validator_and_loads_in_three() {
     );
 }
 
+/// `--lightmap-format rgbm` writes the RGBM PNG instead of the EXR and says its multiplier
+/// (its decoding against the EXR: shrad's tests/lightmap_rgbm.rs).
+#[test]
+fn bake_lightmap_rgbm_writes_the_png_and_states_its_multiplier() {
+    let dir = temp_dir("lightmap-rgbm");
+    let out = dir.join("c.glb");
+    let o = shrad(&[
+        "bake",
+        "cornell",
+        "--patches",
+        "200",
+        "--lightmap",
+        "--lightmap-res",
+        "64",
+        "--lightmap-format",
+        "rgbm",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut names: Vec<String> = files_in(&dir)
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["c.glb", "c.lightmap.png"]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("lightmap c.lightmap.png (RGBM PNG: E / pi = rgb * a * "),
+        "{stdout}"
+    );
+}
+
 #[test]
 fn bad_lightmap_options_fail_cleanly_and_write_nothing() {
     let dir = temp_dir("lightmap-bad");
@@ -78,6 +111,11 @@ fn bad_lightmap_options_fail_cleanly_and_write_nothing() {
             "cannot be used with",
         ),
         (vec!["--texel-size", "1"], "--lightmap"),
+        (vec!["--lightmap-format", "rgbm"], "--lightmap"),
+        (
+            vec!["--lightmap", "--lightmap-format", "rgbe"],
+            "possible values: exr, rgbm",
+        ),
     ] {
         let mut all = vec!["bake", "-q", "--patches", "200", "cornell", "-o", out];
         all.extend_from_slice(&args);

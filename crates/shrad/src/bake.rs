@@ -88,6 +88,11 @@ pub struct Baked {
     pub vertices: usize,
     /// Triangles over all meshes.
     pub triangles: usize,
+    /// What the user should know about this file (a lightmap: an object's own UVs that
+    /// could not be used).
+    pub warnings: Vec<String>,
+    /// A lightmap's file beside it, described (`c.lightmap.exr (linear OpenEXR)`).
+    pub lightmap_file: Option<String>,
 }
 
 /// The file of frame `frame` of a sequence: `out.glb` -> `out_0007.glb`.

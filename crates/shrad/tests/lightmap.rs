@@ -229,6 +229,7 @@ fn bad_options_are_errors() {
             texel_size,
             resolution,
             padding: 2,
+            ..LightmapOptions::default()
         };
         let err = layout(e.world(), &o).unwrap_err().to_string();
         assert!(err.contains(want), "{err}");

@@ -10,7 +10,7 @@ use anyhow::{bail, Result};
 use clap::Args;
 use shrad::bake::{bake_with_progress, BakeOptions};
 use shrad::engine::Engine;
-use shrad::lightmap::LightmapOptions;
+use shrad::lightmap::{LightmapFormat, LightmapOptions};
 use shrad_scene::Scene;
 
 use crate::commands::render::solve;
@@ -50,10 +50,12 @@ pub struct BakeArgs {
     /// dispersive solver's 8 probes at each interior object's corners.
     #[arg(long, value_name = "WHERE", value_parser = ["corners"], conflicts_with = "frames")]
     probes: Option<String>,
-    /// Write the light into a lightmap: a texture atlas over TEXCOORD_1 (charts: the patches'
-    /// planar faces), evaluated per texel as pictures are, as PNGs in the glTF (the lit
-    /// surface under an unlit material; the lightmap for three.js's lightMap on uv1) and as a
-    /// linear OpenEXR beside it (OUT.lightmap.exr, E / pi). See docs/bake.md.
+    /// Write the light into a lightmap: a texture atlas over TEXCOORD_1 (charts: the file's
+    /// own TEXCOORD_1 when usable, else the patches' planar faces, grown into near-flat
+    /// charts on curved meshes), evaluated per texel as pictures are, as PNGs in the glTF
+    /// (the lit surface under an unlit material; the lightmap for three.js's lightMap on
+    /// uv1) and beside it as a linear OpenEXR (OUT.lightmap.exr, E / pi) or an RGBM PNG
+    /// (--lightmap-format). See docs/results.md section 12.
     #[arg(long)]
     lightmap: bool,
     /// With --lightmap: the texel edge in metres (scene units).
@@ -69,6 +71,13 @@ pub struct BakeArgs {
     /// smallest at which the charts fit.
     #[arg(long, value_name = "N", requires = "lightmap")]
     lightmap_res: Option<u32>,
+    /// With --lightmap: the lightmap file beside the glTF [default: exr]. `exr`:
+    /// OUT.lightmap.exr, linear float. `rgbm`: OUT.lightmap.png for 8-bit pipelines, RGBM in
+    /// an RGBA PNG: E / pi = rgb * a * multiplier (bytes / 255, linear, not premultiplied),
+    /// the multiplier (a power of two, nothing clips) printed and in the glTF's
+    /// asset.extras.shrad.lightmap.rgbm.
+    #[arg(long, value_name = "FORMAT", requires = "lightmap", value_parser = LightmapFormat::NAMES)]
+    lightmap_format: Option<String>,
 }
 
 /// What can be checked before patching and solving: the options, the output's name and
@@ -193,6 +202,7 @@ pub fn run(args: BakeArgs, scene: Scene, file: &FileSettings) -> Result<()> {
         let lightmap = LightmapOptions {
             texel_size: args.texel_size,
             resolution: args.lightmap_res,
+            format: LightmapFormat::from_name(args.lightmap_format.as_deref().unwrap_or("exr"))?,
             ..LightmapOptions::default()
         };
         shrad::lightmap::bake_with_progress(
@@ -205,6 +215,13 @@ pub fn run(args: BakeArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     } else {
         bake_with_progress(&mut engine, &args.output, &options, &*progress)?
     };
+    // A sequence repeats the same layout's warnings: each once.
+    let mut warned = std::collections::HashSet::new();
+    for w in baked.iter().flat_map(|b| &b.warnings) {
+        if warned.insert(w) {
+            eprintln!("warning: {w}");
+        }
+    }
     if args.probes.is_some() {
         write_probes(&engine, &args.output, quiet)?;
     }
@@ -219,6 +236,9 @@ pub fn run(args: BakeArgs, scene: Scene, file: &FileSettings) -> Result<()> {
                 b.triangles,
                 b.exposure
             );
+            if let Some(f) = &b.lightmap_file {
+                println!("  and its lightmap {f}");
+            }
         }
         eprintln!("solved and baked in {:.2} s", t.elapsed().as_secs_f64());
     }

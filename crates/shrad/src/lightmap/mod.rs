@@ -1,7 +1,9 @@
 //! Lightmaps: the light of every object in one texture atlas over a second UV set
 //! (`shrad bake --lightmap`), at texel detail rather than at the patches' vertices.
 //!
-//! - **Charts** ([`chart`]): the patches' own planar faces, each projected onto its plane;
+//! - **Charts** ([`chart`]): the object's own lightmap UVs (`TEXCOORD_1`) when usable
+//!   ([`uv_chart`]), else the patches' own planar faces, each projected onto its plane,
+//!   grown over curved meshes into near-flat charts ([`grow`]);
 //! - **Packing** ([`pack`]): the charts' rectangles, each with `padding` texels around it,
 //!   in shelves; the texel size is given (`texel_size`, metres) or found so that the atlas
 //!   fits `resolution` x `resolution`;
@@ -11,15 +13,18 @@
 //!   punctual irradiance with a shadow ray, [`crate::lights::point_irradiance`]); the
 //!   padding is filled by dilation so bilinear filtering never reads black;
 //! - **Output** ([`output`]): the glTF with `TEXCOORD_1`, the lightmap as PNGs inside it and
-//!   as a linear OpenEXR beside it.
+//!   beside it as a linear OpenEXR or, for 8-bit pipelines, an RGBM PNG ([`rgbm`]).
 
 pub mod chart;
+pub mod grow;
 pub mod output;
 pub mod pack;
+pub mod rgbm;
 pub mod texel;
+pub mod uv_chart;
 pub mod view;
 
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 
 use crate::{Error, World};
 use chart::Chart;
@@ -59,6 +64,38 @@ pub struct LightmapOptions {
     pub resolution: Option<u32>,
     /// Texels of padding around each chart (at least 1).
     pub padding: u32,
+    /// Largest angle (degrees) between a grown chart's axis (its mean normal) and its
+    /// patches ([`grow::MAX_ANGLE_DEG`]); 0: planar charts only, a curved mesh a chart per input
+    /// triangle.
+    pub max_chart_angle: f32,
+    /// The lightmap file beside the glTF.
+    pub format: LightmapFormat,
+}
+
+/// The lightmap file beside the glTF: both hold `E / pi` (W/m^2/sr) unclamped.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightmapFormat {
+    /// `OUT.lightmap.exr`: linear OpenEXR, 32-bit float RGB.
+    #[default]
+    Exr,
+    /// `OUT.lightmap.png`: RGBM in an 8-bit RGBA PNG, the multiplier in the glTF ([`rgbm`]).
+    Rgbm,
+}
+
+impl LightmapFormat {
+    /// The names `--lightmap-format` takes.
+    pub const NAMES: [&'static str; 2] = ["exr", "rgbm"];
+
+    /// The format called `name` (as [`Self::NAMES`]); an error lists the names.
+    pub fn from_name(name: &str) -> Result<LightmapFormat, Error> {
+        match name {
+            "exr" => Ok(LightmapFormat::Exr),
+            "rgbm" => Ok(LightmapFormat::Rgbm),
+            _ => Err(Error::Invalid(format!(
+                "unknown lightmap format '{name}': use exr or rgbm"
+            ))),
+        }
+    }
 }
 
 impl Default for LightmapOptions {
@@ -67,6 +104,8 @@ impl Default for LightmapOptions {
             texel_size: None,
             resolution: None,
             padding: 2,
+            max_chart_angle: grow::MAX_ANGLE_DEG,
+            format: LightmapFormat::Exr,
         }
     }
 }
@@ -88,29 +127,26 @@ pub struct Layout {
     pub height: u32,
     /// Each patch's chart.
     pub chart_of_patch: Vec<u32>,
+    /// Each patch's corners in atlas coordinates (texels from the top-left corner; corner
+    /// order, a triangle repeats its last).
+    pub corners: Vec<[Vec2; 4]>,
+    /// What the user should know (an object's own UVs that could not be used).
+    pub warnings: Vec<String>,
 }
 
 impl Layout {
-    /// The continuous atlas coordinates (texels from the top-left corner) of world point
-    /// `y` of chart `c`.
-    pub fn atlas_xy(&self, c: usize, y: Vec3) -> Vec2 {
-        let chart = &self.charts[c];
-        let q = (chart.project(y) - chart.min) / self.texel;
-        let (x0, y0) = self.at[c];
-        Vec2::new(x0 as f32, y0 as f32) + Vec2::splat(self.padding as f32) + q
+    /// The continuous atlas coordinates (texels from the top-left corner) of patch `i` at
+    /// its parameters `(s, t)` (as [`crate::render::SurfaceLight::params`] gives them): the
+    /// corners' coordinates are an affine image of the patch, so this is exact.
+    pub fn atlas_at(&self, i: usize, s: f32, t: f32) -> Vec2 {
+        // A triangle's fourth corner repeats its third: the same formula serves both.
+        let c = &self.corners[i];
+        c[0] + (c[1] - c[0]) * s + (c[3] - c[0]) * t
     }
 
-    /// The world point of chart `c` at atlas coordinates `xy`.
-    pub fn world_at(&self, c: usize, xy: Vec2) -> Vec3 {
-        let chart = &self.charts[c];
-        let (x0, y0) = self.at[c];
-        let q = xy - Vec2::new(x0 as f32, y0 as f32) - Vec2::splat(self.padding as f32);
-        chart.unproject(chart.min + q * self.texel)
-    }
-
-    /// The texture coordinates (0..1, glTF's: from the top-left) of `y` on chart `c`.
-    pub fn uv(&self, c: usize, y: Vec3) -> Vec2 {
-        self.atlas_xy(c, y) / Vec2::new(self.width as f32, self.height as f32)
+    /// The texture coordinates (0..1, glTF's: from the top-left) of atlas point `xy`.
+    pub fn uv(&self, xy: Vec2) -> Vec2 {
+        xy / Vec2::new(self.width as f32, self.height as f32)
     }
 }
 
@@ -130,7 +166,12 @@ fn pack_at(charts: &[Chart], texel: f32, padding: u32, width: u32) -> Option<(Pl
 /// The layout of `world`'s patches as `options` asks (its errors name the option).
 pub fn layout(world: &World, options: &LightmapOptions) -> Result<Layout, Error> {
     let padding = options.padding.max(1);
-    let charts = chart::charts(world);
+    let (mut charts, charted, warnings) = uv_chart::uv_charts(world);
+    let todo: Vec<bool> = charted.iter().map(|c| !c).collect();
+    let planar = chart::planar_charts(world, &todo);
+    charts.extend(grow::grow(world, planar, options.max_chart_angle));
+    // Object by object (stable: an object's own UV chart first): each object is one mesh.
+    charts.sort_by_key(|c| c.object);
     if charts.is_empty() {
         return Err(Error::Invalid(
             "the scene has no patches to lightmap".into(),
@@ -170,9 +211,12 @@ pub fn layout(world: &World, options: &LightmapOptions) -> Result<Layout, Error>
         }
     };
     let mut chart_of_patch = vec![0u32; world.patches.len()];
+    let mut corners = vec![[Vec2::ZERO; 4]; world.patches.len()];
     for (c, chart) in charts.iter().enumerate() {
-        for &i in &chart.patches {
+        let corner = Vec2::new(at[c].0 as f32, at[c].1 as f32) + Vec2::splat(padding as f32);
+        for (&i, q) in chart.patches.iter().zip(&chart.coords) {
             chart_of_patch[i] = c as u32;
+            corners[i] = q.map(|q| corner + (q - chart.min) / texel);
         }
     }
     Ok(Layout {
@@ -183,6 +227,8 @@ pub fn layout(world: &World, options: &LightmapOptions) -> Result<Layout, Error>
         width,
         height,
         chart_of_patch,
+        corners,
+        warnings,
     })
 }
 

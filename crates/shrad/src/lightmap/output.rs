@@ -1,4 +1,4 @@
-//! A lightmapped bake's files: the glTF and the linear OpenEXR beside it.
+//! A lightmapped bake's files: the glTF and the lightmap beside it (linear OpenEXR or RGBM).
 //!
 //! - `OUT.glb` (or `.gltf` and `.bin`): each object one mesh, its vertices the patch corners
 //!   split along chart seams (world positions, `NORMAL`, `TEXCOORD_1` into the atlas); two
@@ -14,6 +14,9 @@
 //!     the same light (examples/threejs-lightmap).
 //! - `OUT.lightmap.exr`: linear RGB float, `E / pi` (W/m^2/sr, unclamped): the radiance of
 //!   a white surface at each texel; times the albedo it is what shrad's picture shows.
+//!   Or, with [`LightmapFormat::Rgbm`], `OUT.lightmap.png`: the same values as RGBM in an
+//!   8-bit RGBA PNG, `E / pi = rgb * a * multiplier` ([`super::rgbm`]), the multiplier in
+//!   `asset.extras.shrad.lightmap.rgbm`.
 
 use std::path::{Path, PathBuf};
 
@@ -23,7 +26,7 @@ use shrad_scene::gltf_builder::{bounds, join_glb, BufferAt, GltfBuffer, TRIANGLE
 use shrad_scene::StagedFiles;
 
 use super::texel::Texels;
-use super::{Layout, LightmapOptions};
+use super::{rgbm, Layout, LightmapFormat, LightmapOptions};
 use crate::bake::Baked;
 use crate::engine::Engine;
 use crate::render::{Shading, SurfaceLight};
@@ -65,10 +68,14 @@ fn chart_meshes(world: &World, layout: &Layout) -> Vec<ChartMesh> {
             let corners = super::chart::patch_corners(world, i);
             let ids: Vec<u32> = (0..corners.len())
                 .map(|k| {
-                    *index.entry((c, p.corner_vertex[i][k])).or_insert_with(|| {
+                    // Welded by shading vertex and atlas point: an object's own UVs may
+                    // have seams inside one chart.
+                    let xy = layout.corners[i][k];
+                    let key = (c, p.corner_vertex[i][k], (xy * 256.0).round().as_ivec2());
+                    *index.entry(key).or_insert_with(|| {
                         m.positions.push(corners[k]);
                         m.normals.push(p.normal[i]);
-                        m.uv1.push(layout.uv(c, corners[k]));
+                        m.uv1.push(layout.uv(xy));
                         m.positions.len() as u32 - 1
                     })
                 })
@@ -207,7 +214,7 @@ fn build(
     layout: &Layout,
     texels: &Texels,
     exposure: f32,
-    exr: &str,
+    beside: Value,
     at: BufferAt<'_>,
 ) -> Result<(Value, Vec<u8>, Baked), String> {
     let world = engine.world();
@@ -223,7 +230,7 @@ fn build(
     let lightmap = buffer.blob(&png(&texels.irradiance, w, h, LIGHTMAP_SCALE * exposure)?);
     let buffer = buffer.finish(at);
     let mut root = material_json(lit, lightmap);
-    let more = json!({
+    let mut more = json!({
         "asset": {
             "version": "2.0",
             "generator": concat!("shrad ", env!("CARGO_PKG_VERSION"), " bake --lightmap"),
@@ -232,7 +239,6 @@ fn build(
                 "solver": engine.solver_choice().name(), "exposure": exposure,
                 "lightmap": {
                     "width": w, "height": h, "texel_size": layout.texel, "charts": layout.charts.len(),
-                    "exr": exr, "exr_holds": "E / pi, W/m^2/sr, linear RGB, unclamped (times the albedo: the radiance)",
                     "lit": "texture 0: clamp(exposure * (rho E + M) / pi), sRGB",
                     "lightMap": format!("texture 1: clamp({LIGHTMAP_SCALE} * exposure * E / pi), sRGB"),
                 },
@@ -244,6 +250,13 @@ fn build(
         "nodes": nodes, "meshes": meshes,
         "accessors": buffer.accessors, "bufferViews": buffer.buffer_views, "buffers": buffer.buffers,
     });
+    if let (Some(l), Value::Object(b)) = (
+        more.pointer_mut("/asset/extras/shrad/lightmap")
+            .and_then(Value::as_object_mut),
+        beside,
+    ) {
+        l.extend(b);
+    }
     if let (Some(r), Value::Object(m)) = (root.as_object_mut(), more) {
         r.extend(m);
     }
@@ -266,8 +279,58 @@ pub fn exr_path(path: &Path) -> PathBuf {
     path.with_extension("lightmap.exr")
 }
 
+/// The lightmap's RGBM PNG beside `path`: `out.glb` -> `out.lightmap.png`.
+pub fn rgbm_path(path: &Path) -> PathBuf {
+    path.with_extension("lightmap.png")
+}
+
+/// The file name of `p`.
+fn file_name(p: &Path) -> String {
+    p.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+/// Stage the lightmap file beside `path` in `format`; what the glTF's
+/// `asset.extras.shrad.lightmap` says of it.
+fn stage_beside(
+    path: &Path,
+    texels: &Texels,
+    format: LightmapFormat,
+    staged: &mut StagedFiles,
+) -> Result<Value, Error> {
+    let (w, h) = (texels.width, texels.height);
+    match format {
+        LightmapFormat::Exr => {
+            let exr = exr_path(path);
+            staged.stage(&exr, |tmp| {
+                exr::prelude::write_rgb_file(tmp, w as usize, h as usize, |x, y| {
+                    texels.irradiance[y * w as usize + x].to_array().into()
+                })
+                .map_err(|e| e.to_string())
+            })?;
+            Ok(json!({
+                "exr": file_name(&exr),
+                "exr_holds": "E / pi, W/m^2/sr, linear RGB, unclamped (times the albedo: the radiance)",
+            }))
+        }
+        LightmapFormat::Rgbm => {
+            let file = rgbm_path(path);
+            let m = rgbm::multiplier(&texels.irradiance);
+            let bytes = rgbm::png(&texels.irradiance, w, h, m)
+                .map_err(|e| Error::Output(file.clone(), e))?;
+            staged.stage_bytes(&file, &bytes)?;
+            Ok(json!({"rgbm": {
+                "file": file_name(&file), "multiplier": m,
+                "decode": "E / pi = (r, g, b) * a * multiplier; bytes / 255, linear (not sRGB), not premultiplied",
+            }}))
+        }
+    }
+}
+
 /// Write the engine's state lightmapped to `path` (`.glb`, or `.gltf` and `.bin`) and its
-/// EXR, to staged names in `staged` (renamed into place by its commit).
+/// lightmap file (`options.format`), to staged names in `staged` (renamed into place by
+/// its commit).
 pub fn stage(
     engine: &Engine,
     path: &Path,
@@ -278,14 +341,8 @@ pub fn stage(
     let world = engine.world();
     let layout = super::layout(world, options)?;
     let texels = super::texel::bake(world, &surface_light(engine), &layout);
-    let exr = exr_path(path);
-    let name = |p: &Path| {
-        p.file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default()
-    };
     let bin_path = path.with_extension("bin");
-    let (bin_name, exr_name) = (name(&bin_path), name(&exr));
+    let bin_name = file_name(&bin_path);
     let glb = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("glb"));
@@ -295,15 +352,17 @@ pub fn stage(
         BufferAt::File(&bin_name)
     };
     let out = |e: String| Error::Output(path.into(), e);
+    let beside = stage_beside(path, &texels, options.format, staged)?;
+    let lightmap_file = match (&beside["exr"], &beside["rgbm"]) {
+        (Value::String(exr), _) => format!("{exr} (linear OpenEXR, E / pi)"),
+        (_, rgbm) => format!(
+            "{} (RGBM PNG: E / pi = rgb * a * {})",
+            rgbm["file"].as_str().unwrap_or_default(),
+            rgbm["multiplier"]
+        ),
+    };
     let (root, bin, mut baked) =
-        build(engine, &layout, &texels, exposure, &exr_name, at).map_err(out)?;
-    staged.stage(&exr, |tmp| {
-        let w = texels.width as usize;
-        exr::prelude::write_rgb_file(tmp, w, texels.height as usize, |x, y| {
-            texels.irradiance[y * w + x].to_array().into()
-        })
-        .map_err(|e| e.to_string())
-    })?;
+        build(engine, &layout, &texels, exposure, beside, at).map_err(out)?;
     let json = serde_json::to_vec(&root).map_err(|e| out(e.to_string()))?;
     if glb {
         staged.stage_bytes(path, &join_glb(json, bin).map_err(out)?)?;
@@ -312,5 +371,7 @@ pub fn stage(
         staged.stage_bytes(path, &json)?;
     }
     baked.path = path.to_path_buf();
+    baked.warnings = layout.warnings;
+    baked.lightmap_file = Some(lightmap_file);
     Ok(baked)
 }

@@ -46,42 +46,76 @@ fn patch_point(world: &World, i: usize, (s, t): (f32, f32)) -> Vec3 {
     c[0] + (c[1] - c[0]) * s + (far - c[0]) * t
 }
 
-/// The samples of chart `c`: each texel of its rectangle within [`REACH`] of one of its
-/// patches, at the nearest point of the nearest patch.
-fn chart_samples(world: &World, light: &SurfaceLight, layout: &Layout, c: usize) -> Vec<Sample> {
-    let chart = &layout.charts[c];
-    let (x0, y0) = layout.at[c];
-    let (w, h) = super::rect(chart, layout.texel, layout.padding);
-    let mut best: Vec<(f32, Option<Sample>)> = vec![(f32::INFINITY, None); (w * h) as usize];
-    for &i in &chart.patches {
-        let xy: Vec<Vec2> = super::chart::patch_corners(world, i)
-            .iter()
-            .map(|&y| layout.atlas_xy(c, y))
-            .collect();
-        let lo = xy.iter().fold(Vec2::INFINITY, |a, &b| a.min(b)) - Vec2::ONE;
-        let hi = xy.iter().fold(Vec2::NEG_INFINITY, |a, &b| a.max(b)) + Vec2::ONE;
-        let xs = (lo.x.floor().max(x0 as f32) as u32)..(hi.x.ceil() as u32).min(x0 + w);
-        let ys = (lo.y.floor().max(y0 as f32) as u32)..(hi.y.ceil() as u32).min(y0 + h);
-        for ty in ys {
-            for tx in xs.clone() {
-                let y = layout.world_at(c, Vec2::new(tx as f32 + 0.5, ty as f32 + 0.5));
-                let st = light.params(i, y);
-                let point = patch_point(world, i, st);
-                let d = (point - y).length() / layout.texel;
-                let k = ((ty - y0) * w + (tx - x0)) as usize;
-                if d <= REACH && d < best[k].0 {
-                    let texel = (ty * layout.width + tx) as usize;
-                    best[k] = (
-                        d,
-                        Some(Sample {
-                            texel,
-                            patch: i,
-                            st,
-                            point,
-                        }),
-                    );
-                }
+/// The point of polygon `q` (convex, either winding) nearest to `x`.
+fn nearest_in(q: &[Vec2], x: Vec2) -> Vec2 {
+    let n = q.len();
+    let side = |k: usize| (q[(k + 1) % n] - q[k]).perp_dot(x - q[k]);
+    let sides: Vec<f32> = (0..n).map(side).collect();
+    if sides.iter().all(|&d| d >= 0.0) || sides.iter().all(|&d| d <= 0.0) {
+        return x;
+    }
+    let on_edge = |k: usize| {
+        let (a, e) = (q[k], q[(k + 1) % n] - q[k]);
+        a + e * ((x - a).dot(e) / e.length_squared().max(f32::MIN_POSITIVE)).clamp(0.0, 1.0)
+    };
+    (0..n)
+        .map(on_edge)
+        .min_by(|a, b| a.distance_squared(x).total_cmp(&b.distance_squared(x)))
+        .unwrap_or(x)
+}
+
+/// The samples of patch `i`: each texel whose centre is within [`REACH`] texels of the
+/// patch's atlas polygon, at the patch point there (texels past the edge: the nearest one),
+/// with its distance in texels (0 inside).
+fn patch_samples(world: &World, layout: &Layout, i: usize) -> Vec<(f32, Sample)> {
+    let n = if world.patches.is_quad[i] { 4 } else { 3 };
+    let q = &layout.corners[i][..n];
+    let (a, e1, e2) = (q[0], q[1] - q[0], q[n - 1] - q[0]);
+    let det = e1.perp_dot(e2);
+    if det.abs() < 1e-12 {
+        return Vec::new();
+    }
+    let lo = q.iter().fold(Vec2::INFINITY, |a, &b| a.min(b)) - Vec2::splat(REACH);
+    let hi = q.iter().fold(Vec2::NEG_INFINITY, |a, &b| a.max(b)) + Vec2::splat(REACH);
+    let xs = (lo.x.floor().max(0.0) as u32)..(hi.x.ceil().max(0.0) as u32).min(layout.width);
+    let ys = (lo.y.floor().max(0.0) as u32)..(hi.y.ceil().max(0.0) as u32).min(layout.height);
+    let mut out = Vec::new();
+    for ty in ys {
+        for tx in xs.clone() {
+            let x = Vec2::new(tx as f32 + 0.5, ty as f32 + 0.5);
+            let near = nearest_in(q, x);
+            let d = near.distance(x);
+            if d > REACH {
+                continue;
             }
+            // Invert `near = a + s e1 + t e2`.
+            let r = near - a;
+            let st = (r.perp_dot(e2) / det, e1.perp_dot(r) / det);
+            let st = (st.0.clamp(0.0, 1.0), st.1.clamp(0.0, 1.0));
+            let sample = Sample {
+                texel: (ty * layout.width + tx) as usize,
+                patch: i,
+                st,
+                point: patch_point(world, i, st),
+            };
+            out.push((d, sample));
+        }
+    }
+    out
+}
+
+/// Every texel's sample: the nearest patch's (ties: the first), of the patches of its own
+/// chart only (a chart's rectangle holds its padding, so charts never compete).
+fn samples(world: &World, layout: &Layout) -> Vec<Sample> {
+    let per_patch: Vec<Vec<(f32, Sample)>> = (0..world.patches.len())
+        .into_par_iter()
+        .map(|i| patch_samples(world, layout, i))
+        .collect();
+    let mut best: Vec<(f32, Option<Sample>)> =
+        vec![(f32::INFINITY, None); (layout.width * layout.height) as usize];
+    for (d, s) in per_patch.into_iter().flatten() {
+        if d < best[s.texel].0 {
+            best[s.texel] = (d, Some(s));
         }
     }
     best.into_iter().filter_map(|b| b.1).collect()
@@ -89,10 +123,7 @@ fn chart_samples(world: &World, light: &SurfaceLight, layout: &Layout, c: usize)
 
 /// Bake the texels of `layout` with the light `light` of `world`.
 pub fn bake(world: &World, light: &SurfaceLight, layout: &Layout) -> Texels {
-    let samples: Vec<Sample> = (0..layout.charts.len())
-        .into_par_iter()
-        .flat_map_iter(|c| chart_samples(world, light, layout, c))
-        .collect();
+    let samples = samples(world, layout);
     let exact = if light.has_punctual() {
         let xs: Vec<Vec3> = samples.iter().map(|s| s.point).collect();
         let ns: Vec<Vec3> = samples

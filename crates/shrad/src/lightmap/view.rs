@@ -36,9 +36,13 @@ pub fn render_back(
                 return (Vec3::ZERO, false);
             };
             let y = origins[k] + dirs[k] * hits[k].t;
-            let c = layout.chart_of_patch[i] as usize;
-            let e = bilinear(texels, layout.width, layout.height, layout.atlas_xy(c, y));
             let (s, t) = surface.params(i, y);
+            let e = bilinear(
+                texels,
+                layout.width,
+                layout.height,
+                layout.atlas_at(i, s, t),
+            );
             let (rho, m) = surface.albedo_and_emission(i, s, t);
             let emitter = world.exitance[i].max_element() > 0.0;
             (rho * e + m / std::f32::consts::PI, emitter)

@@ -13,6 +13,9 @@ pub struct CornerAttr {
     pub uv: [Vec2; 2],
     /// Vertex colour (1 without `COLOR_0`).
     pub color: Vec3,
+    /// The lightmap's texture coordinates (the mesh's `lightmap_uvs`, glTF `TEXCOORD_1`; 0
+    /// without them).
+    pub lightmap: Vec2,
 }
 
 impl Default for CornerAttr {
@@ -20,6 +23,7 @@ impl Default for CornerAttr {
         CornerAttr {
             uv: [Vec2::ZERO; 2],
             color: Vec3::ONE,
+            lightmap: Vec2::ZERO,
         }
     }
 }
@@ -30,11 +34,13 @@ impl CornerAttr {
         let mut r = CornerAttr {
             uv: [Vec2::ZERO; 2],
             color: Vec3::ZERO,
+            lightmap: Vec2::ZERO,
         };
         for (w, a) in terms {
             r.uv[0] += w * a.uv[0];
             r.uv[1] += w * a.uv[1];
             r.color += w * a.color;
+            r.lightmap += w * a.lightmap;
         }
         r
     }
@@ -57,6 +63,7 @@ impl CornerAttr {
             |a: Vec2, b: Vec2| (a - b).abs().max_element() <= 1e-5 * (1.0 + a.abs().max_element());
         uv(self.uv[0], o.uv[0])
             && uv(self.uv[1], o.uv[1])
+            && uv(self.lightmap, o.lightmap)
             && (self.color - o.color).abs().max_element() <= 1e-4
     }
 }
@@ -79,5 +86,6 @@ pub(super) fn vertex_attr(mesh: &Mesh, i: u32) -> CornerAttr {
     CornerAttr {
         uv: [uv(0), uv(1)],
         color: mesh.colors.get(i).copied().unwrap_or(Vec3::ONE),
+        lightmap: mesh.lightmap_uvs.get(i).copied().unwrap_or(Vec2::ZERO),
     }
 }

@@ -131,6 +131,11 @@ pub struct Patches {
     pub corner_attr: Vec<[CornerAttr; 4]>,
     /// Where object `o`'s patches start in `corner_attr` (`u32::MAX`: it has none).
     pub attr_offset: Vec<u32>,
+    /// The lightmap texture coordinates (the mesh's `lightmap_uvs`) at the corners of the
+    /// patches of objects that have them; see [`Patches::lightmap_uvs`].
+    pub lightmap_uv: Vec<[glam::Vec2; 4]>,
+    /// Where object `o`'s patches start in `lightmap_uv` (`u32::MAX`: it has none).
+    pub lightmap_offset: Vec<u32>,
     /// The patch size used (the scene's default; objects may override).
     pub patch_size: f32,
 }
@@ -157,6 +162,17 @@ impl Patches {
             return None;
         }
         self.corner_attr
+            .get(off as usize + p - self.object_ranges[o].start as usize)
+    }
+    /// The lightmap texture coordinates of patch `p`'s corners (corner order; a triangle
+    /// repeats its last), or `None` when its object's mesh has none.
+    pub fn lightmap_uvs(&self, p: usize) -> Option<&[glam::Vec2; 4]> {
+        let o = self.object[p] as usize;
+        let off = *self.lightmap_offset.get(o)?;
+        if off == u32::MAX {
+            return None;
+        }
+        self.lightmap_uv
             .get(off as usize + p - self.object_ranges[o].start as usize)
     }
     /// Patches of object `o` as a `usize` range.
@@ -215,9 +231,18 @@ impl Patches {
             } else {
                 u32::MAX
             });
+            let with_lightmap = !shape.lightmap_uvs.is_empty();
+            patches.lightmap_offset.push(if with_lightmap {
+                patches.lightmap_uv.len() as u32
+            } else {
+                u32::MAX
+            });
             for cell in subdivide(&shape, oh) {
                 if with_attrs {
                     patches.corner_attr.push(cell.attrs);
+                }
+                if with_lightmap {
+                    patches.lightmap_uv.push(cell.attrs.map(|a| a.lightmap));
                 }
                 patches.push_cell(oi as u32, cell, &mut welder, false);
                 if object.material.double_sided {
@@ -236,6 +261,9 @@ impl Patches {
                     };
                     if with_attrs {
                         patches.corner_attr.push(flipped.attrs);
+                    }
+                    if with_lightmap {
+                        patches.lightmap_uv.push(flipped.attrs.map(|a| a.lightmap));
                     }
                     patches.push_cell(oi as u32, flipped, &mut welder, true);
                     let twin = patches.len() as u32 - 1;

@@ -43,7 +43,8 @@ pub(super) fn is_rigid(m: Mat3) -> bool {
 /// `object`'s mesh with `local_from_object` applied; a mirroring shape reverses the winding
 /// so that the local cross products point to the front (glTF: front = object-frame CCW
 /// side). Its attributes are only those the patches carry: `uvs[0]` the set the base-colour
-/// texture reads, `uvs[1]` the emissive one's, and the vertex colours.
+/// texture reads, `uvs[1]` the emissive one's, the vertex colours and the lightmap's
+/// coordinates.
 pub(super) fn shape_mesh(object: &Object, local_from_object: Mat3) -> Mesh {
     let mesh = &object.mesh;
     let mirror = local_from_object.determinant() < 0.0;
