@@ -10,10 +10,19 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::Aabb;
 
+use crate::direct::padded_swept;
 use crate::World;
 
 /// Sets traced in one batch by [`ShadowRays::trace`] (bounds the rays held at once).
 const SETS_PER_BATCH: usize = 4096;
+
+/// A move's `old` and `new` boxes padded for the shadow-ray tests of
+/// [`ShadowRays::near_movers`] ([`crate::direct::padded_swept`]), or `None` when both are
+/// empty: no ray can have changed.
+pub fn padded_move(old: &[Aabb], new: &[Aabb], eps: f32) -> Option<(Vec<Aabb>, Vec<Aabb>)> {
+    let (old, new) = (padded_swept(old, eps), padded_swept(new, eps));
+    (!old.is_empty() || !new.is_empty()).then_some((old, new))
+}
 
 /// Sets of `samples` shadow rays each: bit `j` of set `s` is set when ray `j` is blocked.
 #[derive(Clone, Debug, Default)]
