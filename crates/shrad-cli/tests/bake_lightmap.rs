@@ -7,26 +7,11 @@ use crate::common;
 
 use std::process::Command;
 
-use common::{files_in, shrad, temp_dir};
+use common::{bake_cornell, files_in, shrad, temp_dir};
 
 #[test]
 fn bake_lightmap_passes_the_validator_and_loads_in_three() {
-    let dir = temp_dir("lightmap");
-    let out = dir.join("c.glb");
-    let o = shrad(&[
-        "bake",
-        "cornell",
-        "-q",
-        "--patches",
-        "400",
-        "--solver",
-        "dispersive",
-        "--lightmap",
-        "--lightmap-res",
-        "256",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let (dir, out, o) = bake_cornell("lightmap", &["-q", "--lightmap", "--lightmap-res", "256"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let mut names: Vec<String> = files_in(&dir)
         .iter()

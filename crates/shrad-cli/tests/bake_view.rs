@@ -9,22 +9,11 @@ use std::process::{Command, Stdio};
 use std::sync::mpsc;
 use std::time::Duration;
 
-use common::{files_in, shrad, temp_dir};
+use common::{bake_cornell, files_in, shrad, temp_dir};
 
 #[test]
 fn bake_cornell_reads_back_with_colour_per_vertex() {
-    let dir = temp_dir("bake");
-    let out = dir.join("c.glb");
-    let o = shrad(&[
-        "bake",
-        "cornell",
-        "--patches",
-        "400",
-        "--solver",
-        "dispersive",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let (_, out, o) = bake_cornell("bake", &[]);
     let stdout = String::from_utf8_lossy(&o.stdout);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "stderr: {stderr}");
@@ -116,20 +105,7 @@ fn bake_bad_input_fails_cleanly_and_writes_nothing() {
 
 #[test]
 fn bake_probes_corners_writes_them_in_three_js_order_beside_the_file() {
-    let dir = temp_dir("probes");
-    let out = dir.join("c.glb");
-    let o = shrad(&[
-        "bake",
-        "cornell",
-        "--patches",
-        "400",
-        "--solver",
-        "dispersive",
-        "--probes",
-        "corners",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let (dir, _, o) = bake_cornell("probes", &["--probes", "corners"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = std::fs::read_to_string(dir.join("c.probes.json")).unwrap();
     // (No JSON parser in this crate's tests: the fields, as text.)

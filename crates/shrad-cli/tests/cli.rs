@@ -37,6 +37,13 @@ fn fails_cleanly(scene: &Path, extra: &[&str], needle: &str) {
     );
 }
 
+/// Rendering the Cornell box with each case's options fails cleanly, naming its needle.
+fn cornell_fails_cleanly(cases: &[(&[&str], &str)]) {
+    for &(extra, needle) in cases {
+        fails_cleanly(Path::new("cornell"), extra, needle);
+    }
+}
+
 #[test]
 fn missing_file() {
     fails_cleanly(Path::new("/nonexistent/scene.glb"), &[], "scene.glb");
@@ -84,19 +91,18 @@ fn index_out_of_range_nan_and_degenerate_obj() {
 
 #[test]
 fn unknown_option_values_and_absurd_parameters() {
-    let cornell = Path::new("cornell");
-    fails_cleanly(cornell, &["--width", "0"], "--width");
-    fails_cleanly(cornell, &["--patch-size", "NaN"], "--patch-size");
-    fails_cleanly(
-        cornell,
-        &["--solver", "dispersive", "--set", "bands=12"],
-        "--set bands=",
-    );
-    fails_cleanly(
-        cornell,
-        &["--solver", "dispersive", "--set", "emitter_res=0"],
-        "--set emitter_res=",
-    );
+    cornell_fails_cleanly(&[
+        (&["--width", "0"], "--width"),
+        (&["--patch-size", "NaN"], "--patch-size"),
+        (
+            &["--solver", "dispersive", "--set", "bands=12"],
+            "--set bands=",
+        ),
+        (
+            &["--solver", "dispersive", "--set", "emitter_res=0"],
+            "--set emitter_res=",
+        ),
+    ]);
     // clap rejects unknown values itself (exit code 2).
     let o = shrad(&["render", "cornell", "--solver", "magic"]);
     assert_eq!(o.status.code(), Some(2));
@@ -294,6 +300,16 @@ fn scene_with_settings(dir: &Path, name: &str, solver: &str) -> PathBuf {
     path
 }
 
+/// The dispersive solver, small, by `--set`: what `scene_with_settings` files are compared to.
+const SMALL_DISPERSIVE: [&str; 6] = [
+    "--solver",
+    "dispersive",
+    "--set",
+    "cube_res=8",
+    "--set",
+    "bands=2",
+];
+
 /// Render `scene` small and quietly; the patch CSV (radiosity of every patch), or the
 /// failed run's output.
 fn patch_csv(scene: &Path, extra: &[&str]) -> Result<String, Output> {
@@ -335,18 +351,7 @@ fn scene_file_solver_settings_apply_and_the_command_line_wins() {
     );
     let plain = scene_with_settings(&dir, "plain.toml", "");
     let from_file = patch_csv(&file, &[]).unwrap();
-    let from_flags = patch_csv(
-        &plain,
-        &[
-            "--solver",
-            "dispersive",
-            "--set",
-            "cube_res=8",
-            "--set",
-            "bands=2",
-        ],
-    )
-    .unwrap();
+    let from_flags = patch_csv(&plain, &SMALL_DISPERSIVE).unwrap();
     assert_eq!(from_file, from_flags, "the file's settings are not applied");
     let other_bands =
         patch_csv(&plain, &["--solver", "dispersive", "--set", "cube_res=8"]).unwrap();
@@ -478,31 +483,25 @@ fn quiet_is_quiet_on_every_command() {
 
 #[test]
 fn option_values_that_would_abort_are_errors() {
-    let cornell = Path::new("cornell");
-    fails_cleanly(cornell, &["--patch-size", "-5"], "--patch-size");
-    fails_cleanly(cornell, &["--patch-size", "0"], "--patch-size");
-    fails_cleanly(cornell, &["--patch-size", "1e-7"], "--patch-size");
-    fails_cleanly(
-        cornell,
-        &["--solver", "dispersive", "--set", "cube_res=0"],
-        "--set cube_res=",
-    );
-    fails_cleanly(
-        cornell,
-        &["--solver", "grid", "--set", "cube_res=0"],
-        "--set cube_res=",
-    );
-    fails_cleanly(
-        cornell,
-        &["--solver", "grid", "--set", "bands=9"],
-        "--set bands=",
-    );
-    fails_cleanly(cornell, &["--exposure", "-1"], "--exposure");
-    fails_cleanly(
-        cornell,
-        &["--width", "16384", "--height", "16384", "--spp", "4096"],
-        "--width",
-    );
+    cornell_fails_cleanly(&[
+        (&["--patch-size", "-5"], "--patch-size"),
+        (&["--patch-size", "0"], "--patch-size"),
+        (&["--patch-size", "1e-7"], "--patch-size"),
+        (
+            &["--solver", "dispersive", "--set", "cube_res=0"],
+            "--set cube_res=",
+        ),
+        (
+            &["--solver", "grid", "--set", "cube_res=0"],
+            "--set cube_res=",
+        ),
+        (&["--solver", "grid", "--set", "bands=9"], "--set bands="),
+        (&["--exposure", "-1"], "--exposure"),
+        (
+            &["--width", "16384", "--height", "16384", "--spp", "4096"],
+            "--width",
+        ),
+    ]);
     let o = shrad(&["info", "cornell", "--patch-size", "1e-7"]);
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--patch-size"));
@@ -636,18 +635,7 @@ fn info_lists_gltf_animations_and_animate_plays_all_of_it() {
 fn set_applies_keys_and_the_preset_and_old_flags_name_their_key() {
     let dir = temp_dir("set");
     let plain = scene_with_settings(&dir, "plain.toml", "");
-    let by_set = patch_csv(
-        &plain,
-        &[
-            "--solver",
-            "dispersive",
-            "--set",
-            "cube_res=8",
-            "--set",
-            "bands=2",
-        ],
-    )
-    .unwrap();
+    let by_set = patch_csv(&plain, &SMALL_DISPERSIVE).unwrap();
     // A flag of before `--set` is an error that names the key to set.
     let old = patch_csv(&plain, &["--solver", "dispersive", "--cube-res", "8"]).unwrap_err();
     let stderr = String::from_utf8_lossy(&old.stderr);
@@ -689,47 +677,42 @@ fn set_applies_keys_and_the_preset_and_old_flags_name_their_key() {
 
 #[test]
 fn set_errors_name_the_key() {
-    let cornell = Path::new("cornell");
-    let dispersive = ["--solver", "dispersive"];
-    let with = |extra: &[&'static str]| [&dispersive[..], extra].concat();
-    // An unknown key lists the solver's keys.
-    fails_cleanly(
-        cornell,
-        &with(&["--set", "wibble=1"]),
-        "--set wibble=1: the dispersive solver has no option 'wibble' (options: bands, cube_res",
-    );
-    // Out of range: the key and its range, whatever the spelling.
-    fails_cleanly(
-        cornell,
-        &with(&["--set", "cube_res=0"]),
-        "--set cube_res=0: dispersive option cube_res = 0: must be integer 1..=2048",
-    );
-    fails_cleanly(
-        cornell,
-        &with(&["--set", "probe-margin=2"]),
-        "--set probe-margin=2: dispersive option probe_margin = 2: must be number 0..=1",
-    );
-    fails_cleanly(
-        cornell,
-        &with(&["--set", "schedule=sometimes"]),
-        "--set schedule=sometimes: dispersive option schedule = sometimes: must be round_robin|priority|budget|full",
-    );
-    fails_cleanly(
-        cornell,
-        &with(&["--set", "bands"]),
-        "--set bands: expected KEY=VALUE",
-    );
-    // A key of another solver is an error on the command line, not silently ignored.
-    fails_cleanly(
-        cornell,
-        &["--solver", "grid", "--set", "schedule=full"],
-        "--set schedule=full: the grid solver has no option 'schedule'",
-    );
-    fails_cleanly(
-        cornell,
-        &["--solver", "grid", "--preset", "paper"],
-        "the grid solver has no preset 'paper' (presets: paper5, paper4)",
-    );
+    let dispersive = [
+        // An unknown key lists the solver's keys.
+        (
+            "wibble=1",
+            "--set wibble=1: the dispersive solver has no option 'wibble' (options: bands, cube_res",
+        ),
+        // Out of range: the key and its range, whatever the spelling.
+        (
+            "cube_res=0",
+            "--set cube_res=0: dispersive option cube_res = 0: must be integer 1..=2048",
+        ),
+        (
+            "probe-margin=2",
+            "--set probe-margin=2: dispersive option probe_margin = 2: must be number 0..=1",
+        ),
+        (
+            "schedule=sometimes",
+            "--set schedule=sometimes: dispersive option schedule = sometimes: must be round_robin|priority|budget|full",
+        ),
+        ("bands", "--set bands: expected KEY=VALUE"),
+    ];
+    for (set, needle) in dispersive {
+        let cornell = Path::new("cornell");
+        fails_cleanly(cornell, &["--solver", "dispersive", "--set", set], needle);
+    }
+    cornell_fails_cleanly(&[
+        // A key of another solver is an error on the command line, not silently ignored.
+        (
+            &["--solver", "grid", "--set", "schedule=full"],
+            "--set schedule=full: the grid solver has no option 'schedule'",
+        ),
+        (
+            &["--solver", "grid", "--preset", "paper"],
+            "the grid solver has no preset 'paper' (presets: paper5, paper4)",
+        ),
+    ]);
 }
 
 /// Every key of `solver` in the library, by `shrad options SOLVER`'s own source.

@@ -7,6 +7,7 @@
 
 mod blender_animation;
 mod blender_camera;
+mod common;
 mod environment;
 mod gltf_animation;
 mod gltf_camera_animation;

@@ -6,15 +6,13 @@
 //! shrad must put every object where Blender has it. When /tmp/bpyenv (a Python with
 //! Blender as a module) exists, the fixture is rebuilt by Blender first and checked too.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use glam::{Affine3A, Mat4};
+use glam::Affine3A;
 use serde_json::Value;
 use shrad_scene::{load, LoadOptions, Scene};
 
-fn data() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/blender")
-}
+use crate::common::blender::{data, matrix, run_script};
 
 struct Pose {
     object: String,
@@ -29,18 +27,7 @@ fn poses(json: &Path) -> (f32, Vec<Pose>) {
     let mut out = Vec::new();
     for (name, list) in v["objects"].as_object().unwrap() {
         for p in list.as_array().unwrap() {
-            let rows: Vec<f32> = p["matrix"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .flat_map(|r| {
-                    r.as_array()
-                        .unwrap()
-                        .iter()
-                        .map(|x| x.as_f64().unwrap() as f32)
-                })
-                .collect();
-            let m = Mat4::from_cols_slice(&rows).transpose(); // rows -> columns
+            let m = matrix(p);
             out.push(Pose {
                 object: name.clone(),
                 frame: p["frame"].as_f64().unwrap(),
@@ -138,23 +125,12 @@ fn the_cubic_spline_export_follows_blender_closely() {
 /// With Blender at hand, rebuild the file with it and check that one as well.
 #[test]
 fn fresh_blender_export_when_blender_is_installed() {
-    let python = Path::new("/tmp/bpyenv/bin/python");
-    if !python.exists() {
-        eprintln!("skipped: no /tmp/bpyenv (a Python with Blender as the bpy module)");
-        return;
-    }
     let script =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../validation/blender_animation.py");
     let out = std::env::temp_dir().join(format!("shrad-blender-anim-{}", std::process::id()));
-    let status = std::process::Command::new(python)
-        .arg(&script)
-        .arg(&out)
-        .arg("--cubic")
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .status()
-        .unwrap();
-    assert!(status.success(), "{} failed", script.display());
+    if !run_script(&script, &out, &["--cubic"]) {
+        return;
+    }
     let json = out.join("animated_room.json");
     check(&out.join("animated_room.glb"), &json, false);
     check(&out.join("animated_room_cubic.glb"), &json, true);

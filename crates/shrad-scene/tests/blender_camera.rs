@@ -5,15 +5,13 @@
 //! where Blender has it, looking the same way. With /tmp/bpyenv (Blender as the bpy module)
 //! the fixture is rebuilt by Blender first and checked too.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use glam::{Mat4, Vec3};
+use glam::Vec3;
 use serde_json::Value;
 use shrad_scene::{load, LoadOptions};
 
-fn data() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/blender")
-}
+use crate::common::blender::{data, matrix, run_script};
 
 /// Largest (eye distance, angle between view directions, angle between up vectors in
 /// radians) over the recorded frames; frames between the exporter's per-frame samples
@@ -28,18 +26,7 @@ fn worst(glb: &Path, json: &Path) -> (f32, f32, f32) {
     let v: Value = serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
     let mut out = (0f32, 0f32, 0f32);
     for p in v["camera"].as_array().unwrap() {
-        let rows: Vec<f32> = p["matrix"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .flat_map(|r| {
-                r.as_array()
-                    .unwrap()
-                    .iter()
-                    .map(|x| x.as_f64().unwrap() as f32)
-            })
-            .collect();
-        let blender = Mat4::from_cols_slice(&rows).transpose();
+        let blender = matrix(p);
         let t = p["time"].as_f64().unwrap() as f32;
         let m = scene.camera_at(t).unwrap().world_from_camera;
         let eye = (Vec3::from(m.translation) - blender.w_axis.truncate()).length();
@@ -76,20 +63,10 @@ fn shrad_puts_the_camera_where_blender_has_it() {
 
 #[test]
 fn fresh_blender_camera_export_when_blender_is_installed() {
-    let python = Path::new("/tmp/bpyenv/bin/python");
-    if !python.exists() {
-        eprintln!("skipped: no /tmp/bpyenv (a Python with Blender as the bpy module)");
+    let out = std::env::temp_dir().join(format!("shrad-blender-cam-{}", std::process::id()));
+    if !run_script(&data().join("animated_camera.py"), &out, &[]) {
         return;
     }
-    let out = std::env::temp_dir().join(format!("shrad-blender-cam-{}", std::process::id()));
-    let status = std::process::Command::new(python)
-        .arg(data().join("animated_camera.py"))
-        .arg(&out)
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .status()
-        .unwrap();
-    assert!(status.success(), "animated_camera.py failed");
     check(
         &out.join("animated_camera.glb"),
         &out.join("animated_camera.json"),

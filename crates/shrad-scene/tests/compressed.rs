@@ -18,6 +18,10 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use shrad_scene::{load, LoadOptions, Scene};
 
+mod common;
+
+use common::panics::{count_panics, panics};
+
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/data/compressed")
@@ -126,33 +130,13 @@ fn gltf_pipeline_draco() {
     matches_original("cornell-draco-gltf/cornell-draco.gltf", 11);
 }
 
-thread_local! {
-    static PANICS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
-    /// Panics inside draco-oxide-decoder, which the reader catches (see `unpack/draco.rs`).
-    static DRACO_PANICS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
-}
-
 /// Every byte of each compressed file's BIN chunk (the meshopt and Draco streams) flipped in
 /// turn: each load is an error or a scene, never a panic (a hook counts panics even where the
 /// reader's guard catches them), except inside draco-oxide-decoder, whose panics on a corrupt
 /// stream the Draco step catches and reports as a malformed stream; they are counted apart.
 #[test]
 fn corrupt_streams_never_panic() {
-    static HOOK: std::sync::Once = std::sync::Once::new();
-    HOOK.call_once(|| {
-        let default = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            let in_draco = std::backtrace::Backtrace::force_capture()
-                .to_string()
-                .contains("draco_oxide_decoder::");
-            if in_draco {
-                DRACO_PANICS.with(|p| p.set(p.get() + 1));
-            } else {
-                PANICS.with(|p| p.set(p.get() + 1));
-                default(info);
-            }
-        }));
-    });
+    count_panics();
     let dir = std::env::temp_dir().join(format!("shrad-compressed-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let mut loads = 0;
@@ -167,10 +151,10 @@ fn corrupt_streams_never_panic() {
         let p = dir.join(file);
         let mut try_load = |b: &[u8]| {
             std::fs::write(&p, b).unwrap();
-            let before = PANICS.with(std::cell::Cell::get);
+            let before = panics().outside_draco;
             let _ = load(&p, &LoadOptions::default());
             assert_eq!(
-                PANICS.with(std::cell::Cell::get),
+                panics().outside_draco,
                 before,
                 "{file}: a corrupt stream panicked"
             );
@@ -183,7 +167,7 @@ fn corrupt_streams_never_panic() {
         }
     }
     let _ = std::fs::remove_dir_all(&dir);
-    let draco = DRACO_PANICS.with(std::cell::Cell::get);
+    let draco = panics().in_draco;
     println!(
         "{loads} corrupt loads, 0 panics in shrad, {draco} inside draco-oxide-decoder (caught: an error)"
     );

@@ -5,34 +5,13 @@
 //! so a panic hook counts every panic on this thread, except those inside
 //! draco-oxide-decoder, which the Draco step catches on purpose). An `Err` is fine. See fuzz/README.md.
 
-use std::cell::Cell;
 use std::path::{Path, PathBuf};
-use std::sync::Once;
 
 use shrad_scene::{load, LoadOptions};
 
-thread_local! {
-    static PANICS: Cell<usize> = const { Cell::new(0) };
-}
+mod common;
 
-fn count_panics() {
-    static HOOK: Once = Once::new();
-    HOOK.call_once(|| {
-        let default = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            // draco-oxide-decoder (an alpha) panics on some corrupt streams (with debug
-            // assertions: a shift by a quantization bit count >= 64); the Draco step catches
-            // those and refuses the stream (`gltf_io/unpack/draco.rs`). They are not shrad's.
-            let in_draco = std::backtrace::Backtrace::force_capture()
-                .to_string()
-                .contains("draco_oxide_decoder::");
-            if !in_draco {
-                PANICS.with(|p| p.set(p.get() + 1));
-                default(info);
-            }
-        }));
-    });
-}
+use common::panics::{count_panics, panics};
 
 fn fuzz_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz")
@@ -84,7 +63,7 @@ fn replay(target: &str) {
             std::fs::write(dir.join(name), bytes).unwrap();
         }
         let path = dir.join(files[0].0);
-        let before = PANICS.with(Cell::get);
+        let before = panics().outside_draco;
         for drop_degenerate in [false, true] {
             let opts = LoadOptions {
                 drop_degenerate,
@@ -95,7 +74,7 @@ fn replay(target: &str) {
                 failures.push(format!("{}: load panicked", input.display()));
             }
         }
-        if PANICS.with(Cell::get) != before {
+        if panics().outside_draco != before {
             failures.push(format!("{}: panicked inside load", input.display()));
         }
         let _ = std::fs::remove_dir_all(&dir);

@@ -11,10 +11,7 @@ use serde_json::{json, Value};
 use shrad_scene::{load, LoadOptions, Scene, SceneError};
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("shrad-gltf-anim-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::common::temp_dir(&format!("shrad-gltf-anim-{}-{name}", std::process::id()))
 }
 
 fn b64(data: &[u8]) -> String {

@@ -10,10 +10,7 @@ use serde_json::{json, Value};
 use shrad_scene::{load, LoadOptions, Scene};
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("shrad-cam-anim-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::common::temp_dir(&format!("shrad-cam-anim-{}-{name}", std::process::id()))
 }
 
 const TIMES: [f32; 3] = [0.0, 1.0, 2.0];

@@ -10,10 +10,7 @@ use serde_json::{json, Value};
 use shrad_scene::{load, Light, LightKind, LoadOptions, Scene};
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("shrad-lights-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::common::temp_dir(&format!("shrad-lights-{}-{name}", std::process::id()))
 }
 
 /// A floor quad, a point light on node 1 at (0.5, 2, 0.5), a spot on node 2 under an

@@ -4,48 +4,27 @@
 //! panic on the test's thread); mirrored nodes keep their winding (glTF: counter-clockwise
 //! from the front in the node's frame, world normal = inverse transpose of the local one).
 
-use std::cell::Cell;
 use std::path::{Path, PathBuf};
-use std::sync::Once;
 
 use glam::{Affine3A, Mat3, Vec3};
 use serde_json::{json, Value};
 use shrad_scene::{load, write_gltf, Aabb, LoadOptions, Material, Mesh, Object, Scene, SceneError};
 
-thread_local! {
-    static PANICS: Cell<usize> = const { Cell::new(0) };
-}
+mod common;
 
-fn count_panics() {
-    static HOOK: Once = Once::new();
-    HOOK.call_once(|| {
-        let default = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            PANICS.with(|p| p.set(p.get() + 1));
-            default(info);
-        }));
-    });
-}
+use common::panics::{count_panics, panics};
 
 /// A fresh empty temporary directory for one test.
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("shrad-gltf-spec-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::temp_dir(&format!("shrad-gltf-spec-{}-{name}", std::process::id()))
 }
 
 /// Load `path`, asserting that no panic happened anywhere on the way.
 fn load_no_panic(path: &Path) -> Result<Scene, SceneError> {
     count_panics();
-    let before = PANICS.with(Cell::get);
+    let before = panics();
     let r = load(path, &LoadOptions::default());
-    assert_eq!(
-        PANICS.with(Cell::get),
-        before,
-        "loading {} panicked",
-        path.display()
-    );
+    assert_eq!(panics(), before, "loading {} panicked", path.display());
     r
 }
 

@@ -15,10 +15,7 @@ fn scenes_dir() -> PathBuf {
 
 /// A fresh empty temporary directory for one test.
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("shrad-scene-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::common::temp_dir(&format!("shrad-scene-{}-{name}", std::process::id()))
 }
 
 fn opts() -> LoadOptions {

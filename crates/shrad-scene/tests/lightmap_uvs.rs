@@ -10,10 +10,7 @@ use serde_json::{json, Value};
 use shrad_scene::{load, LoadOptions};
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("shrad-lmuv-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::common::temp_dir(&format!("shrad-lmuv-{name}-{}", std::process::id()))
 }
 
 /// The floor quad's UV1: a sub-rectangle, corners in the positions' order.

@@ -19,27 +19,14 @@
 //! The counts (valid / invalid x loaded / refused / crashed) are printed as the table of
 //! `docs/results.md` ("glTF conformance"); run with `--nocapture` to see it.
 
-use std::cell::Cell;
 use std::path::{Path, PathBuf};
-use std::sync::Once;
 
 use serde_json::Value;
 use shrad_scene::{load, LoadOptions};
 
-thread_local! {
-    static PANICS: Cell<usize> = const { Cell::new(0) };
-}
+mod common;
 
-fn count_panics() {
-    static HOOK: Once = Once::new();
-    HOOK.call_once(|| {
-        let default = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            PANICS.with(|p| p.set(p.get() + 1));
-            default(info);
-        }));
-    });
-}
+use common::panics::{count_panics, panics};
 
 /// The warning of a valid file whose drawn positions are all zeros. Every POSITION accessor
 /// the scene draws has neither bufferView nor sparse values, so it is all zeros (glTF 2.0,
@@ -664,9 +651,9 @@ fn validator_suite_loads_the_valid_and_refuses_the_invalid() {
         let report: Value =
             serde_json::from_slice(&std::fs::read(report_path(p)).unwrap()).unwrap();
         let is_valid = report["issues"]["numErrors"].as_u64() == Some(0);
-        let before = PANICS.with(Cell::get);
+        let before = panics();
         let r = std::panic::catch_unwind(|| load(p, &LoadOptions::default()));
-        let panicked = PANICS.with(Cell::get) != before || r.is_err();
+        let panicked = panics() != before || r.is_err();
         match r {
             Ok(outcome) if !panicked => t.count(p, &rel, &report, is_valid, outcome),
             _ => {

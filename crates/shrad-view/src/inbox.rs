@@ -298,38 +298,45 @@ mod tests {
         }
     }
 
-    fn moved(id: u64, object: &str, x: f64) -> String {
+    /// A request of type `kind` that moves `field` `target` to `x` along x.
+    fn translation(kind: &str, field: &str, id: u64, target: &str, x: f64) -> String {
         format!(
-            r#"{{"v":1,"id":{id},"type":"set_transform","object":{object},"matrix":[1,0,0,0,0,1,0,0,0,0,1,0,{x},0,0,1]}}"#
+            r#"{{"v":1,"id":{id},"type":"{kind}","{field}":{target},"matrix":[1,0,0,0,0,1,0,0,0,0,1,0,{x},0,0,1]}}"#
         )
+    }
+
+    fn moved(id: u64, object: &str, x: f64) -> String {
+        translation("set_transform", "object", id, object, x)
+    }
+
+    /// Push `text`, which the inbox accepts; the id of the request it replaced, if one.
+    fn push(inbox: &Inbox, text: &str, reply: &ReplyTo) -> Option<Option<u64>> {
+        let replaced = inbox.push(pending(text, reply)).ok().unwrap();
+        replaced.map(|p| p.envelope.id)
+    }
+
+    /// The ids of the requests the inbox hands over, in order.
+    fn taken_ids(inbox: &Inbox) -> Vec<Option<u64>> {
+        inbox
+            .take()
+            .requests
+            .iter()
+            .map(|p| p.envelope.id)
+            .collect()
     }
 
     #[test]
     fn a_newer_move_of_one_object_replaces_the_older_and_keeps_the_order_of_arrival() {
         let (tx, _rx) = mpsc::channel(8);
         let inbox = Inbox::default();
-        assert!(inbox
-            .push(pending(&moved(1, "1", 0.1), &tx))
-            .ok()
-            .unwrap()
-            .is_none());
-        let ping = r#"{"v":1,"id":2,"type":"ping"}"#;
-        assert!(inbox.push(pending(ping, &tx)).ok().unwrap().is_none());
+        assert_eq!(push(&inbox, &moved(1, "1", 0.1), &tx), None);
+        assert_eq!(push(&inbox, r#"{"v":1,"id":2,"type":"ping"}"#, &tx), None);
         // The same object by name: the same key.
-        let older = inbox
-            .push(pending(&moved(3, "\"short_block\"", 0.3), &tx))
-            .ok()
-            .unwrap();
-        assert_eq!(older.map(|p| p.envelope.id), Some(Some(1)));
+        let older = push(&inbox, &moved(3, "\"short_block\"", 0.3), &tx);
+        assert_eq!(older, Some(Some(1)));
         // Another object: its own key.
-        assert!(inbox
-            .push(pending(&moved(4, "0", 0.4), &tx))
-            .ok()
-            .unwrap()
-            .is_none());
-        let batch = inbox.take();
-        let ids: Vec<_> = batch.requests.iter().map(|p| p.envelope.id).collect();
-        assert_eq!(ids, [Some(2), Some(3), Some(4)]);
+        assert_eq!(push(&inbox, &moved(4, "0", 0.4), &tx), None);
+        assert_eq!(taken_ids(&inbox), [Some(2), Some(3), Some(4)]);
         let c = inbox.counts();
         assert_eq!(
             (c.received, c.superseded, c.most_pending_per_key),
@@ -356,12 +363,7 @@ mod tests {
         // Full, a move still replaces the older one of its object (and goes last).
         let older = inbox.push(pending(&moved(CAPACITY as u64, "1", 0.2), &tx));
         assert_eq!(older.ok().flatten().map(|p| p.envelope.id), Some(Some(0)));
-        let ids: Vec<_> = inbox
-            .take()
-            .requests
-            .iter()
-            .map(|p| p.envelope.id)
-            .collect();
+        let ids = taken_ids(&inbox);
         assert_eq!(ids, (1..=CAPACITY as u64).map(Some).collect::<Vec<_>>());
         inbox.close();
         assert!(matches!(
@@ -374,36 +376,16 @@ mod tests {
     fn moves_of_one_punctual_light_replace_each_other_and_its_colour_has_its_own_key() {
         let (tx, _rx) = mpsc::channel(8);
         let inbox = Inbox::default();
-        let light = |id: u64, l: &str, x: f64| {
-            format!(
-                r#"{{"v":1,"id":{id},"type":"set_light_transform","light":{l},"matrix":[1,0,0,0,0,1,0,0,0,0,1,0,{x},0,0,1]}}"#
-            )
-        };
-        assert!(inbox
-            .push(pending(&light(1, "0", 0.1), &tx))
-            .ok()
-            .unwrap()
-            .is_none());
+        let light =
+            |id: u64, l: &str, x: f64| translation("set_light_transform", "light", id, l, x);
+        assert_eq!(push(&inbox, &light(1, "0", 0.1), &tx), None);
         let colour = r#"{"v":1,"id":2,"type":"set_light_intensity","light":"bulb","color":[1,1,1],"intensity":3}"#;
-        assert!(inbox.push(pending(colour, &tx)).ok().unwrap().is_none());
+        assert_eq!(push(&inbox, colour, &tx), None);
         // The same light by name; an object of the same index is another key.
-        let older = inbox
-            .push(pending(&light(3, "\"bulb\"", 0.2), &tx))
-            .ok()
-            .unwrap();
-        assert_eq!(older.map(|p| p.envelope.id), Some(Some(1)));
-        assert!(inbox
-            .push(pending(&moved(4, "0", 0.4), &tx))
-            .ok()
-            .unwrap()
-            .is_none());
-        let ids: Vec<_> = inbox
-            .take()
-            .requests
-            .iter()
-            .map(|p| p.envelope.id)
-            .collect();
-        assert_eq!(ids, [Some(2), Some(3), Some(4)]);
+        let older = push(&inbox, &light(3, "\"bulb\"", 0.2), &tx);
+        assert_eq!(older, Some(Some(1)));
+        assert_eq!(push(&inbox, &moved(4, "0", 0.4), &tx), None);
+        assert_eq!(taken_ids(&inbox), [Some(2), Some(3), Some(4)]);
         // A light that does not exist has no key: the engine refuses it.
         let names = Names::default();
         let r = protocol::parse(&light(5, "0", 0.0)).unwrap().request;

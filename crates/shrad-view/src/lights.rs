@@ -25,8 +25,8 @@ fn state(light: &Light, world_from_light: Affine3A) -> Value {
     })
 }
 
-/// Every punctual light now, by index (the `frame` message's `lights`).
-pub fn states_json(engine: &Engine) -> Value {
+/// Every punctual light, by index: `describe` of the light and its [`state`] now.
+fn each_light(engine: &Engine, describe: impl Fn(&Light, Value) -> Value) -> Value {
     let lights = &engine.world().scene.lights;
     Value::Array(
         lights
@@ -34,42 +34,38 @@ pub fn states_json(engine: &Engine) -> Value {
             .enumerate()
             .map(|(l, light)| {
                 let m = engine.light_transform(l).unwrap_or(light.world_from_light);
-                state(light, m)
+                describe(light, state(light, m))
             })
             .collect(),
     )
 }
 
+/// Every punctual light now, by index (the `frame` message's `lights`).
+pub fn states_json(engine: &Engine) -> Value {
+    each_light(engine, |_, state| state)
+}
+
 /// Every punctual light with what does not change (name, kind, units, cone, range) and its
 /// state at load (the `scene` message's `lights`).
 pub fn lights_json(engine: &Engine) -> Value {
-    let lights = &engine.world().scene.lights;
-    Value::Array(
-        lights
-            .iter()
-            .enumerate()
-            .map(|(l, light)| {
-                let m = engine.light_transform(l).unwrap_or(light.world_from_light);
-                let mut v = state(light, m);
-                let directional = light.kind == LightKind::Directional;
-                let cone = match light.kind {
-                    LightKind::Spot {
-                        inner_cone_angle,
-                        outer_cone_angle,
-                    } => json!({ "inner": inner_cone_angle, "outer": outer_cone_angle }),
-                    _ => Value::Null,
-                };
-                v["name"] = json!(light.name);
-                v["kind"] = json!(light.kind.name());
-                v["unit"] = json!(if directional { "lx" } else { "cd" });
-                v["radiometric_unit"] = json!(if directional { "W/m^2" } else { "W/sr" });
-                v["cone"] = cone;
-                v["range"] = json!(light.range);
-                v["animated"] = json!(light.is_animated());
-                v
-            })
-            .collect(),
-    )
+    each_light(engine, |light, mut v| {
+        let directional = light.kind == LightKind::Directional;
+        let cone = match light.kind {
+            LightKind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => json!({ "inner": inner_cone_angle, "outer": outer_cone_angle }),
+            _ => Value::Null,
+        };
+        v["name"] = json!(light.name);
+        v["kind"] = json!(light.kind.name());
+        v["unit"] = json!(if directional { "lx" } else { "cd" });
+        v["radiometric_unit"] = json!(if directional { "W/m^2" } else { "W/sr" });
+        v["cone"] = cone;
+        v["range"] = json!(light.range);
+        v["animated"] = json!(light.is_animated());
+        v
+    })
 }
 
 /// The sky for the `scene` message: `null`, a uniform radiance, or a map's description (the

@@ -26,12 +26,7 @@ fn two_clients_share_one_scene() {
         let (_, before) = colour_frame(&mut b).await;
         colour_frame(&mut a).await;
         // A moves the short block 0.1 along x; B sees it in a later frame.
-        let o = shrad::scene::cornell_box()
-            .objects
-            .iter()
-            .position(|o| o.name == "short_block")
-            .unwrap();
-        let mut matrix = before[16 * o..16 * o + 16].to_vec();
+        let (o, mut matrix) = short_block(&before);
         matrix[12] += 0.1;
         let request = json!({"v": 1, "type": "set_transform", "object": "short_block", "id": 1,
             "matrix": matrix});
@@ -286,18 +281,12 @@ fn five_hundred_moves_sent_as_fast_as_possible_leave_one_pending_and_the_last_ap
     let s = server();
     runtime().block_on(async {
         let mut ws = connect(&s).await;
-        let keep_stepping = json!({"v": 1, "type": "run", "continuous": true, "id": 0});
-        assert_eq!(ask(&mut ws, keep_stepping).await["type"], "ok");
+        keep_stepping(&mut ws).await;
         let (_, before) = colour_frame(&mut ws).await;
-        let o = shrad::scene::cornell_box()
-            .objects
-            .iter()
-            .position(|o| o.name == "short_block")
-            .unwrap();
+        let (o, mut matrix) = short_block(&before);
         let counts0 = s.inbox_counts();
         // 500 moves of 0.0002 along x, written without reading anything in between.
         let step = 0.0002f32;
-        let mut matrix = before[16 * o..16 * o + 16].to_vec();
         let x0 = matrix[12];
         for id in 1..=500u64 {
             matrix[12] = x0 + step * id as f32;
@@ -498,8 +487,7 @@ fn a_client_that_does_not_acknowledge_is_sent_a_bounded_number_of_bytes_and_stil
         // (The first client steers.)
         let mut ws = connect(&s).await;
         let mut quiet = connect_raw(&s).await;
-        let keep_stepping = json!({"v": 1, "type": "run", "continuous": true, "id": 0});
-        assert_eq!(ask(&mut ws, keep_stepping).await["type"], "ok");
+        keep_stepping(&mut ws).await;
         // The engine steps 300 frames for the client that acknowledges them.
         let (f0, _) = colour_frame(&mut ws).await;
         let mut f = f0;

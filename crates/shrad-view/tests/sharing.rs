@@ -244,14 +244,8 @@ fn a_flood_of_error_requests_from_a_watcher_leaves_the_drag_of_the_steerer_movin
     let s = shrad_view::Server::start(o).unwrap();
     runtime().block_on(async {
         let mut a = connect(&s).await;
-        let keep_stepping = json!({"v": 1, "type": "run", "continuous": true});
-        assert_eq!(ask(&mut a, keep_stepping).await["type"], "ok");
-        let (_, before) = colour_frame(&mut a).await;
-        let o = shrad::scene::cornell_box()
-            .objects
-            .iter()
-            .position(|o| o.name == "short_block")
-            .unwrap();
+        keep_stepping(&mut a).await;
+        let (o, mut matrix) = short_block(&colour_frame(&mut a).await.1);
         // The watcher writes 300 error requests, never reading a reply: 100 at once, then
         // 5 before each of the steerer's 40 moves.
         let mut b = connect(&s).await;
@@ -264,7 +258,6 @@ fn a_flood_of_error_requests_from_a_watcher_leaves_the_drag_of_the_steerer_movin
         };
         send_errors(&mut b, 100).await;
         // Meanwhile A drags: 40 moves, each waited for, and shown in a frame.
-        let mut matrix = before[16 * o..16 * o + 16].to_vec();
         let (x0, mut frames) = (matrix[12], 0usize);
         for id in 1..=40u64 {
             send_errors(&mut b, 5).await;
@@ -335,19 +328,12 @@ fn a_solver_switch_runs_beside_the_frames_and_keeps_a_move_sent_while_it_precomp
     let s = server();
     runtime().block_on(async {
         let mut a = connect(&s).await;
-        let keep_stepping = json!({"v": 1, "type": "run", "continuous": true});
-        assert_eq!(ask(&mut a, keep_stepping).await["type"], "ok");
-        let (_, before) = colour_frame(&mut a).await;
-        let o = shrad::scene::cornell_box()
-            .objects
-            .iter()
-            .position(|o| o.name == "short_block")
-            .unwrap();
+        keep_stepping(&mut a).await;
+        let (o, mut matrix) = short_block(&colour_frame(&mut a).await.1);
         let switch = json!({"v": 1, "type": "set_solver", "solver": "grid", "id": 1000});
         a.send(Message::Text(switch.to_string().into()))
             .await
             .unwrap();
-        let mut matrix = before[16 * o..16 * o + 16].to_vec();
         matrix[12] += 0.05;
         a.send(move_message("short_block", &matrix, 1001))
             .await

@@ -15,7 +15,7 @@ use obvhs::{
 };
 use rayon::prelude::*;
 
-use crate::{segment, tri_infos, Hit, MeshRef, TriInfo, Visibility, Xform, CHUNK};
+use crate::{par_fill, segment, tri_infos, Hit, MeshRef, TriInfo, Visibility, Xform};
 
 /// A triangle's vertices, exactly as given (watertightness needs shared vertices to be
 /// bit-identical, so no edge vectors).
@@ -259,6 +259,30 @@ impl BvhVis {
         };
     }
 
+    /// Object `p` of the TLAS, its BLAS and the ray `(o, d)` over `r`'s interval in its
+    /// frame; `None` when the object is in `exclude` (transparent).
+    #[inline]
+    fn enter(
+        &self,
+        p: usize,
+        exclude: &[u32],
+        (o, d): (Vec3A, Vec3A),
+        r: &Ray,
+    ) -> Option<(u32, &Blas, Ray)> {
+        let obj = self.tlas_objects[p];
+        if exclude.contains(&obj) {
+            return None;
+        }
+        let blas = self.blas[obj as usize]
+            .as_ref()
+            .expect("tlas holds non-empty objects");
+        Some((
+            obj,
+            blas,
+            self.local_ray(obj as usize, o, d, r.tmin, r.tmax),
+        ))
+    }
+
     #[inline]
     fn local_ray(&self, o: usize, origin: Vec3A, dir: Vec3A, tmin: f32, tmax: f32) -> Ray {
         let m = &self.xforms[o].object_from_world;
@@ -282,14 +306,10 @@ impl BvhVis {
         let mut best: Option<(u32, u32)> = None;
         let mut top = RayHit::none();
         tlas.ray_traverse(ray, &mut top, |r, p| {
-            let obj = self.tlas_objects[p];
-            if exclude.contains(&obj) {
+            let Some((obj, blas, local)) = self.enter(p, exclude, (o, d), r) else {
                 return f32::INFINITY;
-            }
-            let blas = self.blas[obj as usize]
-                .as_ref()
-                .expect("tlas holds non-empty objects");
-            match blas.closest(self.local_ray(obj as usize, o, d, r.tmin, r.tmax)) {
+            };
+            match blas.closest(local) {
                 Some((t, k)) if t < r.tmax => {
                     best = Some((obj, blas.orig[k as usize]));
                     t
@@ -318,19 +338,9 @@ impl BvhVis {
         };
         let (o, d) = (Vec3A::from(from), Vec3A::from(d));
         let ray = mk_ray(o, d, eps, len - eps);
-        !tlas.ray_traverse_miss(ray, |r, p| {
-            let obj = self.tlas_objects[p];
-            if exclude.contains(&obj) {
-                return f32::INFINITY;
-            }
-            let blas = self.blas[obj as usize]
-                .as_ref()
-                .expect("tlas holds non-empty objects");
-            if blas.any(self.local_ray(obj as usize, o, d, r.tmin, r.tmax)) {
-                f32::NEG_INFINITY
-            } else {
-                f32::INFINITY
-            }
+        !tlas.ray_traverse_miss(ray, |r, p| match self.enter(p, exclude, (o, d), r) {
+            Some((_, blas, local)) if blas.any(local) => f32::NEG_INFINITY,
+            _ => f32::INFINITY,
         })
     }
 }
@@ -366,20 +376,17 @@ impl Visibility for BvhVis {
     ) {
         assert_eq!(origins.len(), directions.len());
         assert_eq!(origins.len(), out.len());
-        out.par_chunks_mut(CHUNK)
-            .enumerate()
-            .for_each(|(c, chunk)| {
-                let base = c * CHUNK;
-                for (k, h) in chunk.iter_mut().enumerate() {
-                    *h = self.trace(
-                        origins[base + k],
-                        directions[base + k],
-                        t_min,
-                        f32::INFINITY,
-                        exclude,
-                    );
-                }
-            });
+        par_fill(out, |base, chunk| {
+            for (k, h) in chunk.iter_mut().enumerate() {
+                *h = self.trace(
+                    origins[base + k],
+                    directions[base + k],
+                    t_min,
+                    f32::INFINITY,
+                    exclude,
+                );
+            }
+        });
     }
 
     fn capture(
@@ -395,33 +402,27 @@ impl Visibility for BvhVis {
         if nd == 0 {
             return;
         }
-        out.par_chunks_mut(CHUNK)
-            .enumerate()
-            .for_each(|(c, chunk)| {
-                let base = c * CHUNK;
-                for (k, h) in chunk.iter_mut().enumerate() {
-                    let i = base + k;
-                    *h = self.trace(
-                        points[i / nd],
-                        directions[i % nd],
-                        t_min,
-                        f32::INFINITY,
-                        exclude,
-                    );
-                }
-            });
+        par_fill(out, |base, chunk| {
+            for (k, h) in chunk.iter_mut().enumerate() {
+                let i = base + k;
+                *h = self.trace(
+                    points[i / nd],
+                    directions[i % nd],
+                    t_min,
+                    f32::INFINITY,
+                    exclude,
+                );
+            }
+        });
     }
 
     fn occluded(&self, from: &[Vec3], to: &[Vec3], eps: f32, exclude: &[u32], out: &mut [bool]) {
         assert_eq!(from.len(), to.len());
         assert_eq!(from.len(), out.len());
-        out.par_chunks_mut(CHUNK)
-            .enumerate()
-            .for_each(|(c, chunk)| {
-                let base = c * CHUNK;
-                for (k, b) in chunk.iter_mut().enumerate() {
-                    *b = self.blocked(from[base + k], to[base + k], eps, exclude);
-                }
-            });
+        par_fill(out, |base, chunk| {
+            for (k, b) in chunk.iter_mut().enumerate() {
+                *b = self.blocked(from[base + k], to[base + k], eps, exclude);
+            }
+        });
     }
 }

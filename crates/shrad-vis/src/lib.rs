@@ -298,6 +298,16 @@ pub(crate) fn segment(from: Vec3, to: Vec3, eps: f32) -> Option<(Vec3, f32)> {
 /// Rays per parallel work item.
 pub(crate) const CHUNK: usize = 256;
 
+/// Fill `out` in parallel, [`CHUNK`] items a work item: `fill(first, chunk)` writes
+/// `out[first..first + chunk.len()]`.
+#[inline]
+pub(crate) fn par_fill<T: Send>(out: &mut [T], fill: impl Fn(usize, &mut [T]) + Sync) {
+    use rayon::prelude::*;
+    out.par_chunks_mut(CHUNK)
+        .enumerate()
+        .for_each(|(c, chunk)| fill(c * CHUNK, chunk));
+}
+
 mod bvh;
 #[cfg(shrad_embree)]
 mod embree;

@@ -4,13 +4,17 @@
 //! state. Then the same motion written as keyframes, for comparison.
 //!
 //! `cargo run --release --example live_engine [patches] [frames_per_step]`
-use glam::Quat;
 use glam::{Affine3A, Vec3};
 use shrad::engine::Engine;
-use shrad::scene::{Animation, EmissionKey, Keyframe};
 use shrad::solver::SolverChoice;
 use shrad::vis::Backend;
 use shrad::PatchSizing;
+
+// The keyframed twin, shared with the test of this check (tests/engine.rs).
+#[path = "../tests/common/steering.rs"]
+mod steering;
+
+use steering::keyed_twin;
 
 const STEPS: usize = 10;
 
@@ -37,33 +41,12 @@ fn main() {
     live.converge(4);
     println!("step  frame ms  error % (live)  error % (keyframes)");
     // Keyframed: the same motion as keys, played with set_time.
-    let mut keyed_scene = scene;
-    keyed_scene.objects[block].animation = Some(Animation {
-        keys: (0..=STEPS)
-            .map(|k| Keyframe {
-                time: k as f32,
-                translation: step * k as f32,
-                rotation: Quat::IDENTITY,
-            })
-            .collect(),
-        step: true,
-        ..Default::default()
-    });
-    let base = keyed_scene.objects[light].material.emitted_radiance;
-    keyed_scene.objects[light].animation = Some(Animation {
-        emission: vec![
-            EmissionKey {
-                time: 0.0,
-                emitted_radiance: base,
-            },
-            EmissionKey {
-                time: (STEPS / 2) as f32,
-                emitted_radiance: warm,
-            },
-        ],
-        step: true,
-        ..Default::default()
-    });
+    let keyed_scene = keyed_twin(
+        scene,
+        (block, light),
+        (step, STEPS),
+        (warm, (STEPS / 2) as f32),
+    );
     let mut keyed = Engine::new(
         keyed_scene,
         PatchSizing::Count(patches),

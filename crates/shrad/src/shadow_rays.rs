@@ -1,8 +1,10 @@
 //! Shadow rays kept as which of them are blocked, so that a cache of direct light re-traces
 //! only the rays a mover may have changed: the sky's ([`crate::sky::SkyCache`], a set of
-//! rays a receiver) and the punctual lights' ([`crate::lights::PunctualCache`], a set a
-//! receiver and light). The rays themselves are regenerated from their sample index when
-//! needed; what changes between caches is how a sample makes its ray and weight.
+//! rays a receiver), the punctual lights' ([`crate::lights::PunctualCache`], a set a
+//! receiver and light) and the emitting objects' ([`crate::direct::DirectCache`], a set a
+//! receiver and emitter, which finds and traces its rays itself). The rays themselves are
+//! regenerated from their sample index when needed; what changes between caches is how a
+//! sample makes its ray and weight.
 
 use std::ops::AddAssign;
 
@@ -10,10 +12,19 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::Aabb;
 
+use crate::direct::padded_swept;
 use crate::World;
 
 /// Sets traced in one batch by [`ShadowRays::trace`] (bounds the rays held at once).
 const SETS_PER_BATCH: usize = 4096;
+
+/// A move's `old` and `new` boxes padded for the shadow-ray tests of
+/// [`ShadowRays::near_movers`] ([`crate::direct::padded_swept`]), or `None` when both are
+/// empty: no ray can have changed.
+pub fn padded_move(old: &[Aabb], new: &[Aabb], eps: f32) -> Option<(Vec<Aabb>, Vec<Aabb>)> {
+    let (old, new) = (padded_swept(old, eps), padded_swept(new, eps));
+    (!old.is_empty() || !new.is_empty()).then_some((old, new))
+}
 
 /// Sets of `samples` shadow rays each: bit `j` of set `s` is set when ray `j` is blocked.
 #[derive(Clone, Debug, Default)]
@@ -50,14 +61,34 @@ impl ShadowRays {
         self.samples
     }
 
+    /// The word and bit of ray `j` of set `s` in `blocked`.
+    #[inline]
+    fn at(&self, s: usize, j: u32) -> (usize, u64) {
+        (s * self.words + j as usize / 64, 1 << (j % 64))
+    }
+
     /// Is ray `j` of set `s` blocked?
+    #[inline]
     pub fn is_blocked(&self, s: usize, j: u32) -> bool {
-        self.blocked[s * self.words + j as usize / 64] & (1 << (j % 64)) != 0
+        let (w, bit) = self.at(s, j);
+        self.blocked[w] & bit != 0
     }
 
     /// Mark every ray of set `s` free.
     pub fn clear(&mut self, s: usize) {
         self.blocked[s * self.words..(s + 1) * self.words].fill(0);
+    }
+
+    /// Keep set `s` as `blocked` says (ray `j` blocked when `blocked[j]`), traced by the
+    /// caller; rays past its end are free.
+    pub fn put(&mut self, s: usize, blocked: &[bool]) {
+        self.clear(s);
+        for (j, &b) in (0u32..).zip(blocked) {
+            if b {
+                let (w, bit) = self.at(s, j);
+                self.blocked[w] |= bit;
+            }
+        }
     }
 
     /// Bytes held.
@@ -101,7 +132,8 @@ impl ShadowRays {
             for (&(c, j, .., w), &b) in rays.iter().zip(&blocked) {
                 batch_sums[c].0 += w;
                 if b {
-                    self.blocked[batch[c] * self.words + j as usize / 64] |= 1 << (j % 64);
+                    let (w, bit) = self.at(batch[c], j);
+                    self.blocked[w] |= bit;
                 } else {
                     batch_sums[c].1 += w;
                 }
@@ -149,17 +181,18 @@ impl ShadowRays {
         let to: Vec<Vec3> = rays.iter().map(|r| r.to).collect();
         let mut blocked = vec![false; rays.len()];
         world.vis.occluded(&from, &to, world.eps, &[], &mut blocked);
-        self.keep(rays, &blocked)
+        let outcomes = rays.iter().zip(blocked);
+        self.keep(outcomes.map(|(r, b)| (r.set as usize, r.sample, b)))
     }
 
-    /// Keep whether each of `rays` is `blocked` now (traced by the caller: against the movers
-    /// first, say); returns the sets whose bits changed, ascending.
-    pub fn keep(&mut self, rays: &[ShadowRay], blocked: &[bool]) -> Vec<usize> {
+    /// Keep the `outcomes` (set, ray, whether it is blocked now) of rays traced again by the
+    /// caller (against the movers first, say); returns the sets whose bits changed,
+    /// ascending.
+    pub fn keep(&mut self, outcomes: impl IntoIterator<Item = (usize, u32, bool)>) -> Vec<usize> {
         let mut changed: Vec<usize> = Vec::new();
-        for (r, &b) in rays.iter().zip(blocked) {
-            let (s, j) = (r.set as usize, r.sample);
-            let w = &mut self.blocked[s * self.words + j as usize / 64];
-            let bit = 1u64 << (j % 64);
+        for (s, j, b) in outcomes {
+            let (w, bit) = self.at(s, j);
+            let w = &mut self.blocked[w];
             if b != (*w & bit != 0) {
                 *w ^= bit;
                 changed.push(s);

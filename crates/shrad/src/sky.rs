@@ -24,9 +24,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::{Aabb, Environment};
 
-use crate::direct::padded_swept;
 use crate::sampling::{hammersley, hash, hash2, square_to_cosine_hemisphere, unit};
-use crate::shadow_rays::ShadowRays;
+use crate::shadow_rays::{padded_move, ShadowRays};
 use crate::World;
 
 /// The sky ready for lookups and sampling.
@@ -338,10 +337,9 @@ impl SkyCache {
             return Vec::new();
         };
         let eps = world.eps;
-        let (old, new) = (padded_swept(old, eps), padded_swept(new, eps));
-        if old.is_empty() && new.is_empty() {
+        let Some((old, new)) = padded_move(old, new, eps) else {
             return Vec::new();
-        }
+        };
         let (samples, far) = (self.shadows.samples(), world.far());
         let sets: Vec<usize> = (0..self.receivers.len())
             .filter(|k| skip.binary_search(k).is_err())

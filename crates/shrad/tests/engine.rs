@@ -2,13 +2,14 @@
 //! transforms, switches a light) and gets the same light as the same motion written as
 //! keyframes. The soak of random steering on every solver is `tests/soak.rs`.
 
-use glam::{Affine3A, Quat, Vec3};
+use glam::{Affine3A, Vec3};
 use shrad::dispersive::DispersiveOptions;
 use shrad::engine::Engine;
-use shrad::scene::{Animation, EmissionKey, Keyframe};
 use shrad::solver::SolverChoice;
 use shrad::vis::Backend;
 use shrad::PatchSizing;
+
+use crate::common::steering::keyed_twin;
 
 #[test]
 fn steering_by_transforms_matches_the_same_keyframes() {
@@ -22,33 +23,7 @@ fn steering_by_transforms_matches_the_same_keyframes() {
     let block = live.object("short_block").unwrap();
     let light = live.object("light").unwrap();
     let rest = live.transform(block);
-    let mut keyed_scene = scene;
-    keyed_scene.objects[block].animation = Some(Animation {
-        keys: (0..=STEPS)
-            .map(|k| Keyframe {
-                time: k as f32,
-                translation: step * k as f32,
-                rotation: Quat::IDENTITY,
-            })
-            .collect(),
-        step: true,
-        ..Default::default()
-    });
-    let base = keyed_scene.objects[light].material.emitted_radiance;
-    keyed_scene.objects[light].animation = Some(Animation {
-        emission: vec![
-            EmissionKey {
-                time: 0.0,
-                emitted_radiance: base,
-            },
-            EmissionKey {
-                time: 3.0,
-                emitted_radiance: warm,
-            },
-        ],
-        step: true,
-        ..Default::default()
-    });
+    let keyed_scene = keyed_twin(scene, (block, light), (step, STEPS), (warm, 3.0));
     let mut keyed = Engine::new(keyed_scene, sizing, Backend::Auto, choice).unwrap();
     live.converge(2);
     keyed.converge(2);

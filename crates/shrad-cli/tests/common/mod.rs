@@ -1,5 +1,5 @@
-//! Helpers shared by the command-line tests (`cli.rs`, `bake_view.rs`): run the binary, make
-//! a fresh folder, list one. Each test binary uses a part of them.
+//! Helpers shared by the command-line tests (`cli.rs`, `bake_view.rs`, `bake_lightmap.rs`):
+//! run the binary, bake the Cornell box, make a fresh folder, list one. Each test binary uses a part of them.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
@@ -11,6 +11,25 @@ pub fn shrad(args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("run shrad")
+}
+
+/// Bake the Cornell box (400 patches, the dispersive solver, and `extra`) into `c.glb` in
+/// a fresh folder for test `name`: (the folder, the file, the run).
+pub fn bake_cornell(name: &str, extra: &[&str]) -> (PathBuf, PathBuf, Output) {
+    let dir = temp_dir(name);
+    let out = dir.join("c.glb");
+    let mut args = vec![
+        "bake",
+        "cornell",
+        "--patches",
+        "400",
+        "--solver",
+        "dispersive",
+    ];
+    args.extend_from_slice(extra);
+    args.extend(["-o", out.to_str().unwrap()]);
+    let o = shrad(&args);
+    (dir, out, o)
 }
 
 /// An empty folder for test `name`, unique to this test process.

@@ -102,17 +102,25 @@ pub async fn connect_raw(s: &Server) -> RawWs {
 
 /// The next text message that is not a `frame` or `probes` broadcast.
 pub async fn reply(ws: &mut Ws) -> Value {
+    next_text(ws, "reply", |v| {
+        !["frame", "probes", "scene", "role"].contains(&v["type"].as_str().unwrap_or(""))
+    })
+    .await
+}
+
+/// The next text message that is `wanted` (within 30 s; `what` names it in the failure).
+async fn next_text(ws: &mut Ws, what: &str, wanted: impl Fn(&Value) -> bool) -> Value {
     let deadline = Instant::now() + Duration::from_secs(30);
     loop {
         let left = deadline.saturating_duration_since(Instant::now());
         let m = tokio::time::timeout(left, ws.next())
             .await
-            .expect("no reply within 30 s")
+            .unwrap_or_else(|_| panic!("no {what} within 30 s"))
             .expect("connection closed")
             .expect("read error");
         if let Message::Text(t) = m {
             let v: Value = serde_json::from_str(t.as_str()).unwrap();
-            if !["frame", "probes", "scene", "role"].contains(&v["type"].as_str().unwrap_or("")) {
+            if wanted(&v) {
                 return v;
             }
         }
@@ -158,20 +166,7 @@ pub async fn colour_frame(ws: &mut Ws) -> (u32, Vec<f32>) {
 
 /// A plain HTTP GET; the status line's code.
 pub async fn http_get(s: &Server, path: &str) -> u16 {
-    let mut tcp = tokio::net::TcpStream::connect(s.addr()).await.unwrap();
-    tcp.write_all(
-        format!(
-            "GET {path} HTTP/1.1\r\nHost: {}\r\nConnection: close\r\n\r\n",
-            s.addr()
-        )
-        .as_bytes(),
-    )
-    .await
-    .unwrap();
-    let mut out = Vec::new();
-    tcp.read_to_end(&mut out).await.unwrap();
-    let text = String::from_utf8_lossy(&out);
-    text.split_whitespace().nth(1).unwrap().parse().unwrap()
+    http_request(s, path, "").await.0
 }
 
 pub async fn still_answers(s: &Server) {
@@ -179,6 +174,23 @@ pub async fn still_answers(s: &Server) {
     ping(&mut ws, 4242).await;
     colour_frame(&mut ws).await;
     assert_eq!(http_get(s, "/").await, 200);
+}
+
+/// Ask the engine to step without end (`run`, `continuous`), and that it agrees.
+pub async fn keep_stepping(ws: &mut Ws) {
+    let request = json!({"v": 1, "type": "run", "continuous": true, "id": 0});
+    assert_eq!(ask(ws, request).await["type"], "ok");
+}
+
+/// The Cornell box's short block: its index among the objects, and its matrix (16 floats)
+/// in a colour frame's `matrices`.
+pub fn short_block(matrices: &[f32]) -> (usize, Vec<f32>) {
+    let o = shrad::scene::cornell_box()
+        .objects
+        .iter()
+        .position(|o| o.name == "short_block")
+        .unwrap();
+    (o, matrices[16 * o..16 * o + 16].to_vec())
 }
 
 /// Send a move of `object` to `matrix` with `id`.
@@ -198,21 +210,7 @@ pub async fn ask(ws: &mut Ws, request: Value) -> Value {
 
 /// The next `frame` message.
 pub async fn frame_message(ws: &mut Ws) -> Value {
-    let deadline = Instant::now() + Duration::from_secs(30);
-    loop {
-        let left = deadline.saturating_duration_since(Instant::now());
-        let m = tokio::time::timeout(left, ws.next())
-            .await
-            .expect("no frame within 30 s")
-            .expect("connection closed")
-            .expect("read error");
-        if let Message::Text(t) = m {
-            let v: Value = serde_json::from_str(t.as_str()).unwrap();
-            if v["type"] == "frame" {
-                return v;
-            }
-        }
-    }
+    next_of_type(ws, "frame").await
 }
 
 /// A plain HTTP GET with `extra` header lines; the status code and the whole response head.
@@ -236,21 +234,7 @@ pub async fn http_request(s: &Server, path: &str, extra: &str) -> (u16, String) 
 
 /// The next text message of type `kind` (others skipped), within 30 s.
 pub async fn next_of_type(ws: &mut Ws, kind: &str) -> Value {
-    let deadline = Instant::now() + Duration::from_secs(30);
-    loop {
-        let left = deadline.saturating_duration_since(Instant::now());
-        let m = tokio::time::timeout(left, ws.next())
-            .await
-            .unwrap_or_else(|_| panic!("no {kind} message within 30 s"))
-            .expect("connection closed")
-            .expect("read error");
-        if let Message::Text(t) = m {
-            let v: Value = serde_json::from_str(t.as_str()).unwrap();
-            if v["type"] == kind {
-                return v;
-            }
-        }
-    }
+    next_text(ws, &format!("{kind} message"), |v| v["type"] == kind).await
 }
 
 /// The small Cornell box on 127.0.0.1 (any port) with the sharing rules `access`.

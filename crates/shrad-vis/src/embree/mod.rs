@@ -26,9 +26,8 @@ use std::ffi::c_void;
 use std::ptr;
 
 use glam::{Affine3A, Vec3};
-use rayon::prelude::*;
 
-use crate::{segment, tri_infos, Hit, MeshRef, TriInfo, VisError, Visibility, Xform, CHUNK};
+use crate::{par_fill, segment, tri_infos, Hit, MeshRef, TriInfo, VisError, Visibility, Xform};
 
 mod context;
 mod ffi;
@@ -255,44 +254,41 @@ impl EmbreeVis {
     ) {
         assert_eq!(from.len(), to.len());
         assert_eq!(from.len(), out.len());
-        out.par_chunks_mut(CHUNK)
-            .enumerate()
-            .for_each(|(c, chunk)| {
-                let mut ctx = make();
-                let base = c * CHUNK;
-                if packets() {
-                    for (p, out) in chunk.chunks_mut(16).enumerate() {
-                        let at = base + p * 16;
-                        self.occluded16(&mut ctx, eps, out, |k| (from[at + k], to[at + k]));
-                    }
-                    return;
+        par_fill(out, |base, chunk| {
+            let mut ctx = make();
+            if packets() {
+                for (p, out) in chunk.chunks_mut(16).enumerate() {
+                    let at = base + p * 16;
+                    self.occluded16(&mut ctx, eps, out, |k| (from[at + k], to[at + k]));
                 }
-                for (k, b) in chunk.iter_mut().enumerate() {
-                    let (f, t) = (from[base + k], to[base + k]);
-                    let Some((d, len)) = segment(f, t, eps) else {
-                        *b = false;
-                        continue;
-                    };
-                    let mut ray = RTCRay {
-                        org_x: f.x,
-                        org_y: f.y,
-                        org_z: f.z,
-                        tnear: eps,
-                        dir_x: d.x,
-                        dir_y: d.y,
-                        dir_z: d.z,
-                        time: 0.0,
-                        tfar: len - eps,
-                        mask: ctx.ray_mask,
-                        id: 0,
-                        flags: 0,
-                    };
-                    // SAFETY: committed scene, valid context and ray of the C layout.
-                    unsafe { rtcOccluded1(self.h.top, ctx.as_ptr(), &mut ray) };
-                    // Embree sets tfar to -inf when the segment is blocked.
-                    *b = ray.tfar == f32::NEG_INFINITY;
-                }
-            });
+                return;
+            }
+            for (k, b) in chunk.iter_mut().enumerate() {
+                let (f, t) = (from[base + k], to[base + k]);
+                let Some((d, len)) = segment(f, t, eps) else {
+                    *b = false;
+                    continue;
+                };
+                let mut ray = RTCRay {
+                    org_x: f.x,
+                    org_y: f.y,
+                    org_z: f.z,
+                    tnear: eps,
+                    dir_x: d.x,
+                    dir_y: d.y,
+                    dir_z: d.z,
+                    time: 0.0,
+                    tfar: len - eps,
+                    mask: ctx.ray_mask,
+                    id: 0,
+                    flags: 0,
+                };
+                // SAFETY: committed scene, valid context and ray of the C layout.
+                unsafe { rtcOccluded1(self.h.top, ctx.as_ptr(), &mut ray) };
+                // Embree sets tfar to -inf when the segment is blocked.
+                *b = ray.tfar == f32::NEG_INFINITY;
+            }
+        });
     }
 
     #[inline]
@@ -478,24 +474,21 @@ impl Visibility for EmbreeVis {
     ) {
         assert_eq!(origins.len(), directions.len());
         assert_eq!(origins.len(), out.len());
-        out.par_chunks_mut(CHUNK)
-            .enumerate()
-            .for_each(|(c, chunk)| {
-                let mut ctx = self.context(RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT, exclude);
-                let base = c * CHUNK;
-                if packets() {
-                    for (p, out) in chunk.chunks_mut(16).enumerate() {
-                        let at = base + p * 16;
-                        self.closest16(&mut ctx, t_min, out, |k| {
-                            (origins[at + k], directions[at + k])
-                        });
-                    }
-                    return;
+        par_fill(out, |base, chunk| {
+            let mut ctx = self.context(RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT, exclude);
+            if packets() {
+                for (p, out) in chunk.chunks_mut(16).enumerate() {
+                    let at = base + p * 16;
+                    self.closest16(&mut ctx, t_min, out, |k| {
+                        (origins[at + k], directions[at + k])
+                    });
                 }
-                for (k, h) in chunk.iter_mut().enumerate() {
-                    *h = self.closest1(&mut ctx, origins[base + k], directions[base + k], t_min);
-                }
-            });
+                return;
+            }
+            for (k, h) in chunk.iter_mut().enumerate() {
+                *h = self.closest1(&mut ctx, origins[base + k], directions[base + k], t_min);
+            }
+        });
     }
 
     fn capture(
@@ -511,19 +504,16 @@ impl Visibility for EmbreeVis {
         if nd == 0 {
             return;
         }
-        out.par_chunks_mut(CHUNK)
-            .enumerate()
-            .for_each(|(c, chunk)| {
-                let mut ctx = self.context(RTC_INTERSECT_CONTEXT_FLAG_COHERENT, exclude);
-                let base = c * CHUNK;
-                for (p, packet) in chunk.chunks_mut(16).enumerate() {
-                    let first = base + p * 16;
-                    self.closest16(&mut ctx, t_min, packet, |k| {
-                        let i = first + k;
-                        (points[i / nd], directions[i % nd])
-                    });
-                }
-            });
+        par_fill(out, |base, chunk| {
+            let mut ctx = self.context(RTC_INTERSECT_CONTEXT_FLAG_COHERENT, exclude);
+            for (p, packet) in chunk.chunks_mut(16).enumerate() {
+                let first = base + p * 16;
+                self.closest16(&mut ctx, t_min, packet, |k| {
+                    let i = first + k;
+                    (points[i / nd], directions[i % nd])
+                });
+            }
+        });
     }
 
     fn occluded(&self, from: &[Vec3], to: &[Vec3], eps: f32, exclude: &[u32], out: &mut [bool]) {

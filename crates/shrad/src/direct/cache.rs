@@ -12,6 +12,7 @@ use super::{
     cone_meets_sphere, emitters, emitting_objects, padded_swept, sample_shift, shadow_sample,
     unoccluded_irradiance, visible_fraction, Emitter,
 };
+use crate::shadow_rays::ShadowRays;
 use crate::World;
 
 /// Direct irradiance of a set of receivers with what it was made of, so that it can be
@@ -26,17 +27,14 @@ use crate::World;
 /// emission) and the receivers' places stay as they were at [`DirectCache::new`].
 #[derive(Clone, Debug, Default)]
 pub struct DirectCache {
-    samples: u32,
-    /// `u64` words of blocked bits per (receiver, emitter).
-    words: usize,
     /// The emitting objects, in order.
     objects: Vec<usize>,
     receivers: Vec<u32>,
     /// `[k * emitters + e]`: unoccluded irradiance of receiver `k` from emitter `e` (unit
     /// radiance).
     unoccluded: Vec<f32>,
-    /// `[(k * emitters + e) * words ..]`: bit `j` set when shadow ray `j` is blocked.
-    blocked: Vec<u64>,
+    /// Set `k * emitters + e`: which shadow rays of receiver `k` to emitter `e` are blocked.
+    shadows: ShadowRays,
     /// `[k]`: the direct irradiance.
     irradiance: Vec<Vec3>,
     /// `[k]`: its irradiance is from fewer samples (a moving receiver's, see
@@ -82,14 +80,11 @@ impl DirectCache {
     pub fn new(world: &World, receivers: Vec<u32>, samples: u32) -> DirectCache {
         let ems = emitters(world);
         let samples = samples.max(1);
-        let words = (samples as usize).div_ceil(64);
         let ne = ems.len();
         let mut cache = DirectCache {
-            samples,
-            words,
             objects: ems.iter().map(|e| e.object).collect(),
             unoccluded: vec![0.0; receivers.len() * ne],
-            blocked: vec![0; receivers.len() * ne * words],
+            shadows: ShadowRays::new(receivers.len() * ne, samples),
             irradiance: vec![Vec3::ZERO; receivers.len()],
             coarse: vec![false; receivers.len()],
             coarse_ks: Vec::new(),
@@ -144,7 +139,7 @@ impl DirectCache {
 
     /// Shadow rays per (receiver, emitter).
     pub fn samples(&self) -> u32 {
-        self.samples
+        self.shadows.samples()
     }
 
     /// Whether the world's emitting objects are still those the cache was made with (their
@@ -157,7 +152,7 @@ impl DirectCache {
     pub fn bytes(&self) -> usize {
         self.receivers.len() * 4
             + self.unoccluded.len() * 4
-            + self.blocked.len() * 8
+            + self.shadows.bytes()
             + self.irradiance.len() * 12
             + self.coarse.len()
             + self.held.len() * 4
@@ -200,7 +195,7 @@ impl DirectCache {
         }
         debug_assert!(self.same_emitters(world));
         let ne = ems.len();
-        let (samples, words) = (self.samples, self.words);
+        let samples = self.shadows.samples();
         let eps = world.eps;
         let stride = match whole_samples < samples && !movers.is_empty() {
             true => whole_stride.max(1),
@@ -234,16 +229,11 @@ impl DirectCache {
         let t = std::time::Instant::now();
         let blocked = self.trace_movers_first(world, &all_movers, &rays, ne);
         crate::trace_part("    retrace", t);
-        let mut touched: Vec<usize> = Vec::new();
-        for (&(k, e, j, ..), &b) in rays.iter().zip(&blocked) {
-            let w = &mut self.blocked[(k as usize * ne + e as usize) * words + j as usize / 64];
-            let bit = 1u64 << (j % 64);
-            if b != (*w & bit != 0) {
-                *w ^= bit;
-                touched.push(k as usize);
-            }
-        }
-        touched.sort_unstable();
+        let outcomes = rays.iter().zip(blocked);
+        let changed = self
+            .shadows
+            .keep(outcomes.map(|(&(k, e, j, ..), b)| (k as usize * ne + e as usize, j, b)));
+        let mut touched: Vec<usize> = changed.into_iter().map(|set| set / ne).collect();
         touched.dedup();
         // The receivers whose rays changed: their visible fractions again.
         let values: Vec<Vec3> = touched
@@ -303,7 +293,7 @@ impl DirectCache {
         find: impl Fn(usize) -> bool + Sync,
     ) -> Vec<Retrace> {
         let ne = ems.len();
-        let (samples, words) = (self.samples, self.words);
+        let samples = self.shadows.samples();
         let p = &world.patches;
         let eps = world.eps;
         let (old_q, new_q) = (self.ends.pad(old), self.ends.pad(new));
@@ -341,11 +331,10 @@ impl DirectCache {
                         continue;
                     }
                     let shift = sample_shift(i, em);
-                    let bits = &self.blocked[(k * ne + e) * words..];
-                    let first = (k * ne + e) * samples as usize;
+                    let set = k * ne + e;
+                    let first = set * samples as usize;
                     for j in 0..samples {
-                        let blocked = bits[j as usize / 64] & (1 << (j % 64)) != 0;
-                        let (boxes, padded) = if blocked {
+                        let (boxes, padded) = if self.shadows.is_blocked(set, j) {
                             (&old, &old_q)
                         } else {
                             (&new, &new_q)
@@ -391,7 +380,7 @@ impl DirectCache {
         rays: &[(u32, u32, u32, Vec3, Vec3)],
         ne: usize,
     ) -> Vec<bool> {
-        let (eps, words) = (world.eps, self.words);
+        let eps = world.eps;
         let from: Vec<Vec3> = rays.iter().map(|r| r.3).collect();
         let to: Vec<Vec3> = rays.iter().map(|r| r.4).collect();
         let mut blocked = vec![false; rays.len()];
@@ -402,8 +391,7 @@ impl DirectCache {
         let again: Vec<usize> = (0..rays.len())
             .filter(|&r| {
                 let (k, e, j, ..) = rays[r];
-                let w = self.blocked[(k as usize * ne + e as usize) * words + j as usize / 64];
-                !blocked[r] && w & (1u64 << (j % 64)) != 0
+                !blocked[r] && self.shadows.is_blocked(k as usize * ne + e as usize, j)
             })
             .collect();
         if !again.is_empty() {
@@ -437,14 +425,13 @@ impl DirectCache {
                         let fraction = match this.coarse[k] {
                             true => this.held[k * ne + e],
                             false => {
-                                let bits = &this.blocked[(k * ne + e) * this.words..];
-                                let blocked = |j: u32| bits[j as usize / 64] & (1 << (j % 64)) != 0;
+                                let blocked = |j: u32| this.shadows.is_blocked(k * ne + e, j);
                                 let shift = sample_shift(i, em);
                                 visible_fraction(
                                     em,
                                     (x, n),
                                     shift,
-                                    this.samples,
+                                    this.shadows.samples(),
                                     world.eps,
                                     blocked,
                                 )
@@ -474,8 +461,8 @@ impl DirectCache {
         let p = &world.patches;
         let eps = world.eps;
         let ne = ems.len();
-        let coarse = samples < self.samples;
-        let (samples, words) = (samples.clamp(1, self.samples), self.words);
+        let coarse = samples < self.shadows.samples();
+        let samples = samples.clamp(1, self.shadows.samples());
         let s = samples as usize;
         let mut coarse_value = vec![Vec3::ZERO; if coarse { ks.len() } else { 0 }];
         const CHUNK: usize = 2048;
@@ -534,13 +521,7 @@ impl DirectCache {
                     for (j, &end) in to[c * s..(c + 1) * s].iter().enumerate() {
                         self.ends.put(first + j, end);
                     }
-                    let bits = &mut self.blocked[(k * ne + e) * words..(k * ne + e + 1) * words];
-                    bits.fill(0);
-                    for (j, &b) in blocked[c * s..(c + 1) * s].iter().enumerate() {
-                        if b {
-                            bits[j / 64] |= 1 << (j % 64);
-                        }
-                    }
+                    self.shadows.put(k * ne + e, &blocked[c * s..(c + 1) * s]);
                 }
             }
             if coarse {
@@ -570,14 +551,13 @@ impl DirectCache {
             if u <= 0.0 {
                 continue;
             }
-            let bits = &self.blocked[(k * ne + e) * self.words..];
             let fraction = visible_fraction(
                 em,
                 (x, n),
                 sample_shift(i, em),
-                self.samples,
+                self.shadows.samples(),
                 world.eps,
-                |j| bits[j as usize / 64] & (1 << (j % 64)) != 0,
+                |j| self.shadows.is_blocked(k * ne + e, j),
             );
             out += em.radiance * (u * fraction);
         }

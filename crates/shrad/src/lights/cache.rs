@@ -19,9 +19,8 @@ use rayon::prelude::*;
 use shrad_scene::Aabb;
 
 use super::LightState;
-use crate::direct::padded_swept;
 use crate::sampling::{hammersley, hash, unit};
-use crate::shadow_rays::ShadowRays;
+use crate::shadow_rays::{padded_move, ShadowRays};
 use crate::World;
 
 /// See the module docs.
@@ -167,10 +166,9 @@ impl PunctualCache {
         moved: &[bool],
     ) -> Vec<usize> {
         let eps = world.eps;
-        let (old, new) = (padded_swept(old, eps), padded_swept(new, eps));
-        if old.is_empty() && new.is_empty() {
+        let Some((old, new)) = padded_move(old, new, eps) else {
             return Vec::new();
-        }
+        };
         let spheres: Vec<(Vec3, f32)> = old.iter().chain(&new).map(Aabb::bounding_sphere).collect();
         let (nl, samples) = (self.lights.len(), self.shadows.samples());
         let far = world.far();

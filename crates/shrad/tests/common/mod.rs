@@ -1,6 +1,8 @@
 //! Meshes several of shrad's integration tests build the same way (each test binary uses
-//! part of them).
+//! part of them), and the keyframed twin of a live-steered scene ([`steering`]).
 #![allow(dead_code)]
+
+pub mod steering;
 
 use glam::Vec3;
 use shrad_scene::{quad, Mesh};
