@@ -13,11 +13,7 @@ use common::{bake_cornell, files_in, shrad, temp_dir};
 fn bake_lightmap_passes_the_validator_and_loads_in_three() {
     let (dir, out, o) = bake_cornell("lightmap", &["-q", "--lightmap", "--lightmap-res", "256"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let mut names: Vec<String> = files_in(&dir)
-        .iter()
-        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
+    let names = file_names(&dir);
     assert_eq!(names, ["c.glb", "c.lightmap.exr"]);
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../validation/bake");
     assert!(
@@ -66,11 +62,7 @@ fn bake_lightmap_rgbm_writes_the_png_and_states_its_multiplier() {
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let mut names: Vec<String> = files_in(&dir)
-        .iter()
-        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
+    let names = file_names(&dir);
     assert_eq!(names, ["c.glb", "c.lightmap.png"]);
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(
@@ -111,4 +103,14 @@ fn bad_lightmap_options_fail_cleanly_and_write_nothing() {
         assert!(!stderr.contains("panicked"), "{stderr}");
         assert!(files_in(&dir).is_empty(), "left: {:?}", files_in(&dir));
     }
+}
+
+/// The names of the files in `dir`, sorted.
+fn file_names(dir: &std::path::Path) -> Vec<String> {
+    let mut names: Vec<String> = files_in(dir)
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
 }

@@ -133,16 +133,23 @@ fn move_far(world: &mut World, block: usize) -> (Aabb, Aabb) {
     (old, setup::world_box(world, block))
 }
 
-/// The cache's partial update equals a full recomputation with the same samples, also for
-/// receivers given in another order (the samples depend on the patch and the emitter only).
-#[test]
-fn direct_cache_update_equals_a_full_recomputation() {
-    let mut world = cornell(2000);
+/// The Cornell box at 2k patches, its tall block, its boundary patches and their direct-light
+/// cache with 16 samples.
+fn cornell_boundary_cache() -> (World, usize, Vec<u32>, crate::direct::DirectCache) {
+    let world = cornell(2000);
     let block = object_named(&world, "tall_block");
     let boundary: Vec<u32> = (0..world.patches.len() as u32)
         .filter(|&i| world.patches.role(i as usize) == Role::Boundary)
         .collect();
-    let mut cache = crate::direct::DirectCache::new(&world, boundary.clone(), 16);
+    let cache = crate::direct::DirectCache::new(&world, boundary.clone(), 16);
+    (world, block, boundary, cache)
+}
+
+/// The cache's partial update equals a full recomputation with the same samples, also for
+/// receivers given in another order (the samples depend on the patch and the emitter only).
+#[test]
+fn direct_cache_update_equals_a_full_recomputation() {
+    let (mut world, block, boundary, mut cache) = cornell_boundary_cache();
     let (old, new) = move_far(&mut world, block);
     let changed = cache.update(&world, &[block as u32], (&[old], &[new]), 16, 1);
     assert!(
@@ -194,16 +201,11 @@ fn coarse_moving_receivers_are_exact_again_once_they_rest() {
 /// While a block moves and receivers take turns, one in 4 has its shadow rays found per
 /// update, against every move since its last turn: at its turn a receiver's light is what a
 /// full recomputation gives there and then, and every receiver is exact again at the first
-/// update after the block rests. Fails if a turn forgets an earlier move's boxes (a receiver would keep a shadow the
-/// block has left) or if the rest does not catch up.
+/// update after the block rests. Fails if a turn forgets an earlier move's boxes (a receiver
+/// would keep a shadow the block has left) or if the rest does not catch up.
 #[test]
 fn shadow_receivers_found_in_turn_are_exact_at_their_turn_and_at_rest() {
-    let mut world = cornell(2000);
-    let block = object_named(&world, "tall_block");
-    let boundary: Vec<u32> = (0..world.patches.len() as u32)
-        .filter(|&i| world.patches.role(i as usize) == Role::Boundary)
-        .collect();
-    let mut cache = crate::direct::DirectCache::new(&world, boundary.clone(), 16);
+    let (mut world, block, boundary, mut cache) = cornell_boundary_cache();
     // Turns whatever the count (the Cornell box at 2k patches changes far fewer rays than
     // `SHADOW_RAYS_AT_ONCE`).
     cache.take_turns_above(0);
