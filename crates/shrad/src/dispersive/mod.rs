@@ -42,6 +42,7 @@ mod options;
 mod scheduler;
 mod setup;
 mod sleep;
+mod spread;
 mod stale;
 mod step1_direct;
 mod step2_probes;
