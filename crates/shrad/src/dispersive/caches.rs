@@ -26,6 +26,7 @@
 
 use glam::{Affine3A, Vec3};
 use rayon::prelude::*;
+use shrad_sh::ShRgb;
 
 use super::Dispersive;
 
@@ -261,6 +262,25 @@ pub(super) struct SplatTexels {
     pub(super) seen: Vec<u32>,
     /// Per texel: the hit distance (infinite for a miss).
     pub(super) t: Vec<f32>,
+    /// Per texel: the boundary patch its flux went to in the contribution the boundary
+    /// holds, or [`LANDS_NOWHERE`] (`resend.rs`).
+    pub(super) sent_to: Vec<u32>,
+    /// The texels the stale test forgot since the boundary's contribution was sent
+    /// (`stale.rs`): the light paths a mover crossed, which `resend.rs` sends alone.
+    pub(super) forgotten: Vec<u32>,
+}
+
+impl SplatTexels {
+    /// `n` texels from `centre`, none traced yet.
+    pub(super) fn new(centre: Vec3, n: usize) -> SplatTexels {
+        SplatTexels {
+            centre,
+            seen: vec![UNKNOWN; n],
+            t: vec![f32::INFINITY; n],
+            sent_to: vec![LANDS_NOWHERE; n],
+            forgotten: Vec::new(),
+        }
+    }
 }
 
 /// How one emitter reaches the boundary.
@@ -279,6 +299,10 @@ pub(super) struct EmitterCache {
     pub(super) lobes: Vec<Vec<f32>>,
     /// Per emitter.
     pub(super) rays: Vec<EmitterRays>,
+    /// Per emitter, the intensity the boundary's contribution was sent with (empty when it
+    /// was not sent from these emitters); and that contribution's length (`resend.rs`).
+    pub(super) sent: Vec<ShRgb>,
+    pub(super) sent_len: usize,
 }
 
 impl ProbeCache {
@@ -301,7 +325,7 @@ impl EmitterCache {
             .iter()
             .map(|r| match r {
                 EmitterRays::Gather(g) => g.patch.len() * 25,
-                EmitterRays::Splat(s) => s.seen.len() * 8,
+                EmitterRays::Splat(s) => s.seen.len() * 12 + s.forgotten.len() * 4,
             })
             .sum();
         lobes + rays

@@ -39,6 +39,7 @@ mod frame;
 pub mod inspect;
 mod object_state;
 mod options;
+mod resend;
 mod scheduler;
 mod setup;
 mod sleep;
@@ -422,7 +423,8 @@ impl Dispersive {
         // Step 3 (2.3.4).
         let t = Instant::now();
         let updated = lit.clone();
-        stats.energy.object_emitters = self.objects_to_boundary(world, lit);
+        let others_moving = !changes.moved.is_empty() && !changes.light_changed();
+        stats.energy.object_emitters = self.objects_to_boundary(world, lit, others_moving);
         steps.to_boundary_ms = ms(t);
         tr("step3", t);
 

@@ -264,9 +264,10 @@ impl StaleTest<'_> {
                     let c = s.centre;
                     let seen = ChunkCones::seen_from(c, &self.spheres);
                     let t = &s.t;
-                    mark_stale(emitter_cones, &seen, &mut s.seen, UNKNOWN, |k| {
+                    let forgotten = mark_stale(emitter_cones, &seen, &mut s.seen, UNKNOWN, |k| {
                         self.meets(c, emitter_dirs[k], t[k])
                     });
+                    s.forgotten.extend(forgotten.into_iter().map(|k| k as u32));
                 }
             });
     }

@@ -28,11 +28,27 @@ use crate::World;
 
 impl Dispersive {
     /// Step 3 (paper 2.3.4): each lit object sends its reflected light to the boundary as one
-    /// SH emitter at its centre, replacing its previous contribution. Returns the flux sent.
-    pub(super) fn objects_to_boundary(&mut self, world: &World, lit: Vec<usize>) -> f64 {
+    /// SH emitter at its centre, replacing its previous contribution; while another object
+    /// moves, a still one may send only the light paths the mover crossed (`resend.rs`).
+    /// Returns the flux sent.
+    pub(super) fn objects_to_boundary(
+        &mut self,
+        world: &World,
+        lit: Vec<usize>,
+        others_moving: bool,
+    ) -> f64 {
         let mut flux_sent = 0.0;
         for k in lit {
             let started = std::time::Instant::now();
+            if let Some(moved) = others_moving
+                .then(|| self.resend_crossed_paths(world, k))
+                .flatten()
+            {
+                flux_sent += moved;
+                self.scheduler.add_cost(k, super::ms(started));
+                super::tr("resend_crossed", started);
+                continue;
+            }
             let tt = std::time::Instant::now();
             let pieces = self.emit(world, k);
             super::tr("emit", tt);
@@ -40,6 +56,8 @@ impl Dispersive {
             let contribution = self.pieces_to_irradiance(world, pieces);
             let contribution = self.within_reflected(world, k, contribution);
             flux_sent += self.replace_contribution(world, k, contribution);
+            let sent_len = self.objects[k].to_boundary.len();
+            self.objects[k].emitter_cache.sent_len = sent_len;
             // An object's cost, for a budget: its Step 2 and its Step 3.
             self.scheduler.add_cost(k, super::ms(started));
             super::tr("sum_and_replace", tt);
@@ -96,8 +114,9 @@ impl Dispersive {
             each.concat()
         };
         // Kept unless the caches are off or it would be too large (then it is rebuilt at
-        // every update, as the uncached code would).
+        // every update, as the uncached code would), with the light it sent (`resend.rs`).
         if self.caching && !coarse && cache.bytes() <= MAX_STEP3_BYTES {
+            cache.sent = if merged { Vec::new() } else { intensities };
             self.objects[k].emitter_cache = cache;
         }
         pieces
@@ -105,7 +124,13 @@ impl Dispersive {
 
     /// The outgoing intensity of one emitter of object `k` in SH:
     /// `sum_i (rho_i E_i) A_i / pi * A_l Y_k(d_i)` over its `members` (2.3.4 Step 1).
-    fn emitter_intensity(&self, world: &World, k: usize, members: &[u32], lobes: &[f32]) -> ShRgb {
+    pub(super) fn emitter_intensity(
+        &self,
+        world: &World,
+        k: usize,
+        members: &[u32],
+        lobes: &[f32],
+    ) -> ShRgb {
         let p = &world.patches;
         let nc = num_coeffs(self.options.bands);
         let range = p.range(self.objects[k].object);
@@ -161,7 +186,7 @@ impl Dispersive {
     /// Pieces summed to one irradiance per boundary patch: a gather's as they are, a splat's
     /// flux over the patch's area, or spread over its edge neighbourhood in proportion to
     /// area (`splat_smoothing`).
-    fn pieces_to_irradiance(
+    pub(super) fn pieces_to_irradiance(
         &mut self,
         world: &World,
         pieces: Vec<(u32, Vec3)>,
@@ -210,6 +235,8 @@ impl Dispersive {
             0.0
         };
         contribution.iter_mut().for_each(|(_, e)| *e *= s);
+        // Amending a damped contribution texel by texel would undo the damping.
+        self.objects[k].emitter_cache.sent.clear();
         let note = format!(
             "object '{}' sent {sent:.4e} to the boundary but reflects only {reflected:.4e}: its contribution was damped by {s:.3}",
             world.scene.objects[o].name
@@ -309,11 +336,7 @@ impl Dispersive {
                     }
                     _ => {
                         let n = self.cameras_for(k).1.texels();
-                        EmitterRays::Splat(SplatTexels {
-                            centre,
-                            seen: vec![UNKNOWN; n],
-                            t: vec![f32::INFINITY; n],
-                        })
+                        EmitterRays::Splat(SplatTexels::new(centre, n))
                     }
                 }
             })
@@ -322,6 +345,7 @@ impl Dispersive {
             key: Some(m),
             lobes,
             rays,
+            ..Default::default()
         }
     }
 
@@ -383,22 +407,18 @@ impl Dispersive {
             .map(|&(t, _)| t)
             .filter(|&t| texels.seen[t] == UNKNOWN)
             .collect();
-        if !unknown.is_empty() {
-            let dirs: Vec<Vec3> = unknown.iter().map(|&t| cube.directions[t]).collect();
-            let mut hits = vec![Hit::MISS; dirs.len()];
-            // In texel order, so the capture's ray packets stay coherent.
-            world
-                .vis
-                .capture(&[texels.centre], &dirs, 0.0, &[o as u32], &mut hits);
-            for (&t, h) in unknown.iter().zip(&hits) {
-                texels.seen[t] = world.seen_patch(h).map_or(LANDS_NOWHERE, |j| j as u32);
-                texels.t[t] = if h.is_hit() { h.t } else { f32::INFINITY };
-            }
-        }
+        trace_texels(world, camera, o, texels, &unknown);
+        // What the boundary holds from now on, texel by texel (`resend.rs`).
+        texels.sent_to.fill(LANDS_NOWHERE);
+        texels.forgotten.clear();
         flux.into_iter()
             .filter_map(|(t, f)| {
                 let j = texels.seen[t];
-                (j != LANDS_NOWHERE && receives_as_boundary(world, j as usize)).then_some((j, f))
+                let lands = j != LANDS_NOWHERE && receives_as_boundary(world, j as usize);
+                lands.then(|| {
+                    texels.sent_to[t] = j;
+                    (j, f)
+                })
             })
             .collect()
     }
@@ -528,9 +548,32 @@ pub fn splat_to_boundary(
         .collect()
 }
 
+/// Trace the splat texels `which` of object `o` (in texel order, so the capture's ray
+/// packets stay coherent) and cache where they land.
+pub(super) fn trace_texels(
+    world: &World,
+    camera: &ProbeCamera,
+    o: usize,
+    texels: &mut SplatTexels,
+    which: &[usize],
+) {
+    if which.is_empty() {
+        return;
+    }
+    let dirs: Vec<Vec3> = which.iter().map(|&t| camera.cube.directions[t]).collect();
+    let mut hits = vec![Hit::MISS; dirs.len()];
+    world
+        .vis
+        .capture(&[texels.centre], &dirs, 0.0, &[o as u32], &mut hits);
+    for (&t, h) in which.iter().zip(&hits) {
+        texels.seen[t] = world.seen_patch(h).map_or(LANDS_NOWHERE, |j| j as u32);
+        texels.t[t] = if h.is_hit() { h.t } else { f32::INFINITY };
+    }
+}
+
 /// Sum irradiance pieces per patch: one entry per patch, in order of first appearance.
 /// `scratch` (one value per patch, all zero) is left all zero.
-fn sum_by_patch(
+pub(super) fn sum_by_patch(
     scratch: &mut [Vec3],
     pieces: impl IntoIterator<Item = (u32, Vec3)>,
 ) -> Vec<(u32, Vec3)> {

@@ -312,3 +312,103 @@ fn a_moving_frame_assembles_and_meters_only_what_it_touched_and_misses_nothing()
     }
     assert!(skipped > 0, "every moving frame touched every chunk");
 }
+
+/// While another object moves, a still object's update sends the boundary only the light
+/// paths the mover crossed (`resend.rs`): the amended contribution equals a splat of the same
+/// light traced afresh, with nothing cached. Fails if the flux is not taken off the patches
+/// it went to, or not put where it lands now.
+#[test]
+fn a_still_objects_amended_splat_equals_a_fresh_full_splat() {
+    let mut world = cornell(3000);
+    let mover = object_named(&world, "short_block");
+    let still = object_named(&world, "tall_block");
+    let options = DispersiveOptions {
+        to_boundary: ToBoundary::Splat,
+        resend_tolerance: 0.5,
+        sleep_tolerance: 0.0,
+        ..DispersiveOptions::improved()
+    };
+    let mut d = Dispersive::new(&world, options).unwrap();
+    d.converge(&world, 20);
+    let k = d.objects.iter().position(|ob| ob.object == still).unwrap();
+    d.objects_to_boundary(&world, vec![k], false);
+    let before = d.indirect.clone();
+    // The short block moves across the light the tall one sends the walls.
+    let rest = world.patches.world_from_local[mover]
+        * Affine3A::from_mat3(world.patches.local_from_object[mover]);
+    let size = world.scene.bounds().unwrap().size().x;
+    let to = Affine3A::from_translation(Vec3::new(0.1, 0.0, 0.15) * size) * rest;
+    assert!(world.move_object(mover, to).unwrap());
+    let changes = Changes {
+        moved: vec![mover],
+        ..Default::default()
+    };
+    d.note_changes(&world, &changes);
+    let swept = d.swept_boxes(&world, &changes);
+    d.log_swept(&world, &changes, &swept);
+    d.forget_stale_caches(&world, &[k]);
+    assert!(
+        d.resend_crossed_paths(&world, k).is_some(),
+        "the still block's contribution was not amended"
+    );
+    let amended = d.indirect.clone();
+    d.objects[k].emitter_cache = caches::EmitterCache::default();
+    d.objects_to_boundary(&world, vec![k], false);
+    let scale = before.iter().map(|e| e.max_element()).fold(0.0, f32::max);
+    let differ = |a: &[Vec3], b: &[Vec3], by: f32| {
+        a.iter()
+            .zip(b)
+            .filter(|(x, y)| (**x - **y).abs().max_element() > by * scale)
+            .count()
+    };
+    assert!(
+        differ(&before, &amended, 1e-3) > 10,
+        "the mover crossed none of the still block's light paths: the test exercised nothing"
+    );
+    assert_eq!(differ(&amended, &d.indirect, 1e-5), 0);
+}
+
+/// Amending still objects' contributions while another moves (`resend.rs`) leaves no trace
+/// once the scene rests: after a block moves for 12 frames and then stays, the light
+/// converges to what sending everything at every update gives. Fails if a contribution
+/// amended while moving is never sent whole again at rest.
+#[test]
+fn amended_contributions_converge_to_the_same_light_at_rest() {
+    let runs: Vec<Vec<Vec3>> = [0.5, 0.0]
+        .into_iter()
+        .map(|resend_tolerance| {
+            let mut world = cornell(3000);
+            let mover = object_named(&world, "short_block");
+            let options = DispersiveOptions {
+                to_boundary: ToBoundary::Splat,
+                resend_tolerance,
+                sleep_tolerance: 0.0,
+                ..DispersiveOptions::improved()
+            };
+            let mut d = Dispersive::new(&world, options).unwrap();
+            d.converge(&world, 20);
+            let rest = world.patches.world_from_local[mover]
+                * Affine3A::from_mat3(world.patches.local_from_object[mover]);
+            let size = world.scene.bounds().unwrap().size().x;
+            for f in 1..=12 {
+                let x = 0.02 * f as f32 * size;
+                let m = Affine3A::from_translation(Vec3::new(x, 0.0, 0.5 * x)) * rest;
+                world.move_object(mover, m).unwrap();
+                let changes = Changes {
+                    moved: vec![mover],
+                    ..Default::default()
+                };
+                d.step(&world, &changes);
+            }
+            d.converge(&world, 40);
+            d.radiosity().to_vec()
+        })
+        .collect();
+    let scale = runs[1].iter().map(|e| e.max_element()).fold(0.0, f32::max);
+    let worst = runs[0]
+        .iter()
+        .zip(&runs[1])
+        .map(|(a, b)| (*a - *b).abs().max_element())
+        .fold(0.0, f32::max);
+    assert!(worst <= 1e-4 * scale, "differ by {worst} of {scale}");
+}

@@ -100,6 +100,7 @@ impl Keyed for DispersiveOptions {
             "sleep_tolerance" => Value::Float(self.sleep_tolerance.into()),
             "coarse_while_moving" => Value::Bool(self.coarse_while_moving),
             "one_emitter_while_moving" => Value::Bool(self.one_emitter_while_moving),
+            "resend_tolerance" => Value::Float(self.resend_tolerance.into()),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
     }
@@ -184,6 +185,7 @@ impl Keyed for DispersiveOptions {
             "sleep_tolerance" => self.sleep_tolerance = as_f32(value),
             "coarse_while_moving" => self.coarse_while_moving = as_bool(value),
             "one_emitter_while_moving" => self.one_emitter_while_moving = as_bool(value),
+            "resend_tolerance" => self.resend_tolerance = as_f32(value),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
         Ok(())

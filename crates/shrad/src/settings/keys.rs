@@ -212,6 +212,12 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
         "one_emitter_while_moving",
         "while an object moves (with coarse_while_moving), Step 3 sends its light from one SH emitter at its box centre, as the paper does, instead of one per face direction",
     ),
+    float(
+        "resend_tolerance",
+        0.0,
+        0.5,
+        "while another object moves, a still object sends the boundary only the light paths the mover crossed, unless its emitted light changed by more than this fraction since it was sent; at rest everything is sent again (0: always everything, the paper)",
+    ),
 ];
 
 /// The grid baseline's keys (fields of [`GridOptions`]).

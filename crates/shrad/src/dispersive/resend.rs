@@ -1,0 +1,151 @@
+//! Step 3 while another object moves (beyond the paper, `resend_tolerance`): a still object
+//! that the scheduler updates because a mover came near it sends the boundary nearly the
+//! light it sent before. What changed is where some of its light paths land: the texels of
+//! its splat that the mover's swept box crossed, which the stale test forgot (`stale.rs`).
+//! Unless the light it emits changed by more than the tolerance since it was sent, only
+//! those texels are traced again and their flux, as it was sent, is moved from the patch it
+//! went to onto the patch it reaches now (the paper's "only the current object's share is
+//! updated", 2.3.4 Step 3, narrowed to the share that changed). At rest, after a light
+//! changed, or when the emitted light changed more, the whole contribution is sent again
+//! (`step3_to_boundary.rs`), so a scene that settles converges to the same light as
+//! without this.
+//!
+//! Why: in the 1M-patch room a still neighbour's full splat reaches 355k boundary patches
+//! (13 ms of Step 3, and Step 4 and the meter then visit every chunk it touched), while the
+//! texels a mover crosses in a frame are a few hundred.
+
+use glam::Vec3;
+use rayon::prelude::*;
+use shrad_sh::ShRgb;
+
+use super::caches::{EmitterRays, LANDS_NOWHERE, UNKNOWN};
+use super::setup::receives_as_boundary;
+use super::step3_to_boundary::trace_texels;
+use super::Dispersive;
+use crate::World;
+
+impl Dispersive {
+    /// Send the boundary only what changed in object `k`'s light paths, when it may (see
+    /// the module's docs); whether it did. Returns the flux moved (net) when it did.
+    pub(super) fn resend_crossed_paths(&mut self, world: &World, k: usize) -> Option<f64> {
+        if !self.may_resend_crossed_paths(world, k) {
+            return None;
+        }
+        let ob = &self.objects[k];
+        let cache = &ob.emitter_cache;
+        let now: Vec<ShRgb> = ob
+            .emitters
+            .iter()
+            .zip(&cache.lobes)
+            .map(|((_, members), lobes)| self.emitter_intensity(world, k, members, lobes))
+            .collect();
+        if relative_change(&now, &cache.sent) > self.options.resend_tolerance as f64 {
+            return None;
+        }
+        let pieces = self.crossed_pieces(world, k);
+        let change = self.pieces_to_irradiance(world, pieces);
+        let area = &world.patches.area;
+        let mut flux = 0.0;
+        for &(j, e) in &change {
+            self.indirect[j as usize] += e;
+            self.touched.patch(j as usize);
+            flux += (e * area[j as usize]).element_sum() as f64 / 3.0;
+        }
+        // Kept as further pieces of its contribution, which the next full send removes.
+        self.objects[k].to_boundary.extend(change);
+        Some(flux)
+    }
+
+    /// Whether object `k`'s contribution can be amended rather than sent again: something
+    /// else moves (the caller's condition), it does not, its light is at full resolution, and
+    /// the boundary holds a splat sent from its current place with these emitters.
+    fn may_resend_crossed_paths(&self, world: &World, k: usize) -> bool {
+        let ob = &self.objects[k];
+        let cache = &ob.emitter_cache;
+        let m = world.patches.world_from_local[ob.object];
+        self.options.resend_tolerance > 0.0
+            && self.caching
+            && !ob.moving
+            && !self.cameras_for(k).2
+            && cache.key == Some(m)
+            && !cache.sent.is_empty()
+            && cache.sent.len() == cache.rays.len()
+            && cache.rays.iter().all(|r| matches!(r, EmitterRays::Splat(_)))
+            // Amendments pile up in `to_boundary`: beyond twice its size, send it whole.
+            && ob.to_boundary.len() <= 2 * cache.sent_len.max(1024)
+    }
+
+    /// Per emitter of object `k`, the texels forgotten since its contribution was sent, traced
+    /// again: (patch, flux) pieces that take each one's flux, as sent, off the patch it went
+    /// to and onto the one it reaches now.
+    fn crossed_pieces(&mut self, world: &World, k: usize) -> Vec<(u32, Vec3)> {
+        let o = self.objects[k].object;
+        // Full resolution: `may_resend_crossed_paths` leaves coarse light to a full send.
+        let camera = &self.emitter_camera;
+        let mut cache = std::mem::take(&mut self.objects[k].emitter_cache);
+        let each: Vec<Vec<(u32, Vec3)>> = cache
+            .rays
+            .par_iter_mut()
+            .zip(&cache.sent)
+            .map(|(rays, sent)| {
+                let EmitterRays::Splat(texels) = rays else {
+                    return Vec::new();
+                };
+                // A texel forgotten twice is listed twice.
+                let mut which = std::mem::take(&mut texels.forgotten);
+                which.sort_unstable();
+                which.dedup();
+                // Only texels that carried flux: the boundary never held the others.
+                let flux: Vec<(usize, Vec3)> = which
+                    .into_iter()
+                    .map(|t| t as usize)
+                    .filter(|&t| texels.seen[t] == UNKNOWN)
+                    .filter_map(|t| {
+                        let f = camera.projector.texel_value(sent, t).max(Vec3::ZERO);
+                        (f.max_element() > 0.0).then_some((t, f))
+                    })
+                    .collect();
+                let trace: Vec<usize> = flux.iter().map(|&(t, _)| t).collect();
+                trace_texels(world, camera, o, texels, &trace);
+                let mut pieces = Vec::new();
+                for (t, f) in flux {
+                    let j = texels.seen[t];
+                    let lands = j != LANDS_NOWHERE && receives_as_boundary(world, j as usize);
+                    let now = if lands { j } else { LANDS_NOWHERE };
+                    let was = std::mem::replace(&mut texels.sent_to[t], now);
+                    if now == was {
+                        continue;
+                    }
+                    if was != LANDS_NOWHERE {
+                        pieces.push((was, -f));
+                    }
+                    if now != LANDS_NOWHERE {
+                        pieces.push((now, f));
+                    }
+                }
+                pieces
+            })
+            .collect();
+        self.objects[k].emitter_cache = cache;
+        each.concat()
+    }
+}
+
+/// `sum |now - sent| / sum |sent|` over every emitter's coefficients and channels (0 when
+/// both are zero; infinite when only `sent` is).
+fn relative_change(now: &[ShRgb], sent: &[ShRgb]) -> f64 {
+    let (mut diff, mut total) = (0f64, 0f64);
+    for (a, b) in now.iter().zip(sent) {
+        for (x, y) in a.coeffs().iter().zip(b.coeffs()) {
+            diff += (*x - *y).abs().element_sum() as f64;
+            total += y.abs().element_sum() as f64;
+        }
+    }
+    if diff == 0.0 {
+        0.0
+    } else if total > 0.0 {
+        diff / total
+    } else {
+        f64::INFINITY
+    }
+}
