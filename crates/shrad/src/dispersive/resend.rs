@@ -31,14 +31,8 @@ impl Dispersive {
         if !self.may_resend_crossed_paths(world, k) {
             return None;
         }
-        let ob = &self.objects[k];
-        let cache = &ob.emitter_cache;
-        let now: Vec<ShRgb> = ob
-            .emitters
-            .iter()
-            .zip(&cache.lobes)
-            .map(|((_, members), lobes)| self.emitter_intensity(world, k, members, lobes))
-            .collect();
+        let cache = &self.objects[k].emitter_cache;
+        let now = self.emitter_intensities(world, k, &cache.lobes);
         if relative_change(&now, &cache.sent) > self.options.resend_tolerance as f64 {
             return None;
         }

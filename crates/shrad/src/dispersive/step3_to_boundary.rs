@@ -89,12 +89,7 @@ impl Dispersive {
             cache = self.emitter_geometry(world, k, m, method, merged);
         }
         let ob = &self.objects[k];
-        let intensities: Vec<ShRgb> = ob
-            .emitters
-            .iter()
-            .zip(&cache.lobes)
-            .map(|((_, members), lobes)| self.emitter_intensity(world, k, members, lobes))
-            .collect();
+        let intensities = self.emitter_intensities(world, k, &cache.lobes);
         let pieces = if merged {
             let mut total = ShRgb::zeros(self.options.bands);
             intensities.iter().for_each(|i| total.add(i));
@@ -122,15 +117,22 @@ impl Dispersive {
         pieces
     }
 
-    /// The outgoing intensity of one emitter of object `k` in SH:
-    /// `sum_i (rho_i E_i) A_i / pi * A_l Y_k(d_i)` over its `members` (2.3.4 Step 1).
-    pub(super) fn emitter_intensity(
+    /// The outgoing intensity of each emitter of object `k`, from its members' `lobes`.
+    pub(super) fn emitter_intensities(
         &self,
         world: &World,
         k: usize,
-        members: &[u32],
-        lobes: &[f32],
-    ) -> ShRgb {
+        lobes: &[Vec<f32>],
+    ) -> Vec<ShRgb> {
+        let ob = &self.objects[k];
+        (ob.emitters.iter().zip(lobes))
+            .map(|((_, members), lobes)| self.emitter_intensity(world, k, members, lobes))
+            .collect()
+    }
+
+    /// The outgoing intensity of one emitter of object `k` in SH:
+    /// `sum_i (rho_i E_i) A_i / pi * A_l Y_k(d_i)` over its `members` (2.3.4 Step 1).
+    fn emitter_intensity(&self, world: &World, k: usize, members: &[u32], lobes: &[f32]) -> ShRgb {
         let p = &world.patches;
         let nc = num_coeffs(self.options.bands);
         let range = p.range(self.objects[k].object);
