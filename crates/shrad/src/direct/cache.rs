@@ -71,6 +71,10 @@ pub struct DirectCache {
 /// of them found per frame.
 pub const SHADOW_RAYS_AT_ONCE: usize = 1 << 15;
 
+/// While it moves, at most about this many of a mover's own patches have their direct light
+/// traced an update (the rest are held in turn; `DirectCache::update`).
+pub const MOVER_PATCHES_AT_ONCE: usize = 4096;
+
 /// A shadow ray to re-trace: (receiver, emitter, sample, from, to).
 type Retrace = (u32, u32, u32, Vec3, Vec3);
 
@@ -171,9 +175,11 @@ impl DirectCache {
     /// still block stays blocked; only a blocked ray they no longer block is traced against
     /// the whole scene. With `whole_samples` below the cache's and `whole_stride` above 1,
     /// only one in `whole_stride` of the movers' receivers is traced (in turn, a different
-    /// one each update); the others keep the visible fraction of their last trace under
-    /// their exact unoccluded irradiance where they are now (a moving object's shadows lag
-    /// by at most `whole_stride - 1` updates; whole again, with every sample, once it rests).
+    /// one each update), or fewer for a mover of more than [`MOVER_PATCHES_AT_ONCE`]
+    /// receivers; the others keep the visible fraction of their last trace under their
+    /// exact unoccluded irradiance where they are now (a moving object's shadows lag by at
+    /// most `whole_stride - 1` updates, or by its receivers over
+    /// [`MOVER_PATCHES_AT_ONCE`]; whole again, with every sample, once it rests).
     /// Likewise the other receivers, when the last update found more than
     /// [`SHADOW_RAYS_AT_ONCE`] shadow rays to re-trace: one in `whole_stride` has its shadow
     /// rays found and re-traced each update (in turn), against every move since its last
@@ -220,6 +226,12 @@ impl DirectCache {
             .filter(|&k| whole_ks.binary_search(k).is_err())
             .copied()
             .collect();
+        // A large mover's own patches take more turns (the 1M-patch room's largest object
+        // has 43k: a quarter of them a frame was 10 ms of its moving frame).
+        let own_stride = match stride {
+            1 => 1,
+            _ => stride.max(whole_ks.len().div_ceil(MOVER_PATCHES_AT_ONCE)),
+        };
         let is_whole = |k: usize| self.coarse[k] || whole_ks.binary_search(&k).is_ok();
         let find = |k: usize| k % turns == phase % turns && !is_whole(k);
         let t = std::time::Instant::now();
@@ -246,7 +258,7 @@ impl DirectCache {
         // The receivers that moved, and the coarse ones that rest now: everything again.
         let (traced, held): (Vec<usize>, Vec<usize>) = whole_ks
             .iter()
-            .partition(|&&k| k % stride == phase % stride);
+            .partition(|&&k| k % own_stride == phase % own_stride);
         let t = std::time::Instant::now();
         self.recompute(world, &ems, &traced, whole_samples);
         self.hold(world, &ems, &held);
