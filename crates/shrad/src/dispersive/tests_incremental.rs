@@ -387,19 +387,7 @@ fn amended_contributions_converge_to_the_same_light_at_rest() {
             };
             let mut d = Dispersive::new(&world, options).unwrap();
             d.converge(&world, 20);
-            let rest = world.patches.world_from_local[mover]
-                * Affine3A::from_mat3(world.patches.local_from_object[mover]);
-            let size = world.scene.bounds().unwrap().size().x;
-            for f in 1..=12 {
-                let x = 0.02 * f as f32 * size;
-                let m = Affine3A::from_translation(Vec3::new(x, 0.0, 0.5 * x)) * rest;
-                world.move_object(mover, m).unwrap();
-                let changes = Changes {
-                    moved: vec![mover],
-                    ..Default::default()
-                };
-                d.step(&world, &changes);
-            }
+            drag(&mut world, &mut d, mover, 12, Vec3::new(0.02, 0.0, 0.01));
             d.converge(&world, 40);
             d.radiosity().to_vec()
         })
@@ -411,4 +399,43 @@ fn amended_contributions_converge_to_the_same_light_at_rest() {
         .map(|(a, b)| (*a - *b).abs().max_element())
         .fold(0.0, f32::max);
     assert!(worst <= 1e-4 * scale, "differ by {worst} of {scale}");
+}
+
+/// When an object stops, the objects near it are updated before it: their light and what
+/// they send the walls still carry its path, and its own full update first made the error
+/// rise until they caught up (issue 22 item 3, `examples/stability.rs`).
+#[test]
+fn the_neighbours_of_an_object_that_stops_are_updated_before_it() {
+    let mut world = cornell(3000);
+    let mover = object_named(&world, "short_block");
+    let neighbour = object_named(&world, "tall_block");
+    let options = DispersiveOptions {
+        sleep_tolerance: 0.0,
+        ..DispersiveOptions::improved()
+    };
+    let mut d = Dispersive::new(&world, options).unwrap();
+    d.converge(&world, 4);
+    drag(&mut world, &mut d, mover, 6, Vec3::X * 0.01);
+    let first = d.step(&world, &Changes::default());
+    let second = d.step(&world, &Changes::default());
+    assert_eq!(
+        (first.objects_updated, second.objects_updated),
+        (vec![neighbour], vec![mover])
+    );
+}
+
+/// Move `mover` `frames` times by `step` (in room widths) from where it is, a frame each.
+fn drag(world: &mut World, d: &mut Dispersive, mover: usize, frames: usize, step: Vec3) {
+    let start = world.patches.world_from_local[mover]
+        * Affine3A::from_mat3(world.patches.local_from_object[mover]);
+    let size = world.scene.bounds().unwrap().size().x;
+    for f in 1..=frames {
+        let m = Affine3A::from_translation(step * f as f32 * size) * start;
+        world.move_object(mover, m).unwrap();
+        let changes = Changes {
+            moved: vec![mover],
+            ..Default::default()
+        };
+        d.step(world, &changes);
+    }
 }
