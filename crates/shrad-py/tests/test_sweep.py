@@ -66,7 +66,7 @@ def test_a_failing_shot_is_named():
 
 
 def test_sweep_on_a_dask_local_cluster():
-    distributed = pytest.importorskip("distributed")
+    import distributed  # pinned in requirements.txt, as ray is
     with distributed.LocalCluster(
         n_workers=2,
         threads_per_worker=1,
@@ -89,7 +89,7 @@ def test_sweep_on_a_local_ray_cluster():
     # interface, unless it is told it is no cluster (read when ray is imported): then its
     # servers listen on 127.0.0.1 only.
     os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"
-    ray = pytest.importorskip("ray")
+    import ray  # pinned in requirements.txt: the suite runs this, never skips it
     # A short directory of its own: Ray's socket paths must stay under 108 characters.
     temp = tempfile.mkdtemp(prefix="shrad-ray-")
     ray.init(

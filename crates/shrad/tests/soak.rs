@@ -224,16 +224,13 @@ fn soak_random_steering_on_every_solver_and_preset() {
             100.0 * growth
         );
         // The guard may repair a frame where the light dimmed (what the solver still holds
-        // exceeds what the new light sustains), at most once a dimming; any other repair is
-        // a divergence of the solver itself.
-        assert!(
-            diverged_on_dimming <= dimmings,
-            "{name}: {diverged_on_dimming} repairs for {dimmings} dimmings"
-        );
+        // exceeds what the new light sustains), so at most one frame a dimming; a repair on
+        // any other frame is a divergence of the solver itself. (That the repairs of
+        // dimming frames are at most the dimmings needs no assertion: each is one of them.)
         assert_eq!(
             diverged - diverged_on_dimming,
             0,
-            "{name}: frames repaired without the light dimming"
+            "{name}: frames repaired without the light dimming ({diverged} repaired, {dimmings} dimmings)"
         );
         assert!(rss_after_100 > 0, "/proc/self/statm is readable");
         // RSS moves by the allocator's pages and arenas too (a small scene's 20 MiB grew by

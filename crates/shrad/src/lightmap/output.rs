@@ -22,12 +22,12 @@ use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 use serde_json::{json, Value};
-use shrad_scene::gltf_builder::{bounds, join_glb, BufferAt, GltfBuffer, TRIANGLES};
+use shrad_scene::gltf_builder::{bounds, join_glb, BufferAt, GltfBuffer};
 use shrad_scene::StagedFiles;
 
 use super::texel::Texels;
 use super::{rgbm, Layout, LightmapFormat, LightmapOptions};
-use crate::bake::Baked;
+use crate::bake::{object_mesh_node, Baked};
 use crate::engine::Engine;
 use crate::render::{Shading, SurfaceLight};
 use crate::{Error, World};
@@ -145,7 +145,6 @@ fn meshes_and_nodes(
 ) -> (Vec<Value>, Vec<Value>) {
     let (mut meshes, mut nodes) = (Vec::new(), Vec::new());
     for m in chart_meshes(world, layout) {
-        let obj = &world.scene.objects[m.object];
         let (lo, hi) = bounds(&m.positions);
         let attributes = json!({
             "POSITION": buffer.vec3s(&m.positions, Some((json!(lo.to_array()), json!(hi.to_array())))),
@@ -155,20 +154,11 @@ fn meshes_and_nodes(
             "TEXCOORD_0": buffer.vec2s(&m.uv1),
             "TEXCOORD_1": buffer.vec2s(&m.uv1),
         });
-        let indices = buffer.triangles(&m.triangles);
-        meshes.push(json!({
-            "name": obj.name,
-            "primitives": [{"attributes": attributes, "indices": indices, "material": 0, "mode": TRIANGLES}],
-        }));
-        nodes.push(json!({
-            "name": obj.name,
-            "mesh": meshes.len() - 1,
-            "extras": {
-                "shrad_role": world.patches.object_role[m.object].name(),
-                "shrad_object": m.object,
-                "shrad_albedo": object_albedo(world, m.object).to_array(),
-            },
-        }));
+        let primitive = (attributes, buffer.triangles(&m.triangles));
+        let albedo = json!({"shrad_albedo": object_albedo(world, m.object).to_array()});
+        let (mesh, node) = object_mesh_node(world, m.object, meshes.len(), primitive, albedo);
+        meshes.push(mesh);
+        nodes.push(node);
         baked.meshes += 1;
         baked.vertices += m.positions.len();
         baked.triangles += m.triangles.len();

@@ -36,6 +36,8 @@ pub(super) mod no_data;
 
 use serde_json::{json, Value};
 
+use super::builder::FLOAT;
+
 /// Bytes all decoded buffer views, Draco attributes and zero-filled accessors of one file may
 /// take together (1 GiB: about 90 million FLOAT VEC3 vertices, far beyond what shrad
 /// lights). A file that declares more is refused before anything is allocated.
@@ -211,7 +213,7 @@ impl Unpack<'_> {
                 continue;
             }
             let ty = a["type"].as_str().unwrap_or("SCALAR");
-            let ct = a["componentType"].as_u64().unwrap_or(5126);
+            let ct = a["componentType"].as_u64().unwrap_or(FLOAT.into());
             let count = a["count"].as_u64().unwrap_or(0);
             let at = format!("accessors[{i}]");
             let bytes = element_size(ty, ct).saturating_mul(count);
@@ -235,7 +237,7 @@ impl Unpack<'_> {
         let at = format!("accessors[{i}]");
         let a = &self.root["accessors"][i];
         let ty = a["type"].as_str().unwrap_or("SCALAR");
-        let ct = a["componentType"].as_u64().unwrap_or(5126);
+        let ct = a["componentType"].as_u64().unwrap_or(FLOAT.into());
         let norm = a["normalized"].as_bool().unwrap_or(false);
         let count = a["count"].as_u64().unwrap_or(0) as usize;
         let (nc, cs) = (components(ty) as usize, component_size(ct) as usize);
@@ -292,7 +294,7 @@ impl Unpack<'_> {
         let v = self.push_view(&bytes)?;
         let a = &mut self.root["accessors"][i];
         a["bufferView"] = json!(v);
-        a["componentType"] = json!(5126);
+        a["componentType"] = json!(FLOAT);
         if let Some(o) = a.as_object_mut() {
             for key in ["byteOffset", "normalized", "sparse"] {
                 o.remove(key);
@@ -324,7 +326,7 @@ impl Unpack<'_> {
         todo.dedup();
         for i in todo {
             let a = &self.root["accessors"][i];
-            if a["componentType"].as_u64() == Some(5126) {
+            if a["componentType"].as_u64() == Some(FLOAT.into()) {
                 continue;
             }
             let count = a["count"].as_u64().unwrap_or(0);

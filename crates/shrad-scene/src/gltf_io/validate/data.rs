@@ -4,6 +4,7 @@
 use serde_json::Value;
 
 use super::{array, component, join, numbers, uint, AccessorInfo, JsonCheck};
+use crate::gltf_io::builder::{ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER};
 
 /// A buffer view: (byteOffset + byteLength within its buffer, byteLength, byteStride).
 type View = (u64, u64, Option<u64>);
@@ -139,7 +140,7 @@ impl JsonCheck<'_> {
                 }
             }
             if let Some(t) = uint(v, "target", &at)? {
-                if t != 34962 && t != 34963 {
+                if t != u64::from(ARRAY_BUFFER) && t != u64::from(ELEMENT_ARRAY_BUFFER) {
                     return Err(format!(
                         "{at}.target: {t} is neither ARRAY_BUFFER (34962) nor ELEMENT_ARRAY_BUFFER (34963)"
                     ));
