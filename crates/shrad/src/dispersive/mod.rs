@@ -37,6 +37,7 @@ use crate::World;
 mod caches;
 mod frame;
 pub mod inspect;
+mod near_field;
 mod object_state;
 mod options;
 mod scheduler;

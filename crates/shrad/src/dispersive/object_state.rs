@@ -14,6 +14,7 @@ use shrad_scene::Aabb;
 use shrad_sh::trilinear_weights;
 
 use super::caches::{EmitterCache, ProbeCache};
+use super::near_field::NearField;
 use super::setup::{emitter_groups, self_transfer};
 use super::DispersiveOptions;
 use crate::sparse::SparseRows;
@@ -46,6 +47,8 @@ pub(super) struct ObjectProbes {
     /// Per patch, the contact openness (see `Dispersive::contact_openness`); empty until
     /// computed and again when the object or a neighbour moves (it is geometry only).
     pub(super) openness: Vec<f32>,
+    /// The near field (`near_field.rs`), measured with the openness.
+    pub(super) near: NearField,
     /// Step 2's cached probe hits (`caches.rs`).
     pub(super) probe_cache: ProbeCache,
     /// Step 3's cached emitter rays (`caches.rs`).
@@ -105,6 +108,7 @@ impl ObjectProbes {
             transfer,
             self_view,
             openness: Vec::new(),
+            near: NearField::default(),
             probe_cache: ProbeCache::default(),
             emitter_cache: EmitterCache::default(),
             moving: false,

@@ -147,6 +147,14 @@ pub struct DispersiveOptions {
     /// (`emitter_per_face`): a sixth of the splat's rays for light that is wrong by the
     /// motion anyway; per face again once it rests.
     pub one_emitter_while_moving: bool,
+    /// Rays per interior patch for its near field (`near_field.rs`; 0: off, the paper): in
+    /// the directions where a ray meets something within `near_reach`, the patch gathers
+    /// that surface's radiosity instead of the probes' radiance (the floor beside a box,
+    /// the shadow under a sphere, which the corner probes see in the wrong place). Stands
+    /// in for contact openness when on.
+    pub near_rays: u32,
+    /// The near field's reach as a fraction of the object's probe box diagonal.
+    pub near_reach: f32,
 }
 
 impl DispersiveOptions {
@@ -175,6 +183,8 @@ impl DispersiveOptions {
             sleep_tolerance: 0.0,
             coarse_while_moving: false,
             one_emitter_while_moving: false,
+            near_rays: 0,
+            near_reach: 0.25,
         }
     }
 
@@ -201,6 +211,7 @@ impl DispersiveOptions {
             sleep_tolerance: 1e-4,
             coarse_while_moving: true,
             one_emitter_while_moving: true,
+            near_rays: 64,
             ..Self::paper()
         }
     }

@@ -156,13 +156,8 @@ pub(super) fn self_transfer(
     let mut dirs_world = vec![Vec3::ZERO; range.len() * rays];
     let mut dirs_local = vec![Vec3::ZERO; range.len() * rays];
     for (k, i) in range.clone().enumerate() {
-        let shift = (
-            crate::sampling::unit(crate::sampling::hash(i as u32 ^ 0x5eed)),
-            0.25,
-        );
         for j in 0..rays {
-            let (u, v) = crate::sampling::hammersley(j as u32, rays as u32, shift);
-            let local = crate::sampling::square_to_cosine_hemisphere(u, v, p.normal_local[i]);
+            let local = transfer_direction(p, i, j, rays);
             dirs_local[k * rays + j] = local;
             dirs_world[k * rays + j] = m.transform_vector3(local).normalize_or_zero();
             origins[k * rays + j] = p.centre[i] + p.normal[i] * world.eps;
@@ -197,6 +192,18 @@ pub(super) fn self_transfer(
         }
     }
     (transfer, self_view)
+}
+
+/// Ray `j` of `rays` from patch `i` (rest frame, cosine-distributed about its normal): the
+/// transfer vectors' directions, and the near field's (`near_field.rs`), so that with as
+/// many rays both see the same directions.
+pub(super) fn transfer_direction(p: &crate::Patches, i: usize, j: usize, rays: usize) -> Vec3 {
+    let shift = (
+        crate::sampling::unit(crate::sampling::hash(i as u32 ^ 0x5eed)),
+        0.25,
+    );
+    let (u, v) = crate::sampling::hammersley(j as u32, rays as u32, shift);
+    crate::sampling::square_to_cosine_hemisphere(u, v, p.normal_local[i])
 }
 
 /// The Step 3 emitters of object `o`: one at the box centre with every patch (the paper), or

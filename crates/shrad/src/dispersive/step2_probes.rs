@@ -47,7 +47,11 @@ impl Dispersive {
             super::tr("interpolate", tt);
             let tt = Instant::now();
             if self.objects[k].openness.len() != p.range(o).len() {
-                self.objects[k].openness = if self.options.contact_rays > 0 {
+                // The near field, when measured, stands in for contact openness.
+                self.objects[k].near = self.near_field(world, k);
+                self.objects[k].openness = if self.options.contact_rays > 0
+                    && self.options.near_rays == 0
+                {
                     self.contact_openness(world, k)
                 } else {
                     vec![1.0; p.range(o).len()]
@@ -97,6 +101,7 @@ impl Dispersive {
         let p = &world.patches;
         let nc = num_coeffs(self.options.bands);
         let ob = &self.objects[k];
+        let kk = k;
         let range = p.range(ob.object);
         let with_transfer = !ob.transfer.is_empty();
         range
@@ -118,13 +123,20 @@ impl Dispersive {
                     return Vec3::ZERO;
                 }
                 let mut lobe = [0f32; MAX_COEFFS];
-                let weights: &[f32] = if with_transfer {
-                    &ob.transfer[k * nc..(k + 1) * nc]
+                if with_transfer {
+                    lobe[..nc].copy_from_slice(&ob.transfer[k * nc..(k + 1) * nc]);
                 } else {
                     cosine_lobe_sh(self.options.bands, p.normal[i], &mut lobe[..nc]);
-                    &lobe[..nc]
                 };
-                let dot: Vec3 = l[..nc].iter().zip(weights).map(|(a, &b)| *a * b).sum();
+                // The near field's directions are gathered below, not read from the probes.
+                let (near_lobe, near) = match ob.near.lobe.is_empty() {
+                    true => (&[][..], Vec3::ZERO),
+                    false => (&ob.near.lobe[k * nc..(k + 1) * nc], self.near_light(world, kk, k)),
+                };
+                for (a, b) in lobe.iter_mut().zip(near_lobe) {
+                    *a -= b;
+                }
+                let dot: Vec3 = l[..nc].iter().zip(&lobe[..nc]).map(|(a, &b)| *a * b).sum();
                 let own: Vec3 = if with_transfer {
                     ob.self_view(k)
                         .iter()
@@ -136,7 +148,7 @@ impl Dispersive {
                 } else {
                     Vec3::ZERO
                 };
-                (dot / sum_w).max(Vec3::ZERO) + own
+                (dot / sum_w).max(Vec3::ZERO) + own + near
             })
             .collect()
     }
@@ -381,7 +393,7 @@ impl Dispersive {
 
     /// What a probe texel of object `o` sees, as a code (see `caches.rs`): the same
     /// decisions as [`Dispersive::shade_probe_texel`].
-    fn seen_code(&self, world: &World, h: &Hit, o: u32) -> u32 {
+    pub(super) fn seen_code(&self, world: &World, h: &Hit, o: u32) -> u32 {
         if !h.is_hit() || h.object == o {
             return SEES_NOTHING;
         }
@@ -392,7 +404,7 @@ impl Dispersive {
     }
 
     /// Radiance a probe texel that sees patch `j` receives.
-    fn texel_radiance(&self, world: &World, j: usize) -> Vec3 {
+    pub(super) fn texel_radiance(&self, world: &World, j: usize) -> Vec3 {
         let b = if self.options.direct_on_interior {
             self.radiosity[j] - world.exitance[j]
         } else {

@@ -100,6 +100,8 @@ impl Keyed for DispersiveOptions {
             "sleep_tolerance" => Value::Float(self.sleep_tolerance.into()),
             "coarse_while_moving" => Value::Bool(self.coarse_while_moving),
             "one_emitter_while_moving" => Value::Bool(self.one_emitter_while_moving),
+            "near_rays" => Value::Int(self.near_rays.into()),
+            "near_reach" => Value::Float(self.near_reach.into()),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
     }
@@ -184,6 +186,8 @@ impl Keyed for DispersiveOptions {
             "sleep_tolerance" => self.sleep_tolerance = as_f32(value),
             "coarse_while_moving" => self.coarse_while_moving = as_bool(value),
             "one_emitter_while_moving" => self.one_emitter_while_moving = as_bool(value),
+            "near_rays" => self.near_rays = as_u32(value),
+            "near_reach" => self.near_reach = as_f32(value),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
         Ok(())

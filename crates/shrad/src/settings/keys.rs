@@ -212,6 +212,19 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
         "one_emitter_while_moving",
         "while an object moves (with coarse_while_moving), Step 3 sends its light from one SH emitter at its box centre, as the paper does, instead of one per face direction",
     ),
+    int(
+        "near_rays",
+        0,
+        MAX_RAYS,
+        true,
+        "rays per interior patch for its near field: light from surfaces within near_reach is gathered from their radiosity, not read from the probes (the floor beside a box, the shadow under a sphere); stands in for contact openness (0: off, the paper)",
+    ),
+    float(
+        "near_reach",
+        0.0,
+        1.0,
+        "the near field's reach, a fraction of the object's probe box diagonal",
+    ),
 ];
 
 /// The grid baseline's keys (fields of [`GridOptions`]).
