@@ -46,6 +46,15 @@ impl Sums {
 }
 
 fn load_world(name: &str, patches: usize) -> World {
+    // `room-N`: the bench's room with N objects (`objects-N` scenes at 40k patches).
+    if let Some(objects) = name.strip_prefix("room-").and_then(|n| n.parse().ok()) {
+        let scene = shrad::scene::room(&shrad::scene::RoomParams {
+            objects,
+            patches,
+            big_object_patches: None,
+        });
+        return World::new(scene, PatchSizing::Count(patches), Backend::Auto).expect("world");
+    }
     let mut scene = if shrad::scene::builtin_names().contains(&name) {
         let mut s = shrad::scene::builtin(name).expect("built-in scene");
         if name == "room" {
@@ -67,8 +76,10 @@ fn load_world(name: &str, patches: usize) -> World {
 /// The reference radiosity, from the cache file when it holds one of this many patches.
 fn reference(world: &World, name: &str, patches: usize) -> Vec<Vec3> {
     let stem = Path::new(name).file_stem().unwrap().to_string_lossy();
-    let path = PathBuf::from(std::env::temp_dir())
-        .join(format!("shrad-reference-{stem}-{patches}-{}.bin", world.patches.len()));
+    let path = PathBuf::from(std::env::temp_dir()).join(format!(
+        "shrad-reference-{stem}-{patches}-{}.bin",
+        world.patches.len()
+    ));
     if let Ok(bytes) = std::fs::read(&path) {
         let v: Vec<Vec3> = bytes
             .chunks_exact(12)
@@ -163,7 +174,9 @@ fn options_from(pairs: &[String]) -> DispersiveOptions {
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let name = args.first().expect("usage: interior_errors SCENE [patches] [key=value ...]");
+    let name = args
+        .first()
+        .expect("usage: interior_errors SCENE [patches] [key=value ...]");
     let patches: usize = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(20_000);
     let pairs: Vec<String> = args.iter().filter(|a| a.contains('=')).cloned().collect();
     let options = options_from(&pairs);
@@ -183,6 +196,7 @@ fn main() {
         100.0 * e.interior
     );
     breakdown(&world, &d, &reference);
+    print_probes(&world, &d, &reference);
 }
 
 fn breakdown(world: &World, d: &Dispersive, reference: &[Vec3]) {
@@ -249,7 +263,53 @@ fn breakdown(world: &World, d: &Dispersive, reference: &[Vec3]) {
     print_rows("by object", &by_object, total.num);
     print_rows("by face (world normal)", &by_face, total.num);
     print_rows("by object and face (local normal)", &by_side, total.num);
-    print_rows("by face and height in the object's box", &by_height, total.num);
-    print_rows("by closeness (rays within 0.1 of the object's diagonal)", &by_near, total.num);
-    print_rows("all interior", &BTreeMap::from([("all".to_string(), total)]), total.num);
+    print_rows(
+        "by face and height in the object's box",
+        &by_height,
+        total.num,
+    );
+    print_rows(
+        "by closeness (rays within 0.1 of the object's diagonal)",
+        &by_near,
+        total.num,
+    );
+    print_rows(
+        "all interior",
+        &BTreeMap::from([("all".to_string(), total)]),
+        total.num,
+    );
+}
+
+/// With `PROBES=object`, the probes of that object: where they stand, their state and the
+/// mean radiance they see (SH band 0).
+fn print_probes(world: &World, d: &Dispersive, reference: &[Vec3]) {
+    let Ok(name) = std::env::var("PROBES") else {
+        return;
+    };
+    for v in d.probe_views(world) {
+        if world.scene.objects[v.object].name != name {
+            continue;
+        }
+        let dc = v.sh.coeffs()[0];
+        println!(
+            "probe {} at {:.3?}: {:?}, band 0 {:.4?}",
+            v.corner, v.position, v.state, dc
+        );
+    }
+    let o = world
+        .scene
+        .objects
+        .iter()
+        .position(|x| x.name == name)
+        .unwrap();
+    let p = &world.patches;
+    for i in p.range(o).step_by(7) {
+        println!(
+            "patch {i} at {:.3?} n {:.2?}: disp {:.4?} ref {:.4?}",
+            p.centre[i],
+            p.normal[i],
+            d.radiosity()[i],
+            reference[i]
+        );
+    }
 }

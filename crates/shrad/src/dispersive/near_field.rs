@@ -20,6 +20,8 @@
 //! stands in for it. Like contact openness it is geometry: measured again when the object or
 //! something within its reach moves (`stale.rs`).
 
+use std::collections::HashMap;
+
 use glam::Vec3;
 use rayon::prelude::*;
 use shrad_sh::{eval_basis, num_coeffs};
@@ -41,13 +43,6 @@ pub(super) struct NearField {
     pub(super) lobe: Vec<f32>,
     /// Per patch: (patch met within reach, its form factor).
     pub(super) view: SparseRows<(u32, f32)>,
-}
-
-impl NearField {
-    /// Bytes held.
-    pub(super) fn bytes(&self) -> usize {
-        self.lobe.len() * 4 + self.view.bytes()
-    }
 }
 
 /// How far object `ob`'s near field (or, without it, its contact openness) looks, in world
@@ -98,7 +93,9 @@ impl Dispersive {
                 }
             });
         let mut hits = vec![Hit::MISS; count];
-        world.vis.closest(&origins, &dirs, 0.0, &[o as u32], &mut hits);
+        world
+            .vis
+            .closest(&origins, &dirs, 0.0, &[o as u32], &mut hits);
         let blocked = self.self_blocked(world, k, &dirs);
         let with_transfer = !ob.transfer.is_empty();
         let bands = self.options.bands;
@@ -182,15 +179,46 @@ impl Dispersive {
         blocked
     }
 
+    /// The radiosity object `k` itself put on the boundary patches its near field meets
+    /// (its Step 3 light, reflected): taken out of what the near field gathers. Close to
+    /// the floor, Step 3's emitter and the near field otherwise make a loop in which a
+    /// sphere's underside lights the floor under it and is lit back (measured: undersides
+    /// 4-5x too bright among 128 objects).
+    pub(super) fn near_echo(&self, world: &World, k: usize) -> HashMap<u32, Vec3> {
+        let ob = &self.objects[k];
+        if ob.near.lobe.is_empty() {
+            return HashMap::new();
+        }
+        let met: std::collections::HashSet<u32> = (0..ob.near.view.len())
+            .flat_map(|r| ob.near.view.row(r).iter().map(|e| e.0))
+            .collect();
+        ob.to_boundary
+            .iter()
+            .filter(|(q, _)| met.contains(q))
+            .map(|&(q, e)| (q, world.reflectance[q as usize] * e))
+            .collect()
+    }
+
     /// The light object `k`'s patch `k_patch` (offset in its range) gathers from its near
-    /// field: the radiosity the probes would carry (`texel_radiance`, times pi).
-    pub(super) fn near_light(&self, world: &World, k: usize, k_patch: usize) -> Vec3 {
+    /// field: the radiosity the probes would carry (`texel_radiance`, times pi), less the
+    /// object's own echo (`near_echo`).
+    pub(super) fn near_light(
+        &self,
+        world: &World,
+        k: usize,
+        k_patch: usize,
+        echo: &HashMap<u32, Vec3>,
+    ) -> Vec3 {
         self.objects[k]
             .near
             .view
             .row(k_patch)
             .iter()
-            .map(|&(q, f)| self.texel_radiance(world, q as usize) * (std::f32::consts::PI * f))
+            .map(|&(q, f)| {
+                let b = self.texel_radiance(world, q as usize) * std::f32::consts::PI;
+                let own = echo.get(&q).copied().unwrap_or(Vec3::ZERO);
+                (b - own).max(Vec3::ZERO) * f
+            })
             .sum()
     }
 }

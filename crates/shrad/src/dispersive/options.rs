@@ -45,6 +45,17 @@ pub enum ProbeRepair {
     Drop,
     /// Move it along the box diagonal towards the centre until it is valid (else drop it).
     MoveInward,
+    /// Move it towards the centre along the one box axis that points most nearly at the
+    /// closest back face it sees (up, out of the floor it is buried in, staying beside its
+    /// object), and if that finds no valid place, along the diagonal as `MoveInward`.
+    MoveOut,
+}
+
+impl ProbeRepair {
+    /// Whether invalid probes are moved (`MoveInward`, `MoveOut`).
+    pub fn moves(self) -> bool {
+        matches!(self, ProbeRepair::MoveInward | ProbeRepair::MoveOut)
+    }
 }
 
 /// How an object's reflected light reaches the boundary (Step 3).
@@ -198,7 +209,7 @@ impl DispersiveOptions {
                 per_frame: 1,
                 max_staleness: 16,
             },
-            repair: ProbeRepair::MoveInward,
+            repair: ProbeRepair::MoveOut,
             wall_exchange: true,
             see_through_self: true,
             direct_on_interior: true,

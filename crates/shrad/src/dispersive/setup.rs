@@ -37,11 +37,24 @@ pub(super) fn world_box(world: &World, o: usize) -> Aabb {
 pub(super) fn outer_sides(world: &World) -> Vec<bool> {
     let p = &world.patches;
     let centre = world.scene.bounds().map_or(Vec3::ZERO, |b| b.centre());
+    let boxes: Vec<Vec3> = (0..p.object_role.len())
+        .map(|o| world_box(world, o).centre())
+        .collect();
     (0..p.len())
         .map(|i| {
-            p.role(i) == Role::Boundary
-                && p.twin[i] != crate::patches::NO_PATCH
-                && p.normal[i].dot(centre - p.centre[i]) < 0.0
+            let twin = p.twin[i] != crate::patches::NO_PATCH;
+            match p.role(i) {
+                Role::Boundary => twin && p.normal[i].dot(centre - p.centre[i]) < 0.0,
+                // The inside of a double-sided interior object (Blender's default): a probe
+                // that sees it is buried in the object, as one seeing a back face is (the
+                // animated room's rider has 3 probes inside the box it rides on, seeing
+                // its dark inside: its sides were 45 % too dark).
+                Role::Interior => {
+                    let o = p.object[i] as usize;
+                    twin && p.normal[i].dot(boxes[o] - p.centre[i]) > 0.0
+                }
+                Role::Light => false,
+            }
         })
         .collect()
 }

@@ -81,6 +81,7 @@ impl Keyed for DispersiveOptions {
                 ProbeRepair::None => "none",
                 ProbeRepair::Drop => "drop",
                 ProbeRepair::MoveInward => "move_inward",
+                ProbeRepair::MoveOut => "move_out",
             }),
             "wall_exchange" => Value::Bool(self.wall_exchange),
             "wall_rays" => Value::Int(self.wall_rays.into()),
@@ -163,7 +164,8 @@ impl Keyed for DispersiveOptions {
                 self.repair = match as_choice(value) {
                     "none" => ProbeRepair::None,
                     "drop" => ProbeRepair::Drop,
-                    _ => ProbeRepair::MoveInward,
+                    "move_inward" => ProbeRepair::MoveInward,
+                    _ => ProbeRepair::MoveOut,
                 }
             }
             "wall_exchange" => self.wall_exchange = as_bool(value),

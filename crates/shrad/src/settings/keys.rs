@@ -63,7 +63,7 @@ pub(super) const MAX_RAYS: u64 = 65_536;
 /// The schedules, as the `schedule` key names them.
 pub(super) const SCHEDULES: &[&str] = &["round_robin", "priority", "budget", "full"];
 /// The probe repairs, as the `repair` key names them.
-pub(super) const REPAIRS: &[&str] = &["none", "drop", "move_inward"];
+pub(super) const REPAIRS: &[&str] = &["none", "drop", "move_inward", "move_out"];
 /// The Step 3 methods, as the `to_boundary` key names them.
 pub(super) const TO_BOUNDARY: &[&str] = &["splat", "gather", "auto"];
 
@@ -138,7 +138,7 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
         "repair",
         REPAIRS,
         true,
-        "invalid probes: kept (the paper), dropped with the weights renormalised, or moved towards the box centre",
+        "invalid probes: kept (the paper), dropped with the weights renormalised, moved towards the box centre along the diagonal, or first along the box axis that leads out of the surface they are buried in (move_out: beside the object, not above the dark floor under it)",
     ),
     flag(
         "wall_exchange",
