@@ -24,11 +24,11 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 use rayon::prelude::*;
+use shrad_scene::Aabb;
 use shrad_sh::{eval_basis, num_coeffs};
 use shrad_vis::Hit;
 
 use super::caches::{SEES_BACK, SEES_NOTHING};
-use super::object_state::ObjectProbes;
 use super::setup::transfer_direction;
 use super::{Dispersive, DispersiveOptions};
 use crate::sparse::SparseRows;
@@ -45,16 +45,21 @@ pub(super) struct NearField {
     pub(super) view: SparseRows<(u32, f32)>,
 }
 
-/// How far object `ob`'s near field (or, without it, its contact openness) looks, in world
-/// units: a fraction of its probe box's diagonal.
-pub(super) fn near_reach(options: &DispersiveOptions, world: &World, ob: &ObjectProbes) -> f32 {
-    let m = world.patches.world_from_local[ob.object];
+/// How far the near field (or, without it, contact openness) of object `o` with probe box
+/// `probe_box` looks, in world units: a fraction of the box's diagonal.
+pub(super) fn near_reach(
+    options: &DispersiveOptions,
+    world: &World,
+    o: usize,
+    probe_box: &Aabb,
+) -> f32 {
+    let m = world.patches.world_from_local[o];
     let fraction = if options.near_rays > 0 {
         options.near_reach.max(CONTACT_REACH)
     } else {
         CONTACT_REACH
     };
-    fraction * m.transform_vector3(ob.probe_box.size()).length()
+    fraction * m.transform_vector3(probe_box.size()).length()
 }
 
 /// Contact openness's reach, as a fraction of the box diagonal.
@@ -71,7 +76,7 @@ impl Dispersive {
         let ob = &self.objects[k];
         let o = ob.object;
         let m = p.world_from_local[o];
-        let reach = near_reach(&self.options, world, ob);
+        let reach = near_reach(&self.options, world, o, &ob.probe_box);
         let contact = CONTACT_REACH * m.transform_vector3(ob.probe_box.size()).length();
         let range = p.range(o);
         let count = range.len() * rays;

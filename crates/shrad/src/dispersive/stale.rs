@@ -212,7 +212,7 @@ impl StaleTest<'_> {
     /// Contact openness looks a short reach (`contact_openness`) beyond the object's own
     /// surface: only a mover whose box comes within that reach can change it.
     fn forget_openness(&self, world: &World, ob: &mut ObjectProbes) {
-        let reach = super::near_field::near_reach(self.options, world, ob);
+        let reach = super::near_field::near_reach(self.options, world, ob.object, &ob.probe_box);
         let near = self.object_boxes[ob.object].padded(Vec3::splat(reach + 2.0 * world.eps));
         if self.boxes.iter().any(|b| b.meets_box(&near)) {
             ob.openness.clear();
