@@ -68,7 +68,12 @@ default: repair drop|--set repair=drop
 default: no repair|--set repair=none
 default: no wall exchange|--set wall_exchange=false
 default: own texels black|--set see_through_self=false
-default: no contact openness|--set contact_rays=0
+default: no near field (contact openness instead)|--set near_rays=0
+default: no near field, no contact openness|--set near_rays=0 --set contact_rays=0
+default: near reach 0.1|--set near_reach=0.1
+default: near reach 0.5|--set near_reach=0.5
+default: near rays 16|--set near_rays=16
+default: repair move_inward (diagonal)|--set repair=move_inward
 default: one emitter at the centre|--set emitter_per_face=false
 default: splat|--set to_boundary=splat
 default: splat without smoothing|--set to_boundary=splat --set splat_smoothing=false

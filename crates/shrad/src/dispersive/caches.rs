@@ -235,7 +235,7 @@ pub(super) struct ProbeHits {
 #[derive(Default)]
 pub(super) struct ProbeCache {
     /// The object's transform and probe places the hits belong to.
-    pub(super) key: Option<(Affine3A, [f32; 8])>,
+    pub(super) key: Option<(Affine3A, [glam::Vec3; 8])>,
     /// Per probe; `None`: to capture again. A probe `MoveInward` could not repair is never
     /// kept: its outcome depends on the failed captures too.
     pub(super) probes: [Option<ProbeHits>; 8],

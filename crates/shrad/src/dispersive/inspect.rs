@@ -70,7 +70,7 @@ impl Dispersive {
             {
                 let state = if back > limit {
                     ProbeState::Invalid
-                } else if ob.probe_scale[c] < 1.0 {
+                } else if ob.probe_scale[c].min_element() < 1.0 {
                     ProbeState::Repaired
                 } else {
                     ProbeState::Valid

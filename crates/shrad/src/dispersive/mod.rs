@@ -37,6 +37,7 @@ use crate::World;
 mod caches;
 mod frame;
 pub mod inspect;
+mod near_field;
 mod object_state;
 mod options;
 mod resend;
@@ -143,9 +144,11 @@ pub struct Dispersive {
     /// What this frame's guards found (moved into `FrameStats::diverged`).
     step_warnings: Vec<String>,
     /// Per patch: the side of a double-sided boundary surface that faces away from the
-    /// scene's centre. A probe that sees it is outside the enclosure, like one that sees a
-    /// single-sided back face (Blender exports every material double-sided by default, so
-    /// without this a probe buried in the floor sees the floor's dark underside as valid).
+    /// scene's centre, and of a double-sided interior object the side that faces its box
+    /// centre. A probe that sees it is outside the enclosure or inside the object, like one
+    /// that sees a single-sided back face (Blender exports every material double-sided by
+    /// default, so without this a probe buried in the floor sees the floor's dark underside
+    /// as valid).
     outer_side: Vec<bool>,
     /// Keep Steps 2 and 3's rays between updates (`caches.rs`); off only to test that they
     /// change nothing.

@@ -14,6 +14,7 @@ use shrad_scene::Aabb;
 use shrad_sh::trilinear_weights;
 
 use super::caches::{EmitterCache, ProbeCache};
+use super::near_field::NearField;
 use super::setup::{emitter_groups, self_transfer};
 use super::DispersiveOptions;
 use crate::sparse::SparseRows;
@@ -31,9 +32,9 @@ pub(super) struct ObjectProbes {
     pub(super) exit_local: Vec<Vec3>,
     /// Its current contribution to the boundary: (patch, irradiance).
     pub(super) to_boundary: Vec<(u32, Vec3)>,
-    /// Where each probe sits on the line from the box centre to its corner (1: the corner);
-    /// repaired probes keep their place until the object moves.
-    pub(super) probe_scale: [f32; 8],
+    /// Where each probe sits, per axis of the box, between the box centre (0) and its corner
+    /// (1); repaired probes keep their place until the object moves.
+    pub(super) probe_scale: [Vec3; 8],
     /// Step 3 emitters: (centre in the object frame, offsets of its patches in the range).
     pub(super) emitters: Vec<(Vec3, Vec<u32>)>,
     /// Per patch transfer vectors with self-visibility in the object frame (empty when off),
@@ -46,6 +47,8 @@ pub(super) struct ObjectProbes {
     /// Per patch, the contact openness (see `Dispersive::contact_openness`); empty until
     /// computed and again when the object or a neighbour moves (it is geometry only).
     pub(super) openness: Vec<f32>,
+    /// The near field (`near_field.rs`), measured with the openness.
+    pub(super) near: NearField,
     /// Step 2's cached probe hits (`caches.rs`).
     pub(super) probe_cache: ProbeCache,
     /// Step 3's cached emitter rays (`caches.rs`).
@@ -100,11 +103,12 @@ impl ObjectProbes {
             weights,
             exit_local,
             to_boundary: Vec::new(),
-            probe_scale: [1.0; 8],
+            probe_scale: [Vec3::ONE; 8],
             emitters: emitter_groups(p, o, centre, options.emitter_per_face),
             transfer,
             self_view,
             openness: Vec::new(),
+            near: NearField::default(),
             probe_cache: ProbeCache::default(),
             emitter_cache: EmitterCache::default(),
             moving: false,
@@ -115,8 +119,13 @@ impl ObjectProbes {
 
     /// Probe `c`'s position in the object frame (its corner, or moved inward if repaired).
     pub(super) fn probe_local(&self, c: usize) -> Vec3 {
+        self.probe_at(c, self.probe_scale[c])
+    }
+
+    /// Probe `c`'s place at per-axis scale `s` from the box centre (1: the corner).
+    pub(super) fn probe_at(&self, c: usize, s: Vec3) -> Vec3 {
         let centre = self.centre_local();
-        centre + (self.corner_local(c) - centre) * self.probe_scale[c]
+        centre + (self.corner_local(c) - centre) * s
     }
 
     /// Corner `c` of the box (bit 0: x, bit 1: y, bit 2: z), object frame.

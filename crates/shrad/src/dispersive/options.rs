@@ -45,6 +45,17 @@ pub enum ProbeRepair {
     Drop,
     /// Move it along the box diagonal towards the centre until it is valid (else drop it).
     MoveInward,
+    /// Move it towards the centre along the one box axis that points most nearly at the
+    /// closest back face it sees (up, out of the floor it is buried in, staying beside its
+    /// object), and if that finds no valid place, along the diagonal as `MoveInward`.
+    MoveOut,
+}
+
+impl ProbeRepair {
+    /// Whether invalid probes are moved (`MoveInward`, `MoveOut`).
+    pub fn moves(self) -> bool {
+        matches!(self, ProbeRepair::MoveInward | ProbeRepair::MoveOut)
+    }
 }
 
 /// How an object's reflected light reaches the boundary (Step 3).
@@ -155,6 +166,14 @@ pub struct DispersiveOptions {
     /// 355k boundary patches, the texels a mover crosses a few hundred). 0: always send
     /// everything.
     pub resend_tolerance: f32,
+    /// Rays per interior patch for its near field (`near_field.rs`; 0: off, the paper): in
+    /// the directions where a ray meets something within `near_reach`, the patch gathers
+    /// that surface's radiosity instead of the probes' radiance (the floor beside a box,
+    /// the shadow under a sphere, which the corner probes see in the wrong place). Stands
+    /// in for contact openness when on.
+    pub near_rays: u32,
+    /// The near field's reach as a fraction of the object's probe box diagonal.
+    pub near_reach: f32,
 }
 
 impl DispersiveOptions {
@@ -184,6 +203,8 @@ impl DispersiveOptions {
             coarse_while_moving: false,
             one_emitter_while_moving: false,
             resend_tolerance: 0.0,
+            near_rays: 0,
+            near_reach: 0.25,
         }
     }
 
@@ -197,7 +218,7 @@ impl DispersiveOptions {
                 per_frame: 1,
                 max_staleness: 16,
             },
-            repair: ProbeRepair::MoveInward,
+            repair: ProbeRepair::MoveOut,
             wall_exchange: true,
             see_through_self: true,
             direct_on_interior: true,
@@ -211,6 +232,7 @@ impl DispersiveOptions {
             coarse_while_moving: true,
             one_emitter_while_moving: true,
             resend_tolerance: 0.02,
+            near_rays: 64,
             ..Self::paper()
         }
     }

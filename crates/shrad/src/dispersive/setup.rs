@@ -37,11 +37,24 @@ pub(super) fn world_box(world: &World, o: usize) -> Aabb {
 pub(super) fn outer_sides(world: &World) -> Vec<bool> {
     let p = &world.patches;
     let centre = world.scene.bounds().map_or(Vec3::ZERO, |b| b.centre());
+    let boxes: Vec<Vec3> = (0..p.object_role.len())
+        .map(|o| world_box(world, o).centre())
+        .collect();
     (0..p.len())
         .map(|i| {
-            p.role(i) == Role::Boundary
-                && p.twin[i] != crate::patches::NO_PATCH
-                && p.normal[i].dot(centre - p.centre[i]) < 0.0
+            let twin = p.twin[i] != crate::patches::NO_PATCH;
+            match p.role(i) {
+                Role::Boundary => twin && p.normal[i].dot(centre - p.centre[i]) < 0.0,
+                // The inside of a double-sided interior object (Blender's default): a probe
+                // that sees it is buried in the object, as one seeing a back face is (the
+                // animated room's rider has 3 probes inside the box it rides on, seeing
+                // its dark inside: its sides were 45 % too dark).
+                Role::Interior => {
+                    let o = p.object[i] as usize;
+                    twin && p.normal[i].dot(boxes[o] - p.centre[i]) > 0.0
+                }
+                Role::Light => false,
+            }
         })
         .collect()
 }
@@ -156,13 +169,8 @@ pub(super) fn self_transfer(
     let mut dirs_world = vec![Vec3::ZERO; range.len() * rays];
     let mut dirs_local = vec![Vec3::ZERO; range.len() * rays];
     for (k, i) in range.clone().enumerate() {
-        let shift = (
-            crate::sampling::unit(crate::sampling::hash(i as u32 ^ 0x5eed)),
-            0.25,
-        );
         for j in 0..rays {
-            let (u, v) = crate::sampling::hammersley(j as u32, rays as u32, shift);
-            let local = crate::sampling::square_to_cosine_hemisphere(u, v, p.normal_local[i]);
+            let local = transfer_direction(p, i, j, rays);
             dirs_local[k * rays + j] = local;
             dirs_world[k * rays + j] = m.transform_vector3(local).normalize_or_zero();
             origins[k * rays + j] = p.centre[i] + p.normal[i] * world.eps;
@@ -197,6 +205,18 @@ pub(super) fn self_transfer(
         }
     }
     (transfer, self_view)
+}
+
+/// Ray `j` of `rays` from patch `i` (rest frame, cosine-distributed about its normal): the
+/// transfer vectors' directions, and the near field's (`near_field.rs`), so that with as
+/// many rays both see the same directions.
+pub(super) fn transfer_direction(p: &crate::Patches, i: usize, j: usize, rays: usize) -> Vec3 {
+    let shift = (
+        crate::sampling::unit(crate::sampling::hash(i as u32 ^ 0x5eed)),
+        0.25,
+    );
+    let (u, v) = crate::sampling::hammersley(j as u32, rays as u32, shift);
+    crate::sampling::square_to_cosine_hemisphere(u, v, p.normal_local[i])
 }
 
 /// The Step 3 emitters of object `o`: one at the box centre with every patch (the paper), or

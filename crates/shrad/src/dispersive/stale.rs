@@ -22,7 +22,7 @@ use super::caches::{
     UNKNOWN,
 };
 use super::object_state::ObjectProbes;
-use super::{Changes, Dispersive};
+use super::{Changes, Dispersive, DispersiveOptions};
 use crate::World;
 
 /// Frames with movers kept apart in the log at most.
@@ -156,6 +156,7 @@ impl Dispersive {
                 emitter_dirs: &self.emitter_camera.cube.directions,
                 emitter_cones: &self.emitter_cones,
                 object_boxes: &self.object_boxes,
+                options: &self.options,
             };
             let ob = &mut self.objects[k];
             if moved.contains(&ob.object) {
@@ -190,6 +191,8 @@ struct StaleTest<'a> {
     emitter_cones: &'a ChunkCones,
     /// Every object's world box now.
     object_boxes: &'a [Aabb],
+    /// The settings (the near field's reach).
+    options: &'a DispersiveOptions,
 }
 
 impl StaleTest<'_> {
@@ -209,8 +212,7 @@ impl StaleTest<'_> {
     /// Contact openness looks a short reach (`contact_openness`) beyond the object's own
     /// surface: only a mover whose box comes within that reach can change it.
     fn forget_openness(&self, world: &World, ob: &mut ObjectProbes) {
-        let m = world.patches.world_from_local[ob.object];
-        let reach = 0.02 * m.transform_vector3(ob.probe_box.size()).length();
+        let reach = super::near_field::near_reach(self.options, world, ob.object, &ob.probe_box);
         let near = self.object_boxes[ob.object].padded(Vec3::splat(reach + 2.0 * world.eps));
         if self.boxes.iter().any(|b| b.meets_box(&near)) {
             ob.openness.clear();

@@ -89,7 +89,7 @@ impl Dispersive {
             if ob.moving {
                 self.scheduler.disturb(k, 4.0);
                 // Its surroundings changed: probes go back to the corners and are re-checked.
-                ob.probe_scale = [1.0; 8];
+                ob.probe_scale = [Vec3::ONE; 8];
                 // Contact openness is measured again at every update, except while coarse
                 // updates stand in for it (`coarse_while_moving`): then the last measure
                 // serves until it rests (above).

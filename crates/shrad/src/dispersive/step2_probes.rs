@@ -47,11 +47,14 @@ impl Dispersive {
             super::tr("interpolate", tt);
             let tt = Instant::now();
             if self.objects[k].openness.len() != p.range(o).len() {
-                self.objects[k].openness = if self.options.contact_rays > 0 {
-                    self.contact_openness(world, k)
-                } else {
-                    vec![1.0; p.range(o).len()]
-                };
+                // The near field, when measured, stands in for contact openness.
+                self.objects[k].near = self.near_field(world, k);
+                self.objects[k].openness =
+                    if self.options.contact_rays > 0 && self.objects[k].near.lobe.is_empty() {
+                        self.contact_openness(world, k)
+                    } else {
+                        vec![1.0; p.range(o).len()]
+                    };
             }
             super::tr("openness", tt);
             self.objects[k].coarse_light = self.cameras_for(k).2;
@@ -97,6 +100,8 @@ impl Dispersive {
         let p = &world.patches;
         let nc = num_coeffs(self.options.bands);
         let ob = &self.objects[k];
+        let kk = k;
+        let echo = self.near_echo(world, k);
         let range = p.range(ob.object);
         let with_transfer = !ob.transfer.is_empty();
         range
@@ -118,13 +123,23 @@ impl Dispersive {
                     return Vec3::ZERO;
                 }
                 let mut lobe = [0f32; MAX_COEFFS];
-                let weights: &[f32] = if with_transfer {
-                    &ob.transfer[k * nc..(k + 1) * nc]
+                if with_transfer {
+                    lobe[..nc].copy_from_slice(&ob.transfer[k * nc..(k + 1) * nc]);
                 } else {
                     cosine_lobe_sh(self.options.bands, p.normal[i], &mut lobe[..nc]);
-                    &lobe[..nc]
                 };
-                let dot: Vec3 = l[..nc].iter().zip(weights).map(|(a, &b)| *a * b).sum();
+                // The near field's directions are gathered below, not read from the probes.
+                let (near_lobe, near) = match ob.near.lobe.is_empty() {
+                    true => (&[][..], Vec3::ZERO),
+                    false => (
+                        &ob.near.lobe[k * nc..(k + 1) * nc],
+                        self.near_light(world, kk, k, &echo),
+                    ),
+                };
+                for (a, b) in lobe.iter_mut().zip(near_lobe) {
+                    *a -= b;
+                }
+                let dot: Vec3 = l[..nc].iter().zip(&lobe[..nc]).map(|(a, &b)| *a * b).sum();
                 let own: Vec3 = if with_transfer {
                     ob.self_view(k)
                         .iter()
@@ -136,7 +151,7 @@ impl Dispersive {
                 } else {
                     Vec3::ZERO
                 };
-                (dot / sum_w).max(Vec3::ZERO) + own
+                (dot / sum_w).max(Vec3::ZERO) + own + near
             })
             .collect()
     }
@@ -233,7 +248,7 @@ impl Dispersive {
         k: usize,
         m: Affine3A,
         steps: &mut DispersiveStats,
-    ) -> (Vec<Option<ShRgb>>, [f32; 8]) {
+    ) -> (Vec<Option<ShRgb>>, [Vec3; 8]) {
         let mut cache = std::mem::take(&mut self.objects[k].probe_cache);
         let (camera, _, coarse) = self.cameras_for(k);
         let ob = &self.objects[k];
@@ -256,7 +271,7 @@ impl Dispersive {
             self.retrace_stale_texels(world, h, &exclude, o);
             // A probe that turned invalid is captured afresh below, to be moved inward from
             // where it stands, as an uncached update would.
-            if h.back_fraction > limit && repair == ProbeRepair::MoveInward {
+            if h.back_fraction > limit && repair.moves() {
                 *slot = None;
             }
         }
@@ -275,14 +290,10 @@ impl Dispersive {
             if hits.back_fraction > limit {
                 steps.probes_invalid += 1;
             }
-            if hits.back_fraction > limit && repair == ProbeRepair::MoveInward {
-                // Move it inward along the diagonal until it is valid (else it is dropped).
-                let centre = ob.centre_local();
-                let tries = [0.8f32, 0.6, 0.4, 0.2]
-                    .into_iter()
-                    .filter(|&s| s < scale[c]);
+            if hits.back_fraction > limit && repair.moves() {
+                let tries = self.repair_tries(m, camera, &hits, scale[c]);
                 for s in tries {
-                    let q = m.transform_point3(centre + (ob.corner_local(c) - centre) * s);
+                    let q = m.transform_point3(ob.probe_at(c, s));
                     let again = self.probe_hits(world, camera, &[q], &exclude, o).pop();
                     steps.probes_captured += 1;
                     if let Some(again) = again.filter(|h| h.back_fraction <= limit) {
@@ -325,6 +336,40 @@ impl Dispersive {
             self.objects[k].probe_cache = cache;
         }
         (out, scale)
+    }
+
+    /// Where an invalid probe of object `k` is tried next, in order, as per-axis scales of
+    /// its place from the box centre (`ObjectProbes::probe_at`), each inward of `scale`:
+    /// `MoveInward` along the diagonal (the whole scale shrinks); `MoveOut` first along the
+    /// one box axis nearest the direction of the closest back face it sees (through the
+    /// floor it is buried in: it stays beside its object, where a probe moved inward along
+    /// the diagonal sees the dark floor under the object), then along the diagonal.
+    fn repair_tries(
+        &self,
+        m: Affine3A,
+        camera: &ProbeCamera,
+        hits: &ProbeHits,
+        scale: Vec3,
+    ) -> Vec<Vec3> {
+        const STEPS: [f32; 4] = [0.8, 0.6, 0.4, 0.2];
+        let mut tries = Vec::new();
+        let closest_back = (hits.seen.iter().zip(&hits.t).enumerate())
+            .filter(|(_, (&s, _))| s == SEES_BACK)
+            .min_by(|a, b| a.1 .1.total_cmp(b.1 .1));
+        if let (ProbeRepair::MoveOut, Some((t, _))) = (self.options.repair, closest_back) {
+            // (A corner whose face lies outward along that axis finds no valid place on
+            // it and goes on along the diagonal.)
+            let d = m.inverse().transform_vector3(camera.cube.directions[t]);
+            let a = d.abs().max_position();
+            for s in STEPS.into_iter().filter(|&s| s < scale[a]) {
+                let mut v = scale;
+                v[a] = s;
+                tries.push(v);
+            }
+        }
+        let diagonal = scale.min_element();
+        tries.extend(STEPS.into_iter().filter(|&s| s < diagonal).map(Vec3::splat));
+        tries
     }
 
     /// Trace again the texels of a cached probe that a mover's box marked stale
@@ -381,7 +426,7 @@ impl Dispersive {
 
     /// What a probe texel of object `o` sees, as a code (see `caches.rs`): the same
     /// decisions as [`Dispersive::shade_probe_texel`].
-    fn seen_code(&self, world: &World, h: &Hit, o: u32) -> u32 {
+    pub(super) fn seen_code(&self, world: &World, h: &Hit, o: u32) -> u32 {
         if !h.is_hit() || h.object == o {
             return SEES_NOTHING;
         }
@@ -392,7 +437,7 @@ impl Dispersive {
     }
 
     /// Radiance a probe texel that sees patch `j` receives.
-    fn texel_radiance(&self, world: &World, j: usize) -> Vec3 {
+    pub(super) fn texel_radiance(&self, world: &World, j: usize) -> Vec3 {
         let b = if self.options.direct_on_interior {
             self.radiosity[j] - world.exitance[j]
         } else {

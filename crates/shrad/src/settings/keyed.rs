@@ -81,6 +81,7 @@ impl Keyed for DispersiveOptions {
                 ProbeRepair::None => "none",
                 ProbeRepair::Drop => "drop",
                 ProbeRepair::MoveInward => "move_inward",
+                ProbeRepair::MoveOut => "move_out",
             }),
             "wall_exchange" => Value::Bool(self.wall_exchange),
             "wall_rays" => Value::Int(self.wall_rays.into()),
@@ -101,6 +102,8 @@ impl Keyed for DispersiveOptions {
             "coarse_while_moving" => Value::Bool(self.coarse_while_moving),
             "one_emitter_while_moving" => Value::Bool(self.one_emitter_while_moving),
             "resend_tolerance" => Value::Float(self.resend_tolerance.into()),
+            "near_rays" => Value::Int(self.near_rays.into()),
+            "near_reach" => Value::Float(self.near_reach.into()),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
     }
@@ -162,7 +165,8 @@ impl Keyed for DispersiveOptions {
                 self.repair = match as_choice(value) {
                     "none" => ProbeRepair::None,
                     "drop" => ProbeRepair::Drop,
-                    _ => ProbeRepair::MoveInward,
+                    "move_inward" => ProbeRepair::MoveInward,
+                    _ => ProbeRepair::MoveOut,
                 }
             }
             "wall_exchange" => self.wall_exchange = as_bool(value),
@@ -186,6 +190,8 @@ impl Keyed for DispersiveOptions {
             "coarse_while_moving" => self.coarse_while_moving = as_bool(value),
             "one_emitter_while_moving" => self.one_emitter_while_moving = as_bool(value),
             "resend_tolerance" => self.resend_tolerance = as_f32(value),
+            "near_rays" => self.near_rays = as_u32(value),
+            "near_reach" => self.near_reach = as_f32(value),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
         Ok(())

@@ -63,7 +63,7 @@ pub(super) const MAX_RAYS: u64 = 65_536;
 /// The schedules, as the `schedule` key names them.
 pub(super) const SCHEDULES: &[&str] = &["round_robin", "priority", "budget", "full"];
 /// The probe repairs, as the `repair` key names them.
-pub(super) const REPAIRS: &[&str] = &["none", "drop", "move_inward"];
+pub(super) const REPAIRS: &[&str] = &["none", "drop", "move_inward", "move_out"];
 /// The Step 3 methods, as the `to_boundary` key names them.
 pub(super) const TO_BOUNDARY: &[&str] = &["splat", "gather", "auto"];
 
@@ -138,7 +138,7 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
         "repair",
         REPAIRS,
         true,
-        "invalid probes: kept (the paper), dropped with the weights renormalised, or moved towards the box centre",
+        "invalid probes: kept (the paper), dropped with the weights renormalised, moved towards the box centre along the diagonal, or first along the box axis that leads out of the surface they are buried in (move_out: beside the object, not above the dark floor under it)",
     ),
     flag(
         "wall_exchange",
@@ -217,6 +217,19 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
         0.0,
         0.5,
         "while another object moves, a still object sends the boundary only the light paths the mover crossed, unless its emitted light changed by more than this fraction since it was sent; at rest everything is sent again (0: always everything, the paper)",
+    ),
+    int(
+        "near_rays",
+        0,
+        MAX_RAYS,
+        true,
+        "rays per interior patch for its near field: light from surfaces within near_reach is gathered from their radiosity, not read from the probes (the floor beside a box, the shadow under a sphere); stands in for contact openness (0: off, the paper)",
+    ),
+    float(
+        "near_reach",
+        0.0,
+        1.0,
+        "the near field's reach, a fraction of the object's probe box diagonal",
     ),
 ];
 

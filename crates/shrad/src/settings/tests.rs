@@ -79,7 +79,7 @@ fn out_of_range_values_are_errors_naming_key_and_range() {
         ("cube_res", "0", "1..=2048"),
         ("probe_margin", "NaN", "0..=1"),
         ("probe_margin", "-0.5", "0..=1"),
-        ("repair", "move", "none|drop|move_inward"),
+        ("repair", "move", "none|drop|move_inward|move_out"),
         ("wall_exchange", "yes", "true|false"),
         ("budget_ms", "10", "schedule budget"),
     ] {

@@ -1,0 +1,229 @@
+//! The near field of an interior object's patches (beyond the paper; issue 22 item 1): the
+//! light a patch receives from surfaces close to it, gathered from those surfaces' radiosity
+//! instead of read from the probes.
+//!
+//! The 8 probes of paper 2.3.3 see the scene from the corners of the object's box. Where the
+//! surroundings' light changes within a box size of the object, they see it in the wrong
+//! place: a probe moved inward (`ProbeRepair::MoveInward`) above a floor sees the dark floor
+//! under its own object, where the box's low side faces see the lit floor beside it (sides
+//! 5-45 % too dark); corner probes beside a sphere see the lit floor, where the sphere's
+//! underside sees its own shadow (+50 %). Per patch, `near_rays` rays (the transfer vectors'
+//! directions, `setup::transfer_direction`) look for anything within `near_reach` of the
+//! object's box diagonal; in those directions the probes' radiance is taken out of the
+//! patch's lobe and the radiosity of the patch a ray meets is put in, one form factor of
+//! `1 / near_rays` per ray (cosine-distributed rays):
+//!
+//! `E = L . (T - N) + sum_near (B_q - M_q) / near_rays`, `N = pi / near_rays sum_near Y(w_j)`.
+//!
+//! A face resting on another surface meets it at once: its near field is the (dark) surface
+//! under it, which is what contact openness approximated with black; the near field then
+//! stands in for it. Like contact openness it is geometry: measured again when the object or
+//! something within its reach moves (`stale.rs`).
+
+use std::collections::HashMap;
+
+use glam::Vec3;
+use rayon::prelude::*;
+use shrad_scene::Aabb;
+use shrad_sh::{eval_basis, num_coeffs};
+use shrad_vis::Hit;
+
+use super::caches::{SEES_BACK, SEES_NOTHING};
+use super::setup::transfer_direction;
+use super::{Dispersive, DispersiveOptions};
+use crate::sparse::SparseRows;
+use crate::World;
+
+/// One object's near field (empty when `near_rays` is 0).
+#[derive(Default)]
+pub(super) struct NearField {
+    /// Per patch, `nc` floats: `pi / near_rays` times the SH basis summed over the rays that
+    /// meet something within reach, in the probes' frame (the object's with transfer
+    /// vectors, else the world's).
+    pub(super) lobe: Vec<f32>,
+    /// Per patch: (patch met within reach, its form factor).
+    pub(super) view: SparseRows<(u32, f32)>,
+}
+
+/// How far the near field (or, without it, contact openness) of object `o` with probe box
+/// `probe_box` looks, in world units: a fraction of the box's diagonal.
+pub(super) fn near_reach(
+    options: &DispersiveOptions,
+    world: &World,
+    o: usize,
+    probe_box: &Aabb,
+) -> f32 {
+    let m = world.patches.world_from_local[o];
+    let fraction = if options.near_rays > 0 {
+        options.near_reach.max(CONTACT_REACH)
+    } else {
+        CONTACT_REACH
+    };
+    fraction * m.transform_vector3(probe_box.size()).length()
+}
+
+/// Contact openness's reach, as a fraction of the box diagonal.
+pub(super) const CONTACT_REACH: f32 = 0.02;
+
+impl Dispersive {
+    /// The near field of object `k` (see the module docs).
+    pub(super) fn near_field(&self, world: &World, k: usize) -> NearField {
+        let rays = self.options.near_rays as usize;
+        if rays == 0 {
+            return NearField::default();
+        }
+        let p = &world.patches;
+        let ob = &self.objects[k];
+        let o = ob.object;
+        let m = p.world_from_local[o];
+        let reach = near_reach(&self.options, world, o, &ob.probe_box);
+        let contact = CONTACT_REACH * m.transform_vector3(ob.probe_box.size()).length();
+        let range = p.range(o);
+        let count = range.len() * rays;
+        let (mut origins, mut dirs) = (vec![Vec3::ZERO; count], vec![Vec3::ZERO; count]);
+        let mut local = vec![Vec3::ZERO; count];
+        origins
+            .par_chunks_mut(rays)
+            .zip(dirs.par_chunks_mut(rays))
+            .zip(local.par_chunks_mut(rays))
+            .enumerate()
+            .for_each(|(k, ((org, dir), loc))| {
+                let i = range.start + k;
+                for j in 0..rays {
+                    loc[j] = transfer_direction(p, i, j, rays);
+                    dir[j] = m.transform_vector3(loc[j]).normalize_or_zero();
+                    // Just inside the surface, the object transparent: a face resting on
+                    // a floor meets the floor (contact openness's start).
+                    org[j] = p.centre[i] - p.normal[i] * world.eps;
+                }
+            });
+        let mut hits = vec![Hit::MISS; count];
+        world
+            .vis
+            .closest(&origins, &dirs, 0.0, &[o as u32], &mut hits);
+        let blocked = self.self_blocked(world, k, &dirs);
+        let with_transfer = !ob.transfer.is_empty();
+        let bands = self.options.bands;
+        let nc = num_coeffs(bands);
+        let per_patch: Vec<(Vec<f32>, Vec<(u32, f32)>)> = (0..range.len())
+            .into_par_iter()
+            .map(|k| {
+                let mut lobe = vec![0f32; nc];
+                let mut row: Vec<(u32, f32)> = Vec::new();
+                let mut basis = [0f32; 64];
+                for j in k * rays..(k + 1) * rays {
+                    let h = &hits[j];
+                    if !h.is_hit() || h.t > reach + 2.0 * world.eps || blocked[j] {
+                        continue;
+                    }
+                    let d = if with_transfer { local[j] } else { dirs[j] };
+                    eval_basis(bands, d, &mut basis[..nc]);
+                    for (a, b) in lobe.iter_mut().zip(&basis[..nc]) {
+                        *a += std::f32::consts::PI / rays as f32 * b;
+                    }
+                    // A surface in contact (within contact openness's reach) sends nothing,
+                    // as contact openness has it: a face resting on a floor sees the floor
+                    // patch it stands on, lit where it reaches beyond the face. A back face
+                    // (the outside of the enclosure, the inside of a closed object) neither.
+                    let q = self.seen_code(world, h, o as u32);
+                    if q == SEES_NOTHING || q == SEES_BACK || h.t <= contact + 2.0 * world.eps {
+                        continue;
+                    }
+                    match row.iter_mut().find(|e| e.0 == q) {
+                        Some(e) => e.1 += 1.0 / rays as f32,
+                        None => row.push((q, 1.0 / rays as f32)),
+                    }
+                }
+                (lobe, row)
+            })
+            .collect();
+        let mut near = NearField::default();
+        for (lobe, row) in per_patch {
+            near.lobe.extend(lobe);
+            near.view.push_row(row);
+        }
+        near
+    }
+
+    /// Per ray of [`Dispersive::near_field`], whether the object itself blocks it (the
+    /// transfer vector has taken that direction out already, and the self form factors put
+    /// the object's own light in): traced only from patches that see their own object.
+    fn self_blocked(&self, world: &World, k: usize, dirs: &[Vec3]) -> Vec<bool> {
+        let ob = &self.objects[k];
+        let mut blocked = vec![false; dirs.len()];
+        if ob.transfer.is_empty() {
+            return blocked;
+        }
+        let p = &world.patches;
+        let range = p.range(ob.object);
+        let rays = self.options.near_rays as usize;
+        let concave: Vec<usize> = (0..range.len())
+            .filter(|&k| !ob.self_view(k).is_empty())
+            .collect();
+        if concave.is_empty() {
+            return blocked;
+        }
+        let others: Vec<u32> = (0..p.object_role.len() as u32)
+            .filter(|&x| x as usize != ob.object)
+            .collect();
+        let (mut origins, mut d) = (Vec::new(), Vec::new());
+        for &k in &concave {
+            let i = range.start + k;
+            for j in 0..rays {
+                origins.push(p.centre[i] + p.normal[i] * world.eps);
+                d.push(dirs[k * rays + j]);
+            }
+        }
+        let mut hits = vec![Hit::MISS; origins.len()];
+        world.vis.closest(&origins, &d, 0.0, &others, &mut hits);
+        for (&k, h) in concave.iter().zip(hits.chunks(rays)) {
+            for (j, h) in h.iter().enumerate() {
+                blocked[k * rays + j] = h.is_hit();
+            }
+        }
+        blocked
+    }
+
+    /// The radiosity object `k` itself put on the boundary patches its near field meets
+    /// (its Step 3 light, reflected): taken out of what the near field gathers. Close to
+    /// the floor, Step 3's emitter and the near field otherwise make a loop in which a
+    /// sphere's underside lights the floor under it and is lit back (measured: undersides
+    /// 4-5x too bright among 128 objects).
+    pub(super) fn near_echo(&self, world: &World, k: usize) -> HashMap<u32, Vec3> {
+        let ob = &self.objects[k];
+        if ob.near.lobe.is_empty() {
+            return HashMap::new();
+        }
+        let met: std::collections::HashSet<u32> = (0..ob.near.view.len())
+            .flat_map(|r| ob.near.view.row(r).iter().map(|e| e.0))
+            .collect();
+        ob.to_boundary
+            .iter()
+            .filter(|(q, _)| met.contains(q))
+            .map(|&(q, e)| (q, world.reflectance[q as usize] * e))
+            .collect()
+    }
+
+    /// The light object `k`'s patch `k_patch` (offset in its range) gathers from its near
+    /// field: the radiosity the probes would carry (`texel_radiance`, times pi), less the
+    /// object's own echo (`near_echo`).
+    pub(super) fn near_light(
+        &self,
+        world: &World,
+        k: usize,
+        k_patch: usize,
+        echo: &HashMap<u32, Vec3>,
+    ) -> Vec3 {
+        self.objects[k]
+            .near
+            .view
+            .row(k_patch)
+            .iter()
+            .map(|&(q, f)| {
+                let b = self.texel_radiance(world, q as usize) * std::f32::consts::PI;
+                let own = echo.get(&q).copied().unwrap_or(Vec3::ZERO);
+                (b - own).max(Vec3::ZERO) * f
+            })
+            .sum()
+    }
+}
