@@ -10,7 +10,7 @@
 //! reference (128 rays a patch, 32 direct samples, the bench's) is kept in
 //! `$TMPDIR/shrad-reference-*.bin` for the next run on the same scene and patch count.
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::Vec3;
 use shrad::dispersive::{Dispersive, DispersiveOptions};
@@ -76,7 +76,7 @@ fn load_world(name: &str, patches: usize) -> World {
 /// The reference radiosity, from the cache file when it holds one of this many patches.
 fn reference(world: &World, name: &str, patches: usize) -> Vec<Vec3> {
     let stem = Path::new(name).file_stem().unwrap().to_string_lossy();
-    let path = PathBuf::from(std::env::temp_dir()).join(format!(
+    let path = std::env::temp_dir().join(format!(
         "shrad-reference-{stem}-{patches}-{}.bin",
         world.patches.len()
     ));
@@ -231,7 +231,7 @@ fn breakdown(world: &World, d: &Dispersive, reference: &[Vec3]) {
             "side"
         };
         let near_name = match near[i] {
-            x if x == 0.0 => "a: nothing within 0.1 diag",
+            0.0 => "a: nothing within 0.1 diag",
             x if x < 0.26 => "b: <= 1/4 blocked",
             x if x < 0.76 => "c: 1/4..3/4 blocked",
             _ => "d: > 3/4 blocked",

@@ -34,6 +34,9 @@ use super::{Dispersive, DispersiveOptions};
 use crate::sparse::SparseRows;
 use crate::World;
 
+/// One patch's near field while it is measured: its lobe and its row.
+type PatchNear = (Vec<f32>, Vec<(u32, f32)>);
+
 /// One object's near field (empty when `near_rays` is 0).
 #[derive(Default)]
 pub(super) struct NearField {
@@ -105,7 +108,7 @@ impl Dispersive {
         let with_transfer = !ob.transfer.is_empty();
         let bands = self.options.bands;
         let nc = num_coeffs(bands);
-        let per_patch: Vec<(Vec<f32>, Vec<(u32, f32)>)> = (0..range.len())
+        let per_patch: Vec<PatchNear> = (0..range.len())
             .into_par_iter()
             .map(|k| {
                 let mut lobe = vec![0f32; nc];
