@@ -20,8 +20,6 @@
 //! stands in for it. Like contact openness it is geometry: measured again when the object or
 //! something within its reach moves (`stale.rs`).
 
-use std::collections::HashMap;
-
 use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::Aabb;
@@ -68,6 +66,9 @@ pub(super) fn near_reach(
 /// Contact openness's reach, as a fraction of the box diagonal.
 pub(super) const CONTACT_REACH: f32 = 0.02;
 
+/// Patches whose near-field rays are traced at once (64 rays each: 16 MB of rays and hits).
+const NEAR_CHUNK: usize = 4096;
+
 impl Dispersive {
     /// The near field of object `k` (see the module docs).
     pub(super) fn near_field(&self, world: &World, k: usize) -> NearField {
@@ -82,7 +83,33 @@ impl Dispersive {
         let reach = near_reach(&self.options, world, o, &ob.probe_box);
         let contact = CONTACT_REACH * m.transform_vector3(ob.probe_box.size()).length();
         let range = p.range(o);
-        let count = range.len() * rays;
+        let mut near = NearField::default();
+        // A chunk of patches at a time: the 1M-patch room's 43k-patch object casts 2.8M
+        // rays, whose arrays took its peak memory over 1.5 GiB in one batch.
+        for lo in (0..range.len()).step_by(NEAR_CHUNK) {
+            let patches = lo..(lo + NEAR_CHUNK).min(range.len());
+            self.near_field_of(world, k, patches, (reach, contact), &mut near);
+        }
+        near
+    }
+
+    /// [`Dispersive::near_field`] of object `k`'s `patches` (offsets in its range), appended
+    /// to `near`.
+    fn near_field_of(
+        &self,
+        world: &World,
+        k: usize,
+        patches: std::ops::Range<usize>,
+        (reach, contact): (f32, f32),
+        near: &mut NearField,
+    ) {
+        let rays = self.options.near_rays as usize;
+        let p = &world.patches;
+        let ob = &self.objects[k];
+        let o = ob.object;
+        let m = p.world_from_local[o];
+        let start = p.range(o).start + patches.start;
+        let count = patches.len() * rays;
         let (mut origins, mut dirs) = (vec![Vec3::ZERO; count], vec![Vec3::ZERO; count]);
         let mut local = vec![Vec3::ZERO; count];
         origins
@@ -91,7 +118,7 @@ impl Dispersive {
             .zip(local.par_chunks_mut(rays))
             .enumerate()
             .for_each(|(k, ((org, dir), loc))| {
-                let i = range.start + k;
+                let i = start + k;
                 for j in 0..rays {
                     loc[j] = transfer_direction(p, i, j, rays);
                     dir[j] = m.transform_vector3(loc[j]).normalize_or_zero();
@@ -104,11 +131,11 @@ impl Dispersive {
         world
             .vis
             .closest(&origins, &dirs, 0.0, &[o as u32], &mut hits);
-        let blocked = self.self_blocked(world, k, &dirs);
+        let blocked = self.self_blocked(world, k, patches.clone(), &dirs);
         let with_transfer = !ob.transfer.is_empty();
         let bands = self.options.bands;
         let nc = num_coeffs(bands);
-        let per_patch: Vec<PatchNear> = (0..range.len())
+        let per_patch: Vec<PatchNear> = (0..patches.len())
             .into_par_iter()
             .map(|k| {
                 let mut lobe = vec![0f32; nc];
@@ -140,18 +167,22 @@ impl Dispersive {
                 (lobe, row)
             })
             .collect();
-        let mut near = NearField::default();
         for (lobe, row) in per_patch {
             near.lobe.extend(lobe);
             near.view.push_row(row);
         }
-        near
     }
 
     /// Per ray of [`Dispersive::near_field`], whether the object itself blocks it (the
     /// transfer vector has taken that direction out already, and the self form factors put
     /// the object's own light in): traced only from patches that see their own object.
-    fn self_blocked(&self, world: &World, k: usize, dirs: &[Vec3]) -> Vec<bool> {
+    fn self_blocked(
+        &self,
+        world: &World,
+        k: usize,
+        patches: std::ops::Range<usize>,
+        dirs: &[Vec3],
+    ) -> Vec<bool> {
         let ob = &self.objects[k];
         let mut blocked = vec![false; dirs.len()];
         if ob.transfer.is_empty() {
@@ -160,8 +191,10 @@ impl Dispersive {
         let p = &world.patches;
         let range = p.range(ob.object);
         let rays = self.options.near_rays as usize;
-        let concave: Vec<usize> = (0..range.len())
+        let concave: Vec<usize> = patches
+            .clone()
             .filter(|&k| !ob.self_view(k).is_empty())
+            .map(|k| k - patches.start)
             .collect();
         if concave.is_empty() {
             return blocked;
@@ -171,7 +204,7 @@ impl Dispersive {
             .collect();
         let (mut origins, mut d) = (Vec::new(), Vec::new());
         for &k in &concave {
-            let i = range.start + k;
+            let i = range.start + patches.start + k;
             for j in 0..rays {
                 origins.push(p.centre[i] + p.normal[i] * world.eps);
                 d.push(dirs[k * rays + j]);
@@ -192,19 +225,20 @@ impl Dispersive {
     /// the floor, Step 3's emitter and the near field otherwise make a loop in which a
     /// sphere's underside lights the floor under it and is lit back (measured: undersides
     /// 4-5x too bright among 128 objects).
-    pub(super) fn near_echo(&self, world: &World, k: usize) -> HashMap<u32, Vec3> {
+    ///
+    /// Dense, one value per patch (zero pages the allocator maps lazily), summed over the
+    /// contribution's entries, which `resend.rs` may list more than once per patch: a hash
+    /// set of the near field's hits and a map per update took 10 ms an update in the 1M room.
+    pub(super) fn near_echo(&self, world: &World, k: usize) -> Vec<Vec3> {
         let ob = &self.objects[k];
         if ob.near.lobe.is_empty() {
-            return HashMap::new();
+            return Vec::new();
         }
-        let met: std::collections::HashSet<u32> = (0..ob.near.view.len())
-            .flat_map(|r| ob.near.view.row(r).iter().map(|e| e.0))
-            .collect();
-        ob.to_boundary
-            .iter()
-            .filter(|(q, _)| met.contains(q))
-            .map(|&(q, e)| (q, world.reflectance[q as usize] * e))
-            .collect()
+        let mut echo = vec![Vec3::ZERO; world.patches.len()];
+        for &(q, e) in &ob.to_boundary {
+            echo[q as usize] += world.reflectance[q as usize] * e;
+        }
+        echo
     }
 
     /// The light object `k`'s patch `k_patch` (offset in its range) gathers from its near
@@ -215,7 +249,7 @@ impl Dispersive {
         world: &World,
         k: usize,
         k_patch: usize,
-        echo: &HashMap<u32, Vec3>,
+        echo: &[Vec3],
     ) -> Vec3 {
         self.objects[k]
             .near
@@ -224,7 +258,7 @@ impl Dispersive {
             .iter()
             .map(|&(q, f)| {
                 let b = self.texel_radiance(world, q as usize) * std::f32::consts::PI;
-                let own = echo.get(&q).copied().unwrap_or(Vec3::ZERO);
+                let own = echo[q as usize];
                 (b - own).max(Vec3::ZERO) * f
             })
             .sum()
