@@ -18,8 +18,10 @@ PASSES = 8
 # Bounds with margin over what was measured when the test was written (2026-12, dispersive
 # default against the reference, Cornell 5000 patches, 128 x 128, 16 spp, smooth shading):
 # mean 0.091, 99th percentile 0.397 (without the wall exchange: 0.508 and 0.970).
+# Since issue 22's near field (64 rays a patch on the interior objects, whose error it
+# lowers 3.7 -> 2.8 %): mean 0.096, 99th percentile 0.471, its per-pixel noise on the blocks.
 FLIP_MEAN_BOUND = 0.11
-FLIP_P99_BOUND = 0.46
+FLIP_P99_BOUND = 0.50
 
 
 def picture(solver, **settings):

@@ -49,7 +49,9 @@ SHRAD_SPP = 64
 REFERENCE_RMSE = 0.02
 REFERENCE_RATIO = (0.975, 1.025)
 DISPERSIVE_RMSE = 0.075
-DISPERSIVE_RATIO = (0.88, 1.02)
+# The near field (issue 22) lit the short block to 1.024 of Mitsuba's on one face, within the
+# reference's own band; before it, the blocks were darker.
+DISPERSIVE_RATIO = (0.88, 1.03)
 
 
 def render(objects, mats, tmp):
