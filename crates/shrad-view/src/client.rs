@@ -26,11 +26,12 @@ use tokio::sync::{mpsc, Notify};
 use crate::access::{RateLimit, Seat, EXPENSIVE_BURST, EXPENSIVE_EVERY_S};
 use crate::engine_loop::{Frame, Shared};
 use crate::http::App;
-use crate::inbox::{Key, Pending, Refusal, ReplyTo, CAPACITY};
+use crate::inbox::{Key, Pending, Refusal, Reply, ReplyTo, CAPACITY};
 use crate::protocol::{self, Request};
 
-/// Replies waiting for one client at most: the engine's are dropped beyond (it never waits),
-/// this client's own reader waits for room.
+/// Replies waiting for one client at most, those the engine owes included (each request
+/// handed to the engine holds its reply's place): beyond, this client's reader waits for
+/// room, and so stops reading a client that reads nothing.
 const REPLIES: usize = 64;
 
 /// What one client has asked to receive, its seat (role) and its allowance of expensive
@@ -398,10 +399,12 @@ async fn handle(
     if let Some(refusal) = refused(sub, &envelope.request) {
         return Some(protocol::error(id, &format!("{kind}: {refusal}")));
     }
+    // The client has gone if there is no place for the reply.
+    let place = Reply::reserve(reply).await?;
     let pending = Pending {
         key: Key::of(&envelope.request, &app.intro.names),
         envelope,
-        reply: reply.clone(),
+        reply: place,
         received: Instant::now(),
         received_at_frame: app.frames.borrow().seq,
         client: sub.seat.id,
@@ -409,7 +412,7 @@ async fn handle(
     match app.shared.inbox.push(pending) {
         Ok(None) => None,
         Ok(Some(older)) => {
-            superseded(older, id, reply).await;
+            superseded(older, id, reply);
             None
         }
         Err(Refusal::Full) => Some(protocol::error(
@@ -451,19 +454,14 @@ fn refused(sub: &Subscription, request: &Request) -> Option<String> {
 /// Answer `older`, replaced by request `by` of the client whose replies go to `reply`
 /// before the engine applied it: `ok` with `"superseded": true` (and the newer request's
 /// id when it is the same client's).
-async fn superseded(older: Pending, by: Option<u64>, reply: &ReplyTo) {
-    let own = older.reply.same_channel(reply);
+fn superseded(older: Pending, by: Option<u64>, reply: &ReplyTo) {
+    let own = older.reply.goes_to(reply);
     let body = json!({
         "superseded": true,
         "superseded_by": if own { json!(by) } else { Value::Null },
     });
     let text = ok(older.envelope.id, older.envelope.request.kind(), body);
-    if own {
-        let _ = reply.send(text).await;
-    } else {
-        // Another client's queue: it may be full, and this client must not wait for it.
-        let _ = older.reply.try_send(text);
-    }
+    older.answer(text);
 }
 
 fn ok(id: Option<u64>, request: &str, mut body: Value) -> String {

@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 
 use tokio::sync::mpsc;
 
-use crate::protocol::{Envelope, ObjectRef, Request};
+use crate::protocol::{self, Envelope, ObjectRef, Request};
 
 /// Requests waiting for the engine at most (a key's newest request replaces its older one,
 /// so this bounds the keyless ones and the number of distinct keys); beyond, a request is
@@ -93,9 +93,47 @@ impl Key {
     }
 }
 
-/// Where a request's reply goes: its client's reply queue (bounded; the engine never waits
-/// for it).
+/// A client's reply queue (bounded: a client that reads nothing stops being read).
 pub type ReplyTo = mpsc::Sender<String>;
+
+/// The place a request's reply holds in its client's reply queue, taken when the server
+/// read the request: the engine answers without waiting, and no answer is lost however
+/// slowly the client reads (a full queue only stops the server reading that client).
+pub struct Reply {
+    slot: mpsc::OwnedPermit<String>,
+    to: ReplyTo,
+}
+
+impl Reply {
+    /// Wait for a place in `to`; `None` if the client has gone.
+    pub async fn reserve(to: &ReplyTo) -> Option<Reply> {
+        let slot = to.clone().reserve_owned().await.ok()?;
+        Some(Reply {
+            slot,
+            to: to.clone(),
+        })
+    }
+
+    /// A place in `to` if there is one now (tests).
+    #[cfg(test)]
+    pub fn try_reserve(to: &ReplyTo) -> Option<Reply> {
+        let slot = to.clone().try_reserve_owned().ok()?;
+        Some(Reply {
+            slot,
+            to: to.clone(),
+        })
+    }
+
+    /// Whether this reply goes to the queue `to`.
+    pub fn goes_to(&self, to: &ReplyTo) -> bool {
+        self.to.same_channel(to)
+    }
+
+    /// Put `text` in its place.
+    pub fn send(self, text: String) {
+        self.slot.send(text);
+    }
+}
 
 /// One request waiting for the engine.
 pub struct Pending {
@@ -103,8 +141,8 @@ pub struct Pending {
     pub envelope: Envelope,
     /// Its key, if it sets a state.
     pub key: Option<Key>,
-    /// The client's reply queue.
-    pub reply: ReplyTo,
+    /// Its place in the client's reply queue.
+    pub reply: Reply,
     /// When the server read it.
     pub received: Instant,
     /// The newest frame published when the server read it (the engine applies it at the
@@ -112,6 +150,19 @@ pub struct Pending {
     pub received_at_frame: u64,
     /// The client's number (its seat, `access.rs`): one expensive job each at a time.
     pub client: u64,
+}
+
+impl Pending {
+    /// Answer with `text`.
+    pub fn answer(self, text: String) {
+        self.reply.send(text);
+    }
+
+    /// Answer with an error: `message`, after the request's kind.
+    pub fn refuse(self, message: &str) {
+        let (id, kind) = (self.envelope.id, self.envelope.request.kind());
+        self.answer(protocol::error(id, &format!("{kind}: {message}")));
+    }
 }
 
 /// What the engine takes at the start of a frame.
@@ -291,7 +342,7 @@ mod tests {
         Pending {
             key: Key::of(&envelope.request, &names),
             envelope,
-            reply: reply.clone(),
+            reply: Reply::try_reserve(reply).unwrap(),
             received: Instant::now(),
             received_at_frame: 0,
             client: 1,
@@ -327,7 +378,7 @@ mod tests {
 
     #[test]
     fn a_newer_move_of_one_object_replaces_the_older_and_keeps_the_order_of_arrival() {
-        let (tx, _rx) = mpsc::channel(8);
+        let (tx, _rx) = mpsc::channel(2 * CAPACITY);
         let inbox = Inbox::default();
         assert_eq!(push(&inbox, &moved(1, "1", 0.1), &tx), None);
         assert_eq!(push(&inbox, r#"{"v":1,"id":2,"type":"ping"}"#, &tx), None);
@@ -347,7 +398,7 @@ mod tests {
 
     #[test]
     fn keyless_requests_wait_in_order_up_to_the_capacity() {
-        let (tx, _rx) = mpsc::channel(8);
+        let (tx, _rx) = mpsc::channel(2 * CAPACITY);
         let inbox = Inbox::default();
         assert!(inbox.push(pending(&moved(0, "1", 0.1), &tx)).is_ok());
         for id in 1..CAPACITY {
@@ -374,7 +425,7 @@ mod tests {
 
     #[test]
     fn moves_of_one_punctual_light_replace_each_other_and_its_colour_has_its_own_key() {
-        let (tx, _rx) = mpsc::channel(8);
+        let (tx, _rx) = mpsc::channel(2 * CAPACITY);
         let inbox = Inbox::default();
         let light =
             |id: u64, l: &str, x: f64| translation("set_light_transform", "light", id, l, x);

@@ -80,8 +80,8 @@ impl EngineLoop {
             }
             Err(message) => protocol::error(id, &format!("{kind}: {message}")),
         };
-        // A client whose queue is full loses the reply; the engine never waits for one.
-        let _ = reply.try_send(answer);
+        // Its place in the client's queue was taken when the server read it: no waiting.
+        reply.send(answer);
     }
 
     fn object(&self, r: &ObjectRef) -> Result<usize, String> {

@@ -217,32 +217,30 @@ impl Jobs {
     }
 
     /// Queue `job` for `client`; else why not (the caller replies).
-    fn submit(&mut self, client: u64, mut job: Job, engine: &Engine) -> Result<(), String> {
-        let kind = job.pending.envelope.request.kind();
+    /// Queue `job`, or answer it with why not.
+    fn submit(&mut self, mut job: Job, engine: &Engine) {
+        let client = job.pending.client;
         if !lock(&self.busy).insert(client) {
-            return Err(format!(
-                "{kind}: rate limited: this client's previous expensive request (error, solver or precomputed setting) is still running; send it again once its reply has come"
-            ));
+            return job.pending.refuse(
+                "rate limited: this client's previous expensive request (error, solver or precomputed setting) is still running; send it again once its reply has come",
+            );
         }
         if !self.scene_sent {
             job.scene = Some(Box::new(engine.world().scene.clone()));
         }
         let had_scene = job.scene.is_some();
         match self.queue.try_send(job) {
-            Ok(()) => {
-                self.scene_sent |= had_scene;
-                Ok(())
-            }
+            Ok(()) => self.scene_sent |= had_scene,
             Err(e) => {
                 lock(&self.busy).remove(&client);
-                Err(match e {
-                    TrySendError::Full(_) => format!(
-                        "{kind}: the queue of expensive requests is full ({QUEUE} waiting beside the one running); send it again later"
-                    ),
-                    TrySendError::Disconnected(_) => {
-                        format!("{kind}: the job worker has stopped")
+                match e {
+                    TrySendError::Full(job) => job.pending.refuse(&format!(
+                        "the queue of expensive requests is full ({QUEUE} waiting beside the one running); send it again later"
+                    )),
+                    TrySendError::Disconnected(job) => {
+                        job.pending.refuse("the job worker has stopped")
                     }
-                })
+                }
             }
         }
     }
@@ -263,16 +261,8 @@ fn work(
             break;
         }
         let client = job.pending.client;
-        let reply = job.pending.reply.clone();
-        let (id, kind) = (job.pending.envelope.id, job.pending.envelope.request.kind());
-        match run(&mut world, job, sizing, backend, &shared) {
-            Ok(Some(d)) => {
-                let _ = done.send(d);
-            }
-            Ok(None) => {}
-            Err(e) => {
-                let _ = reply.try_send(protocol::error(id, &format!("{kind}: {e}")));
-            }
+        if let Some(d) = run(&mut world, job, sizing, backend, &shared) {
+            let _ = done.send(d);
         }
         lock(&busy).remove(&client);
         // The engine may be idle: have it take the result and publish.
@@ -280,21 +270,29 @@ fn work(
     }
 }
 
+/// Do `job` (its reply sent, or a failure answered); what the engine thread takes in.
 fn run(
     world: &mut Option<World>,
     job: Job,
     sizing: PatchSizing,
     backend: Backend,
     shared: &Shared,
-) -> Result<Option<Done>, String> {
-    if world.is_none() {
-        let scene = job.scene.ok_or("the worker has no scene")?;
-        *world = Some(World::new(*scene, sizing, backend).map_err(|e| e.to_string())?);
-    }
-    let w = world.as_mut().ok_or("the worker has no world")?;
-    job.state.apply_to(w)?;
+) -> Option<Done> {
+    let Job {
+        pending,
+        state,
+        work,
+        scene,
+    } = job;
+    let w = match world_at(world, scene, &state, sizing, backend) {
+        Ok(w) => w,
+        Err(e) => {
+            pending.refuse(&e);
+            return None;
+        }
+    };
     let t = Instant::now();
-    match job.work {
+    match work {
         Work::Error {
             radiosity,
             reference,
@@ -309,33 +307,53 @@ fn run(
                 "boundary": e.boundary,
                 "interior": e.interior,
                 "ms": t.elapsed().as_secs_f64() * 1e3,
-                "at_frame": job.state.frame,
+                "at_frame": state.frame,
                 "solver": solver,
                 "preset": preset,
             });
             let mut body = value.clone();
-            body["id"] = json!(job.pending.envelope.id);
+            body["id"] = json!(pending.envelope.id);
             body["request"] = json!("compute_error");
-            body["frame"] = json!(job.state.frame);
-            body["received_at_frame"] = json!(job.pending.received_at_frame);
+            body["frame"] = json!(state.frame);
+            body["received_at_frame"] = json!(pending.received_at_frame);
             // The frames the engine published while this ran (none if it had waited).
             let now = shared.published.load(std::sync::atomic::Ordering::Relaxed);
-            body["frames_meanwhile"] = json!(now.saturating_sub(job.state.frame));
-            let _ = job.pending.reply.try_send(protocol::message("ok", body));
-            Ok(Some(Done::Error { value, epoch }))
+            body["frames_meanwhile"] = json!(now.saturating_sub(state.frame));
+            pending.answer(protocol::message("ok", body));
+            Some(Done::Error { value, epoch })
         }
-        Work::Solver { choice, option } => {
-            let s = Solver::new(w, choice).map_err(|e| e.to_string())?;
-            Ok(Some(Done::Solver(Box::new(SolverDone {
-                solver: s,
+        Work::Solver { choice, option } => match Solver::new(w, choice) {
+            Ok(solver) => Some(Done::Solver(Box::new(SolverDone {
+                solver,
                 choice,
                 option,
-                state: job.state,
-                pending: job.pending,
+                state,
+                pending,
                 precompute_ms: t.elapsed().as_secs_f64() * 1e3,
-            }))))
-        }
+            }))),
+            Err(e) => {
+                pending.refuse(&e.to_string());
+                None
+            }
+        },
     }
+}
+
+/// The worker's world, built from `scene` the first time, in `state`.
+fn world_at<'w>(
+    world: &'w mut Option<World>,
+    scene: Option<Box<Scene>>,
+    state: &State,
+    sizing: PatchSizing,
+    backend: Backend,
+) -> Result<&'w mut World, String> {
+    if world.is_none() {
+        let scene = scene.ok_or("the worker has no scene")?;
+        *world = Some(World::new(*scene, sizing, backend).map_err(|e| e.to_string())?);
+    }
+    let w = world.as_mut().ok_or("the worker has no world")?;
+    state.apply_to(w)?;
+    Ok(w)
 }
 
 /// A setting's value as the engine reads it (a string, a number or a boolean).
@@ -385,16 +403,13 @@ impl EngineLoop {
             }
             _ => return Some(p),
         };
-        let (client, id, reply) = (p.client, p.envelope.id, p.reply.clone());
         let job = Job {
             state: State::of(self.engine.world(), self.seq),
             pending: p,
             work,
             scene: None,
         };
-        if let Err(message) = self.jobs.submit(client, job, &self.engine) {
-            let _ = reply.try_send(protocol::error(id, &message));
-        }
+        self.jobs.submit(job, &self.engine);
         None
     }
 
@@ -436,13 +451,14 @@ impl EngineLoop {
             }
             Err(e) => protocol::error(id, &format!("{kind}: {e}")),
         };
-        let _ = d.pending.reply.try_send(answer);
+        d.pending.answer(answer);
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::inbox::Reply;
     use crate::protocol;
 
     fn world() -> World {
@@ -498,12 +514,12 @@ mod tests {
             SolverChoice::preset("dispersive", "default").unwrap(),
         )
         .unwrap();
-        let (tx, _rx) = tokio::sync::mpsc::channel(4);
+        let (tx, mut rx) = tokio::sync::mpsc::channel(4);
         let job = |client| Job {
             pending: Pending {
                 envelope: protocol::parse(r#"{"v":1,"type":"compute_error"}"#).unwrap(),
                 key: None,
-                reply: tx.clone(),
+                reply: Reply::try_reserve(&tx).unwrap(),
                 received: Instant::now(),
                 received_at_frame: 0,
                 client,
@@ -518,13 +534,21 @@ mod tests {
             },
             scene: None,
         };
-        assert!(jobs.submit(1, job(1), &engine).is_ok());
-        assert!(jobs.scene_sent, "the first job carries the scene");
-        let again = jobs.submit(1, job(1), &engine).unwrap_err();
+        // The answer a submitted job got at once, if any.
+        let mut submit = |client| {
+            jobs.submit(job(client), &engine);
+            rx.try_recv().ok()
+        };
+        assert_eq!(submit(1), None);
+        let again = submit(1).unwrap();
         assert!(again.contains("rate limited"), "{again}");
-        assert!(jobs.submit(2, job(2), &engine).is_ok());
-        let full = jobs.submit(3, job(3), &engine).unwrap_err();
-        assert!(full.contains("queue"), "{full}");
+        assert_eq!(submit(2), None);
+        let full = submit(3).unwrap();
+        assert!(
+            full.contains("queue of expensive requests is full"),
+            "{full}"
+        );
+        assert!(jobs.scene_sent, "the first job carries the scene");
         // Refused, client 3 holds no place: once there is room it may try again.
         assert!(!lock(&jobs.busy).contains(&3));
     }
