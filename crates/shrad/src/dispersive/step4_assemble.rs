@@ -158,9 +158,11 @@ impl Dispersive {
                 let b: Vec<Vec3> = (boundary[lo..hi].iter())
                     .map(|&j| {
                         let j = j as usize;
-                        let b = world.exitance[j]
-                            + world.reflectance[j]
-                                * (this.direct[j] + this.indirect[j] + this.wall[j]);
+                        // The sums are kept by taking an update's old share off and
+                        // putting its new one on: where they cancel, rounding can leave
+                        // -1e-11 (the bench's 129k room, paper preset, while moving).
+                        let e = this.direct[j] + this.indirect[j] + this.wall[j];
+                        let b = world.exitance[j] + world.reflectance[j] * e.max(Vec3::ZERO);
                         let a = p.area[j] as f64;
                         change += a * (b - this.radiosity[j]).abs().element_sum() as f64;
                         total += a * b.element_sum() as f64;
