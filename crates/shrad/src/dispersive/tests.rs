@@ -573,3 +573,17 @@ fn coarse_updates_while_moving_settle_to_the_full_resolution_light() {
     let gap = relative_difference(&runs[0].0, runs[0].1.radiosity(), runs[1].1.radiosity());
     assert!(gap < 1e-3, "coarse-then-full differs from full by {gap:e}");
 }
+
+#[test]
+fn a_rounding_residue_below_zero_in_the_incremental_sums_gives_no_negative_radiosity() {
+    let world = cornell(2000);
+    let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
+    d.converge(&world, 4);
+    // What taking an update's share off a patch can leave: the sum below zero (by more
+    // than rounding, so that the wall exchange the assembly redoes cannot lift it).
+    let j = d.boundary_patches[0] as usize;
+    d.indirect[j] = -(d.direct[j] + d.wall[j]) - Vec3::splat(1e-3);
+    d.assemble(&world, 1, None);
+    let b = d.radiosity[j];
+    assert!(b.min_element() >= 0.0, "patch {j}: {b}");
+}
