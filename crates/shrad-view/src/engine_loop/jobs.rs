@@ -430,7 +430,7 @@ impl EngineLoop {
     fn install(&mut self, d: SolverDone) {
         let changes = d.state.changes_to(self.engine.world());
         let (id, kind) = (d.pending.envelope.id, d.pending.envelope.request.kind());
-        let answer = match self.engine.install_solver(d.solver, d.choice, changes) {
+        match self.engine.install_solver(d.solver, d.choice, changes) {
             Ok(()) => {
                 self.solver_epoch += 1;
                 self.last_error = None;
@@ -447,11 +447,10 @@ impl EngineLoop {
                     body["value"] = json!(self.engine.option(&key).unwrap_or_default());
                     body["key"] = json!(key);
                 }
-                protocol::message("ok", body)
+                d.pending.answer(protocol::message("ok", body));
             }
-            Err(e) => protocol::error(id, &format!("{kind}: {e}")),
-        };
-        d.pending.answer(answer);
+            Err(e) => d.pending.refuse(&e.to_string()),
+        }
     }
 }
 
