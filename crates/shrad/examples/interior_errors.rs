@@ -197,6 +197,62 @@ fn main() {
     );
     breakdown(&world, &d, &reference);
     print_probes(&world, &d, &reference);
+    print_worst(&world, &d, &reference);
+    print_around(&world, &d, &reference);
+}
+
+/// With `AROUND=x,y,z,r`, every patch whose centre lies within r of (x, y, z).
+fn print_around(world: &World, d: &Dispersive, reference: &[Vec3]) {
+    let Ok(spec) = std::env::var("AROUND") else {
+        return;
+    };
+    let v: Vec<f32> = spec.split(',').filter_map(|x| x.parse().ok()).collect();
+    let (at, r) = (Vec3::new(v[0], v[1], v[2]), v[3]);
+    let p = &world.patches;
+    for i in (0..p.len()).filter(|&i| p.centre[i].distance(at) <= r) {
+        println!(
+            "around: patch {i} {} at {:.3?} n {:.2?}: disp {:.4?} ref {:.4?}",
+            world.scene.objects[p.object[i] as usize].name,
+            p.centre[i],
+            p.normal[i],
+            d.radiosity()[i],
+            reference[i]
+        );
+    }
+}
+
+/// With `WORST=n`, the n interior patches with the largest share of the error.
+fn print_worst(world: &World, d: &Dispersive, reference: &[Vec3]) {
+    let Some(n) = std::env::var("WORST")
+        .ok()
+        .and_then(|s| s.parse::<usize>().ok())
+    else {
+        return;
+    };
+    let p = &world.patches;
+    let b = d.radiosity();
+    let mut rows: Vec<(f64, usize)> = (0..p.len())
+        .filter(|&i| p.role(i) == Role::Interior)
+        .map(|i| {
+            (
+                p.area[i] as f64 * (b[i] - reference[i]).length_squared() as f64,
+                i,
+            )
+        })
+        .collect();
+    let total: f64 = rows.iter().map(|r| r.0).sum();
+    rows.sort_by(|a, b| b.0.total_cmp(&a.0));
+    for &(num, i) in rows.iter().take(n) {
+        println!(
+            "{:5.2} % patch {i} {} at {:.3?} n {:.2?}: disp {:.4?} ref {:.4?}",
+            100.0 * num / total,
+            world.scene.objects[p.object[i] as usize].name,
+            p.centre[i],
+            p.normal[i],
+            b[i],
+            reference[i]
+        );
+    }
 }
 
 fn breakdown(world: &World, d: &Dispersive, reference: &[Vec3]) {

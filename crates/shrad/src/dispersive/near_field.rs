@@ -66,8 +66,115 @@ pub(super) fn near_reach(
 /// Contact openness's reach, as a fraction of the box diagonal.
 pub(super) const CONTACT_REACH: f32 = 0.02;
 
-/// Patches whose near-field rays are traced at once (64 rays each: 16 MB of rays and hits).
+/// Patches whose near-field rays are traced at once (64 rays each, traced from two origins:
+/// about 30 MB of rays and hits).
 const NEAR_CHUNK: usize = 4096;
+
+/// Stratified points over patch `i`, one per near-field ray, paired with the ray directions
+/// by a permutation of the patch's own (a fixed pairing correlates them), as the reference's
+/// form-factor rays are (`form_factors::some_patch_rays`).
+fn spread_over_patch(p: &crate::Patches, i: usize, out: &mut [Vec3]) {
+    use crate::sampling::{hammersley, hash, unit};
+    let rays = out.len();
+    let seed = hash(i as u32 ^ 0x6e65_6172);
+    let shift = (unit(seed), unit(hash(seed)));
+    let mut perm: Vec<u32> = (0..rays as u32).collect();
+    let mut state = hash(seed ^ 0x2545_f491);
+    for k in (1..rays).rev() {
+        state = hash(state);
+        perm.swap(k, (state as usize) % (k + 1));
+    }
+    for (o, &j) in out.iter_mut().zip(&perm) {
+        let (u, v) = hammersley(j, rays as u32, shift);
+        *o = p.sample_point(i, u, v);
+    }
+}
+
+/// The near-field rays' hits, with whether each is in contact (met at once under the object).
+struct NearHits {
+    hit: Vec<Hit>,
+    contact: Vec<bool>,
+}
+
+/// The hits of the near-field rays `dirs` of `patches` (object `o`'s, `near_rays` each).
+///
+/// Each ray is traced twice: from the patch centre and from a point spread over the patch
+/// (`spread_over_patch`). Where either meets a surface in contact, the spread ray's hit is
+/// taken, else the centre's. A patch partly covered by another object (a small box riding
+/// on a larger one covers part of the patches under it) then sees its cover from the
+/// covered part and the rest from the open part, as its mean over the area does (the
+/// reference's form-factor rays start over the patch): from its centre alone it was all
+/// dark or all open (the animated room's patches under the rider: 0 against the reference's
+/// 0.34, or 0.71 against 0.50). Elsewhere the centre's view stands: spread over the patch,
+/// every ray's view moved to the floor right beside a box's lowest side patches, which are
+/// darker in the dispersive solution than in the reference there (the 128-object room's
+/// interior error 2.95 -> 3.58 %).
+fn near_hits(
+    world: &World,
+    o: usize,
+    patches: std::ops::Range<usize>,
+    dirs: &[Vec3],
+    contact: f32,
+) -> NearHits {
+    let p = &world.patches;
+    let rays = dirs.len() / patches.len().max(1);
+    let mut spread = vec![Vec3::ZERO; dirs.len()];
+    let mut centre = vec![Vec3::ZERO; dirs.len()];
+    spread
+        .par_chunks_mut(rays)
+        .zip(centre.par_chunks_mut(rays))
+        .zip(patches.clone())
+        .for_each(|((s, c), i)| {
+            spread_over_patch(p, i, s);
+            // Just inside the surface, the object transparent: a face resting on a floor
+            // meets the floor (contact openness's start).
+            let inward = p.normal[i] * world.eps;
+            s.iter_mut().for_each(|x| *x -= inward);
+            c.fill(p.centre[i] - inward);
+        });
+    let mut from_spread = vec![Hit::MISS; dirs.len()];
+    let mut from_centre = vec![Hit::MISS; dirs.len()];
+    let exclude = [o as u32];
+    world
+        .vis
+        .closest(&spread, dirs, 0.0, &exclude, &mut from_spread);
+    world
+        .vis
+        .closest(&centre, dirs, 0.0, &exclude, &mut from_centre);
+    // Contact is a surface met at once *under the object*: the floor a box stands on, the
+    // box a rider stands on; not the floor met at once beside a side face's lowest points.
+    let shape = own_box(p, o);
+    let local_from_world = p.world_from_local[o].inverse();
+    let in_contact = |from: Vec3, d: Vec3, h: &Hit| {
+        h.is_hit()
+            && h.t <= contact + 2.0 * world.eps
+            && shape.contains(local_from_world.transform_point3(from + d * h.t))
+    };
+    let mut out = NearHits {
+        hit: Vec::with_capacity(dirs.len()),
+        contact: Vec::with_capacity(dirs.len()),
+    };
+    for j in 0..dirs.len() {
+        let at_spread = in_contact(spread[j], dirs[j], &from_spread[j]);
+        let at_centre = in_contact(centre[j], dirs[j], &from_centre[j]);
+        let take_spread = at_spread || at_centre;
+        out.hit.push(if take_spread {
+            from_spread[j]
+        } else {
+            from_centre[j]
+        });
+        out.contact.push(at_spread);
+    }
+    out
+}
+
+/// Object `o`'s patches' box in its own frame, padded by float noise (a hit on the surface
+/// it rests on lies on that box's face).
+fn own_box(p: &crate::Patches, o: usize) -> Aabb {
+    let corners = p.range(o).flat_map(|i| p.corners[i]);
+    let shape = Aabb::from_points(corners).unwrap_or(Aabb::EMPTY);
+    shape.padded(Vec3::splat(1e-5 * shape.diagonal()))
+}
 
 impl Dispersive {
     /// The near field of object `k` (see the module docs).
@@ -107,30 +214,10 @@ impl Dispersive {
         let p = &world.patches;
         let ob = &self.objects[k];
         let o = ob.object;
-        let m = p.world_from_local[o];
         let start = p.range(o).start + patches.start;
-        let count = patches.len() * rays;
-        let (mut origins, mut dirs) = (vec![Vec3::ZERO; count], vec![Vec3::ZERO; count]);
-        let mut local = vec![Vec3::ZERO; count];
-        origins
-            .par_chunks_mut(rays)
-            .zip(dirs.par_chunks_mut(rays))
-            .zip(local.par_chunks_mut(rays))
-            .enumerate()
-            .for_each(|(k, ((org, dir), loc))| {
-                let i = start + k;
-                for j in 0..rays {
-                    loc[j] = transfer_direction(p, i, j, rays);
-                    dir[j] = m.transform_vector3(loc[j]).normalize_or_zero();
-                    // Just inside the surface, the object transparent: a face resting on
-                    // a floor meets the floor (contact openness's start).
-                    org[j] = p.centre[i] - p.normal[i] * world.eps;
-                }
-            });
-        let mut hits = vec![Hit::MISS; count];
-        world
-            .vis
-            .closest(&origins, &dirs, 0.0, &[o as u32], &mut hits);
+        let absolute = start..start + patches.len();
+        let (dirs, local) = self.near_directions(world, o, absolute.clone());
+        let hits = near_hits(world, o, absolute, &dirs, contact);
         let blocked = self.self_blocked(world, k, patches.clone(), &dirs);
         let with_transfer = !ob.transfer.is_empty();
         let bands = self.options.bands;
@@ -142,7 +229,7 @@ impl Dispersive {
                 let mut row: Vec<(u32, f32)> = Vec::new();
                 let mut basis = [0f32; 64];
                 for j in k * rays..(k + 1) * rays {
-                    let h = &hits[j];
+                    let h = &hits.hit[j];
                     if !h.is_hit() || h.t > reach + 2.0 * world.eps || blocked[j] {
                         continue;
                     }
@@ -151,12 +238,13 @@ impl Dispersive {
                     for (a, b) in lobe.iter_mut().zip(&basis[..nc]) {
                         *a += std::f32::consts::PI / rays as f32 * b;
                     }
-                    // A surface in contact (within contact openness's reach) sends nothing,
-                    // as contact openness has it: a face resting on a floor sees the floor
-                    // patch it stands on, lit where it reaches beyond the face. A back face
-                    // (the outside of the enclosure, the inside of a closed object) neither.
+                    // A surface in contact (within contact openness's reach, under the
+                    // object: `near_hits`) sends nothing, as contact openness has it: a face
+                    // resting on a floor sees the floor patch it stands on, lit where it
+                    // reaches beyond the face. A back face (the outside of the enclosure, the
+                    // inside of a closed object) neither.
                     let q = self.seen_code(world, h, o as u32);
-                    if q == SEES_NOTHING || q == SEES_BACK || h.t <= contact + 2.0 * world.eps {
+                    if q == SEES_NOTHING || q == SEES_BACK || hits.contact[j] {
                         continue;
                     }
                     match row.iter_mut().find(|e| e.0 == q) {
@@ -171,6 +259,31 @@ impl Dispersive {
             near.lobe.extend(lobe);
             near.view.push_row(row);
         }
+    }
+
+    /// The near-field ray directions of object `o`'s `patches` (absolute indices), in the
+    /// world and in the object's frame: the transfer vectors' directions.
+    fn near_directions(
+        &self,
+        world: &World,
+        o: usize,
+        patches: std::ops::Range<usize>,
+    ) -> (Vec<Vec3>, Vec<Vec3>) {
+        let rays = self.options.near_rays as usize;
+        let p = &world.patches;
+        let m = p.world_from_local[o];
+        let count = patches.len() * rays;
+        let (mut dirs, mut local) = (vec![Vec3::ZERO; count], vec![Vec3::ZERO; count]);
+        dirs.par_chunks_mut(rays)
+            .zip(local.par_chunks_mut(rays))
+            .zip(patches)
+            .for_each(|((dir, loc), i)| {
+                for j in 0..rays {
+                    loc[j] = transfer_direction(p, i, j, rays);
+                    dir[j] = m.transform_vector3(loc[j]).normalize_or_zero();
+                }
+            });
+        (dirs, local)
     }
 
     /// Per ray of [`Dispersive::near_field`], whether the object itself blocks it (the
