@@ -221,7 +221,7 @@ fn print_around(world: &World, d: &Dispersive, reference: &[Vec3]) {
     }
 }
 
-/// With `WORST=n`, the n interior patches with the largest share of the error.
+/// With `WORST=n`, the n interior patches with the largest share of the (interior) error.
 fn print_worst(world: &World, d: &Dispersive, reference: &[Vec3]) {
     let Some(n) = std::env::var("WORST")
         .ok()
@@ -231,8 +231,13 @@ fn print_worst(world: &World, d: &Dispersive, reference: &[Vec3]) {
     };
     let p = &world.patches;
     let b = d.radiosity();
+    // `WORST_ROLE=boundary`: the boundary's patches instead.
+    let role = match std::env::var("WORST_ROLE").as_deref() {
+        Ok("boundary") => Role::Boundary,
+        _ => Role::Interior,
+    };
     let mut rows: Vec<(f64, usize)> = (0..p.len())
-        .filter(|&i| p.role(i) == Role::Interior)
+        .filter(|&i| p.role(i) == role)
         .map(|i| {
             (
                 p.area[i] as f64 * (b[i] - reference[i]).length_squared() as f64,
