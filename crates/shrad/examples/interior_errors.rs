@@ -247,15 +247,22 @@ fn print_worst(world: &World, d: &Dispersive, reference: &[Vec3]) {
         .collect();
     let total: f64 = rows.iter().map(|r| r.0).sum();
     rows.sort_by(|a, b| b.0.total_cmp(&a.0));
-    for &(num, i) in rows.iter().take(n) {
+    rows.truncate(n);
+    // Each patch's direct light, the dispersive solver's and a 64-sample one, red channel.
+    let ids: Vec<u32> = rows.iter().map(|r| r.1 as u32).collect();
+    let ref_direct = shrad::direct::direct_irradiance(world, &ids, 64);
+    let direct = d.direct_irradiance();
+    for (&(num, i), rd) in rows.iter().zip(&ref_direct) {
         println!(
-            "{:5.2} % patch {i} {} at {:.3?} n {:.2?}: disp {:.4?} ref {:.4?}",
+            "{:5.2} % patch {i} {} at {:.3?} n {:.2?}: disp {:.4?} ref {:.4?}; direct E.r {:.4} / {:.4}",
             100.0 * num / total,
             world.scene.objects[p.object[i] as usize].name,
             p.centre[i],
             p.normal[i],
             b[i],
-            reference[i]
+            reference[i],
+            direct.map_or(f32::NAN, |e| e[i].x),
+            rd.x,
         );
     }
 }

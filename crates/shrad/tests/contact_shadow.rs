@@ -21,9 +21,11 @@ const NEAR: f32 = 0.5;
 // Bounds, with margin over what was measured (2500 patches): interior 8.8 % and floor near
 // the box 8.1 % when the test was written (2026-12, the default with `wall_smoothing`);
 // interior 5.6 % and floor 7.9 % with the near field and `repair=move_out` (issue 22 item
-// 1, 2026-12-03). The interior bound fails with `near_rays=0 repair=move_inward`.
+// 1, 2026-12-03); interior 5.5 % and floor 6.0 % with Step 3's faces split
+// (`emitter_split=2`, 2026-12-03). The interior bound fails with `near_rays=0
+// repair=move_inward`, the floor's with `emitter_split=1` (7.9 %).
 const INTERIOR_BOUND: f64 = 0.07;
-const FLOOR_NEAR_BOUND: f64 = 0.095;
+const FLOOR_NEAR_BOUND: f64 = 0.07;
 /// The block's top with a rider on it: measured 1.57 % (3.30 % with the near field traced
 /// from the patch centres alone, before 2026-12-03, which this bound fails).
 const RIDER_TOP_BOUND: f64 = 0.025;

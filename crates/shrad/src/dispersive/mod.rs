@@ -36,6 +36,7 @@ use crate::World;
 
 mod caches;
 mod frame;
+mod gather;
 pub mod inspect;
 mod near_field;
 mod object_state;
@@ -204,19 +205,30 @@ impl Dispersive {
         let interior: Vec<usize> = (0..world.scene.objects.len())
             .filter(|&o| p.object_role[o] == Role::Interior)
             .collect();
+        let boundary_patches: Vec<u32> = (0..p.len() as u32)
+            .filter(|&i| receives_as_boundary(world, i as usize))
+            .collect();
+        // Split emitters gather their near receivers (`setup::emitter_groups`); a splat
+        // sends every emitter everywhere, so there they stay whole.
+        let method = step3_to_boundary::method_for(
+            options.to_boundary,
+            boundary_patches.len(),
+            emitter_camera.texels(),
+        );
+        let split = match method {
+            ToBoundary::Gather => options.emitter_split,
+            _ => 1,
+        };
         progress.begin("setting up objects", interior.len() as u64);
         let objects: Vec<ObjectProbes> = interior
             .into_iter()
             .map(|o| {
-                let ob = ObjectProbes::new(world, o, &options);
+                let ob = ObjectProbes::new(world, o, &options, split);
                 progress.advance(1);
                 ob
             })
             .collect();
         progress.end();
-        let boundary_patches: Vec<u32> = (0..p.len() as u32)
-            .filter(|&i| receives_as_boundary(world, i as usize))
-            .collect();
         // Rays that pass where an object moves are re-traced then (`refresh_wall_rows`).
         let wall_rays = wall_rows::wall_rays_for(boundary_patches.len(), options.wall_rays);
         let wall_rows = options

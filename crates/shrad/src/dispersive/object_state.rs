@@ -15,7 +15,7 @@ use shrad_sh::trilinear_weights;
 
 use super::caches::{EmitterCache, ProbeCache};
 use super::near_field::NearField;
-use super::setup::{emitter_groups, self_transfer};
+use super::setup::{emitter_groups, self_transfer, EmitterGroup};
 use super::DispersiveOptions;
 use crate::sparse::SparseRows;
 use crate::World;
@@ -35,8 +35,9 @@ pub(super) struct ObjectProbes {
     /// Where each probe sits, per axis of the box, between the box centre (0) and its corner
     /// (1); repaired probes keep their place until the object moves.
     pub(super) probe_scale: [Vec3; 8],
-    /// Step 3 emitters: (centre in the object frame, offsets of its patches in the range).
-    pub(super) emitters: Vec<(Vec3, Vec<u32>)>,
+    /// Step 3 emitters: (centre in the object frame, offsets of its patches in the range,
+    /// the receivers it lights).
+    pub(super) emitters: Vec<EmitterGroup>,
     /// Per patch transfer vectors with self-visibility in the object frame (empty when off),
     /// `num_coeffs` floats each.
     pub(super) transfer: Vec<f32>,
@@ -66,8 +67,13 @@ pub(super) struct ObjectProbes {
 impl ObjectProbes {
     /// Precompute object `o` (paper 2.3.1): its box expanded by the margin, the trilinear
     /// weights and exit directions of its patches, its Step 3 emitters and, if enabled, its
-    /// transfer vectors.
-    pub(super) fn new(world: &World, o: usize, options: &DispersiveOptions) -> ObjectProbes {
+    /// transfer vectors. `split`: `emitter_split` where Step 3 gathers, else 1.
+    pub(super) fn new(
+        world: &World,
+        o: usize,
+        options: &DispersiveOptions,
+        split: u32,
+    ) -> ObjectProbes {
         let p = &world.patches;
         let shape = p.shapes[o]
             .bounds()
@@ -104,7 +110,7 @@ impl ObjectProbes {
             exit_local,
             to_boundary: Vec::new(),
             probe_scale: [Vec3::ONE; 8],
-            emitters: emitter_groups(p, o, centre, options.emitter_per_face),
+            emitters: emitter_groups(p, o, centre, options.emitter_per_face, split),
             transfer,
             self_view,
             openness: Vec::new(),

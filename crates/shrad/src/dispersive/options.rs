@@ -118,6 +118,11 @@ pub struct DispersiveOptions {
     /// lobes along the normals) instead of one at the centre: the floor beside a box is lit
     /// by the box's near face, not by a point in its middle.
     pub emitter_per_face: bool,
+    /// With `emitter_per_face`, each face direction's emitter split into `n x n` emitters
+    /// across the face (cells of its two in-plane axes, each at its patches' centroid): a
+    /// large face close to a wall lights the floor at its foot from its lower half, not from
+    /// its middle. 1: one emitter a face direction.
+    pub emitter_split: u32,
     /// Rays per interior patch for a precomputed transfer vector with self-visibility (the
     /// precomputed radiance transfer the paper cites): irradiance is the probe SH dotted
     /// with `T_i = ∫ V_self(w) max(0, n.w) Y(w) dw`, so a concave object shadows itself
@@ -198,6 +203,7 @@ impl DispersiveOptions {
             to_boundary: ToBoundary::Splat,
             contact_rays: 0,
             emitter_per_face: false,
+            emitter_split: 1,
             self_shadow_rays: 0,
             splat_smoothing: false,
             wall_smoothing: false,
@@ -227,6 +233,7 @@ impl DispersiveOptions {
             to_boundary: ToBoundary::Auto,
             contact_rays: 8,
             emitter_per_face: true,
+            emitter_split: 2,
             self_shadow_rays: 64,
             splat_smoothing: true,
             wall_smoothing: true,

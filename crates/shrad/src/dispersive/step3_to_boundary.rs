@@ -8,9 +8,10 @@
 //! towards every boundary patch with one shadow ray each (2.3.4 Step 3 updates the boundary
 //! only).
 //!
-//! Beyond the paper: one emitter per face direction (`setup::emitter_groups`), splat
-//! smoothing over edge neighbours (`setup::Neighbours`), and a guard that damps an object that would send
-//! more than it reflects.
+//! Beyond the paper: one emitter per face direction (`setup::emitter_groups`), split across
+//! large faces for their near receivers, the gather (`gather.rs`), splat smoothing over edge
+//! neighbours (`setup::Neighbours`), and a guard that damps an object that would send more
+//! than it reflects.
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -18,10 +19,9 @@ use shrad_sh::{cosine_lobe, eval_basis, num_coeffs, ShRgb};
 use shrad_vis::Hit;
 
 use super::caches::{
-    ChunkCones, EmitterCache, EmitterRays, GatherEntries, SplatTexels, LANDS_NOWHERE,
-    MAX_STEP3_BYTES, RAY_BLOCKED, RAY_CLEAR, RAY_UNKNOWN, UNKNOWN,
+    EmitterCache, EmitterRays, SplatTexels, LANDS_NOWHERE, MAX_STEP3_BYTES, UNKNOWN,
 };
-use super::setup::receives_as_boundary;
+use super::setup::{receives_as_boundary, EmitterGroup, Reach};
 use super::{Dispersive, ToBoundary};
 use crate::probes::ProbeCamera;
 use crate::World;
@@ -91,9 +91,14 @@ impl Dispersive {
         let ob = &self.objects[k];
         let intensities = self.emitter_intensities(world, k, &cache.lobes);
         let pieces = if merged {
+            // The whole faces' emitters hold every patch once; their split cells again.
+            let whole = |e: &&EmitterGroup| !matches!(e.2, Reach::Within { .. });
             let mut total = ShRgb::zeros(self.options.bands);
-            intensities.iter().for_each(|i| total.add(i));
-            let soften = self.soften(world, k, ob.emitters.iter().flat_map(|(_, m)| m));
+            (ob.emitters.iter().zip(&intensities))
+                .filter(|(e, _)| whole(e))
+                .for_each(|(_, i)| total.add(i));
+            let members = ob.emitters.iter().filter(whole).flat_map(|(_, m, _)| m);
+            let soften = self.soften(world, k, members);
             self.emit_one(world, k, &mut cache.rays[0], &total, soften)
         } else {
             // The emitters in parallel: each has its own rays.
@@ -102,7 +107,7 @@ impl Dispersive {
                 .par_iter()
                 .zip(cache.rays.par_iter_mut())
                 .zip(&intensities)
-                .map(|(((_, members), rays), intensity)| {
+                .map(|(((_, members, _), rays), intensity)| {
                     self.emit_one(world, k, rays, intensity, self.soften(world, k, members))
                 })
                 .collect();
@@ -126,7 +131,7 @@ impl Dispersive {
     ) -> Vec<ShRgb> {
         let ob = &self.objects[k];
         (ob.emitters.iter().zip(lobes))
-            .map(|((_, members), lobes)| self.emitter_intensity(world, k, members, lobes))
+            .map(|((_, members, _), lobes)| self.emitter_intensity(world, k, members, lobes))
             .collect()
     }
 
@@ -275,16 +280,11 @@ impl Dispersive {
     /// 32k: a coarse splat aliases), splat beyond, so that the cost of Step 3 stays bounded
     /// however large the boundary grows.
     fn to_boundary_method(&self) -> ToBoundary {
-        match self.options.to_boundary {
-            ToBoundary::Auto
-                if self.boundary_patches.len()
-                    > (2 * self.emitter_camera.texels()).max(1 << 15) =>
-            {
-                ToBoundary::Splat
-            }
-            ToBoundary::Auto => ToBoundary::Gather,
-            m => m,
-        }
+        method_for(
+            self.options.to_boundary,
+            self.boundary_patches.len(),
+            self.emitter_camera.texels(),
+        )
     }
 
     /// What Step 3 of object `k` at `m` needs of geometry (`caches.rs`): per emitter, its
@@ -307,7 +307,7 @@ impl Dispersive {
         let lobes = ob
             .emitters
             .iter()
-            .map(|(_, members)| {
+            .map(|(_, members, _)| {
                 let mut lobes = Vec::with_capacity(members.len() * nc);
                 for &k in members {
                     let i = range.start + k as usize;
@@ -324,17 +324,19 @@ impl Dispersive {
             })
             .collect();
         // One emitter at the box centre when `merged`, else one per group.
-        let centres: Vec<Vec3> = match merged {
-            true => vec![ob.centre_local()],
-            false => ob.emitters.iter().map(|(c, _)| *c).collect(),
+        let centres: Vec<(Vec3, Reach)> = match merged {
+            true => vec![(ob.centre_local(), Reach::All)],
+            false => ob.emitters.iter().map(|(c, _, r)| (*c, *r)).collect(),
         };
+        let local_from_world = m.inverse();
         let rays = centres
             .iter()
-            .map(|centre_local| {
+            .map(|(centre_local, reach)| {
                 let centre = m.transform_point3(*centre_local);
                 match method {
                     ToBoundary::Gather => {
-                        EmitterRays::Gather(Box::new(self.gather_entries(world, centre)))
+                        let takes = |x: Vec3| reach.takes(local_from_world.transform_point3(x));
+                        EmitterRays::Gather(Box::new(self.gather_entries(world, centre, takes)))
                     }
                     _ => {
                         let n = self.cameras_for(k).1.texels();
@@ -348,37 +350,6 @@ impl Dispersive {
             lobes,
             rays,
             ..Default::default()
-        }
-    }
-
-    /// The boundary patches that face a point emitter at `centre`, with `cos`, `r^2` and the
-    /// direction towards them; no shadow ray cast yet.
-    fn gather_entries(&self, world: &World, centre: Vec3) -> GatherEntries {
-        let p = &world.patches;
-        let facing: Vec<(u32, f32, f32, Vec3)> = self
-            .boundary_patches
-            .par_iter()
-            .filter_map(|&j| {
-                let d = centre - p.centre[j as usize];
-                let r2 = d.length_squared().max(1e-12);
-                let towards_object = d / r2.sqrt();
-                let cos = p.normal[j as usize].dot(towards_object);
-                (cos > 0.0).then_some((j, cos, r2, -towards_object))
-            })
-            .collect();
-        // The entries' shadow rays all end at the centre: one cone of directions a chunk.
-        let cones = ChunkCones::new(facing.len(), |n| {
-            let j = facing[n].0 as usize;
-            p.centre[j] + p.normal[j] * world.eps - centre
-        });
-        GatherEntries {
-            centre,
-            cones,
-            patch: facing.iter().map(|f| f.0).collect(),
-            cos: facing.iter().map(|f| f.1).collect(),
-            r2: facing.iter().map(|f| f.2).collect(),
-            dir: [0, 1, 2].map(|a| facing.iter().map(|f| f.3[a]).collect()),
-            ray: vec![RAY_UNKNOWN; facing.len()],
         }
     }
 
@@ -424,94 +395,15 @@ impl Dispersive {
             })
             .collect()
     }
+}
 
-    /// Point-emitter gather: `E_j = I(w_j) cos_j / r^2`, one shadow ray per boundary patch
-    /// the emitter sends light to (cast once, then cached until something moves across it).
-    ///
-    /// `soften` (an area / pi) regularises `1 / r^2` near an extended emitter, as for a disc:
-    /// `cos / (r^2 + soften)` (on a disc's axis this is exact).
-    fn gather(
-        &self,
-        world: &World,
-        o: usize,
-        g: &mut GatherEntries,
-        intensity: &ShRgb,
-        soften: f32,
-    ) -> Vec<(u32, Vec3)> {
-        let p = &world.patches;
-        // Unoccluded irradiance with the softened and the plain 1 / r^2; the softened one is
-        // rescaled to the plain one's total flux, so softening moves light but neither adds
-        // nor loses any. Patches behind the emitter's lobe get no ray.
-        // `I(w_j)`, block by block (`ShRgb::eval_many`: the floats `ShRgb::eval` gives, one
-        // basis function at a time over the block, which vectorises; a direction takes 12
-        // bytes where its basis would take 64).
-        const BLOCK: usize = 256;
-        let len = g.patch.len();
-        let (dir, ray, cos) = (&g.dir, &g.ray, &g.cos);
-        let lit: Vec<(usize, Vec3)> = (0..len.div_ceil(BLOCK))
-            .into_par_iter()
-            .flat_map_iter(|b| {
-                let (lo, hi) = (b * BLOCK, ((b + 1) * BLOCK).min(len));
-                let mut value = [Vec3::ZERO; BLOCK];
-                let [x, y, z] = [0, 1, 2].map(|a| &dir[a][lo..hi]);
-                intensity.eval_many(x, y, z, &mut value[..hi - lo]);
-                (lo..hi).filter_map(move |n| {
-                    if ray[n] == RAY_BLOCKED {
-                        return None;
-                    }
-                    let e = value[n - lo].max(Vec3::ZERO) * cos[n];
-                    (e.max_element() > 0.0).then_some((n, e))
-                })
-            })
-            .collect();
-        let unknown: Vec<usize> = lit
-            .iter()
-            .map(|&(n, _)| n)
-            .filter(|&n| g.ray[n] == RAY_UNKNOWN)
-            .collect();
-        if !unknown.is_empty() {
-            let from: Vec<Vec3> = unknown
-                .iter()
-                .map(|&n| {
-                    let j = g.patch[n] as usize;
-                    p.centre[j] + p.normal[j] * world.eps
-                })
-                .collect();
-            let to = vec![g.centre; from.len()];
-            let mut blocked = vec![false; from.len()];
-            world
-                .vis
-                .occluded(&from, &to, world.eps, &[o as u32], &mut blocked);
-            for (&n, b) in unknown.iter().zip(blocked) {
-                g.ray[n] = if b { RAY_BLOCKED } else { RAY_CLEAR };
-            }
-        }
-        let clear: Vec<(u32, Vec3, f32, f32)> = lit
-            .into_iter()
-            .filter(|&(n, _)| g.ray[n] == RAY_CLEAR)
-            .map(|(n, e)| {
-                let (j, r2) = (g.patch[n], g.r2[n]);
-                let a = p.area[j as usize];
-                (
-                    j,
-                    e / (r2 + soften),
-                    a * e.element_sum() / r2,
-                    a * e.element_sum() / (r2 + soften),
-                )
-            })
-            .collect();
-        let (plain, softened) = clear
-            .iter()
-            .fold((0f64, 0f64), |(x, y), e| (x + e.2 as f64, y + e.3 as f64));
-        let scale = if softened > 0.0 {
-            (plain / softened) as f32
-        } else {
-            1.0
-        };
-        clear
-            .into_iter()
-            .map(|(j, e, _, _)| (j, e * scale))
-            .collect()
+/// The Step 3 method `chosen` comes to for a boundary of `boundary` patches and an emitter
+/// cube map of `texels`: `Auto` gathers on small boundaries and splats on large ones.
+pub(super) fn method_for(chosen: ToBoundary, boundary: usize, texels: usize) -> ToBoundary {
+    match chosen {
+        ToBoundary::Auto if boundary > (2 * texels).max(1 << 15) => ToBoundary::Splat,
+        ToBoundary::Auto => ToBoundary::Gather,
+        m => m,
     }
 }
 

@@ -587,3 +587,52 @@ fn a_rounding_residue_below_zero_in_the_incremental_sums_gives_no_negative_radio
     let b = d.radiosity[j];
     assert!(b.min_element() >= 0.0, "patch {j}: {b}");
 }
+
+#[test]
+fn split_emitters_light_the_near_receivers_and_the_whole_faces_the_rest() {
+    // The Cornell box's tall block, its faces split 2 x 2: each face direction keeps one
+    // emitter with all its patches for the far receivers and gets cells that partition those
+    // patches for the near ones, so every receiver is lit by each patch exactly once.
+    let world = cornell(5000);
+    let p = &world.patches;
+    let o = object_named(&world, "tall_block");
+    let centre = p.range(o).map(|i| p.centre_local[i]).sum::<Vec3>() / p.range(o).len() as f32;
+    let whole = super::setup::emitter_groups(p, o, centre, true, 1);
+    let split = super::setup::emitter_groups(p, o, centre, true, 2);
+    assert_eq!(whole.len(), 6);
+    assert!(
+        split.len() > 6 && split.len() <= 6 * 5,
+        "{} emitters",
+        split.len()
+    );
+    for (_, members, reach) in &whole {
+        assert_eq!(*reach, super::setup::Reach::All);
+        let parent = split
+            .iter()
+            .find(|e| &e.1 == members)
+            .expect("a whole face");
+        let super::setup::Reach::Beyond { around, radius } = parent.2 else {
+            panic!("the whole face lights the far receivers: {:?}", parent.2)
+        };
+        let cells: Vec<&super::setup::EmitterGroup> = split
+            .iter()
+            .filter(|e| e.2 == super::setup::Reach::Within { around, radius })
+            .collect();
+        let mut in_cells: Vec<u32> = cells.iter().flat_map(|e| e.1.clone()).collect();
+        in_cells.sort_unstable();
+        let mut all = members.clone();
+        all.sort_unstable();
+        assert_eq!(in_cells, all, "the cells partition the face");
+        for x in [
+            around,
+            around + Vec3::X * radius * 0.99,
+            around + Vec3::Y * radius * 1.01,
+        ] {
+            assert_ne!(
+                parent.2.takes(x),
+                cells[0].2.takes(x),
+                "one of them takes {x}"
+            );
+        }
+    }
+}

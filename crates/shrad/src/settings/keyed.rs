@@ -95,6 +95,7 @@ impl Keyed for DispersiveOptions {
             }),
             "contact_rays" => Value::Int(self.contact_rays.into()),
             "emitter_per_face" => Value::Bool(self.emitter_per_face),
+            "emitter_split" => Value::Int(self.emitter_split.into()),
             "self_shadow_rays" => Value::Int(self.self_shadow_rays.into()),
             "splat_smoothing" => Value::Bool(self.splat_smoothing),
             "wall_smoothing" => Value::Bool(self.wall_smoothing),
@@ -183,6 +184,7 @@ impl Keyed for DispersiveOptions {
             }
             "contact_rays" => self.contact_rays = as_u32(value),
             "emitter_per_face" => self.emitter_per_face = as_bool(value),
+            "emitter_split" => self.emitter_split = as_u32(value),
             "self_shadow_rays" => self.self_shadow_rays = as_u32(value),
             "splat_smoothing" => self.splat_smoothing = as_bool(value),
             "wall_smoothing" => self.wall_smoothing = as_bool(value),

@@ -184,6 +184,13 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
         "Step 3 with one SH emitter per face direction of the object instead of one at its centre",
     ),
     int(
+        "emitter_split",
+        1,
+        8,
+        true,
+        "with emitter_per_face, each face direction's emitter split into n x n across the face, so a large face lights the floor at its foot from its lower part (1: one a face)",
+    ),
+    int(
         "self_shadow_rays",
         0,
         MAX_RAYS,
