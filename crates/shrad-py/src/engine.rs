@@ -359,7 +359,8 @@ impl PyEngine {
         self.with(py, |e| e.frames_to_converge(passes))
     }
 
-    /// Step until a static scene has converged (every object updated ``passes`` times);
+    /// Step until a static scene has converged (every object updated ``passes`` times, then,
+    /// for the dispersive solver, until a frame changes the radiosity by less than 1e-4);
     /// the statistics of every frame.
     #[pyo3(signature = (passes=2))]
     fn converge<'py>(&self, py: Python<'py>, passes: usize) -> PyResult<Bound<'py, PyAny>> {
