@@ -202,12 +202,15 @@ fn largest_interior(e: &Engine) -> usize {
 /// relative L1 (`sum A |dB| / sum A B`), and the largest single patch's `|dB| / B`.
 fn change(e: &Engine, before: &[Vec3], which: impl Fn(usize) -> bool) -> (f64, f64) {
     let now = e.radiosity();
+    // A patch below a millionth of the brightest is black: its rounding residue (1e-12,
+    // then 0, then 2e-12: the inside of a closed box) is no change a picture shows.
+    let floor = 1e-6 * now.iter().map(|b| b.element_sum()).fold(0.0, f32::max) as f64;
     let largest = (0..now.len())
         .filter(|&i| which(i))
         .map(|i| {
             let b = now[i].element_sum().max(before[i].element_sum()) as f64;
             let d = (now[i] - before[i]).abs().element_sum() as f64;
-            if b > 1e-12 {
+            if b > floor.max(1e-12) {
                 d / b
             } else {
                 0.0
