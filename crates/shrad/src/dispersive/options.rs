@@ -118,10 +118,12 @@ pub struct DispersiveOptions {
     /// lobes along the normals) instead of one at the centre: the floor beside a box is lit
     /// by the box's near face, not by a point in its middle.
     pub emitter_per_face: bool,
-    /// With `emitter_per_face`, each face direction's emitter split into `n x n` emitters
-    /// across the face (cells of its two in-plane axes, each at its patches' centroid): a
-    /// large face close to a wall lights the floor at its foot from its lower half, not from
-    /// its middle. 1: one emitter a face direction.
+    /// With `emitter_per_face` and the gather, each face direction's emitter also split into
+    /// `n x n` emitters across the face (cells of its two in-plane axes, each at its patches'
+    /// centroid) that light the receivers within twice the face's diagonal, the whole face
+    /// lighting the rest: a large face close to a wall lights the floor at its foot from its
+    /// lower half, not from its middle. 1: one emitter a face direction. A splat never splits
+    /// (`setup::emitter_groups`).
     pub emitter_split: u32,
     /// Rays per interior patch for a precomputed transfer vector with self-visibility (the
     /// precomputed radiance transfer the paper cites): irradiance is the probe SH dotted

@@ -188,7 +188,7 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
         1,
         8,
         true,
-        "with emitter_per_face, each face direction's emitter split into n x n across the face, so a large face lights the floor at its foot from its lower part (1: one a face)",
+        "with emitter_per_face and the gather, each face direction's emitter also split into n x n across the face for the receivers near it, so a large face lights the floor at its foot from its lower part (1: one a face; a splat never splits)",
     ),
     int(
         "self_shadow_rays",
