@@ -69,12 +69,7 @@ pub fn some_patch_rays(
     let seed = hash(i as u32);
     let s1 = (unit(seed), unit(hash(seed ^ 1)));
     let s2 = (unit(hash(seed ^ 2)), unit(hash(seed ^ 3)));
-    let mut perm: Vec<u32> = (0..rays as u32).collect();
-    let mut state = hash(seed ^ 0x2545_f491);
-    for k in (1..rays).rev() {
-        state = hash(state);
-        perm.swap(k, (state as usize) % (k + 1));
-    }
+    let perm = crate::sampling::shuffled(rays, seed);
     let corners = p.world_corners(i);
     for (k, &j) in which.iter().enumerate() {
         let (u, v) = hammersley(perm[j], rays as u32, s1);

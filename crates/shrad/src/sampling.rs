@@ -21,6 +21,18 @@ pub fn unit(h: u32) -> f32 {
     (h >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
 }
 
+/// `0..n` in a random order fixed by `seed` (Fisher-Yates on [`hash`]): pairs a patch's
+/// stratified points with its stratified directions without correlating them.
+pub fn shuffled(n: usize, seed: u32) -> Vec<u32> {
+    let mut perm: Vec<u32> = (0..n as u32).collect();
+    let mut state = hash(seed ^ 0x2545_f491);
+    for k in (1..n).rev() {
+        state = hash(state);
+        perm.swap(k, (state as usize) % (k + 1));
+    }
+    perm
+}
+
 /// Point `i` of an `n`-point 2D Hammersley set, toroidally shifted by `shift`.
 pub fn hammersley(i: u32, n: u32, shift: (f32, f32)) -> (f32, f32) {
     let u = (i as f32 + 0.5) / n as f32;

@@ -74,16 +74,11 @@ const NEAR_CHUNK: usize = 4096;
 /// by a permutation of the patch's own (a fixed pairing correlates them), as the reference's
 /// form-factor rays are (`form_factors::some_patch_rays`).
 fn spread_over_patch(p: &crate::Patches, i: usize, out: &mut [Vec3]) {
-    use crate::sampling::{hammersley, hash, unit};
+    use crate::sampling::{hammersley, hash, shuffled, unit};
     let rays = out.len();
     let seed = hash(i as u32 ^ 0x6e65_6172);
     let shift = (unit(seed), unit(hash(seed)));
-    let mut perm: Vec<u32> = (0..rays as u32).collect();
-    let mut state = hash(seed ^ 0x2545_f491);
-    for k in (1..rays).rev() {
-        state = hash(state);
-        perm.swap(k, (state as usize) % (k + 1));
-    }
+    let perm = shuffled(rays, seed);
     for (o, &j) in out.iter_mut().zip(&perm) {
         let (u, v) = hammersley(j, rays as u32, shift);
         *o = p.sample_point(i, u, v);
