@@ -46,7 +46,7 @@ pub use machine::Machine;
 pub use markdown::{markdown, summary};
 pub use moving::{moved_transform, moving_frames, MOVE_PERIOD_FRAMES, MOVE_REACH};
 pub use output::write_outputs;
-pub use rays::{measure_ray_rate, RayRate};
+pub use rays::{best_ray_rate, measure_ray_rate, RayRate};
 pub use report::{BenchReport, Errors, Moving, Record, SceneInfo, StepMs, TracePoint};
 pub use run::{check_radiosity, median, run, BenchOptions};
 pub use scenes::{

@@ -230,7 +230,7 @@ fn moving_table(s: &mut String, report: &BenchReport) {
             times(m.over_ray_floor),
         );
     }
-    let _ = writeln!(s, "\nThe backend's ray rates, measured once per scene before any solver ({} random rays of each kind; capture: cube maps of {}^2 per face from random points, in packets), Mrays/s:\n", crate::rays::RAY_RATE_RAYS, crate::rays::RAY_RATE_CUBE_RES);
+    let _ = writeln!(s, "\nThe backend's ray rates, measured per scene before any solver ({} random rays of each kind; capture: cube maps of {}^2 per face from random points, in packets), each kind's best of {} measures, Mrays/s:\n", crate::rays::RAY_RATE_RAYS, crate::rays::RAY_RATE_CUBE_RES, crate::rays::RAY_RATE_REPEATS);
     let _ = writeln!(
         s,
         "| scene | closest | occluded | capture (packets, the floor rate) |"

@@ -40,6 +40,7 @@ pub mod solver;
 pub mod sparse;
 pub mod surface;
 pub mod view_data;
+pub mod warm_pool;
 mod world;
 
 pub use patches::{PatchSizing, Patches};

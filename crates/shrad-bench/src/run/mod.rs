@@ -12,7 +12,7 @@ use shrad::{Error, NoProgress, Progress, World};
 
 use crate::machine::{memory_mib, Machine};
 use crate::moving::MovedReferences;
-use crate::rays::{measure_ray_rate, RayRate, RAY_RATE_BATCH, RAY_RATE_RAYS};
+use crate::rays::{best_ray_rate, RayRate, RAY_RATE_BATCH, RAY_RATE_RAYS, RAY_RATE_REPEATS};
 use crate::report::{BenchReport, Record, SceneInfo, StepMs};
 use crate::scenes::{build_world, scenes, SceneSpec, Table};
 use crate::solvers::SolverKind;
@@ -336,11 +336,20 @@ fn run_scene(
     // The ray floor: the backend's rate in this scene, before any solver.
     let mut scene = SceneRun::new(spec, &reference, world_rss_mib);
     if options.ray_rate_rays > 0 {
-        scene.ray_rate = measure_ray_rate(&world, options.ray_rate_rays, RAY_RATE_BATCH);
+        let (best, capture) = best_ray_rate(
+            &world,
+            options.ray_rate_rays,
+            RAY_RATE_BATCH,
+            RAY_RATE_REPEATS,
+        );
+        scene.ray_rate = best;
+        let spread: Vec<String> = capture.iter().map(|r| format!("{:.1}", r * 1e-6)).collect();
         log(&format!(
-            "{}: ray rate {}",
+            "{}: ray rate, best of {}: {} (capture measured {} Mrays/s)",
             spec.name,
-            scene.ray_rate.line()
+            capture.len(),
+            scene.ray_rate.line(),
+            spread.join(", ")
         ));
     }
     progress.advance(1);

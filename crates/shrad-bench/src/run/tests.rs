@@ -145,7 +145,7 @@ fn run_solver_measures_the_error_while_moving() {
     options.reference = ReferenceOptions::fast();
     let (reference, _) = solve(&world, &options.reference, &NoProgress);
     let mut scene = SceneRun::new(&spec, &reference, 0.0);
-    scene.ray_rate = measure_ray_rate(&world, 20_000, 4_096);
+    scene.ray_rate = crate::rays::measure_ray_rate(&world, 20_000, 4_096);
     let (record, world) = run_solver(
         world,
         &mut scene,

@@ -374,8 +374,15 @@ impl Dispersive {
     }
 
     /// One frame (paper 2.2): the world is already at the frame's time; `changes` says what
-    /// moved or changed emission since the previous frame.
+    /// moved or changed emission since the previous frame. It runs inside rayon's pool with
+    /// the workers kept awake ([`crate::warm_pool`]): its many short parallel sections then
+    /// start at once.
     pub fn step(&mut self, world: &World, changes: &Changes) -> FrameStats {
+        crate::warm_pool::warm(|| self.frame(world, changes))
+    }
+
+    /// [`Dispersive::step`]'s frame.
+    fn frame(&mut self, world: &World, changes: &Changes) -> FrameStats {
         let frame_start = Instant::now();
         let rays_before = world.rays_cast();
         let mut stats = FrameStats::new(self.frame, SolverStats::Dispersive(Default::default()));
