@@ -374,24 +374,25 @@ impl Dispersive {
     }
 
     /// One frame (paper 2.2): the world is already at the frame's time; `changes` says what
-    /// moved or changed emission since the previous frame. It runs inside rayon's pool with
-    /// the workers kept awake ([`crate::warm_pool`]): its many short parallel sections then
-    /// start at once.
+    /// moved or changed emission since the previous frame. A frame with work runs inside
+    /// rayon's pool with the workers kept awake ([`crate::warm_pool`]): its many short
+    /// parallel sections then start at once. A sleeping frame does not (waking the pool
+    /// took it from 0.03 to 0.10 ms at 77k).
     pub fn step(&mut self, world: &World, changes: &Changes) -> FrameStats {
-        crate::warm_pool::warm(|| self.frame(world, changes))
-    }
-
-    /// [`Dispersive::step`]'s frame.
-    fn frame(&mut self, world: &World, changes: &Changes) -> FrameStats {
         let frame_start = Instant::now();
-        let rays_before = world.rays_cast();
-        let mut stats = FrameStats::new(self.frame, SolverStats::Dispersive(Default::default()));
-        let mut steps = DispersiveStats::default();
         let changes = &self.punctual.with_light_changes(world, changes);
         self.note_changes(world, changes);
         if self.everything_sleeps(changes) {
             return self.sleeping_frame(frame_start);
         }
+        crate::warm_pool::warm(|| self.frame(world, changes, frame_start))
+    }
+
+    /// [`Dispersive::step`]'s frame once it has work.
+    fn frame(&mut self, world: &World, changes: &Changes, frame_start: Instant) -> FrameStats {
+        let rays_before = world.rays_cast();
+        let mut stats = FrameStats::new(self.frame, SolverStats::Dispersive(Default::default()));
+        let mut steps = DispersiveStats::default();
         // A budget is a deadline for the whole frame: the wall rows take a fifth of it, the
         // objects what is left after Step 1 and the expected cost of Step 4 and the meter
         // (`tail_ms`). Step 1 and an object that does not fit with it take turns.
