@@ -110,6 +110,7 @@ fn near_hits(
     patches: std::ops::Range<usize>,
     dirs: &[Vec3],
     contact: f32,
+    shape: &Aabb,
 ) -> NearHits {
     let p = &world.patches;
     let rays = dirs.len() / patches.len().max(1);
@@ -138,7 +139,9 @@ fn near_hits(
         .closest(&centre, dirs, 0.0, &exclude, &mut from_centre);
     // Contact is a surface met at once *under the object*: the floor a box stands on, the
     // box a rider stands on; not the floor met at once beside a side face's lowest points.
-    let shape = own_box(p, o);
+    // The object's box, padded by float noise (a hit on the surface it rests on lies on that
+    // box's face).
+    let shape = shape.padded(Vec3::splat(1e-5 * shape.diagonal()));
     let local_from_world = p.world_from_local[o].inverse();
     let in_contact = |from: Vec3, d: Vec3, h: &Hit| {
         h.is_hit()
@@ -161,14 +164,6 @@ fn near_hits(
         out.contact.push(at_spread);
     }
     out
-}
-
-/// Object `o`'s patches' box in its own frame, padded by float noise (a hit on the surface
-/// it rests on lies on that box's face).
-fn own_box(p: &crate::Patches, o: usize) -> Aabb {
-    let corners = p.range(o).flat_map(|i| p.corners[i]);
-    let shape = Aabb::from_points(corners).unwrap_or(Aabb::EMPTY);
-    shape.padded(Vec3::splat(1e-5 * shape.diagonal()))
 }
 
 impl Dispersive {
@@ -212,7 +207,7 @@ impl Dispersive {
         let start = p.range(o).start + patches.start;
         let absolute = start..start + patches.len();
         let (dirs, local) = self.near_directions(world, o, absolute.clone());
-        let hits = near_hits(world, o, absolute, &dirs, contact);
+        let hits = near_hits(world, o, absolute, &dirs, contact, &ob.shape_box);
         let blocked = self.self_blocked(world, k, patches.clone(), &dirs);
         let with_transfer = !ob.transfer.is_empty();
         let bands = self.options.bands;

@@ -26,6 +26,9 @@ pub(super) struct ObjectProbes {
     pub(super) object: usize,
     /// The probe box in the object frame, margin included; the probes sit at its corners.
     pub(super) probe_box: Aabb,
+    /// The object's mesh box in its own frame (the probe box before the margin): the near
+    /// field's test of what lies under the object (`near_field.rs`).
+    pub(super) shape_box: Aabb,
     /// Trilinear weights of each patch (object's patch range order).
     pub(super) weights: Vec<[f32; 8]>,
     /// Exit direction of each patch in the object frame (paper 2.3.4 Step 1).
@@ -106,6 +109,7 @@ impl ObjectProbes {
         ObjectProbes {
             object: o,
             probe_box,
+            shape_box: shape,
             weights,
             exit_local,
             to_boundary: Vec::new(),
