@@ -374,6 +374,17 @@ impl Visibility for BvhVis {
         exclude: &[u32],
         out: &mut [Hit],
     ) {
+        self.closest_within(origins, directions, (t_min, f32::INFINITY), exclude, out)
+    }
+
+    fn closest_within(
+        &self,
+        origins: &[Vec3],
+        directions: &[Vec3],
+        (t_min, t_max): (f32, f32),
+        exclude: &[u32],
+        out: &mut [Hit],
+    ) {
         assert_eq!(origins.len(), directions.len());
         assert_eq!(origins.len(), out.len());
         par_fill(out, |base, chunk| {
@@ -382,7 +393,7 @@ impl Visibility for BvhVis {
                     origins[base + k],
                     directions[base + k],
                     t_min,
-                    f32::INFINITY,
+                    t_max,
                     exclude,
                 );
             }

@@ -107,6 +107,22 @@ pub trait Visibility: Send + Sync {
         exclude: &[u32],
         out: &mut [Hit],
     );
+    /// [`Visibility::closest`] up to `t_max`: ray `i`'s nearest hit where it lies at `t <=
+    /// t_max`, else a miss. Backends stop the traversal there, so short rays (a near field)
+    /// cost less; this default traces whole rays and drops the hits beyond.
+    fn closest_within(
+        &self,
+        origins: &[Vec3],
+        directions: &[Vec3],
+        (t_min, t_max): (f32, f32),
+        exclude: &[u32],
+        out: &mut [Hit],
+    ) {
+        self.closest(origins, directions, t_min, exclude, out);
+        for h in out.iter_mut().filter(|h| h.is_hit() && h.t > t_max) {
+            *h = Hit::MISS;
+        }
+    }
     /// Cube-map capture: for every point `p` and every texel direction `d`, the nearest hit;
     /// `out[p * directions.len() + d]`. Rays from one point are coherent: backends use packets.
     fn capture(

@@ -77,6 +77,18 @@ impl Visibility for Counted {
         self.add(out.len());
         self.inner.closest(origins, directions, t_min, exclude, out)
     }
+    fn closest_within(
+        &self,
+        origins: &[Vec3],
+        directions: &[Vec3],
+        t: (f32, f32),
+        exclude: &[u32],
+        out: &mut [Hit],
+    ) {
+        self.add(out.len());
+        self.inner
+            .closest_within(origins, directions, t, exclude, out)
+    }
     fn capture(
         &self,
         points: &[Vec3],

@@ -305,7 +305,13 @@ impl EmbreeVis {
         }
     }
 
-    fn closest1(&self, ctx: &mut ExcludeContext, o: Vec3, d: Vec3, t_min: f32) -> Hit {
+    fn closest1(
+        &self,
+        ctx: &mut ExcludeContext,
+        o: Vec3,
+        d: Vec3,
+        (t_min, t_max): (f32, f32),
+    ) -> Hit {
         if !(o.is_finite() && d.is_finite()) {
             return Hit::MISS;
         }
@@ -319,7 +325,7 @@ impl EmbreeVis {
                 dir_y: d.y,
                 dir_z: d.z,
                 time: 0.0,
-                tfar: f32::INFINITY,
+                tfar: t_max,
                 mask: ctx.ray_mask,
                 id: 0,
                 flags: 0,
@@ -383,11 +389,12 @@ impl EmbreeVis {
         }
     }
 
-    /// Up to 16 rays as one packet; `out.len() <= 16`, ray `k` from `ray(k)`.
+    /// Up to 16 rays as one packet; `out.len() <= 16`, ray `k` from `ray(k)`, each from
+    /// `t_min` to `t_max`.
     fn closest16(
         &self,
         ctx: &mut ExcludeContext,
-        t_min: f32,
+        (t_min, t_max): (f32, f32),
         out: &mut [Hit],
         ray: impl Fn(usize) -> (Vec3, Vec3),
     ) {
@@ -413,7 +420,7 @@ impl EmbreeVis {
             r.dir_x[k] = d.x;
             r.dir_y[k] = d.y;
             r.dir_z[k] = d.z;
-            r.tfar[k] = f32::INFINITY;
+            r.tfar[k] = t_max;
             r.mask[k] = ctx.ray_mask;
         }
         // SAFETY: committed scene, valid context, 64-byte aligned mask and packet.
@@ -472,6 +479,17 @@ impl Visibility for EmbreeVis {
         exclude: &[u32],
         out: &mut [Hit],
     ) {
+        self.closest_within(origins, directions, (t_min, f32::INFINITY), exclude, out)
+    }
+
+    fn closest_within(
+        &self,
+        origins: &[Vec3],
+        directions: &[Vec3],
+        t: (f32, f32),
+        exclude: &[u32],
+        out: &mut [Hit],
+    ) {
         assert_eq!(origins.len(), directions.len());
         assert_eq!(origins.len(), out.len());
         par_fill(out, |base, chunk| {
@@ -479,14 +497,12 @@ impl Visibility for EmbreeVis {
             if packets() {
                 for (p, out) in chunk.chunks_mut(16).enumerate() {
                     let at = base + p * 16;
-                    self.closest16(&mut ctx, t_min, out, |k| {
-                        (origins[at + k], directions[at + k])
-                    });
+                    self.closest16(&mut ctx, t, out, |k| (origins[at + k], directions[at + k]));
                 }
                 return;
             }
             for (k, h) in chunk.iter_mut().enumerate() {
-                *h = self.closest1(&mut ctx, origins[base + k], directions[base + k], t_min);
+                *h = self.closest1(&mut ctx, origins[base + k], directions[base + k], t);
             }
         });
     }
@@ -508,7 +524,7 @@ impl Visibility for EmbreeVis {
             let mut ctx = self.context(RTC_INTERSECT_CONTEXT_FLAG_COHERENT, exclude);
             for (p, packet) in chunk.chunks_mut(16).enumerate() {
                 let first = base + p * 16;
-                self.closest16(&mut ctx, t_min, packet, |k| {
+                self.closest16(&mut ctx, (t_min, f32::INFINITY), packet, |k| {
                     let i = first + k;
                     (points[i / nd], directions[i % nd])
                 });

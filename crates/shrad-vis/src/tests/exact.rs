@@ -261,3 +261,88 @@ fn backend_selection() {
         }
     }
 }
+
+/// A backend seen only through the trait's default `closest_within` (whole rays, the hits
+/// beyond dropped).
+struct DefaultWithin(Box<dyn Visibility>);
+
+impl Visibility for DefaultWithin {
+    fn name(&self) -> &'static str {
+        "default closest_within"
+    }
+    fn object_count(&self) -> usize {
+        self.0.object_count()
+    }
+    fn set_transform(&mut self, object: usize, world_from_object: Affine3A) {
+        self.0.set_transform(object, world_from_object)
+    }
+    fn commit(&mut self) {
+        self.0.commit()
+    }
+    fn closest(&self, o: &[Vec3], d: &[Vec3], t_min: f32, exclude: &[u32], out: &mut [Hit]) {
+        self.0.closest(o, d, t_min, exclude, out)
+    }
+    fn capture(&self, p: &[Vec3], d: &[Vec3], t_min: f32, exclude: &[u32], out: &mut [Hit]) {
+        self.0.capture(p, d, t_min, exclude, out)
+    }
+    fn occluded(&self, f: &[Vec3], t: &[Vec3], eps: f32, exclude: &[u32], out: &mut [bool]) {
+        self.0.occluded(f, t, eps, exclude, out)
+    }
+}
+
+#[test]
+fn closest_within_is_closest_cut_at_t_max() {
+    // Rays from inside a box of objects: each one's nearest hit within t_max, and a miss
+    // where it lies beyond, on every backend (Embree's tfar, the BVH's t_max) and through
+    // the trait's default; with an object excluded too.
+    let (meshes, xf) = random_scene(7, 24);
+    let mut rng = Rng(99);
+    let n = 2000;
+    let origins: Vec<Vec3> = (0..n)
+        .map(|_| {
+            Vec3::new(
+                rng.f() * 8.0 - 4.0,
+                rng.f() * 8.0 - 4.0,
+                rng.f() * 8.0 - 4.0,
+            )
+        })
+        .collect();
+    let dirs: Vec<Vec3> = (0..n).map(|_| rng.dir()).collect();
+    for b in backends() {
+        let whole = make(b, &meshes, &xf);
+        let default = DefaultWithin(make(b, &meshes, &xf));
+        for exclude in [&[][..], &[3u32][..]] {
+            let mut all = vec![Hit::MISS; n];
+            whole.closest(&origins, &dirs, 1e-4, exclude, &mut all);
+            let hits = all.iter().filter(|h| h.is_hit()).count();
+            assert!(hits > n / 10, "{b:?}: the rays must meet something ({hits})");
+            for t_max in [0.5f32, 2.0, 6.0] {
+                let cut = all.iter().filter(|h| h.is_hit() && h.t > t_max).count();
+                assert!(
+                    cut > 0 && cut < hits,
+                    "{b:?} t_max {t_max}: {cut} of {hits}"
+                );
+                for v in [&*whole as &dyn Visibility, &default] {
+                    let mut within = vec![Hit::MISS; n];
+                    v.closest_within(&origins, &dirs, (1e-4, t_max), exclude, &mut within);
+                    for (i, (w, a)) in within.iter().zip(&all).enumerate() {
+                        let want = if a.is_hit() && a.t <= t_max {
+                            *a
+                        } else {
+                            Hit::MISS
+                        };
+                        assert_eq!(
+                            (w.is_hit(), w.object, w.id),
+                            (want.is_hit(), want.object, want.id),
+                            "{} {b:?} ray {i} t_max {t_max}: {w:?} against {a:?}",
+                            v.name()
+                        );
+                        if w.is_hit() {
+                            assert!((w.t - a.t).abs() <= 1e-4 * a.t.max(1.0), "{w:?} {a:?}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
