@@ -8,16 +8,7 @@ fn random_rays_match_reference_and_each_other() {
     let (meshes, xf) = random_scene(0x5eed, 40);
     let mut rng = Rng(42);
     let n = 3000;
-    let origins: Vec<Vec3> = (0..n)
-        .map(|_| {
-            Vec3::new(
-                rng.f() * 10.0 - 5.0,
-                rng.f() * 10.0 - 5.0,
-                rng.f() * 10.0 - 5.0,
-            )
-        })
-        .collect();
-    let dirs: Vec<Vec3> = (0..n).map(|_| rng.dir()).collect();
+    let (origins, dirs) = random_rays(&mut rng, n, 5.0);
     // 40 objects, more than Embree's 32 mask bits: object 3 is flagged `often_excluded`
     // and gets a bit of its own (excluding it alone takes the mask path); 35 shares the
     // last bit with the other unflagged objects (excluding it takes the filter path).

@@ -298,16 +298,7 @@ fn closest_within_is_closest_cut_at_t_max() {
     let (meshes, xf) = random_scene(7, 24);
     let mut rng = Rng(99);
     let n = 2000;
-    let origins: Vec<Vec3> = (0..n)
-        .map(|_| {
-            Vec3::new(
-                rng.f() * 8.0 - 4.0,
-                rng.f() * 8.0 - 4.0,
-                rng.f() * 8.0 - 4.0,
-            )
-        })
-        .collect();
-    let dirs: Vec<Vec3> = (0..n).map(|_| rng.dir()).collect();
+    let (origins, dirs) = random_rays(&mut rng, n, 4.0);
     for b in backends() {
         let whole = make(b, &meshes, &xf);
         let default = DefaultWithin(make(b, &meshes, &xf));
@@ -315,7 +306,10 @@ fn closest_within_is_closest_cut_at_t_max() {
             let mut all = vec![Hit::MISS; n];
             whole.closest(&origins, &dirs, 1e-4, exclude, &mut all);
             let hits = all.iter().filter(|h| h.is_hit()).count();
-            assert!(hits > n / 10, "{b:?}: the rays must meet something ({hits})");
+            assert!(
+                hits > n / 10,
+                "{b:?}: the rays must meet something ({hits})"
+            );
             for t_max in [0.5f32, 2.0, 6.0] {
                 let cut = all.iter().filter(|h| h.is_hit() && h.t > t_max).count();
                 assert!(

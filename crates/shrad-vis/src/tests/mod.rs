@@ -170,6 +170,14 @@ fn random_scene(seed: u64, n: usize) -> (Vec<Mesh>, Vec<Affine3A>) {
     (meshes, xf)
 }
 
+/// `n` rays from points uniform in the cube `[-half, half]^3`, in uniform directions.
+fn random_rays(rng: &mut Rng, n: usize, half: f32) -> (Vec<Vec3>, Vec<Vec3>) {
+    let mut c = || rng.f() * 2.0 * half - half;
+    let origins: Vec<Vec3> = (0..n).map(|_| Vec3::new(c(), c(), c())).collect();
+    let dirs = (0..n).map(|_| rng.dir()).collect();
+    (origins, dirs)
+}
+
 struct Rng(u64);
 impl Rng {
     fn u(&mut self) -> u64 {
