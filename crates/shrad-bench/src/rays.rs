@@ -15,9 +15,11 @@
 //! The samples are hashes of their indices ([`shrad::sampling`]): every run casts the same
 //! rays. The measure is repeated ([`RAY_RATE_REPEATS`]) and each kind's best rate kept
 //! ([`best_ray_rate`]): on this project's 2-core virtual machine one measure of the capture
-//! rate in the 77k room ranged from 4.2 to 6.9 Mrays/s between runs, which moved the
-//! frame's ratio to its floor from 1.9x to 3.8x with the frame unchanged. The best of
-//! several is the rate the backend can reach, and the floor it gives the lowest. A frame's floor is its `FrameStats::rays_cast` at the packet rate (`capture`,
+//! rate in the 77k room ranged from 4.2 to 6.9 Mrays/s between runs, which put one build's
+//! frame at 1.9x to 3.8x its floor. The best of several is the rate the backend can reach,
+//! and the floor it gives the lowest.
+//!
+//! A frame's floor is its `FrameStats::rays_cast` at the packet rate (`capture`,
 //! [`RayRate::floor_rays_per_s`]), as issue 24 reads it; the other two rates are reported
 //! beside it (a frame's rays are a mix of the three kinds: `occluded` segments that stop at
 //! their first hit may go faster, incoherent `closest` rays go slower).
