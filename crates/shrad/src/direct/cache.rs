@@ -232,7 +232,12 @@ impl DirectCache {
             1 => 1,
             _ => stride.max(whole_ks.len().div_ceil(MOVER_PATCHES_AT_ONCE)),
         };
-        let is_whole = |k: usize| self.coarse[k] || whole_ks.binary_search(&k).is_ok();
+        // The movers' receivers are a few ranges: most receivers are outside their span.
+        let whole_span =
+            whole_ks.first().copied().unwrap_or(1)..=whole_ks.last().copied().unwrap_or(0);
+        let is_whole = |k: usize| {
+            self.coarse[k] || (whole_span.contains(&k) && whole_ks.binary_search(&k).is_ok())
+        };
         let find = |k: usize| k % turns == phase % turns && !is_whole(k);
         let t = std::time::Instant::now();
         let rays = self.rays_to_retrace(world, &ems, (&old, &new), &spheres, find);
@@ -321,49 +326,50 @@ impl DirectCache {
             })
         };
         let n = self.receivers.len();
+        // One vector of rays a block (not one a receiver: 2.5k small vectors a frame at 77k).
         (0..self.blocks.len())
             .into_par_iter()
             .filter(|&b| block_may_meet(b))
-            .flat_map_iter(|b| b * BLOCK..((b + 1) * BLOCK).min(n))
-            .filter(|&k| find(k))
-            .flat_map_iter(|k| {
-                let i = self.receivers[k] as usize;
-                let (x, n) = (p.centre[i], p.normal[i]);
+            .flat_map_iter(|b| {
                 let mut out = Vec::new();
-                for (e, em) in ems.iter().enumerate() {
-                    if self.unoccluded[k * ne + e] <= 0.0 {
-                        continue;
-                    }
-                    // Every shadow ray lies in the cone from x to the emitter's sphere.
-                    let (lc, lr) = em.sphere;
-                    if !spheres
-                        .iter()
-                        .any(|&(bc, br)| cone_meets_sphere(x, lc, lr, bc, br))
-                    {
-                        continue;
-                    }
-                    let shift = sample_shift(i, em);
-                    let set = k * ne + e;
-                    let first = set * samples as usize;
-                    for j in 0..samples {
-                        let (boxes, padded) = if self.shadows.is_blocked(set, j) {
-                            (&old, &old_q)
-                        } else {
-                            (&new, &new_q)
-                        };
-                        if boxes.is_empty() {
+                for k in (b * BLOCK..((b + 1) * BLOCK).min(n)).filter(|&k| find(k)) {
+                    let i = self.receivers[k] as usize;
+                    let (x, n) = (p.centre[i], p.normal[i]);
+                    for (e, em) in ems.iter().enumerate() {
+                        if self.unoccluded[k * ne + e] <= 0.0 {
                             continue;
                         }
-                        // The stored end first (a cheap superset), then the exact sample.
-                        let from = x + n * eps;
-                        if let Some(end) = self.ends.get(first + j as usize) {
-                            if !padded.iter().any(|b| b.meets_segment(from, end)) {
+                        // Every shadow ray lies in the cone from x to the emitter's sphere.
+                        let (lc, lr) = em.sphere;
+                        if !spheres
+                            .iter()
+                            .any(|&(bc, br)| cone_meets_sphere(x, lc, lr, bc, br))
+                        {
+                            continue;
+                        }
+                        let shift = sample_shift(i, em);
+                        let set = k * ne + e;
+                        let first = set * samples as usize;
+                        for j in 0..samples {
+                            let (boxes, padded) = if self.shadows.is_blocked(set, j) {
+                                (&old, &old_q)
+                            } else {
+                                (&new, &new_q)
+                            };
+                            if boxes.is_empty() {
                                 continue;
                             }
-                        }
-                        let (from, to, _) = shadow_sample(em, x, n, shift, j, samples, eps);
-                        if boxes.iter().any(|b| b.meets_segment(from, to)) {
-                            out.push((k as u32, e as u32, j, from, to));
+                            // The stored end first (a cheap superset), then the exact sample.
+                            let from = x + n * eps;
+                            if let Some(end) = self.ends.get(first + j as usize) {
+                                if !padded.iter().any(|b| b.meets_segment(from, end)) {
+                                    continue;
+                                }
+                            }
+                            let (from, to, _) = shadow_sample(em, x, n, shift, j, samples, eps);
+                            if boxes.iter().any(|b| b.meets_segment(from, to)) {
+                                out.push((k as u32, e as u32, j, from, to));
+                            }
                         }
                     }
                 }
