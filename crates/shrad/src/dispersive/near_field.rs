@@ -431,3 +431,47 @@ impl Dispersive {
             .sum()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_view_numbers_each_patch_it_sees_once_and_finds_it_by_its_bit() {
+        // Three rows that meet patches 70, 3 and 70 again, 129 (a second bit word and a
+        // third), and nothing.
+        let mut near = NearField {
+            view: SparseRows::from_rows([
+                vec![(70, 0.25), (3, 0.5)],
+                vec![(129, 0.125), (70, 0.0625)],
+                vec![],
+            ]),
+            ..Default::default()
+        };
+        near.index_seen(200);
+        assert_eq!(near.seen, [3, 70, 129]);
+        // Each entry, read back through `seen`, is the patch it was measured with.
+        let read: Vec<Vec<(u32, f32)>> = (near.view.rows())
+            .map(|row| {
+                row.iter()
+                    .map(|&(h, f)| (near.seen[h as usize], f))
+                    .collect()
+            })
+            .collect();
+        assert_eq!(
+            read,
+            [
+                vec![(70, 0.25), (3, 0.5)],
+                vec![(129, 0.125), (70, 0.0625)],
+                vec![]
+            ]
+        );
+        assert_eq!(near.seen_index(3), Some(0));
+        assert_eq!(near.seen_index(70), Some(1));
+        assert_eq!(near.seen_index(129), Some(2));
+        // Patches it does not see, in a word with a seen one, and beyond the scene.
+        assert_eq!(near.seen_index(71), None);
+        assert_eq!(near.seen_index(4), None);
+        assert_eq!(near.seen_index(1_000), None);
+    }
+}
