@@ -439,7 +439,7 @@ impl Dispersive {
         let tt = Instant::now();
         self.forget_stale_caches(world, &batch.0);
         tr("forget_stale", tt);
-        let lit = self.light_selected_objects(world, batch, &mut stats, &mut steps);
+        let lit = self.light_selected_objects(world, batch, &mut stats, &mut steps, at(0.8));
         steps.objects_ms = ms(t);
         tr("step2", t);
 

@@ -104,6 +104,10 @@ pub(super) const CONTACT_REACH: f32 = 0.02;
 /// about 30 MB of rays and hits).
 const NEAR_CHUNK: usize = 4096;
 
+/// Patches whose near field is measured at once under a frame's deadline (about 6 ms of
+/// the 77k room's sphere on two cores).
+const NEAR_CHUNK_WITHIN: usize = 512;
+
 /// Stratified points over patch `i`, one per near-field ray, paired with the ray directions
 /// by a permutation of the patch's own (a fixed pairing correlates them), as the reference's
 /// form-factor rays are (`form_factors::some_patch_rays`).
@@ -228,11 +232,25 @@ fn near_hits(
 }
 
 impl Dispersive {
-    /// The near field of object `k` (see the module docs).
-    pub(super) fn near_field(&self, world: &World, k: usize) -> NearField {
+    /// The near field of object `k` (see the module docs), measured on from `progress`
+    /// (what is measured, and the first patch not yet measured) a chunk of patches at a
+    /// time, until it is whole (true) or `deadline` has passed with patches left (false:
+    /// `progress` says where to go on). At least one chunk is measured, so the measure
+    /// always ends.
+    ///
+    /// Under a budget a chunk is [`NEAR_CHUNK_WITHIN`] patches: the frame after the 77k
+    /// room's 4,512-patch sphere came to rest spent 58 ms on its near field in one go.
+    pub(super) fn near_field_within(
+        &self,
+        world: &World,
+        k: usize,
+        progress: &mut (NearField, usize),
+        deadline: Option<std::time::Instant>,
+    ) -> bool {
         let rays = self.options.near_rays as usize;
         if rays == 0 {
-            return NearField::default();
+            *progress = Default::default();
+            return true;
         }
         let p = &world.patches;
         let ob = &self.objects[k];
@@ -241,19 +259,30 @@ impl Dispersive {
         let reach = near_reach(&self.options, world, o, &ob.probe_box);
         let contact = CONTACT_REACH * m.transform_vector3(ob.probe_box.size()).length();
         let range = p.range(o);
-        let mut near = NearField::default();
         // A chunk of patches at a time: the 1M-patch room's 43k-patch object casts 2.8M
         // rays, whose arrays took its peak memory over 1.5 GiB in one batch.
-        for lo in (0..range.len()).step_by(NEAR_CHUNK) {
-            let patches = lo..(lo + NEAR_CHUNK).min(range.len());
-            self.near_field_of(world, k, patches, (reach, contact), &mut near);
+        let chunk = if deadline.is_some() {
+            NEAR_CHUNK_WITHIN
+        } else {
+            NEAR_CHUNK
+        };
+        let (near, next) = progress;
+        let from = *next;
+        for lo in (from..range.len()).step_by(chunk) {
+            if lo > from && deadline.is_some_and(|d| std::time::Instant::now() >= d) {
+                *next = lo;
+                return false;
+            }
+            let patches = lo..(lo + chunk).min(range.len());
+            self.near_field_of(world, k, patches, (reach, contact), near);
         }
+        *next = range.len();
         near.index_seen(p.len());
-        near
+        true
     }
 
-    /// [`Dispersive::near_field`] of object `k`'s `patches` (offsets in its range), appended
-    /// to `near`.
+    /// [`Dispersive::near_field_within`] of object `k`'s `patches` (offsets in its range),
+    /// appended to `near`.
     fn near_field_of(
         &self,
         world: &World,
@@ -338,7 +367,7 @@ impl Dispersive {
         (dirs, local)
     }
 
-    /// Per ray of [`Dispersive::near_field`], whether the object itself blocks it (the
+    /// Per ray of [`Dispersive::near_field_within`], whether the object itself blocks it (the
     /// transfer vector has taken that direction out already, and the self form factors put
     /// the object's own light in): traced only from patches that see their own object.
     fn self_blocked(
@@ -435,6 +464,31 @@ impl Dispersive {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dispersive::tests::cornell;
+
+    #[test]
+    fn a_near_field_measured_over_several_deadlines_equals_one_measured_whole() {
+        let world = cornell(12_000);
+        let d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
+        let patches = |k: usize| world.patches.range(d.objects[k].object).len();
+        let k = (0..d.objects.len()).max_by_key(|&k| patches(k)).unwrap();
+        let mut whole = Default::default();
+        assert!(d.near_field_within(&world, k, &mut whole, None));
+        let whole = whole.0;
+        // A deadline already passed: one chunk a frame, each going on where the last stopped.
+        let passed = Some(std::time::Instant::now());
+        let (mut pieces, mut frames) = (Default::default(), 1);
+        while !d.near_field_within(&world, k, &mut pieces, passed) {
+            frames += 1;
+        }
+        let pieces = pieces.0;
+        assert!(frames > 1, "{} patches: one chunk", patches(k));
+        assert_eq!(frames, patches(k).div_ceil(NEAR_CHUNK_WITHIN));
+        assert!(!whole.lobe.is_empty() && whole.view.entries() > 0);
+        assert_eq!(pieces.lobe, whole.lobe);
+        assert_eq!(pieces.view, whole.view);
+        assert_eq!(pieces.seen, whole.seen);
+    }
 
     #[test]
     fn the_view_numbers_each_patch_it_sees_once_and_finds_it_by_its_bit() {

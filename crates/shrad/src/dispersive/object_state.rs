@@ -53,6 +53,9 @@ pub(super) struct ObjectProbes {
     pub(super) openness: Vec<f32>,
     /// The near field (`near_field.rs`), measured with the openness.
     pub(super) near: NearField,
+    /// A near field measured in part under a frame's deadline (`near_field_within`): what
+    /// is measured, and the offset of the first patch not yet measured.
+    pub(super) near_pending: Option<(NearField, usize)>,
     /// Step 2's cached probe hits (`caches.rs`).
     pub(super) probe_cache: ProbeCache,
     /// Step 3's cached emitter rays (`caches.rs`).
@@ -119,12 +122,20 @@ impl ObjectProbes {
             self_view,
             openness: Vec::new(),
             near: NearField::default(),
+            near_pending: None,
             probe_cache: ProbeCache::default(),
             emitter_cache: EmitterCache::default(),
             moving: false,
             coarse_light: false,
             checked_frame: None,
         }
+    }
+
+    /// Forget the contact openness and the near field measured so far: the object or
+    /// something within their reach moved (both are measured again at its next update).
+    pub(super) fn forget_openness(&mut self) {
+        self.openness.clear();
+        self.near_pending = None;
     }
 
     /// Probe `c`'s position in the object frame (its corner, or moved inward if repaired).

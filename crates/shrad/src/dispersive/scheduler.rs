@@ -203,6 +203,17 @@ impl Scheduler {
         batch.iter().map(|&o| self.objects[o].cost_ms).sum()
     }
 
+    /// Whether object `o` may wait past `frame` and still be within the staleness bound of
+    /// the schedule in use (one without a bound, or an object never updated, may not).
+    pub(super) fn may_wait(&self, o: usize, frame: u64) -> bool {
+        match self.schedule {
+            Schedule::Priority { max_staleness, .. } | Schedule::Budget { max_staleness, .. } => {
+                !self.over_stale(o, frame + 1, max_staleness)
+            }
+            _ => false,
+        }
+    }
+
     /// Whether object `o` was last updated `max_staleness` frames or more before `frame`
     /// (or never).
     fn over_stale(&self, o: usize, frame: u64, max_staleness: usize) -> bool {

@@ -138,7 +138,7 @@ impl Dispersive {
                 // A coarse mover's openness is not a cache but its stand-in until it rests
                 // (`note_changes`).
                 if !(ob.moving && self.options.coarse_while_moving) {
-                    ob.openness.clear();
+                    ob.forget_openness();
                 }
                 continue;
             }
@@ -215,7 +215,7 @@ impl StaleTest<'_> {
         let reach = super::near_field::near_reach(self.options, world, ob.object, &ob.probe_box);
         let near = self.object_boxes[ob.object].padded(Vec3::splat(reach + 2.0 * world.eps));
         if self.boxes.iter().any(|b| b.meets_box(&near)) {
-            ob.openness.clear();
+            ob.forget_openness();
         }
     }
 

@@ -82,9 +82,12 @@ impl Dispersive {
             ob.moving = changes.moved.contains(&ob.object);
             if !ob.moving && ob.coarse_light {
                 // It stopped with light from a coarse update: full resolution soon, with its
-                // contact openness measured where it rests.
+                // contact openness measured where it rests (once: a near field measured
+                // over several frames under a budget goes on where it stopped).
                 self.scheduler.disturb(k, 4.0);
-                ob.openness.clear();
+                if was_moving {
+                    ob.openness.clear();
+                }
             }
             if ob.moving {
                 self.scheduler.disturb(k, 4.0);
@@ -93,6 +96,7 @@ impl Dispersive {
                 // Contact openness is measured again at every update, except while coarse
                 // updates stand in for it (`coarse_while_moving`): then the last measure
                 // serves until it rests (above).
+                ob.near_pending = None;
                 if !self.options.coarse_while_moving {
                     ob.openness.clear();
                 }
