@@ -303,6 +303,9 @@ pub(super) struct EmitterCache {
     /// was not sent from these emitters); and that contribution's length (`resend.rs`).
     pub(super) sent: Vec<ShRgb>,
     pub(super) sent_len: usize,
+    /// The emitters, in order, whose rays were traced ahead of an update (`prepare.rs`), or
+    /// for the light the last update sent.
+    pub(super) prepared: usize,
 }
 
 impl ProbeCache {

@@ -41,6 +41,7 @@ pub mod inspect;
 mod near_field;
 mod object_state;
 mod options;
+mod prepare;
 mod resend;
 mod scheduler;
 mod setup;
@@ -55,6 +56,8 @@ mod step4_assemble;
 mod tests;
 #[cfg(test)]
 mod tests_incremental;
+#[cfg(test)]
+mod tests_prepare;
 mod touched;
 mod wall_rows;
 
@@ -317,9 +320,11 @@ impl Dispersive {
     }
 
     /// The probe and splat cameras for an update of object `k` this frame: the coarse ones
-    /// while it moves (`coarse_while_moving`).
+    /// while it moves (`coarse_while_moving`), or when its full update is not prepared in
+    /// time (`prepare.rs`).
     fn cameras_for(&self, k: usize) -> (&ProbeCamera, &ProbeCamera, bool) {
-        if self.options.coarse_while_moving && self.objects[k].moving {
+        let ob = &self.objects[k];
+        if self.options.coarse_while_moving && (ob.moving || ob.coarse_now) {
             (&self.coarse_camera, &self.coarse_emitter_camera, true)
         } else {
             (&self.camera, &self.emitter_camera, false)
@@ -409,6 +414,8 @@ impl Dispersive {
         let swept = self.swept_boxes(world, changes);
         self.log_swept(world, changes, &swept);
         let may_carry = self.may_carry_direct(world, changes);
+        self.scheduler
+            .note_something_moves(!changes.moved.is_empty());
         let (batch, over) = self.schedule_within(budget_ms, may_carry);
         // An object that goes although it does not fit takes Step 1's turn (when Step 1 may
         // wait) and the wall rows' fifth (they take their smallest step).

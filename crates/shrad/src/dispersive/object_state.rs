@@ -49,8 +49,13 @@ pub(super) struct ObjectProbes {
     /// patch `k`'s row is `self_view.row(k)` (no rows when the transfer is off).
     self_view: SparseRows<(u32, f32)>,
     /// Per patch, the contact openness (see `Dispersive::contact_openness`); empty until
-    /// computed and again when the object or a neighbour moves (it is geometry only).
+    /// first measured.
     pub(super) openness: Vec<f32>,
+    /// `openness` and `near` were measured where the object and its surroundings are now:
+    /// false once the object or a neighbour moved (they are geometry only). The last measure
+    /// stands in for them in an update that cannot wait for a new one (a coarse update
+    /// while it moves, or one over the staleness bound before it is prepared, `prepare.rs`).
+    pub(super) openness_current: bool,
     /// The near field (`near_field.rs`), measured with the openness.
     pub(super) near: NearField,
     /// A near field measured in part under a frame's deadline (`near_field_within`): what
@@ -66,6 +71,9 @@ pub(super) struct ObjectProbes {
     /// Its light is from a coarse update: it is updated again, at full resolution, soon
     /// after it stops, and it does not sleep before.
     pub(super) coarse_light: bool,
+    /// This frame's update of it is coarse although it rests: under a budget, its full
+    /// update is not prepared yet and it may not wait longer (`prepare.rs`).
+    pub(super) coarse_now: bool,
     /// The frame its caches were last checked against what movers swept (`stale.rs`).
     pub(super) checked_frame: Option<u64>,
 }
@@ -121,20 +129,23 @@ impl ObjectProbes {
             transfer,
             self_view,
             openness: Vec::new(),
+            openness_current: false,
             near: NearField::default(),
             near_pending: None,
             probe_cache: ProbeCache::default(),
             emitter_cache: EmitterCache::default(),
             moving: false,
             coarse_light: false,
+            coarse_now: false,
             checked_frame: None,
         }
     }
 
-    /// Forget the contact openness and the near field measured so far: the object or
-    /// something within their reach moved (both are measured again at its next update).
+    /// The contact openness and the near field are no longer current, and what was measured
+    /// of a new near field is dropped: the object or something within their reach moved
+    /// (both are measured again before its next full update).
     pub(super) fn forget_openness(&mut self) {
-        self.openness.clear();
+        self.openness_current = false;
         self.near_pending = None;
     }
 

@@ -20,6 +20,10 @@ pub(super) struct Freshness {
     disturbed: f32,
     /// Measured ms of its last update.
     cost_ms: f64,
+    /// Measured ms of its last update that sent its whole light to the boundary: what its
+    /// next update costs once nothing moves (while something moves, a still object's update
+    /// may send only the paths the mover crossed, `resend.rs`, for a fraction of that).
+    full_cost_ms: f64,
     /// Asleep since its light stopped changing (see `DispersiveOptions::sleep_tolerance`):
     /// the boundary's drift when it fell asleep. A sleeping object is never scheduled and is
     /// never stale: its light is current.
@@ -32,6 +36,9 @@ pub(super) struct Scheduler {
     schedule: Schedule,
     objects: Vec<Freshness>,
     round_robin_next: usize,
+    /// Something moves this frame: the objects' costs are their last ones, not their last
+    /// full ones.
+    something_moves: bool,
 }
 
 impl Scheduler {
@@ -44,11 +51,13 @@ impl Scheduler {
                     last_update: None,
                     disturbed: 1.0,
                     cost_ms: 0.0,
+                    full_cost_ms: 0.0,
                     asleep_at: None,
                 };
                 n
             ],
             round_robin_next: 0,
+            something_moves: false,
         }
     }
 
@@ -76,13 +85,33 @@ impl Scheduler {
             disturbed: 1.0,
             cost_ms,
             asleep_at: None,
+            ..self.objects[k]
         };
     }
 
     /// Add `ms` to the measured cost of object `k`'s last update (its Step 3, measured after
-    /// its Step 2).
-    pub(super) fn add_cost(&mut self, k: usize, ms: f64) {
-        self.objects[k].cost_ms += ms;
+    /// its Step 2); `whole`: that Step 3 sent the object's whole light.
+    pub(super) fn add_cost(&mut self, k: usize, ms: f64, whole: bool) {
+        let o = &mut self.objects[k];
+        o.cost_ms += ms;
+        if whole {
+            o.full_cost_ms = o.cost_ms;
+        }
+    }
+
+    /// Whether something moves this frame (then an object is expected to cost what its last
+    /// update did, else what its last whole one did, if more).
+    pub(super) fn note_something_moves(&mut self, moves: bool) {
+        self.something_moves = moves;
+    }
+
+    /// What updating object `k` is expected to cost (ms).
+    fn expected_cost(&self, k: usize) -> f64 {
+        let o = &self.objects[k];
+        match self.something_moves {
+            true => o.cost_ms,
+            false => o.cost_ms.max(o.full_cost_ms),
+        }
     }
 
     /// Object `k` sleeps, the boundary having drifted by `drift` so far (its update changed
@@ -180,7 +209,7 @@ impl Scheduler {
                 let mut spent = 0.0;
                 let mut picked = Vec::new();
                 for o in order {
-                    let cost = self.objects[o].cost_ms.max(0.01);
+                    let cost = self.expected_cost(o).max(0.01);
                     let goes = picked.is_empty()
                         && match must {
                             Must::First => true,
@@ -198,9 +227,9 @@ impl Scheduler {
         }
     }
 
-    /// The measured cost of updating `batch` (ms; 0 for objects never updated).
+    /// The expected cost of updating `batch` (ms; 0 for objects never updated).
     pub(super) fn cost_of(&self, batch: &[usize]) -> f64 {
-        batch.iter().map(|&o| self.objects[o].cost_ms).sum()
+        batch.iter().map(|&o| self.expected_cost(o)).sum()
     }
 
     /// Whether object `o` may wait past `frame` and still be within the staleness bound of

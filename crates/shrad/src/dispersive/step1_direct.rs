@@ -86,7 +86,7 @@ impl Dispersive {
                 // over several frames under a budget goes on where it stopped).
                 self.scheduler.disturb(k, 4.0);
                 if was_moving {
-                    ob.openness.clear();
+                    ob.forget_openness();
                 }
             }
             if ob.moving {
@@ -98,7 +98,7 @@ impl Dispersive {
                 // serves until it rests (above).
                 ob.near_pending = None;
                 if !self.options.coarse_while_moving {
-                    ob.openness.clear();
+                    ob.forget_openness();
                 }
                 continue;
             }

@@ -26,8 +26,8 @@ use crate::World;
 impl Dispersive {
     /// Step 2 (paper 2.3.3): light each object of the batch from its 8 corner probes.
     /// Returns the objects lit. Under a budget (`deadline`: when the objects' share of the
-    /// frame ends) an object whose near field is measured again may wait: see
-    /// [`Dispersive::measure_openness`].
+    /// frame ends) an object whose geometry is measured again may wait: see
+    /// [`Dispersive::prepare_update`].
     pub(super) fn light_selected_objects(
         &mut self,
         world: &World,
@@ -39,15 +39,22 @@ impl Dispersive {
         let p = &world.patches;
         let mut lit = Vec::with_capacity(batch.0.len());
         for &k in &batch.0 {
-            let t = Instant::now();
             let o = self.objects[k].object;
             let m = p.world_from_local[o];
+            // Once the objects' share of the frame is spent, the rest of the batch waits
+            // (if it may): the scheduler picked it by costs measured before.
+            let late = deadline.is_some_and(|d| Instant::now() >= d);
+            if late && !lit.is_empty() && self.scheduler.may_wait(k, self.frame) {
+                continue;
+            }
             let tt = Instant::now();
-            let ready = self.measure_openness(world, k, deadline);
-            super::tr("openness", tt);
+            let ready = self.prepare_update(world, k, deadline, steps);
+            super::tr("prepare", tt);
             if !ready {
                 continue;
             }
+            // Its cost for the scheduler is the update's, without what was prepared.
+            let t = Instant::now();
             let tt = Instant::now();
             let (probes, scale) = self.capture_corner_probes(world, k, m, steps);
             super::tr("capture_corner_probes", tt);
@@ -63,39 +70,6 @@ impl Dispersive {
             lit.push(k);
         }
         lit
-    }
-
-    /// Object `k`'s near field and contact openness where it is now, if they are not yet
-    /// (it moved, or something moved within their reach): geometry, measured before its
-    /// probes are interpolated, which read the near field. Under a deadline, with the
-    /// caches on, the near field is measured a chunk of patches at a time
-    /// ([`Dispersive::near_field_within`]) and the object waits (false) until a frame in
-    /// which it is whole with time left, unless waiting would break the staleness bound:
-    /// the frame after the 77k room's sphere came to rest spent 58 ms on its near field.
-    /// Meanwhile its light is the last update's.
-    fn measure_openness(&mut self, world: &World, k: usize, deadline: Option<Instant>) -> bool {
-        let p = &world.patches;
-        let patches = p.range(self.objects[k].object).len();
-        if self.objects[k].openness.len() == patches {
-            return true;
-        }
-        // An object that would then break the staleness bound does not wait.
-        let deadline = deadline.filter(|_| self.caching && self.scheduler.may_wait(k, self.frame));
-        let mut progress = self.objects[k].near_pending.take().unwrap_or_default();
-        if !self.near_field_within(world, k, &mut progress, deadline) {
-            self.objects[k].near_pending = Some(progress);
-            return false;
-        }
-        let near = progress.0;
-        // The near field, when measured, stands in for contact openness.
-        let measured = !near.lobe.is_empty();
-        self.objects[k].near = near;
-        self.objects[k].openness = if self.options.contact_rays > 0 && !measured {
-            self.contact_openness(world, k)
-        } else {
-            vec![1.0; patches]
-        };
-        deadline.is_none_or(|d| Instant::now() < d)
     }
 
     /// With transfer vectors (object frame) the probes are rotated into the object's frame
@@ -224,7 +198,7 @@ impl Dispersive {
     /// itself transparent) and look for anything within 2 % of the object's box diagonal.
     /// A face resting on the floor gets 0 — the probes, a box-size apart, cannot see that
     /// contact and would light it with the floor's radiance.
-    fn contact_openness(&self, world: &World, k: usize) -> Vec<f32> {
+    pub(super) fn contact_openness(&self, world: &World, k: usize) -> Vec<f32> {
         let p = &world.patches;
         let ob = &self.objects[k];
         let o = ob.object;
@@ -282,7 +256,13 @@ impl Dispersive {
         m: Affine3A,
         steps: &mut DispersiveStats,
     ) -> (Vec<Option<ShRgb>>, [Vec3; 8]) {
-        let mut cache = std::mem::take(&mut self.objects[k].probe_cache);
+        // A coarse capture is of a moving object, which the next frame moves again, or in
+        // place of a full update being prepared in the cache (`prepare.rs`): it neither
+        // reads nor keeps the cache.
+        let mut cache = match self.cameras_for(k).2 {
+            true => ProbeCache::default(),
+            false => std::mem::take(&mut self.objects[k].probe_cache),
+        };
         let (camera, _, coarse) = self.cameras_for(k);
         let ob = &self.objects[k];
         let o = ob.object as u32;
@@ -310,16 +290,72 @@ impl Dispersive {
         }
         // Capture the probes not cached, all in one batch.
         let missing: Vec<usize> = (0..8).filter(|&c| cache.probes[c].is_none()).collect();
-        let points: Vec<Vec3> = missing
+        let mut scale = ob.probe_scale;
+        let mut slots = std::mem::take(&mut cache.probes);
+        self.capture_probes(
+            world,
+            k,
+            m,
+            camera,
+            (&mut slots, &mut scale),
+            &missing,
+            steps,
+        );
+        let valid = |h: &ProbeHits| h.back_fraction <= limit || repair == ProbeRepair::None;
+        // Shade every texel from the current radiosity and project to SH.
+        let projector = &camera.projector;
+        let out: Vec<Option<ShRgb>> = slots
+            .par_iter()
+            .map(|h| {
+                let h = h.as_ref().filter(|h| valid(h))?;
+                Some(projector.project_indexed(|t| match h.seen[t] {
+                    // Stale texels were all traced again above.
+                    SEES_NOTHING | SEES_BACK | SEES_STALE => Vec3::ZERO,
+                    j => self.texel_radiance(world, j as usize),
+                }))
+            })
+            .collect();
+        // Keep what a later update can reuse: not a probe MoveInward failed to repair.
+        if self.caching && !coarse && 8 * 8 * self.camera.texels() <= MAX_PROBE_BYTES {
+            for h in &mut slots {
+                if h.as_ref().is_some_and(|h| !valid(h)) {
+                    *h = None;
+                }
+            }
+            cache.key = Some((m, scale));
+            cache.probes = slots;
+            self.objects[k].probe_cache = cache;
+        }
+        (out, scale)
+    }
+
+    /// Capture probes `which` of object `k` at `m` with `camera`, in one batch, into
+    /// `slots`; an invalid one is repaired (moved, its `scale` changed) as the options say.
+    pub(super) fn capture_probes(
+        &self,
+        world: &World,
+        k: usize,
+        m: Affine3A,
+        camera: &ProbeCamera,
+        (slots, scale): (&mut [Option<ProbeHits>; 8], &mut [Vec3; 8]),
+        which: &[usize],
+        steps: &mut DispersiveStats,
+    ) {
+        let ob = &self.objects[k];
+        let o = ob.object as u32;
+        let exclude: Vec<u32> = if self.options.see_through_self {
+            vec![o]
+        } else {
+            vec![]
+        };
+        let (limit, repair) = (self.options.invalid_back_fraction, self.options.repair);
+        let points: Vec<Vec3> = which
             .iter()
-            .map(|&c| m.transform_point3(ob.probe_local(c)))
+            .map(|&c| m.transform_point3(ob.probe_at(c, scale[c])))
             .collect();
         let fresh = self.probe_hits(world, camera, &points, &exclude, o);
         steps.probes_captured += points.len();
-        let valid = |h: &ProbeHits| h.back_fraction <= limit || repair == ProbeRepair::None;
-        let mut scale = ob.probe_scale;
-        let mut slots = std::mem::take(&mut cache.probes);
-        for (c, hits) in missing.into_iter().zip(fresh) {
+        for (&c, hits) in which.iter().zip(fresh) {
             if hits.back_fraction > limit {
                 steps.probes_invalid += 1;
             }
@@ -343,32 +379,6 @@ impl Dispersive {
                 slots[c] = Some(hits);
             }
         }
-        // Shade every texel from the current radiosity and project to SH.
-        let projector = &camera.projector;
-        let out: Vec<Option<ShRgb>> = slots
-            .par_iter()
-            .map(|h| {
-                let h = h.as_ref().filter(|h| valid(h))?;
-                Some(projector.project_indexed(|t| match h.seen[t] {
-                    // Stale texels were all traced again above.
-                    SEES_NOTHING | SEES_BACK | SEES_STALE => Vec3::ZERO,
-                    j => self.texel_radiance(world, j as usize),
-                }))
-            })
-            .collect();
-        // Keep what a later update can reuse: not a probe MoveInward failed to repair.
-        // A coarse capture is of a moving object, which the next frame moves again.
-        if self.caching && !coarse && 8 * 8 * self.camera.texels() <= MAX_PROBE_BYTES {
-            for h in &mut slots {
-                if h.as_ref().is_some_and(|h| !valid(h)) {
-                    *h = None;
-                }
-            }
-            cache.key = Some((m, scale));
-            cache.probes = slots;
-            self.objects[k].probe_cache = cache;
-        }
-        (out, scale)
     }
 
     /// Where an invalid probe of object `k` is tried next, in order, as per-axis scales of

@@ -45,7 +45,7 @@ impl Dispersive {
                 .flatten()
             {
                 flux_sent += moved;
-                self.scheduler.add_cost(k, super::ms(started));
+                self.scheduler.add_cost(k, super::ms(started), false);
                 super::tr("resend_crossed", started);
                 continue;
             }
@@ -59,7 +59,10 @@ impl Dispersive {
             let sent_len = self.objects[k].to_boundary.len();
             self.objects[k].emitter_cache.sent_len = sent_len;
             // An object's cost, for a budget: its Step 2 and its Step 3.
-            self.scheduler.add_cost(k, super::ms(started));
+            // A coarse update (while it moves) says little of what a full one costs.
+            let full = !self.cameras_for(k).2;
+            self.scheduler.add_cost(k, super::ms(started), full);
+            self.objects[k].coarse_now = false;
             super::tr("sum_and_replace", tt);
         }
         flux_sent
@@ -84,7 +87,11 @@ impl Dispersive {
         } else {
             self.objects[k].emitters.len()
         };
-        let mut cache = std::mem::take(&mut self.objects[k].emitter_cache);
+        // A coarse update neither reads nor keeps the cache (see `capture_corner_probes`).
+        let mut cache = match coarse {
+            true => EmitterCache::default(),
+            false => std::mem::take(&mut self.objects[k].emitter_cache),
+        };
         if cache.key != Some(m) || cache.rays.len() != emitters {
             cache = self.emitter_geometry(world, k, m, method, merged);
         }
@@ -117,6 +124,8 @@ impl Dispersive {
         // every update, as the uncached code would), with the light it sent (`resend.rs`).
         if self.caching && !coarse && cache.bytes() <= MAX_STEP3_BYTES {
             cache.sent = if merged { Vec::new() } else { intensities };
+            // Every emitter's rays for its light now are traced (`prepare.rs`).
+            cache.prepared = cache.rays.len();
             self.objects[k].emitter_cache = cache;
         }
         pieces
@@ -137,7 +146,13 @@ impl Dispersive {
 
     /// The outgoing intensity of one emitter of object `k` in SH:
     /// `sum_i (rho_i E_i) A_i / pi * A_l Y_k(d_i)` over its `members` (2.3.4 Step 1).
-    fn emitter_intensity(&self, world: &World, k: usize, members: &[u32], lobes: &[f32]) -> ShRgb {
+    pub(super) fn emitter_intensity(
+        &self,
+        world: &World,
+        k: usize,
+        members: &[u32],
+        lobes: &[f32],
+    ) -> ShRgb {
         let p = &world.patches;
         let nc = num_coeffs(self.options.bands);
         let range = p.range(self.objects[k].object);
@@ -154,7 +169,7 @@ impl Dispersive {
     }
 
     /// A gather emitter's `1 / r^2` regularisation ([`Self::gather`]): members' area / pi.
-    fn soften<'a>(
+    pub(super) fn soften<'a>(
         &self,
         world: &World,
         k: usize,
@@ -173,7 +188,7 @@ impl Dispersive {
     }
 
     /// One emitter of object `k` sent along its cached rays.
-    fn emit_one(
+    pub(super) fn emit_one(
         &self,
         world: &World,
         k: usize,
@@ -279,7 +294,7 @@ impl Dispersive {
     /// costs about what a splat does (up to 2 x 6R^2 boundary patches, and at least up to
     /// 32k: a coarse splat aliases), splat beyond, so that the cost of Step 3 stays bounded
     /// however large the boundary grows.
-    fn to_boundary_method(&self) -> ToBoundary {
+    pub(super) fn to_boundary_method(&self) -> ToBoundary {
         method_for(
             self.options.to_boundary,
             self.boundary_patches.len(),
@@ -290,7 +305,7 @@ impl Dispersive {
     /// What Step 3 of object `k` at `m` needs of geometry (`caches.rs`): per emitter, its
     /// patches' lobes along their world exit directions (2.3.4 Step 1) and the rays to the
     /// boundary, none cast yet.
-    fn emitter_geometry(
+    pub(super) fn emitter_geometry(
         &self,
         world: &World,
         k: usize,

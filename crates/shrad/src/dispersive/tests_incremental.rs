@@ -425,7 +425,7 @@ fn the_neighbours_of_an_object_that_stops_are_updated_before_it() {
 }
 
 /// Move `mover` `frames` times by `step` (in room widths) from where it is, a frame each.
-fn drag(world: &mut World, d: &mut Dispersive, mover: usize, frames: usize, step: Vec3) {
+pub(super) fn drag(world: &mut World, d: &mut Dispersive, mover: usize, frames: usize, step: Vec3) {
     let start = world.patches.world_from_local[mover]
         * Affine3A::from_mat3(world.patches.local_from_object[mover]);
     let size = world.scene.bounds().unwrap().size().x;
