@@ -75,6 +75,12 @@ pub const SHADOW_RAYS_AT_ONCE: usize = 1 << 15;
 /// traced an update (the rest are held in turn; `DirectCache::update`).
 pub const MOVER_PATCHES_AT_ONCE: usize = 4096;
 
+/// At most this many receivers traced coarse while they moved are traced again with every
+/// sample in one update once they rest (as many rays as [`MOVER_PATCHES_AT_ONCE`] at a
+/// quarter of the samples): the 77k room's 4,512-patch sphere took 8-14 ms of the first frame
+/// after it stopped, in one go; the others wait for the next updates (`catching_up`).
+pub const SETTLED_AT_ONCE: usize = 1024;
+
 /// A shadow ray to re-trace: (receiver, emitter, sample, from, to).
 type Retrace = (u32, u32, u32, Vec3, Vec3);
 
@@ -220,12 +226,13 @@ impl DirectCache {
         let (old, new) = (padded_swept(&left, eps), padded_swept(&now, eps));
         let spheres: Vec<(Vec3, f32)> = old.iter().chain(&new).map(Aabb::bounding_sphere).collect();
         // The movers' own patches are traced whole (they moved), and so are coarse receivers
-        // that rest now, with every sample.
+        // that rest now, with every sample, [`SETTLED_AT_ONCE`] an update.
         let whole_ks = self.receivers_of(world, movers);
-        let settled_ks: Vec<usize> = (self.coarse_ks.iter())
+        let mut settled_ks: Vec<usize> = (self.coarse_ks.iter())
             .filter(|&k| whole_ks.binary_search(k).is_err())
             .copied()
             .collect();
+        let still_coarse = settled_ks.split_off(settled_ks.len().min(SETTLED_AT_ONCE));
         // A large mover's own patches take more turns (the 1M-patch room's largest object
         // has 43k: a quarter of them a frame was 10 ms of its moving frame).
         let own_stride = match stride {
@@ -274,7 +281,9 @@ impl DirectCache {
             .iter()
             .copied()
             .filter(|&k| self.coarse[k])
+            .chain(still_coarse)
             .collect();
+        self.coarse_ks.sort_unstable();
         touched.extend(whole_ks.iter().chain(&settled_ks));
         touched.sort_unstable();
         touched.dedup();

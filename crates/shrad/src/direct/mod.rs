@@ -20,7 +20,7 @@ mod blocks;
 mod cache;
 mod recent_moves;
 mod sample_ends;
-pub use cache::DirectCache;
+pub use cache::{DirectCache, SETTLED_AT_ONCE};
 
 /// One emitting object, in world space at the current time.
 struct Emitter {

@@ -174,6 +174,8 @@ pub struct Dispersive {
     tail_ms: f64,
     meter_ms: f64,
     row_ms: f64,
+    /// Measured ms of the near field a patch (`near_field.rs`: its chunks under a budget).
+    near_ms_per_patch: f64,
 }
 
 impl Dispersive {
@@ -311,6 +313,7 @@ impl Dispersive {
             tail_ms: 0.0,
             meter_ms: 0.0,
             row_ms: 0.0,
+            near_ms_per_patch: 0.0,
         })
     }
 

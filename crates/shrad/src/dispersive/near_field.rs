@@ -104,9 +104,10 @@ pub(super) const CONTACT_REACH: f32 = 0.02;
 /// about 30 MB of rays and hits).
 const NEAR_CHUNK: usize = 4096;
 
-/// Patches whose near field is measured at once under a frame's deadline (about 6 ms of
-/// the 77k room's sphere on two cores).
-const NEAR_CHUNK_WITHIN: usize = 512;
+/// Patches whose near field is measured at once under a frame's deadline: as many as the
+/// time left takes at the last measured cost a patch, within these (512 patches of the 77k
+/// room's sphere take 6-8 ms on two cores, too much of a 10 ms budget).
+const NEAR_CHUNK_WITHIN: std::ops::RangeInclusive<usize> = 64..=512;
 
 /// Stratified points over patch `i`, one per near-field ray, paired with the ray directions
 /// by a permutation of the patch's own (a fixed pairing correlates them), as the reference's
@@ -238,8 +239,9 @@ impl Dispersive {
     /// `progress` says where to go on). At least one chunk is measured, so the measure
     /// always ends.
     ///
-    /// Under a budget a chunk is [`NEAR_CHUNK_WITHIN`] patches: the frame after the 77k
-    /// room's 4,512-patch sphere came to rest spent 58 ms on its near field in one go.
+    /// Under a budget a chunk is what fits the time left ([`NEAR_CHUNK_WITHIN`]): the frame
+    /// after the 77k room's 4,512-patch sphere came to rest spent 58 ms on its near field in
+    /// one go.
     pub(super) fn near_field_within(
         &self,
         world: &World,
@@ -261,19 +263,25 @@ impl Dispersive {
         let range = p.range(o);
         // A chunk of patches at a time: the 1M-patch room's 43k-patch object casts 2.8M
         // rays, whose arrays took its peak memory over 1.5 GiB in one batch.
-        let chunk = if deadline.is_some() {
-            NEAR_CHUNK_WITHIN
-        } else {
-            NEAR_CHUNK
+        let chunk = |now: std::time::Instant| match deadline {
+            None => NEAR_CHUNK,
+            Some(d) => {
+                let left_ms = d.saturating_duration_since(now).as_secs_f64() * 1e3;
+                let fits = left_ms / self.near_ms_per_patch.max(1e-6);
+                (fits as usize).clamp(*NEAR_CHUNK_WITHIN.start(), *NEAR_CHUNK_WITHIN.end())
+            }
         };
         let (near, next) = progress;
         let from = *next;
-        for lo in (from..range.len()).step_by(chunk) {
-            if lo > from && deadline.is_some_and(|d| std::time::Instant::now() >= d) {
+        let mut lo = from;
+        while lo < range.len() {
+            let now = std::time::Instant::now();
+            if lo > from && deadline.is_some_and(|d| now >= d) {
                 *next = lo;
                 return false;
             }
-            let patches = lo..(lo + chunk).min(range.len());
+            let patches = lo..(lo + chunk(now)).min(range.len());
+            lo = patches.end;
             self.near_field_of(world, k, patches, (reach, contact), near);
         }
         *next = range.len();
@@ -483,7 +491,7 @@ mod tests {
         }
         let pieces = pieces.0;
         assert!(frames > 1, "{} patches: one chunk", patches(k));
-        assert_eq!(frames, patches(k).div_ceil(NEAR_CHUNK_WITHIN));
+        assert_eq!(frames, patches(k).div_ceil(*NEAR_CHUNK_WITHIN.start()));
         assert!(!whole.lobe.is_empty() && whole.view.entries() > 0);
         assert_eq!(pieces.lobe, whole.lobe);
         assert_eq!(pieces.view, whole.view);

@@ -65,8 +65,11 @@ impl Dispersive {
                 return self.measure_openness(world, k, None).whole;
             }
             // A piece of the preparation all the same (an object that only ever goes over
-            // the bound, under a budget far below its cost, is prepared in the end).
-            if !self.prepare_within(world, k, deadline, steps) {
+            // the bound, under a budget far below its cost, is prepared in the end), in what
+            // time the coarse update (its last cost) leaves.
+            let coarse_ms = super::secs(self.scheduler.last_cost(k));
+            let until = deadline.checked_sub(coarse_ms).unwrap_or(deadline);
+            if !self.prepare_within(world, k, until, steps) {
                 self.objects[k].coarse_now = true;
             }
             return true;
@@ -108,7 +111,13 @@ impl Dispersive {
             return Stage::NOTHING_TO_DO;
         }
         let mut progress = self.objects[k].near_pending.take().unwrap_or_default();
-        if !self.near_field_within(world, k, &mut progress, deadline) {
+        let (started, from) = (Instant::now(), progress.1);
+        let whole = self.near_field_within(world, k, &mut progress, deadline);
+        let measured = progress.1.max(from) - from;
+        if measured > 0 {
+            self.near_ms_per_patch = started.elapsed().as_secs_f64() * 1e3 / measured as f64;
+        }
+        if !whole {
             self.objects[k].near_pending = Some(progress);
             return Stage {
                 whole: false,

@@ -105,8 +105,13 @@ impl Scheduler {
         self.something_moves = moves;
     }
 
+    /// What object `k`'s last update cost (ms).
+    pub(super) fn last_cost(&self, k: usize) -> f64 {
+        self.objects[k].cost_ms
+    }
+
     /// What updating object `k` is expected to cost (ms).
-    fn expected_cost(&self, k: usize) -> f64 {
+    pub(super) fn expected_cost(&self, k: usize) -> f64 {
         let o = &self.objects[k];
         match self.something_moves {
             true => o.cost_ms,

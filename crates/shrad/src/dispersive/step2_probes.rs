@@ -38,12 +38,18 @@ impl Dispersive {
     ) -> Vec<usize> {
         let p = &world.patches;
         let mut lit = Vec::with_capacity(batch.0.len());
+        // The expected Step 3 of the objects lit so far (ms), still to come in this frame.
+        let mut step3_owed = 0.0;
         for &k in &batch.0 {
             let o = self.objects[k].object;
             let m = p.world_from_local[o];
-            // Once the objects' share of the frame is spent, the rest of the batch waits
-            // (if it may): the scheduler picked it by costs measured before.
-            let late = deadline.is_some_and(|d| Instant::now() >= d);
+            // Once what is left of the objects' share of the frame is less than an object's
+            // expected cost, the rest of the batch waits (if it may): the scheduler picked it
+            // before the first ones prepared their updates (`prepare.rs`), which it does not
+            // count.
+            let expected = self.scheduler.expected_cost(k);
+            let until = |d: Instant| Instant::now() + super::secs(step3_owed + expected) >= d;
+            let late = deadline.is_some_and(until);
             if late && !lit.is_empty() && self.scheduler.may_wait(k, self.frame) {
                 continue;
             }
@@ -66,6 +72,7 @@ impl Dispersive {
             self.objects[k].coarse_light = self.cameras_for(k).2;
             self.object_change[k] = self.store_object_light(world, k, e);
             self.scheduler.updated(k, self.frame, ms(t));
+            step3_owed += (expected - ms(t)).max(0.0);
             stats.objects_updated.push(o);
             lit.push(k);
         }

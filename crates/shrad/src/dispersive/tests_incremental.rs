@@ -198,6 +198,37 @@ fn coarse_moving_receivers_are_exact_again_once_they_rest() {
     assert_eq!(cache.irradiance(), full.irradiance());
 }
 
+/// A large mover's coarse receivers are traced again with every sample
+/// [`crate::direct::SETTLED_AT_ONCE`] an update once it rests, and are exact when all are:
+/// fails if the ones left for later are forgotten (they would keep their coarse light).
+#[test]
+fn a_large_movers_coarse_receivers_settle_over_several_updates_to_the_exact_light() {
+    let mut world = cornell(12_000);
+    let block = object_named(&world, "tall_block");
+    let receivers: Vec<u32> = (0..world.patches.len() as u32)
+        .filter(|&i| {
+            let p = &world.patches;
+            p.role(i as usize) == Role::Boundary || p.object[i as usize] as usize == block
+        })
+        .collect();
+    let own = world.patches.range(block).len();
+    assert!(own > crate::direct::SETTLED_AT_ONCE, "{own} patches");
+    let mut cache = crate::direct::DirectCache::new(&world, receivers.clone(), 16);
+    let (old, new) = move_far(&mut world, block);
+    cache.update(&world, &[block as u32], (&[old], &[new]), 4, 1);
+    assert!(cache.has_coarse());
+    let full = crate::direct::DirectCache::new(&world, receivers, 16);
+    let mut updates = 0;
+    while cache.has_coarse() {
+        let changed = cache.update(&world, &[], (&[], &[]), 16, 1);
+        assert!(changed.len() <= crate::direct::SETTLED_AT_ONCE);
+        updates += 1;
+        assert!(updates <= 100, "the coarse receivers never settle");
+    }
+    assert_eq!(updates, own.div_ceil(crate::direct::SETTLED_AT_ONCE));
+    assert_eq!(cache.irradiance(), full.irradiance());
+}
+
 /// While a block moves and receivers take turns, one in 4 has its shadow rays found per
 /// update, against every move since its last turn: at its turn a receiver's light is what a
 /// full recomputation gives there and then, and every receiver is exact again at the first
