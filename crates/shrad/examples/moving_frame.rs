@@ -219,8 +219,25 @@ fn main() {
         Some(ms) => engine.step_within(ms).unwrap(),
         None => engine.step(),
     };
-    let still: Vec<FrameStats> = (0..frames).map(|_| still_frame()).collect();
-    report("still, first frames after", &still);
-    let still: Vec<FrameStats> = (0..frames).map(|_| still_frame()).collect();
-    report("still, later", &still);
+    let first: Vec<FrameStats> = (0..frames).map(|_| still_frame()).collect();
+    report("still, first frames after", &first);
+    let later: Vec<FrameStats> = (0..frames).map(|_| still_frame()).collect();
+    report("still, later", &later);
+    if let Some(ms) = budget {
+        // The frames after the rest until the scene sleeps: the mover's full update, its
+        // neighbours', the walls catching up, each under the budget.
+        let mut awake: Vec<f64> = (first.iter().chain(&later))
+            .filter(|s| s.dispersive().is_some_and(|d| !d.asleep))
+            .map(|s| s.frame_ms)
+            .collect();
+        awake.sort_by(f64::total_cmp);
+        let p95 = awake.get(awake.len() * 95 / 100).copied().unwrap_or(0.0);
+        println!(
+            "budget {ms} ms after the rest: {} frames awake, 95th percentile {p95:.2} ms ({:.2}x the budget), longest {:.2} ms, {} over 1.2x",
+            awake.len(),
+            p95 / ms as f64,
+            awake.last().copied().unwrap_or(0.0),
+            awake.iter().filter(|&&t| t > 1.2 * ms as f64).count()
+        );
+    }
 }
