@@ -8,6 +8,7 @@
 mod blender_animation;
 mod blender_camera;
 mod common;
+mod default_camera;
 mod environment;
 mod gltf_animation;
 mod gltf_camera_animation;

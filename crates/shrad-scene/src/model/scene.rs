@@ -122,23 +122,25 @@ impl Scene {
     }
 
     /// The scene's camera, or one that frames the scene. When a boundary object encloses
-    /// the scene (a room), the camera stands inside it, near the -Z wall, looking in: from
-    /// outside it would see only the room's outer side.
+    /// the scene (a room: its faces look inward, or it is double-sided), the camera stands
+    /// inside it, near the -Z wall, looking in: from outside it would see only the room's
+    /// outer side. A closed object alone (a glTF sample model's box) is framed from outside.
     pub fn camera_or_default(&self) -> Camera {
         self.camera.unwrap_or_else(|| {
             let crate::Aabb { min: lo, max: hi } = self
                 .bounds()
                 .unwrap_or(crate::Aabb::new(Vec3::splat(-1.0), Vec3::ONE));
             let ext = hi - lo;
+            let centre = 0.5 * (lo + hi);
             let encloses = self.objects.iter().any(|o| {
                 o.role == Some(Role::Boundary)
                     && o.world_bounds().is_some_and(|b| {
                         (b.min - lo).max_element() <= 1e-3 * ext.max_element()
                             && (hi - b.max).max_element() <= 1e-3 * ext.max_element()
                     })
+                    && (o.material.double_sided || faces_towards(o, centre))
             });
             if encloses {
-                let centre = 0.5 * (lo + hi);
                 let eye = Vec3::new(centre.x, lo.y + 0.55 * ext.y, lo.z + 0.03 * ext.z);
                 Camera::look_at(eye, centre, 60f32.to_radians())
             } else {
@@ -182,4 +184,25 @@ impl Scene {
                     })
             })
     }
+}
+
+/// Whether object `o`'s faces look, on the whole (weighted by area), towards `centre`: a
+/// room seen from inside rather than a closed object seen from outside. Its front is
+/// counter-clockwise in its own frame, so a mirroring transform turns it.
+fn faces_towards(o: &crate::Object, centre: Vec3) -> bool {
+    let m = o.world_from_object;
+    let side = if m.matrix3.determinant() < 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
+    let world = o.mesh.transformed(m);
+    let towards: f32 = (world.triangles.iter())
+        .map(|t| {
+            let [a, b, c] = t.map(|i| world.positions[i as usize]);
+            // Twice the area along the front normal, against the way to the centre.
+            ((b - a).cross(c - a) * side).dot(centre - (a + b + c) / 3.0)
+        })
+        .sum();
+    towards > 0.0
 }
