@@ -141,9 +141,9 @@ impl Dispersive {
     }
 
     /// The probes of object `k` not in its cache, captured [`PROBES_AT_ONCE`] at a time until
-    /// `deadline` (at least once unless the preparation already `worked` in this frame), into the cache its update reads
-    /// (`capture_corner_probes`). Not while its updates are coarse (their probes are not
-    /// kept), nor when the cache would be too large to keep.
+    /// `deadline` (at least once unless the preparation already `worked` in this frame),
+    /// into the cache its update reads (`capture_corner_probes`). Not while its updates are
+    /// coarse (their probes are not kept), nor when the cache would be too large to keep.
     fn capture_probes_within(
         &mut self,
         world: &World,
@@ -185,10 +185,11 @@ impl Dispersive {
     }
 
     /// The rays of object `k`'s emitters, one emitter at a time until `deadline` (at least
-    /// one unless the preparation already `worked` in this frame), into the cache its Step 3 reads (`emit`): what its light as it is now sends
-    /// light along, which its next update's light differs from only a little (a ray that
-    /// update needs and that is not traced is traced then). Not while its updates are
-    /// coarse (one merged emitter, not kept), nor when the cache would be too large to keep.
+    /// one unless the preparation already `worked` in this frame), into the cache its Step 3
+    /// reads (`emit`): the rays its light as it is now sends light along, which its next
+    /// update's light differs from only a little (a ray that update needs and that is not
+    /// traced is traced then). Not while its updates are coarse (one merged emitter, not
+    /// kept), nor when the cache would be too large to keep.
     fn trace_emitters_within(
         &mut self,
         world: &World,

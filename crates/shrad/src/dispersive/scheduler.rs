@@ -442,6 +442,33 @@ mod tests {
         assert!(count[1] > 0 && count[2] > 0, "{count:?}");
     }
 
+    /// Once nothing moves, an object is expected to cost its last update that sent its
+    /// whole light (a still object's update while another moves may only amend it, for a
+    /// fraction of the cost): the budget then takes fewer.
+    #[test]
+    fn a_still_object_is_expected_to_cost_its_last_full_update() {
+        let mut s = Scheduler::new(
+            Schedule::Budget {
+                ms: 8.0,
+                max_staleness: 1000,
+            },
+            2,
+        );
+        for k in 0..2 {
+            s.updated(k, 0, 2.0);
+            s.add_cost(k, 4.0, true);
+            // Then an update that only amended its light, while something moved.
+            s.updated(k, 1, 0.5);
+            s.add_cost(k, 0.5, false);
+        }
+        s.note_something_moves(true);
+        assert_eq!(s.expected_cost(0), 1.0);
+        assert_eq!(s.schedule(2, Some(8.0), Must::OverStale).0, [0, 1]);
+        s.note_something_moves(false);
+        assert_eq!(s.expected_cost(0), 6.0);
+        assert_eq!(s.schedule(2, Some(8.0), Must::OverStale).0, [0]);
+    }
+
     /// A budget takes objects by priority while their last costs fit, and at least one.
     #[test]
     fn budget_takes_what_fits_and_one_when_owed_or_over_stale() {

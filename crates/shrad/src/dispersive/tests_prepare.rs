@@ -102,8 +102,9 @@ fn an_update_prepared_in_pieces_equals_one_measured_whole() {
 
 /// An object whose full update is being prepared and that reaches the staleness bound gets a
 /// coarse update, as while it moved (its light stays coarse), with one more piece prepared,
-/// and the preparation goes on from where it was to a full update. Fails if the bound forces the whole preparation into
-/// one frame, or if the coarse update throws away what was prepared.
+/// and the preparation goes on from where it was to a full update. Fails if the bound forces
+/// the whole preparation into one frame, or if the coarse update throws away what was
+/// prepared.
 #[test]
 fn an_object_over_the_staleness_bound_before_it_is_prepared_gets_a_coarse_update() {
     let (world, mut d, k) = stopped_block(ToBoundary::Splat, 1000);
