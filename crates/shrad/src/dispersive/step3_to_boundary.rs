@@ -216,10 +216,7 @@ impl Dispersive {
         let area = &world.patches.area;
         match self.to_boundary_method() {
             ToBoundary::Gather => sum_by_patch(&mut self.scratch, pieces),
-            _ if self.options.splat_smoothing => {
-                let flux = sum_by_patch(&mut self.scratch, pieces);
-                self.spread_over_neighbours(flux)
-            }
+            _ if self.options.splat_smoothing => self.spread_over_neighbours(pieces),
             _ => {
                 let by_area = pieces.into_iter().map(|(j, f)| (j, f / area[j as usize]));
                 sum_by_patch(&mut self.scratch, by_area)
