@@ -164,19 +164,22 @@ fn direct_cache_update_equals_a_full_recomputation() {
     assert_eq!(back, full.irradiance());
 }
 
+/// The receivers of a direct-light test that watches one interior object: the boundary and
+/// `block`'s own patches (as Step 1 has them with `direct_on_interior`).
+fn boundary_and(world: &World, block: usize) -> Vec<u32> {
+    let p = &world.patches;
+    (0..p.len() as u32)
+        .filter(|&i| p.role(i as usize) == Role::Boundary || p.object[i as usize] as usize == block)
+        .collect()
+}
+
 /// A moving receiver traced with fewer samples is traced whole, with every sample, at the
 /// first update where it rests: the cache then equals a fresh one.
 #[test]
 fn coarse_moving_receivers_are_exact_again_once_they_rest() {
     let mut world = cornell(2000);
     let block = object_named(&world, "tall_block");
-    // Boundary and the block's own patches, as Step 1 with `direct_on_interior`.
-    let receivers: Vec<u32> = (0..world.patches.len() as u32)
-        .filter(|&i| {
-            let p = &world.patches;
-            p.role(i as usize) == Role::Boundary || p.object[i as usize] as usize == block
-        })
-        .collect();
+    let receivers = boundary_and(&world, block);
     let mut cache = crate::direct::DirectCache::new(&world, receivers.clone(), 16);
     let (old, new) = move_far(&mut world, block);
     let mut every_sample = cache.clone();
@@ -205,12 +208,7 @@ fn coarse_moving_receivers_are_exact_again_once_they_rest() {
 fn a_large_movers_coarse_receivers_settle_over_several_updates_to_the_exact_light() {
     let mut world = cornell(12_000);
     let block = object_named(&world, "tall_block");
-    let receivers: Vec<u32> = (0..world.patches.len() as u32)
-        .filter(|&i| {
-            let p = &world.patches;
-            p.role(i as usize) == Role::Boundary || p.object[i as usize] as usize == block
-        })
-        .collect();
+    let receivers = boundary_and(&world, block);
     let own = world.patches.range(block).len();
     assert!(own > crate::direct::SETTLED_AT_ONCE, "{own} patches");
     let mut cache = crate::direct::DirectCache::new(&world, receivers.clone(), 16);
