@@ -74,6 +74,22 @@ impl ShadowRays {
         self.blocked[w] & bit != 0
     }
 
+    /// Bits `j0 .. j0 + m` (`m <= 64`) of set `s`, bit `j` for ray `j0 + j`: set where it is
+    /// blocked.
+    pub fn blocked_bits(&self, s: usize, j0: u32, m: u32) -> u64 {
+        debug_assert!(m <= 64);
+        let words = &self.blocked[s * self.words..(s + 1) * self.words];
+        let (w, shift) = (j0 as usize / 64, j0 % 64);
+        let mut bits = words[w] >> shift;
+        if shift > 0 && w + 1 < words.len() {
+            bits |= words[w + 1] << (64 - shift);
+        }
+        match m {
+            64 => bits,
+            _ => bits & ((1u64 << m) - 1),
+        }
+    }
+
     /// Mark every ray of set `s` free.
     pub fn clear(&mut self, s: usize) {
         self.blocked[s * self.words..(s + 1) * self.words].fill(0);

@@ -5,15 +5,17 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::Aabb;
 
-use super::blocks::{block_sphere, capsule_meets_sphere, BLOCK};
+use super::blocks::{block_sphere, BLOCK};
 use super::recent_moves::RecentMoves;
 use super::sample_ends::SampleEnds;
 use super::{
-    cone_meets_sphere, emitters, emitting_objects, padded_swept, sample_shift, shadow_sample,
-    unoccluded_irradiance, visible_fraction, Emitter,
+    emitters, emitting_objects, padded_swept, sample_shift, shadow_sample, unoccluded_irradiance,
+    visible_fraction, Emitter,
 };
 use crate::shadow_rays::ShadowRays;
 use crate::World;
+
+mod find;
 
 /// Direct irradiance of a set of receivers with what it was made of, so that it can be
 /// updated exactly when only occluders move (the dispersive solver's Step 1, paper 2.3.2):
@@ -307,86 +309,6 @@ impl DirectCache {
         out
     }
 
-    /// The shadow rays (receiver, emitter, sample, from, to) that a mover may have changed:
-    /// of the receivers to `find`, those blocked whose segment meets an `old` box, those
-    /// free whose segment meets a `new` one (`spheres`: the boxes' bounding spheres).
-    fn rays_to_retrace(
-        &self,
-        world: &World,
-        ems: &[Emitter],
-        (old, new): (&[Aabb], &[Aabb]),
-        spheres: &[(Vec3, f32)],
-        find: impl Fn(usize) -> bool + Sync,
-    ) -> Vec<Retrace> {
-        let ne = ems.len();
-        let samples = self.shadows.samples();
-        let p = &world.patches;
-        let eps = world.eps;
-        let (old_q, new_q) = (self.ends.pad(old), self.ends.pad(new));
-        // Whole blocks of receivers first: those whose rays to every emitter pass far from
-        // every swept box.
-        let block_may_meet = |b: usize| {
-            let (oc, or) = self.blocks[b];
-            ems.iter().any(|em| {
-                let (lc, lr) = em.sphere;
-                spheres
-                    .iter()
-                    .any(|&(bc, br)| capsule_meets_sphere(oc, or, lc, lr, bc, br))
-            })
-        };
-        let n = self.receivers.len();
-        // One vector of rays a block (not one a receiver: 2.5k small vectors a frame at 77k).
-        (0..self.blocks.len())
-            .into_par_iter()
-            .filter(|&b| block_may_meet(b))
-            .flat_map_iter(|b| {
-                let mut out = Vec::new();
-                for k in (b * BLOCK..((b + 1) * BLOCK).min(n)).filter(|&k| find(k)) {
-                    let i = self.receivers[k] as usize;
-                    let (x, n) = (p.centre[i], p.normal[i]);
-                    for (e, em) in ems.iter().enumerate() {
-                        if self.unoccluded[k * ne + e] <= 0.0 {
-                            continue;
-                        }
-                        // Every shadow ray lies in the cone from x to the emitter's sphere.
-                        let (lc, lr) = em.sphere;
-                        if !spheres
-                            .iter()
-                            .any(|&(bc, br)| cone_meets_sphere(x, lc, lr, bc, br))
-                        {
-                            continue;
-                        }
-                        let shift = sample_shift(i, em);
-                        let set = k * ne + e;
-                        let first = set * samples as usize;
-                        for j in 0..samples {
-                            let (boxes, padded) = if self.shadows.is_blocked(set, j) {
-                                (&old, &old_q)
-                            } else {
-                                (&new, &new_q)
-                            };
-                            if boxes.is_empty() {
-                                continue;
-                            }
-                            // The stored end first (a cheap superset), then the exact sample.
-                            let from = x + n * eps;
-                            if let Some(end) = self.ends.get(first + j as usize) {
-                                if !padded.iter().any(|b| b.meets_segment(from, end)) {
-                                    continue;
-                                }
-                            }
-                            let (from, to, _) = shadow_sample(em, x, n, shift, j, samples, eps);
-                            if boxes.iter().any(|b| b.meets_segment(from, to)) {
-                                out.push((k as u32, e as u32, j, from, to));
-                            }
-                        }
-                    }
-                }
-                out.into_iter()
-            })
-            .collect()
-    }
-
     /// The spheres of the blocks holding receivers `ks` (which moved), where they are now.
     fn refresh_blocks(&mut self, world: &World, ks: &[usize]) {
         let mut blocks: Vec<usize> = ks.iter().map(|&k| k / BLOCK).collect();
@@ -395,42 +317,6 @@ impl DirectCache {
             let ks = &self.receivers[b * BLOCK..((b + 1) * BLOCK).min(self.receivers.len())];
             self.blocks[b] = block_sphere(world, ks);
         }
-    }
-
-    /// Trace `rays` (receiver, emitter, sample, from, to) against the `movers` alone, then
-    /// against the whole scene those that were blocked and the movers no longer block (a
-    /// free ray can only have been blocked by a mover). Returns whether each is blocked.
-    fn trace_movers_first(
-        &self,
-        world: &World,
-        movers: &[u32],
-        rays: &[(u32, u32, u32, Vec3, Vec3)],
-        ne: usize,
-    ) -> Vec<bool> {
-        let eps = world.eps;
-        let from: Vec<Vec3> = rays.iter().map(|r| r.3).collect();
-        let to: Vec<Vec3> = rays.iter().map(|r| r.4).collect();
-        let mut blocked = vec![false; rays.len()];
-        world
-            .vis
-            .occluded_among(&from, &to, eps, movers, &mut blocked);
-        // Blocked before, and the movers no longer block it: something else may.
-        let again: Vec<usize> = (0..rays.len())
-            .filter(|&r| {
-                let (k, e, j, ..) = rays[r];
-                !blocked[r] && self.shadows.is_blocked(k as usize * ne + e as usize, j)
-            })
-            .collect();
-        if !again.is_empty() {
-            let from: Vec<Vec3> = again.iter().map(|&r| rays[r].3).collect();
-            let to: Vec<Vec3> = again.iter().map(|&r| rays[r].4).collect();
-            let mut b = vec![false; again.len()];
-            world.vis.occluded(&from, &to, eps, &[], &mut b);
-            for (&r, b) in again.iter().zip(b) {
-                blocked[r] = b;
-            }
-        }
-        blocked
     }
 
     /// Receivers `ks` (which moved) not traced this update: their exact unoccluded
