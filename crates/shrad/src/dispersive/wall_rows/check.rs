@@ -68,6 +68,7 @@ impl WallRows {
         for (k, bits) in marks {
             let w = &mut self.dirty[k * words..(k + 1) * words];
             w.iter_mut().zip(&bits).for_each(|(w, b)| *w |= b);
+            self.note_dirty_row(k);
         }
         for &k in &rows {
             self.checked_at[k] = self.frame;

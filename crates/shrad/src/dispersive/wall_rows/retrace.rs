@@ -81,31 +81,40 @@ impl WallRows {
     }
 
     /// Rows with dirty rays from the cursor round, until about `budget` rays (at least one
-    /// row's); the cursor moves past them.
+    /// row's); the cursor moves past them. A pass over the rows' dirty bits, a word (64
+    /// rows) at a time.
     fn pick_dirty_rows(&mut self, n: usize, budget: usize) -> Vec<usize> {
         let words = self.words;
         let mut picked: Vec<usize> = Vec::new();
         let mut count = 0;
         let start = self.cursor % n;
-        let mut next = start;
-        for step in 0..n {
-            let k = (start + step) % n;
-            next = (k + 1) % n;
-            let c: usize = self.dirty[k * words..(k + 1) * words]
-                .iter()
-                .map(|w| w.count_ones() as usize)
-                .sum();
-            if c == 0 {
-                continue;
-            }
-            picked.push(k);
-            count += c;
-            if count >= budget {
-                break;
+        // From `start` to the end, then from 0 to `start`: `(from, to)` ranges of rows.
+        for (from, to) in [(start, n), (0, start)] {
+            let mut k = from;
+            while k < to {
+                let word = self.dirty_rows[k / 64] >> (k % 64);
+                if word == 0 {
+                    k = (k / 64 + 1) * 64;
+                    continue;
+                }
+                k += word.trailing_zeros() as usize;
+                if k >= to {
+                    break;
+                }
+                picked.push(k);
+                count += self.dirty[k * words..(k + 1) * words]
+                    .iter()
+                    .map(|w| w.count_ones() as usize)
+                    .sum::<usize>();
+                if count >= budget {
+                    self.cursor = (k + 1) % n;
+                    return picked;
+                }
+                k += 1;
             }
         }
-        if !picked.is_empty() {
-            self.cursor = next;
+        if let Some(&last) = picked.last() {
+            self.cursor = (last + 1) % n;
         }
         picked
     }
@@ -117,7 +126,7 @@ impl WallRows {
         let (rays, words) = (self.rays, self.words);
         let n = boundary.len();
         // Nothing to do on most frames of a static scene: one pass over the bits.
-        if n == 0 || self.dirty.iter().all(|&w| w == 0) {
+        if n == 0 || self.dirty_row_count == 0 {
             return 0;
         }
         let picked = self.pick_dirty_rows(n, budget);
@@ -188,7 +197,7 @@ impl WallRows {
             let all_traced = rows[c].1.len() == rays;
             self.leaves[k] =
                 leaving[c] || !self.space.contains(centre) || (!all_traced && self.leaves[k]);
-            self.dirty[k * words..(k + 1) * words].fill(0);
+            self.clean_row(k);
             if !self.built[k] {
                 self.built[k] = true;
                 self.pending -= 1;
