@@ -26,10 +26,11 @@ pub const WALL_ROWS_PER_FRAME: usize = 1 << 16;
 /// Wall-exchange rows gathered in a frame where an object moved: a moving frame must cost
 /// what moved, and the walls' exchange among themselves changes little between two frames
 /// of a drag (the mover's own light on the walls is Step 3's, every frame). The 77k room's
-/// 64k rows are then swept in 8 frames while it moves (error of the last moving frame
-/// 4.33 % with 16k rows a frame, 4.34 % with these 8k, 0.9 ms less; docs/results.md §5), and
-/// whole again once it rests.
-pub const WALL_ROWS_WHILE_MOVING: usize = 1 << 13;
+/// 64k rows are then swept in 16 frames while it moves, and whole again once it rests
+/// (error of the last moving frame 4.33 % with 16k rows a frame, 4.34 % with 8k, 0.9 ms
+/// less; 4k took another 0.75 ms of one thread off the frame, the error while moving the
+/// same to the printed digit: docs/results.md §5).
+pub const WALL_ROWS_WHILE_MOVING: usize = 1 << 12;
 
 impl Dispersive {
     /// The energy meter, and the guard that never publishes a diverged state: fills
