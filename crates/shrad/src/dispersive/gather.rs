@@ -47,6 +47,8 @@ impl Dispersive {
             r2: facing.iter().map(|f| f.2).collect(),
             dir: [0, 1, 2].map(|a| facing.iter().map(|f| f.3[a]).collect()),
             ray: vec![RAY_UNKNOWN; facing.len()],
+            forgotten: Vec::new(),
+            sent_scale: 1.0,
         }
     }
 
@@ -94,23 +96,7 @@ impl Dispersive {
         let unknown: Vec<usize> = (0..len)
             .filter(|&n| g.ray[n] == RAY_UNKNOWN && lit(n))
             .collect();
-        if !unknown.is_empty() {
-            let from: Vec<Vec3> = unknown
-                .iter()
-                .map(|&n| {
-                    let j = g.patch[n] as usize;
-                    p.centre[j] + p.normal[j] * world.eps
-                })
-                .collect();
-            let to = vec![g.centre; from.len()];
-            let mut blocked = vec![false; from.len()];
-            world
-                .vis
-                .occluded(&from, &to, world.eps, &[o as u32], &mut blocked);
-            for (&n, b) in unknown.iter().zip(blocked) {
-                g.ray[n] = if b { RAY_BLOCKED } else { RAY_CLEAR };
-            }
-        }
+        trace_entries(world, o, g, &unknown);
         let (mut plain, mut softened) = (0f64, 0f64);
         let mut out: Vec<(u32, Vec3)> = Vec::new();
         for n in (0..len).filter(|&n| g.ray[n] == RAY_CLEAR && lit(n)) {
@@ -126,6 +112,69 @@ impl Dispersive {
             1.0
         };
         out.iter_mut().for_each(|(_, e)| *e *= scale);
+        // What the boundary holds from now on (`resend.rs`).
+        g.forgotten.clear();
+        g.sent_scale = scale;
         out
     }
+}
+
+/// Cast the shadow rays of entries `which` of `g` (object `o` transparent), and keep them.
+pub(super) fn trace_entries(world: &World, o: usize, g: &mut GatherEntries, which: &[usize]) {
+    if which.is_empty() {
+        return;
+    }
+    let p = &world.patches;
+    let from: Vec<Vec3> = which
+        .iter()
+        .map(|&n| {
+            let j = g.patch[n] as usize;
+            p.centre[j] + p.normal[j] * world.eps
+        })
+        .collect();
+    let to = vec![g.centre; from.len()];
+    let mut blocked = vec![false; from.len()];
+    world
+        .vis
+        .occluded(&from, &to, world.eps, &[o as u32], &mut blocked);
+    for (&n, b) in which.iter().zip(blocked) {
+        g.ray[n] = if b { RAY_BLOCKED } else { RAY_CLEAR };
+    }
+}
+
+/// The entries of `g` forgotten since its contribution was sent, traced again: (patch,
+/// irradiance) pieces that take off the light of each one no longer clear and put on that of
+/// each one clear now, as it was sent (`sent`, with the scale it was sent with).
+pub(super) fn crossed_entries(
+    world: &World,
+    o: usize,
+    g: &mut GatherEntries,
+    sent: &ShRgb,
+    soften: f32,
+) -> Vec<(u32, Vec3)> {
+    let mut forgotten = std::mem::take(&mut g.forgotten);
+    // An entry forgotten twice keeps what it was when sent: its first record.
+    forgotten.sort_by_key(|&(n, _)| n);
+    forgotten.dedup_by_key(|&mut (n, _)| n);
+    let unknown: Vec<usize> = (forgotten.iter())
+        .map(|&(n, _)| n as usize)
+        .filter(|&n| g.ray[n] == RAY_UNKNOWN)
+        .collect();
+    trace_entries(world, o, g, &unknown);
+    let mut pieces = Vec::new();
+    for (n, was) in forgotten {
+        let n = n as usize;
+        let now = g.ray[n];
+        if (now == RAY_CLEAR) == (was == RAY_CLEAR) {
+            continue;
+        }
+        let dir = Vec3::new(g.dir[0][n], g.dir[1][n], g.dir[2][n]);
+        let e = sent.eval(dir).max(Vec3::ZERO) * g.cos[n];
+        if e.max_element() <= 0.0 {
+            continue;
+        }
+        let e = e / (g.r2[n] + soften) * g.sent_scale;
+        pieces.push((g.patch[n], if now == RAY_CLEAR { e } else { -e }));
+    }
+    pieces
 }

@@ -247,16 +247,18 @@ impl StaleTest<'_> {
                 EmitterRays::Gather(g) => {
                     let c = g.centre;
                     let (cones, seen) = (&g.cones, ChunkCones::seen_from(c, &self.spheres));
+                    let forgotten = &mut g.forgotten;
                     g.ray
                         .chunks_mut(CHUNK)
                         .zip(g.patch.chunks(CHUNK))
                         .enumerate()
                         .filter(|(k, _)| cones.may_meet(*k, &seen))
-                        .for_each(|(_, (rs, js))| {
-                            for (r, &j) in rs.iter_mut().zip(js) {
+                        .for_each(|(k, (rs, js))| {
+                            for (n, (r, &j)) in rs.iter_mut().zip(js).enumerate() {
                                 let j = j as usize;
                                 let from = p.centre[j] + p.normal[j] * world.eps;
                                 if *r != RAY_UNKNOWN && self.meets(from, c - from, 1.0) {
+                                    forgotten.push(((k * CHUNK + n) as u32, *r));
                                     *r = RAY_UNKNOWN;
                                 }
                             }
