@@ -113,11 +113,12 @@ impl Dispersive {
         let past = || deadline.is_some_and(|d| Instant::now() >= d);
         let tt = Instant::now();
         rows.note_moves(&changes.moved);
-        // A sixteenth as much while something moves: what is left catches up once it rests.
-        // A row re-traced during a drag is mostly dirty again a frame later, and a quarter
-        // (512 rows checked, 2k rays) was 2.7 ms of the 77k room's 16 ms moving frame on one
-        // thread; a sixteenth is 1.1 ms, with the same error while moving (results §5).
-        let moving = 1 + 15 * usize::from(!changes.moved.is_empty());
+        // A quarter as much while something moves (what is left catches up once it rests).
+        // Not less: a sixteenth took 1.6 ms of one thread off the 77k room's moving frame,
+        // but the Cornell box's error while its box slides (`scenes/moving_box.toml`) went
+        // from 3.1-3.7 % to 4.2-4.8 % (an eighth: 3.3-3.7 %); its walls' light through the
+        // rows the box crosses lagged behind.
+        let moving = 1 + 3 * usize::from(!changes.moved.is_empty());
         let mut left = n.div_ceil(WALL_CHECK_SHARE).min(WALL_CHECK_MAX / moving);
         // Under a deadline a few rows at a time (the first even past it: always progress,
         // a quarter as much when the frame is already late).
