@@ -33,6 +33,7 @@ pub mod progress;
 pub mod reference;
 pub mod render;
 pub mod sampling;
+mod segments;
 pub mod settings;
 mod shadow_rays;
 pub mod sky;

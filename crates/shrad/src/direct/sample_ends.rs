@@ -4,6 +4,7 @@
 use glam::Vec3;
 use shrad_scene::Aabb;
 
+use crate::segments::{Offsets, LANES};
 use crate::World;
 
 /// `[(k * emitters + e) * samples + j]`: the end of shadow ray `j` of receiver `k` towards
@@ -64,41 +65,13 @@ impl SampleEnds {
         let space = self.space.as_ref()?;
         debug_assert!(n <= 64);
         let (lo, step) = (space.min - from, Self::step(space));
-        let mut d = [[0f32; 64]; 3];
+        let mut d: Offsets = [[0f32; LANES]; 3];
         for (j, e) in self.end[first..first + n].iter().enumerate() {
             for a in 0..3 {
                 d[a][j] = lo[a] + e[a] as f32 * step[a];
             }
         }
-        // Whole lanes of 8 (the ends past `n` are 0 and their bits dropped).
-        let lanes = n.next_multiple_of(8).min(64);
-        let mut mask = 0u64;
-        for b in boxes {
-            let (bmin, bmax) = (b.min - from, b.max - from);
-            let mut near = [0f32; 64];
-            let mut far = [1f32; 64];
-            for a in 0..3 {
-                let inside = bmin[a] <= 0.0 && 0.0 <= bmax[a];
-                for j in 0..lanes {
-                    let (t0, t1) = if d[a][j] == 0.0 {
-                        match inside {
-                            true => (f32::NEG_INFINITY, f32::INFINITY),
-                            false => (f32::INFINITY, f32::NEG_INFINITY),
-                        }
-                    } else {
-                        let inv = 1.0 / d[a][j];
-                        let (u, v) = (bmin[a] * inv, bmax[a] * inv);
-                        (u.min(v), u.max(v))
-                    };
-                    near[j] = near[j].max(t0);
-                    far[j] = far[j].min(t1);
-                }
-            }
-            for j in 0..n {
-                mask |= u64::from(far[j] >= near[j]) << j;
-            }
-        }
-        Some(mask)
+        Some(crate::segments::meeting(from, &d, n, boxes))
     }
 
     /// `boxes` padded by the quantisation step: a segment to a stored end misses them only

@@ -7,6 +7,7 @@ use shrad_scene::Aabb;
 
 use super::{patch_sphere, WallRows, FRONT, MISS};
 use crate::form_factors::patch_rays;
+use crate::segments::{self, Offsets, LANES};
 use crate::World;
 
 /// The movers one row is checked against: the objects that moved since its last check.
@@ -57,10 +58,20 @@ impl WallRows {
             .iter()
             .map(|b| b.padded(Vec3::splat(4.0 * world.eps + 1e-5 * b.diagonal())))
             .collect();
+        // The movers since each row's last check: one set per frame a row was last checked
+        // at (few), not one per row.
+        let mut since: Vec<u64> = rows.iter().map(|&k| self.checked_at[k]).collect();
+        since.sort_unstable();
+        since.dedup();
+        let moved: Vec<MovedSince> = since
+            .iter()
+            .map(|&f| self.moved_since(f, &padded))
+            .collect();
         let marks: Vec<(usize, Vec<u64>)> = rows
             .par_iter()
             .filter_map(|&k| {
-                let bits = self.newly_dirty(world, boundary[k] as usize, &padded, k)?;
+                let m = &moved[since.binary_search(&self.checked_at[k]).ok()?];
+                let bits = self.newly_dirty(world, boundary[k] as usize, m, k)?;
                 Some((k, bits))
             })
             .collect();
@@ -102,10 +113,9 @@ impl WallRows {
         rows
     }
 
-    /// The objects that moved since row `k` was last checked, with their boxes (`padded`:
-    /// every object's padded box now).
-    fn moved_since(&self, k: usize, padded: &[Aabb]) -> MovedSince {
-        let since = self.checked_at[k];
+    /// The objects that moved after frame `since`, with their boxes (`padded`: every
+    /// object's padded box now).
+    fn moved_since(&self, since: u64, padded: &[Aabb]) -> MovedSince {
         let objects: Vec<usize> = (0..self.moved_at.len())
             .filter(|&o| self.moved_at[o] > since)
             .collect();
@@ -124,10 +134,15 @@ impl WallRows {
 
     /// The rays of row `k` (from boundary patch `i`) that a move since its last check may
     /// have changed and that are not dirty yet, as dirty bits; `None` when there are none.
-    fn newly_dirty(&self, world: &World, i: usize, padded: &[Aabb], k: usize) -> Option<Vec<u64>> {
+    fn newly_dirty(
+        &self,
+        world: &World,
+        i: usize,
+        moved: &MovedSince,
+        k: usize,
+    ) -> Option<Vec<u64>> {
         let p = &world.patches;
         let (rays, words) = (self.rays, self.words);
-        let moved = self.moved_since(k, padded);
         let bits = &self.dirty[k * words..(k + 1) * words];
         if moved.objects.contains(&(p.object[i] as usize)) {
             // The patch itself moved: every ray's origin did.
@@ -179,14 +194,16 @@ impl WallRows {
             .filter(|b| b.meets_box(&self.bounds[k]))
             .collect();
         if !near.is_empty() {
-            let ends = &self.end[k * rays..(k + 1) * rays];
-            for j in 0..rays {
-                if clean(&out, j) {
-                    let e = self.decode(ends[j]);
-                    if near.iter().any(|b| b.meets_segment(c, e)) {
-                        out[j / 64] |= 1 << (j % 64);
+            // 64 rays at a time, from the patch's centre to their stored ends.
+            let (lo, step) = (self.space.min - c, self.step());
+            for (w, ends) in self.end[k * rays..(k + 1) * rays].chunks(LANES).enumerate() {
+                let mut d: Offsets = [[0f32; LANES]; 3];
+                for (j, e) in ends.iter().enumerate() {
+                    for a in 0..3 {
+                        d[a][j] = lo[a] + e[a] as f32 * step[a];
                     }
                 }
+                out[w] |= segments::meeting(c, &d, ends.len(), &near) & !bits[w];
             }
         }
         out.iter().any(|&w| w != 0).then_some(out)
