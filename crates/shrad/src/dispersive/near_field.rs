@@ -51,6 +51,34 @@ pub(super) struct NearField {
 }
 
 impl NearField {
+    /// Each patch's row with the patches it sees as scene indices (as measured).
+    #[cfg(test)]
+    pub(super) fn measured_rows(&self) -> Vec<Vec<(u32, f32)>> {
+        (self.view.rows())
+            .map(|row| {
+                row.iter()
+                    .map(|&(q, f)| (self.seen[q as usize], f))
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Replace the lobes and rows of patches `offsets` (ascending) by `fresh`'s (one each,
+    /// in that order, as measured: scene indices), and index the whole again.
+    fn replace(&mut self, offsets: &[u32], fresh: &NearField, nc: usize, scene_patches: usize) {
+        let seen = std::mem::take(&mut self.seen);
+        let mut rows: Vec<Vec<(u32, f32)>> = (self.view.rows())
+            .map(|row| row.iter().map(|&(q, f)| (seen[q as usize], f)).collect())
+            .collect();
+        for (n, &k) in offsets.iter().enumerate() {
+            let k = k as usize;
+            rows[k] = fresh.view.row(n).to_vec();
+            self.lobe[k * nc..(k + 1) * nc].copy_from_slice(&fresh.lobe[n * nc..(n + 1) * nc]);
+        }
+        self.view = SparseRows::from_rows(rows);
+        self.index_seen(scene_patches);
+    }
+
     /// Renumber the view's patches (scene indices as measured) to indices into `seen`, and
     /// mark them in `seen_bits`: an update's echo ([`Dispersive::near_echo`]) is then a bit
     /// test per piece the object sent and a value per patch seen, instead of a vector over
@@ -287,6 +315,32 @@ impl Dispersive {
         *next = range.len();
         near.index_seen(p.len());
         true
+    }
+
+    /// Object `k`'s near field measured again at its stale patches alone
+    /// (`ObjectProbes::near_stale`), a run of consecutive patches at a time: the rest was
+    /// measured where everything within its reach still is.
+    pub(super) fn near_field_again(&mut self, world: &World, k: usize) {
+        let stale = std::mem::take(&mut self.objects[k].near_stale);
+        let ob = &self.objects[k];
+        let o = ob.object;
+        let m = world.patches.world_from_local[o];
+        let reach = near_reach(&self.options, world, o, &ob.probe_box);
+        let contact = CONTACT_REACH * m.transform_vector3(ob.probe_box.size()).length();
+        let mut fresh = NearField::default();
+        let mut at = 0;
+        while at < stale.len() {
+            let mut end = at + 1;
+            while end < stale.len() && stale[end] == stale[end - 1] + 1 {
+                end += 1;
+            }
+            let run = stale[at] as usize..stale[end - 1] as usize + 1;
+            self.near_field_of(world, k, run, (reach, contact), &mut fresh);
+            at = end;
+        }
+        let nc = num_coeffs(self.options.bands);
+        let patches = world.patches.len();
+        self.objects[k].near.replace(&stale, &fresh, nc, patches);
     }
 
     /// [`Dispersive::near_field_within`] of object `k`'s `patches` (offsets in its range),

@@ -61,6 +61,10 @@ pub(super) struct ObjectProbes {
     /// A near field measured in part under a frame's deadline (`near_field_within`): what
     /// is measured, and the offset of the first patch not yet measured.
     pub(super) near_pending: Option<(NearField, usize)>,
+    /// The patches (offsets in its range, ascending) whose near field a neighbour's move
+    /// may have changed, while the rest of `near` is current (`stale.rs`): only they are
+    /// measured again.
+    pub(super) near_stale: Vec<u32>,
     /// Step 2's cached probe hits (`caches.rs`).
     pub(super) probe_cache: ProbeCache,
     /// Step 3's cached emitter rays (`caches.rs`).
@@ -132,6 +136,7 @@ impl ObjectProbes {
             openness_current: false,
             near: NearField::default(),
             near_pending: None,
+            near_stale: Vec::new(),
             probe_cache: ProbeCache::default(),
             emitter_cache: EmitterCache::default(),
             moving: false,
@@ -147,6 +152,7 @@ impl ObjectProbes {
     pub(super) fn forget_openness(&mut self) {
         self.openness_current = false;
         self.near_pending = None;
+        self.near_stale.clear();
     }
 
     /// Probe `c`'s position in the object frame (its corner, or moved inward if repaired).

@@ -110,6 +110,15 @@ impl Dispersive {
         if self.objects[k].openness_current {
             return Stage::NOTHING_TO_DO;
         }
+        if !self.objects[k].near_stale.is_empty() {
+            // Only the patches a neighbour's move came within reach of (`stale.rs`).
+            self.near_field_again(world, k);
+            self.objects[k].openness_current = true;
+            return Stage {
+                whole: true,
+                worked: true,
+            };
+        }
         let mut progress = self.objects[k].near_pending.take().unwrap_or_default();
         let (started, from) = (Instant::now(), progress.1);
         let whole = self.near_field_within(world, k, &mut progress, deadline);

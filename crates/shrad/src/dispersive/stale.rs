@@ -211,11 +211,40 @@ impl StaleTest<'_> {
 
     /// Contact openness looks a short reach (`contact_openness`) beyond the object's own
     /// surface: only a mover whose box comes within that reach can change it.
+    /// A measured near field is forgotten only at the patches a box comes within reach of
+    /// (each patch's near field is its own rays within that reach), unless that is most of
+    /// them.
     fn forget_openness(&self, world: &World, ob: &mut ObjectProbes) {
         let reach = super::near_field::near_reach(self.options, world, ob.object, &ob.probe_box);
         let near = self.object_boxes[ob.object].padded(Vec3::splat(reach + 2.0 * world.eps));
-        if self.boxes.iter().any(|b| b.meets_box(&near)) {
+        if !self.boxes.iter().any(|b| b.meets_box(&near)) {
+            return;
+        }
+        let measured = !ob.near.lobe.is_empty() && ob.near_pending.is_none();
+        if !(measured && (ob.openness_current || !ob.near_stale.is_empty())) {
             ob.forget_openness();
+            return;
+        }
+        let p = &world.patches;
+        let range = p.range(ob.object);
+        let within = |i: usize| {
+            let c = p.centre[i];
+            let r = (p.world_corners(i).iter())
+                .map(|&v| (v - c).length())
+                .fold(0.0, f32::max);
+            let r = r + reach + 4.0 * world.eps;
+            (self.boxes.iter()).any(|b| (c.clamp(b.min, b.max) - c).length_squared() <= r * r)
+        };
+        let stale = (range.clone())
+            .filter(|&i| within(i))
+            .map(|i| (i - range.start) as u32);
+        ob.near_stale.extend(stale);
+        ob.near_stale.sort_unstable();
+        ob.near_stale.dedup();
+        if ob.near_stale.len() * 2 > range.len() {
+            ob.forget_openness();
+        } else if !ob.near_stale.is_empty() {
+            ob.openness_current = false;
         }
     }
 

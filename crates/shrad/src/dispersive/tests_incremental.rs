@@ -454,6 +454,56 @@ fn amended_contributions_converge(to_boundary: ToBoundary) {
     );
 }
 
+/// A neighbour's move forgets a still object's near field only at the patches it comes
+/// within reach of (`stale.rs`), and measuring those again gives what measuring them all
+/// gives. Fails if a patch the move changed is left out.
+#[test]
+fn a_near_field_measured_again_in_part_equals_one_measured_whole() {
+    let mut world = cornell(3000);
+    let mover = object_named(&world, "short_block");
+    let still = object_named(&world, "tall_block");
+    let options = DispersiveOptions {
+        sleep_tolerance: 0.0,
+        ..DispersiveOptions::improved()
+    };
+    let mut d = Dispersive::new(&world, options).unwrap();
+    d.converge(&world, 4);
+    let k = d.objects.iter().position(|ob| ob.object == still).unwrap();
+    let mut steps = DispersiveStats::default();
+    assert!(d.prepare_update(&world, k, None, &mut steps));
+    assert!(d.objects[k].openness_current && !d.objects[k].near.lobe.is_empty());
+    // The short block slides towards the tall one.
+    let rest = world.patches.world_from_local[mover]
+        * Affine3A::from_mat3(world.patches.local_from_object[mover]);
+    let size = world.scene.bounds().unwrap().size().x;
+    let to = Affine3A::from_translation(Vec3::new(-0.08, 0.0, 0.06) * size) * rest;
+    assert!(world.move_object(mover, to).unwrap());
+    let changes = Changes {
+        moved: vec![mover],
+        ..Default::default()
+    };
+    d.note_changes(&world, &changes);
+    let swept = d.swept_boxes(&world, &changes);
+    d.log_swept(&world, &changes, &swept);
+    d.forget_stale_caches(&world, &[k]);
+    let (stale, patches) = (
+        d.objects[k].near_stale.len(),
+        world.patches.range(still).len(),
+    );
+    assert!(
+        stale > 0 && stale * 2 <= patches,
+        "{stale} of {patches} stale"
+    );
+    assert!(d.prepare_update(&world, k, None, &mut steps));
+    let near = &d.objects[k].near;
+    let part = (near.lobe.clone(), near.measured_rows());
+    d.objects[k].forget_openness();
+    assert!(d.prepare_update(&world, k, None, &mut steps));
+    let near = &d.objects[k].near;
+    assert!(part.0 == near.lobe, "the lobes differ");
+    assert!(part.1 == near.measured_rows(), "the rows differ");
+}
+
 /// When an object stops, the objects near it are updated before it: their light and what
 /// they send the walls still carry its path, and its own full update first made the error
 /// rise until they caught up (issue 22 item 3, `examples/stability.rs`).
