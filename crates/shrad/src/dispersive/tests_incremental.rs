@@ -378,19 +378,7 @@ fn amended_contribution_equals_a_fresh_one(to_boundary: ToBoundary, emitter_per_
     d.objects_to_boundary(&world, vec![k], false);
     let before = d.indirect.clone();
     // The short block moves across the light the tall one sends the walls.
-    let rest = world.patches.world_from_local[mover]
-        * Affine3A::from_mat3(world.patches.local_from_object[mover]);
-    let size = world.scene.bounds().unwrap().size().x;
-    let to = Affine3A::from_translation(Vec3::new(0.1, 0.0, 0.15) * size) * rest;
-    assert!(world.move_object(mover, to).unwrap());
-    let changes = Changes {
-        moved: vec![mover],
-        ..Default::default()
-    };
-    d.note_changes(&world, &changes);
-    let swept = d.swept_boxes(&world, &changes);
-    d.log_swept(&world, &changes, &swept);
-    d.forget_stale_caches(&world, &[k]);
+    slide_and_check(&mut world, &mut d, mover, k, Vec3::new(0.1, 0.0, 0.15));
     assert!(
         d.resend_crossed_paths(&world, k).is_some(),
         "the still block's contribution was not amended"
@@ -473,19 +461,7 @@ fn a_near_field_measured_again_in_part_equals_one_measured_whole() {
     assert!(d.prepare_update(&world, k, None, &mut steps));
     assert!(d.objects[k].openness_current && !d.objects[k].near.lobe.is_empty());
     // The short block slides towards the tall one.
-    let rest = world.patches.world_from_local[mover]
-        * Affine3A::from_mat3(world.patches.local_from_object[mover]);
-    let size = world.scene.bounds().unwrap().size().x;
-    let to = Affine3A::from_translation(Vec3::new(-0.08, 0.0, 0.06) * size) * rest;
-    assert!(world.move_object(mover, to).unwrap());
-    let changes = Changes {
-        moved: vec![mover],
-        ..Default::default()
-    };
-    d.note_changes(&world, &changes);
-    let swept = d.swept_boxes(&world, &changes);
-    d.log_swept(&world, &changes, &swept);
-    d.forget_stale_caches(&world, &[k]);
+    slide_and_check(&mut world, &mut d, mover, k, Vec3::new(-0.08, 0.0, 0.06));
     let (stale, patches) = (
         d.objects[k].near_stale.len(),
         world.patches.range(still).len(),
@@ -541,4 +517,22 @@ pub(super) fn drag(world: &mut World, d: &mut Dispersive, mover: usize, frames: 
         };
         d.step(world, &changes);
     }
+}
+
+/// Slide `mover` by `offset` (in room widths) from where it rests, in one move, and let
+/// object `k`'s caches see it (the stale test), as a frame would before updating `k`.
+fn slide_and_check(world: &mut World, d: &mut Dispersive, mover: usize, k: usize, offset: Vec3) {
+    let rest = world.patches.world_from_local[mover]
+        * Affine3A::from_mat3(world.patches.local_from_object[mover]);
+    let size = world.scene.bounds().unwrap().size().x;
+    let to = Affine3A::from_translation(offset * size) * rest;
+    assert!(world.move_object(mover, to).unwrap());
+    let changes = Changes {
+        moved: vec![mover],
+        ..Default::default()
+    };
+    d.note_changes(world, &changes);
+    let swept = d.swept_boxes(world, &changes);
+    d.log_swept(world, &changes, &swept);
+    d.forget_stale_caches(world, &[k]);
 }
