@@ -60,6 +60,18 @@ pub fn square_to_cosine_hemisphere(u: f32, v: f32, n: Vec3) -> Vec3 {
     (t * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize()
 }
 
+/// A small seeded generator of numbers in [0, 1) for tests (a 64-bit LCG's top 24 bits): the
+/// same sequence on every run and machine.
+#[cfg(test)]
+pub(crate) fn test_rng(mut seed: u64) -> impl FnMut() -> f32 {
+    move || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((seed >> 40) as f32) / (1u64 << 24) as f32
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

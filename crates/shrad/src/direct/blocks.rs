@@ -69,13 +69,7 @@ mod tests {
     /// than the plain capsule: a sphere beside the thin end is rejected.
     #[test]
     fn capsule_test_accepts_every_segment_that_meets_the_sphere() {
-        let mut seed = 12345u64;
-        let mut rnd = move || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 40) as f32) / (1u64 << 24) as f32
-        };
+        let mut rnd = crate::sampling::test_rng(12345);
         let mut v = |s: f32| Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * s;
         let mut accepted = 0;
         for _ in 0..20_000 {

@@ -92,13 +92,7 @@ mod tests {
     #[test]
     fn meeting_finds_every_segment_that_meets_a_box() {
         let space = Aabb::new(Vec3::splat(-2.0), Vec3::splat(2.0));
-        let mut seed = 7u64;
-        let mut rnd = move || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 40) as f32) / (1u64 << 24) as f32
-        };
+        let mut rnd = crate::sampling::test_rng(7);
         let (mut found, mut rejected) = (0, 0);
         for case in 0..400 {
             let n = 1 + case % 64;

@@ -228,11 +228,7 @@ impl StaleTest<'_> {
         let p = &world.patches;
         let range = p.range(ob.object);
         let within = |i: usize| {
-            let c = p.centre[i];
-            let r = (p.world_corners(i).iter())
-                .map(|&v| (v - c).length())
-                .fold(0.0, f32::max);
-            let r = r + reach + 4.0 * world.eps;
+            let (c, r) = (p.centre[i], p.radius(i) + reach + 4.0 * world.eps);
             (self.boxes.iter()).any(|b| (c.clamp(b.min, b.max) - c).length_squared() <= r * r)
         };
         let stale = (range.clone())

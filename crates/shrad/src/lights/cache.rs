@@ -50,14 +50,7 @@ fn sample(world: &World, i: usize, j: u32, samples: u32) -> Vec3 {
 
 /// Centre and radius (plus `pad`) of receiver `i`'s footprint.
 fn footprint(world: &World, i: usize, pad: f32) -> (Vec3, f32) {
-    let c = world.patches.centre[i];
-    let r = world
-        .patches
-        .world_corners(i)
-        .iter()
-        .map(|q| (*q - c).length())
-        .fold(0.0, f32::max);
-    (c, r + pad)
+    (world.patches.centre[i], world.patches.radius(i) + pad)
 }
 
 impl PunctualCache {

@@ -367,6 +367,15 @@ impl Patches {
         self.corners[p].map(|c| m.transform_point3(c))
     }
 
+    /// The largest distance from patch `p`'s centre to its corners (world): a sphere at
+    /// the centre with this radius holds the patch.
+    pub fn radius(&self, p: usize) -> f32 {
+        let c = self.centre[p];
+        (self.world_corners(p).iter())
+            .map(|&v| (v - c).length())
+            .fold(0.0, f32::max)
+    }
+
     /// A point of patch `p` (world) from two numbers in [0,1)^2, uniform in area.
     pub fn sample_point(&self, p: usize, u: f32, v: f32) -> Vec3 {
         let c = self.world_corners(p);

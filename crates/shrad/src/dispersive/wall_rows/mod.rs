@@ -405,14 +405,8 @@ impl WallRows {
 
 /// A sphere holding patch `i` and its rays' origins (which are `eps` above it).
 fn patch_sphere(world: &World, i: usize) -> (Vec3, f32) {
-    let c = world.patches.centre[i];
-    let r = world
-        .patches
-        .world_corners(i)
-        .iter()
-        .map(|&v| (v - c).length())
-        .fold(0.0, f32::max);
-    (c, r * (1.0 + 1e-5) + 2.0 * world.eps)
+    let r = world.patches.radius(i);
+    (world.patches.centre[i], r * (1.0 + 1e-5) + 2.0 * world.eps)
 }
 
 #[cfg(test)]
