@@ -52,6 +52,7 @@ mod step1_direct;
 mod step2_probes;
 mod step3_to_boundary;
 mod step4_assemble;
+mod swept_boxes;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]

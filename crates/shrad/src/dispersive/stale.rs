@@ -22,6 +22,7 @@ use super::caches::{
     UNKNOWN,
 };
 use super::object_state::ObjectProbes;
+use super::swept_boxes::SweptBoxes;
 use super::{Changes, Dispersive, DispersiveOptions};
 use crate::World;
 
@@ -146,11 +147,10 @@ impl Dispersive {
             if boxes.is_empty() {
                 continue;
             }
-            let spheres: Vec<(Vec3, f32)> = boxes.iter().map(Aabb::bounding_sphere).collect();
+            let swept = SweptBoxes::new(&boxes);
             let test = StaleTest {
-                spheres_r2: spheres.iter().map(|&(c, r)| (c, r * r)).collect(),
-                spheres,
-                boxes,
+                spheres: swept.spheres(),
+                swept,
                 probe_dirs: &self.camera.cube.directions,
                 probe_cones: &self.probe_cones,
                 emitter_dirs: &self.emitter_camera.cube.directions,
@@ -179,10 +179,8 @@ impl Dispersive {
 
 /// The swept boxes one object's caches are checked against, with what the tests need.
 struct StaleTest<'a> {
-    boxes: Vec<Aabb>,
-    /// Each box's bounding sphere (centre, radius^2) for a quick rejection, and (centre,
-    /// radius) for the chunks' cones.
-    spheres_r2: Vec<(Vec3, f32)>,
+    swept: SweptBoxes,
+    /// Spheres that hold the boxes (centre, radius), for the chunks' cones.
     spheres: Vec<(Vec3, f32)>,
     /// The probes' and emitters' texel directions and chunk cones (`caches.rs`).
     probe_dirs: &'a [Vec3],
@@ -196,17 +194,9 @@ struct StaleTest<'a> {
 }
 
 impl StaleTest<'_> {
-    /// Whether the segment from `o` along `d` for `t` (in units of `d`) meets a box: a
-    /// bounding-sphere test first (a few multiply-adds), the slab test on what passes.
+    /// Whether the segment from `o` along `d` for `t` (in units of `d`) meets a box.
     fn meets(&self, o: Vec3, d: Vec3, t: f32) -> bool {
-        self.spheres_r2
-            .iter()
-            .zip(&self.boxes)
-            .any(|(&(c, r2), b)| {
-                let w = c - o;
-                let k = (w.dot(d) / d.length_squared().max(1e-30)).clamp(0.0, t);
-                (w - d * k).length_squared() <= r2 && b.meets_ray_within(o, d, t)
-            })
+        self.swept.meet(o, d, t)
     }
 
     /// Contact openness looks a short reach (`contact_openness`) beyond the object's own
@@ -217,7 +207,7 @@ impl StaleTest<'_> {
     fn forget_openness(&self, world: &World, ob: &mut ObjectProbes) {
         let reach = super::near_field::near_reach(self.options, world, ob.object, &ob.probe_box);
         let near = self.object_boxes[ob.object].padded(Vec3::splat(reach + 2.0 * world.eps));
-        if !self.boxes.iter().any(|b| b.meets_box(&near)) {
+        if !self.swept.boxes().any(|b| b.meets_box(&near)) {
             return;
         }
         let measured = !ob.near.lobe.is_empty() && ob.near_pending.is_none();
@@ -229,7 +219,7 @@ impl StaleTest<'_> {
         let range = p.range(ob.object);
         let within = |i: usize| {
             let (c, r) = (p.centre[i], p.radius(i) + reach + 4.0 * world.eps);
-            (self.boxes.iter()).any(|b| (c.clamp(b.min, b.max) - c).length_squared() <= r * r)
+            (self.swept.boxes()).any(|b| (c.clamp(b.min, b.max) - c).length_squared() <= r * r)
         };
         let stale = (range.clone())
             .filter(|&i| within(i))
