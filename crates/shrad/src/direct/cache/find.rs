@@ -10,6 +10,18 @@ use crate::direct::blocks::capsule_meets_sphere;
 use crate::direct::{cone_meets_sphere, sample_shift, shadow_sample, Emitter};
 use crate::World;
 
+/// The boxes movers swept, as [`DirectCache::rays_to_retrace`] tests shadow rays against
+/// them: where they were (`old`, which may have unblocked a blocked ray) and where they are
+/// (`new`, which may block a free one), each also padded for the stored ends' rounding
+/// (`*_q`), and the bounding spheres of both (`spheres`) for the receivers' cones.
+struct Swept<'a> {
+    old: &'a [Aabb],
+    new: &'a [Aabb],
+    old_q: Vec<Aabb>,
+    new_q: Vec<Aabb>,
+    spheres: &'a [(Vec3, f32)],
+}
+
 impl DirectCache {
     /// The shadow rays (receiver, emitter, sample, from, to) that a mover may have changed:
     /// of the receivers to `find`, those blocked whose segment meets an `old` box, those
@@ -22,94 +34,115 @@ impl DirectCache {
         spheres: &[(Vec3, f32)],
         find: impl Fn(usize) -> bool + Sync,
     ) -> Vec<Retrace> {
-        let ne = ems.len();
-        let samples = self.shadows.samples();
-        let p = &world.patches;
-        let eps = world.eps;
-        let (old_q, new_q) = (self.ends.pad(old), self.ends.pad(new));
-        // Whole blocks of receivers first: those whose rays to every emitter pass far from
-        // every swept box.
-        let block_may_meet = |b: usize| {
-            let (oc, or) = self.blocks[b];
-            ems.iter().any(|em| {
-                let (lc, lr) = em.sphere;
-                spheres
-                    .iter()
-                    .any(|&(bc, br)| capsule_meets_sphere(oc, or, lc, lr, bc, br))
-            })
+        let swept = Swept {
+            old,
+            new,
+            old_q: self.ends.pad(old),
+            new_q: self.ends.pad(new),
+            spheres,
         };
         let n = self.receivers.len();
-        // One vector of rays a block (not one a receiver: 2.5k small vectors a frame at 77k).
+        // Whole blocks of receivers first: those whose rays to every emitter pass far from
+        // every swept box. One vector of rays a block (not one a receiver: 2.5k small
+        // vectors a frame at 77k).
         (0..self.blocks.len())
             .into_par_iter()
-            .filter(|&b| block_may_meet(b))
+            .filter(|&b| self.block_may_meet(b, ems, spheres))
             .flat_map_iter(|b| {
                 let mut out = Vec::new();
                 for k in (b * BLOCK..((b + 1) * BLOCK).min(n)).filter(|&k| find(k)) {
-                    let i = self.receivers[k] as usize;
-                    let (x, n) = (p.centre[i], p.normal[i]);
-                    for (e, em) in ems.iter().enumerate() {
-                        if self.unoccluded[k * ne + e] <= 0.0 {
-                            continue;
-                        }
-                        // Every shadow ray lies in the cone from x to the emitter's sphere.
-                        let (lc, lr) = em.sphere;
-                        if !spheres
-                            .iter()
-                            .any(|&(bc, br)| cone_meets_sphere(x, lc, lr, bc, br))
-                        {
-                            continue;
-                        }
-                        let shift = sample_shift(i, em);
-                        let set = k * ne + e;
-                        let first = set * samples as usize;
-                        let from = x + n * eps;
-                        // 64 samples at a time: the blocked ones against the old boxes, the
-                        // free ones against the new, by their stored ends (a superset); the
-                        // exact sample of each found is re-traced (a ray re-traced that no
-                        // box meets is traced for nothing, never wrong).
-                        for j0 in (0..samples).step_by(64) {
-                            let m = (samples - j0).min(64);
-                            let blocked = self.shadows.blocked_bits(set, j0, m);
-                            let at = first + j0 as usize;
-                            let meets = |boxes: &[Aabb], padded: &[Aabb], want: u64| {
-                                if boxes.is_empty() || want == 0 {
-                                    return 0;
-                                }
-                                match self.ends.meeting(at, m as usize, from, padded) {
-                                    Some(mask) => mask & want,
-                                    None => (0..m)
-                                        .filter(|&j| want >> j & 1 != 0)
-                                        .filter(|&j| {
-                                            let (f, t, _) = shadow_sample(
-                                                em,
-                                                x,
-                                                n,
-                                                shift,
-                                                j0 + j,
-                                                samples,
-                                                eps,
-                                            );
-                                            boxes.iter().any(|b| b.meets_segment(f, t))
-                                        })
-                                        .fold(0, |mask, j| mask | 1 << j),
-                                }
-                            };
-                            let all = u64::MAX >> (64 - m);
-                            let mut found =
-                                meets(old, &old_q, blocked) | meets(new, &new_q, !blocked & all);
-                            while found != 0 {
-                                let j = j0 + found.trailing_zeros();
-                                found &= found - 1;
-                                let (from, to, _) = shadow_sample(em, x, n, shift, j, samples, eps);
-                                out.push((k as u32, e as u32, j, from, to));
-                            }
-                        }
+                    for e in 0..ems.len() {
+                        self.receiver_rays_to_retrace(world, ems, (k, e), &swept, &mut out);
                     }
                 }
                 out.into_iter()
             })
             .collect()
+    }
+
+    /// Whether a ray of block `b`'s receivers to one of `ems` may meet one of `spheres`.
+    fn block_may_meet(&self, b: usize, ems: &[Emitter], spheres: &[(Vec3, f32)]) -> bool {
+        let (oc, or) = self.blocks[b];
+        ems.iter().any(|em| {
+            let (lc, lr) = em.sphere;
+            spheres
+                .iter()
+                .any(|&(bc, br)| capsule_meets_sphere(oc, or, lc, lr, bc, br))
+        })
+    }
+
+    /// Push to `out` receiver `k`'s shadow rays to emitter `e` that a swept box may have
+    /// changed.
+    fn receiver_rays_to_retrace(
+        &self,
+        world: &World,
+        ems: &[Emitter],
+        (k, e): (usize, usize),
+        swept: &Swept,
+        out: &mut Vec<Retrace>,
+    ) {
+        let (em, set) = (&ems[e], k * ems.len() + e);
+        if self.unoccluded[set] <= 0.0 {
+            return;
+        }
+        let (p, eps, samples) = (&world.patches, world.eps, self.shadows.samples());
+        let i = self.receivers[k] as usize;
+        let (x, n) = (p.centre[i], p.normal[i]);
+        // Every shadow ray lies in the cone from x to the emitter's sphere.
+        let (lc, lr) = em.sphere;
+        let cone_meets = |&(bc, br): &(Vec3, f32)| cone_meets_sphere(x, lc, lr, bc, br);
+        if !swept.spheres.iter().any(cone_meets) {
+            return;
+        }
+        let shift = sample_shift(i, em);
+        // 64 samples at a time: the blocked ones against the old boxes, the free ones
+        // against the new, by their stored ends (a superset); the exact sample of each found
+        // is re-traced (a ray re-traced that no box meets is traced for nothing, never
+        // wrong).
+        for j0 in (0..samples).step_by(64) {
+            let m = (samples - j0).min(64);
+            let blocked = self.shadows.blocked_bits(set, j0, m);
+            let all = u64::MAX >> (64 - m);
+            let sample = |j: u32| shadow_sample(em, x, n, shift, j, samples, eps);
+            let at = (set * samples as usize + j0 as usize, x + n * eps);
+            let meeting = |boxes: &[Aabb], padded: &[Aabb], want: u64| {
+                self.samples_meeting(at, (j0, m), (boxes, padded), want, &sample)
+            };
+            let mut found = meeting(swept.old, &swept.old_q, blocked)
+                | meeting(swept.new, &swept.new_q, !blocked & all);
+            while found != 0 {
+                let j = j0 + found.trailing_zeros();
+                found &= found - 1;
+                let (from, to, _) = sample(j);
+                out.push((k as u32, e as u32, j, from, to));
+            }
+        }
+    }
+
+    /// Of samples `j0 .. j0 + m` (stored ends from `at.0`, rays from `at.1`), those in
+    /// `want` whose segment may meet one of `boxes`: by the stored ends against the
+    /// `padded` boxes, or, where they cannot say, by the exact samples (`sample(j)`).
+    fn samples_meeting(
+        &self,
+        (at, from): (usize, Vec3),
+        (j0, m): (u32, u32),
+        (boxes, padded): (&[Aabb], &[Aabb]),
+        want: u64,
+        sample: &impl Fn(u32) -> (Vec3, Vec3, f32),
+    ) -> u64 {
+        if boxes.is_empty() || want == 0 {
+            return 0;
+        }
+        if let Some(mask) = self.ends.meeting(at, m as usize, from, padded) {
+            return mask & want;
+        }
+        (0..m)
+            .filter(|&j| want >> j & 1 != 0)
+            .filter(|&j| {
+                let (f, t, _) = sample(j0 + j);
+                boxes.iter().any(|b| b.meets_segment(f, t))
+            })
+            .fold(0, |mask, j| mask | 1 << j)
     }
 
     /// Trace `rays` (receiver, emitter, sample, from, to) against the `movers` alone, then
