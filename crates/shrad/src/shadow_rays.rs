@@ -74,20 +74,10 @@ impl ShadowRays {
         self.blocked[w] & bit != 0
     }
 
-    /// Bits `j0 .. j0 + m` (`m <= 64`) of set `s`, bit `j` for ray `j0 + j`: set where it is
-    /// blocked.
-    pub fn blocked_bits(&self, s: usize, j0: u32, m: u32) -> u64 {
-        debug_assert!(m <= 64);
-        let words = &self.blocked[s * self.words..(s + 1) * self.words];
-        let (w, shift) = (j0 as usize / 64, j0 % 64);
-        let mut bits = words[w] >> shift;
-        if shift > 0 && w + 1 < words.len() {
-            bits |= words[w + 1] << (64 - shift);
-        }
-        match m {
-            64 => bits,
-            _ => bits & ((1u64 << m) - 1),
-        }
+    /// Word `w` of set `s` (rays `64 w .. 64 w + 63`, bit `j` for ray `64 w + j`): set
+    /// where it is blocked; bits past the set's last ray are clear.
+    pub fn blocked_word(&self, s: usize, w: usize) -> u64 {
+        self.blocked[s * self.words + w]
     }
 
     /// Mark every ray of set `s` free.

@@ -101,7 +101,7 @@ impl DirectCache {
         // wrong).
         for j0 in (0..samples).step_by(64) {
             let m = (samples - j0).min(64);
-            let blocked = self.shadows.blocked_bits(set, j0, m);
+            let blocked = self.shadows.blocked_word(set, j0 as usize / 64);
             let all = u64::MAX >> (64 - m);
             let sample = |j: u32| shadow_sample(em, x, n, shift, j, samples, eps);
             let at = (set * samples as usize + j0 as usize, x + n * eps);
