@@ -14,8 +14,10 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
+use shrad_scene::Aabb;
 use shrad_vis::Hit;
 
+use crate::segments::{self, Offsets, LANES};
 use crate::World;
 
 /// Flux bookkeeping of one state (W, i.e. radiometric units x area; RGB averaged).
@@ -234,33 +236,50 @@ impl IncidentMeter {
     /// meets one's box now (a place a mover left cannot matter otherwise: had it been on the
     /// segment, the ray would have hit it). The result is what [`IncidentMeter::retrace`]
     /// gives; a light patch that moved itself is traced again whole. Returns the rays traced.
-    pub fn update(&mut self, world: &World, moved: &[usize], boxes: &[shrad_scene::Aabb]) -> usize {
+    pub fn update(&mut self, world: &World, moved: &[usize], boxes: &[Aabb]) -> usize {
         if moved.is_empty() || self.patches.is_empty() {
             return 0;
         }
         let p = &world.patches;
-        let padded: Vec<shrad_scene::Aabb> = moved
+        let padded: Vec<Aabb> = moved
             .iter()
             .map(|&o| boxes[o])
             .filter(|b| !b.is_empty())
             .map(|b| b.padded(Vec3::splat(4.0 * world.eps + 1e-5 * b.diagonal())))
             .collect();
-        let spheres: Vec<(Vec3, f32)> = padded
-            .iter()
-            .map(|b| {
-                let (c, r) = b.bounding_sphere();
-                (c, r * r)
-            })
-            .collect();
-        // A sphere test first (a few multiply-adds), the slab test on what passes.
-        let meets = |a: Vec3, b: Vec3| {
-            spheres.iter().zip(&padded).any(|(&(c, r2), bx)| {
-                let d = b - a;
-                let k = ((c - a).dot(d) / d.length_squared().max(1e-30)).clamp(0.0, 1.0);
-                (c - a - d * k).length_squared() <= r2 && bx.meets_segment(a, b)
-            })
-        };
         let rays = self.rays;
+        // A metered patch's rays start at points of the patch. Moved to its centre, each
+        // segment stays within the patch's radius of where it was, so the boxes grown by
+        // that radius meet every segment that meets them: the patch's segments are then
+        // tested from one point, 64 at a time (a ray traced again for nothing is never
+        // wrong). Rays that hit a mover are traced again too: it may have left them.
+        let stale_rays = |k: usize| -> Vec<usize> {
+            let i = self.patches[k] as usize;
+            let grow = Vec3::splat(p.radius(i) + 2.0 * world.eps);
+            let boxes: Vec<Aabb> = padded.iter().map(|b| b.padded(grow)).collect();
+            let mut which = Vec::new();
+            for j0 in (0..rays).step_by(LANES) {
+                let n = (rays - j0).min(LANES);
+                let first = k * rays + j0;
+                let mut d: Offsets = [[0.0; LANES]; 3];
+                for j in 0..n {
+                    let offset = self.end[first + j] - self.from[first + j];
+                    (0..3).for_each(|a| d[a][j] = offset[a]);
+                }
+                let mut mask = segments::meeting(p.centre[i], &d, n, &boxes);
+                for j in 0..n {
+                    let h = self.hit_object[first + j];
+                    if h != u32::MAX && moved.contains(&(h as usize)) {
+                        mask |= 1 << j;
+                    }
+                }
+                while mask != 0 {
+                    which.push(j0 + mask.trailing_zeros() as usize);
+                    mask &= mask - 1;
+                }
+            }
+            which
+        };
         // Per metered patch, the rays to trace again (all of them when the patch moved).
         let stale: Vec<(usize, Vec<usize>)> = (0..self.patches.len())
             .into_par_iter()
@@ -269,14 +288,7 @@ impl IncidentMeter {
                 if moved.contains(&(p.object[i] as usize)) {
                     return Some((k, (0..rays).collect()));
                 }
-                let which: Vec<usize> = (0..rays)
-                    .filter(|&j| {
-                        let r = k * rays + j;
-                        let h = self.hit_object[r];
-                        (h != u32::MAX && moved.contains(&(h as usize)))
-                            || meets(self.from[r], self.end[r])
-                    })
-                    .collect();
+                let which = stale_rays(k);
                 (!which.is_empty()).then_some((k, which))
             })
             .collect();
