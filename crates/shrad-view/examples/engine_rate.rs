@@ -67,6 +67,12 @@ fn main() -> Result<()> {
     }
     println!("moving: {}", steps.mean());
     let moving_rate = frames as f64 / t.elapsed().as_secs_f64();
+    // Left where it is: the frames after the drag (the object's first full update at rest).
+    let mut steps = StepTimes::default();
+    for _ in 0..60 {
+        steps.add(&engine.step());
+    }
+    println!("after the drag: {}", steps.mean());
     println!(
         "{scene_name} at {} patches, dispersive default: {static_rate:.1} frames/s static, {moving_rate:.1} frames/s while '{}' moves every frame",
         engine.world().patches.len(),
