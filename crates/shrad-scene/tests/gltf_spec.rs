@@ -1707,3 +1707,35 @@ fn an_unnamed_mesh_node_takes_its_named_parents_name_and_roles() {
         ]
     );
 }
+
+/// A node scaled to zero (how glTF and Blender's exporter hide one) is left out with a
+/// warning, its children with it, not the whole file refused; a node at a micrometre's
+/// scale is not singular (the check is relative to the transform's own scale).
+#[test]
+fn nodes_scaled_to_zero_are_left_out_and_tiny_ones_kept() {
+    let dir = temp_dir("zero-scale");
+    let root = quad_with(|v| {
+        v["nodes"] = json!([
+            {"name": "floor", "mesh": 0},
+            {"name": "hidden", "mesh": 0, "scale": [0.0, 1.0, 1.0], "children": [3]},
+            {"name": "tiny", "mesh": 0, "scale": [1e-5, 1e-5, 1e-5]},
+            {"name": "child", "mesh": 0, "translation": [0.0, 1.0, 0.0]}
+        ]);
+        v["scenes"][0]["nodes"] = json!([0, 1, 2]);
+    });
+    let p = write_json(&dir, "hidden.gltf", &root);
+    let s = load_no_panic(&p).unwrap_or_else(|e| panic!("refused: {e}"));
+    let names: Vec<&str> = s.objects.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(s.objects.len(), 2, "{names:?}");
+    assert!(names.iter().any(|n| n.contains("floor")), "{names:?}");
+    assert!(names.iter().any(|n| n.contains("tiny")), "{names:?}");
+    for hidden in ["nodes[1] 'hidden'", "nodes[3] 'child'"] {
+        assert!(
+            s.warnings
+                .iter()
+                .any(|w| w.contains(hidden) && w.contains("scale is zero")),
+            "no warning for {hidden}: {:?}",
+            s.warnings
+        );
+    }
+}

@@ -103,6 +103,20 @@ impl Walk<'_> {
         self.scene.lights.push(light);
     }
 
+    /// Whether a node's `world` transform flattens its mesh to a plane, a line or a point
+    /// (a scale of zero is how glTF, and Blender's exporter, hide a node): then its mesh is
+    /// left out, with a warning, rather than the whole file refused.
+    fn hidden(&mut self, world: &Mat4, node_label: &str) -> bool {
+        let m = glam::Mat3::from_mat4(*world);
+        if !crate::model::is_singular(&m) {
+            return false;
+        }
+        self.scene.warnings.push(format!(
+            "{node_label}: its scale is zero along some axis (a hidden node): its mesh is left out"
+        ));
+        true
+    }
+
     /// Walk `node` (child of `parent_node`, whose world transform is `parent`) and its
     /// descendants.
     pub(super) fn node(
@@ -157,7 +171,10 @@ impl Walk<'_> {
         if let Some(&Some(l)) = self.file_lights.node_light.get(node.index()) {
             self.light(l, node.index(), world);
         }
-        if let Some(mesh) = node.mesh() {
+        if let Some(mesh) = node
+            .mesh()
+            .filter(|_| !self.hidden(&world, &node_label))
+        {
             let inst = super::mesh::Instance {
                 node: Some(&node),
                 parent: parent_node,

@@ -22,3 +22,4 @@ pub use material::Material;
 pub use mesh::Mesh;
 pub use object::{Object, Role};
 pub use scene::{Camera, Scene, SceneSettings};
+pub(crate) use validate::is_singular;

@@ -66,7 +66,7 @@ fn geometry_problem(o: &Object) -> Option<String> {
     }
     let m = o.world_from_object;
     if !(m.matrix3.is_finite() && m.translation.is_finite())
-        || m.matrix3.determinant().abs() < 1e-12
+        || is_singular(&glam::Mat3::from(m.matrix3))
     {
         return Some("transform is not finite or is singular".into());
     }
@@ -183,4 +183,12 @@ fn material_problem(m: &crate::Material) -> Option<String> {
         return Some(format!("emitted radiance {e} must be finite and >= 0"));
     }
     None
+}
+
+/// Whether a linear map flattens space (to a plane, a line or a point), relative to its own
+/// scale: a determinant that is tiny beside the product of its columns' lengths. (An
+/// absolute bound on the determinant refused a scene modelled in micrometres.)
+pub(crate) fn is_singular(m: &glam::Mat3) -> bool {
+    let scale = m.x_axis.length() * m.y_axis.length() * m.z_axis.length();
+    !(m.determinant().abs() > 1e-6 * scale && scale > 0.0)
 }
