@@ -38,3 +38,20 @@ fn a_room_is_seen_from_inside_and_a_closed_object_from_outside() {
         );
     }
 }
+
+/// A model is framed from its front, the +Z side looking towards -Z, as glTF has it ("the
+/// front of an asset faces +Z"): from -Z a single-sided model facing +Z (Khronos' Triangle)
+/// showed only the backs of its faces, a picture of the sky alone.
+#[test]
+fn a_model_is_framed_from_the_plus_z_side() {
+    let s = one_box(false, false, Affine3A::from_translation(Vec3::new(1.0, 2.0, 3.0)));
+    let camera = s.camera_or_default();
+    let eye = camera.world_from_camera.translation;
+    let forward = -Vec3::from(camera.world_from_camera.matrix3.z_axis);
+    let b = s.bounds().unwrap();
+    assert!(eye.z > b.max.z, "eye {eye} not on the +Z side of {b:?}");
+    assert!(forward.dot(Vec3::NEG_Z) > 0.999, "looks along {forward}");
+    // Straight at the model's centre.
+    let to_centre = (b.centre() - Vec3::from(eye)).normalize();
+    assert!(forward.dot(to_centre) > 0.999, "{forward} vs {to_centre}");
+}

@@ -34,15 +34,18 @@ impl Camera {
         }
     }
 
-    /// A camera that frames the box `(lo, hi)` from the front (-Z side looking +Z... the side
-    /// towards +Z is the back), for scenes that have none.
+    /// A camera that frames the box `(lo, hi)` from its front, for scenes that have none:
+    /// from the +Z side looking towards -Z, as glTF has it ("the front of an asset faces
+    /// +Z"; Blender's front view exported Y-up): a single-sided model seen from -Z shows
+    /// only the backs of its faces, which are not drawn (Khronos' Triangle was a picture of
+    /// the sky alone).
     pub fn framing(lo: Vec3, hi: Vec3) -> Self {
         let centre = 0.5 * (lo + hi);
         let ext = hi - lo;
         let yfov = 40f32.to_radians();
         let radius = 0.5 * ext.x.max(ext.y);
         let dist = radius / (0.5 * yfov).tan() + 0.5 * ext.z;
-        Camera::look_at(centre - Vec3::Z * dist * 1.05, centre, yfov)
+        Camera::look_at(centre + Vec3::Z * dist * 1.05, centre, yfov)
     }
 }
 
