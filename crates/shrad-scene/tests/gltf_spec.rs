@@ -1739,3 +1739,23 @@ fn nodes_scaled_to_zero_are_left_out_and_tiny_ones_kept() {
         );
     }
 }
+
+/// A node scaled so far that areas overflow 32-bit floats is refused with an error that
+/// says so (it was "patch size inf must be a positive number", from the engine).
+#[test]
+fn coordinates_too_large_for_f32_are_refused_saying_so() {
+    let dir = temp_dir("huge-scale");
+    for (name, scale) in [("huge.gltf", 1e30), ("large.gltf", 1e19)] {
+        let root = quad_with(|v| v["nodes"][0]["scale"] = json!([scale, scale, scale]));
+        assert_refused(
+            &dir,
+            name,
+            &root,
+            &["world coordinates reach", "scale the scene down"],
+        );
+    }
+    // A kilometre-wide scene in millimetres is fine.
+    let root = quad_with(|v| v["nodes"][0]["scale"] = json!([1e6, 1e6, 1e6]));
+    let p = write_json(&dir, "mm.gltf", &root);
+    assert_eq!(load_no_panic(&p).unwrap().objects.len(), 1);
+}

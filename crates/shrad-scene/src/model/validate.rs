@@ -70,8 +70,22 @@ fn geometry_problem(o: &Object) -> Option<String> {
     {
         return Some("transform is not finite or is singular".into());
     }
+    let reach = o
+        .world_bounds()
+        .map_or(0.0, |b| b.min.abs().max(b.max.abs()).max_element());
+    if !(reach <= MAX_COORDINATE) {
+        return Some(format!(
+            "its world coordinates reach {reach:.1e}, beyond the {MAX_COORDINATE:.0e} that \
+             32-bit arithmetic of its areas and distances can hold: scale the scene down"
+        ));
+    }
     None
 }
+
+/// The largest world coordinate a scene may have: its squared distances and areas (up to
+/// 1e24) stay far from the 3.4e38 where 32-bit floats overflow (a node scaled by 1e30 made
+/// every area infinite, and the first error was about an infinite patch size).
+pub(crate) const MAX_COORDINATE: f32 = 1e12;
 
 /// What is wrong with an object's texture coordinates, vertex colours or the texture
 /// coordinate sets its textures read, if anything.
@@ -188,7 +202,9 @@ fn material_problem(m: &crate::Material) -> Option<String> {
 /// Whether a linear map flattens space (to a plane, a line or a point), relative to its own
 /// scale: a determinant that is tiny beside the product of its columns' lengths. (An
 /// absolute bound on the determinant refused a scene modelled in micrometres.)
+/// (In f64: a scale of 1e30 is finite, its cube is not in f32.)
 pub(crate) fn is_singular(m: &glam::Mat3) -> bool {
+    let m = m.as_dmat3();
     let scale = m.x_axis.length() * m.y_axis.length() * m.z_axis.length();
     !(m.determinant().abs() > 1e-6 * scale && scale > 0.0)
 }
