@@ -44,7 +44,11 @@ fn a_room_is_seen_from_inside_and_a_closed_object_from_outside() {
 /// showed only the backs of its faces, a picture of the sky alone.
 #[test]
 fn a_model_is_framed_from_the_plus_z_side() {
-    let s = one_box(false, false, Affine3A::from_translation(Vec3::new(1.0, 2.0, 3.0)));
+    let s = one_box(
+        false,
+        false,
+        Affine3A::from_translation(Vec3::new(1.0, 2.0, 3.0)),
+    );
     let camera = s.camera_or_default();
     let eye = camera.world_from_camera.translation;
     let forward = -Vec3::from(camera.world_from_camera.matrix3.z_axis);

@@ -171,10 +171,7 @@ impl Walk<'_> {
         if let Some(&Some(l)) = self.file_lights.node_light.get(node.index()) {
             self.light(l, node.index(), world);
         }
-        if let Some(mesh) = node
-            .mesh()
-            .filter(|_| !self.hidden(&world, &node_label))
-        {
+        if let Some(mesh) = node.mesh().filter(|_| !self.hidden(&world, &node_label)) {
             let inst = super::mesh::Instance {
                 node: Some(&node),
                 parent: parent_node,
