@@ -73,7 +73,7 @@ fn geometry_problem(o: &Object) -> Option<String> {
     let reach = o
         .world_bounds()
         .map_or(0.0, |b| b.min.abs().max(b.max.abs()).max_element());
-    if !(reach <= MAX_COORDINATE) {
+    if reach.is_nan() || reach > MAX_COORDINATE {
         return Some(format!(
             "its world coordinates reach {reach:.1e}, beyond the {MAX_COORDINATE:.0e} that \
              32-bit arithmetic of its areas and distances can hold: scale the scene down"
