@@ -13,6 +13,7 @@ mod environment;
 mod gltf_animation;
 mod gltf_camera_animation;
 mod gltf_lights;
+mod gltf_morph_alpha;
 mod io;
 mod lightmap_uvs;
 mod scene_file_lights;

@@ -1,6 +1,14 @@
 //! Materials and their textures: the base colour and emission factors, the images (from a
 //! buffer view, a data URI or a file, each decoded once) with their samplers and
-//! `KHR_texture_transform`.
+//! `KHR_texture_transform`; and what `alphaMode` makes of them (see [`cut_away`]).
+//!
+//! shrad's patches are opaque: they cannot have holes nor let light through. So a material
+//! is either opaque or, when nothing of it can be seen, cut away: a MASK material whose base
+//! colour alpha factor is below its `alphaCutoff`, or a BLEND one whose alpha factor is 0.
+//! (Base colour alpha is the factor times the texture's and `COLOR_0`'s alphas, each at most
+//! 1: a factor below the cutoff cuts every texel away, textured or not.) Every other MASK or
+//! BLEND material is treated as opaque, with a warning once per material when that is not
+//! what a viewer shows (a MASK texture's cut-outs, a BLEND surface's transparency).
 
 use glam::Vec3;
 
@@ -38,6 +46,7 @@ impl Walk<'_> {
         let emissive_texture = m
             .emissive_texture()
             .and_then(|info| self.texture(&who, "emissive", &info));
+        self.warn_alpha(m, &who);
         let material = Material {
             reflectance,
             emitted_radiance: Vec3::from(e) * strength,
@@ -47,6 +56,26 @@ impl Walk<'_> {
         };
         self.materials.insert(m.index(), material.clone());
         material
+    }
+
+    /// Warn (once per material: [`Walk::material`] converts each once) about an alpha mode
+    /// that shrad draws opaque though a viewer does not. A material [`cut_away`] entirely
+    /// never gets here: its primitives are skipped.
+    fn warn_alpha(&mut self, m: &gltf::Material, who: &str) {
+        let alpha = m.pbr_metallic_roughness().base_color_factor()[3];
+        let textured = m.pbr_metallic_roughness().base_color_texture().is_some();
+        let why = match m.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => return,
+            gltf::material::AlphaMode::Mask if !textured => return,
+            gltf::material::AlphaMode::Mask => {
+                "alphaMode MASK with a texture: cut-outs are not represented, the surface is treated as opaque".to_string()
+            }
+            gltf::material::AlphaMode::Blend => format!(
+                "alphaMode BLEND (base colour alpha {alpha}{}): transparency is not represented, the surface is treated as opaque",
+                if textured { " times the texture's" } else { "" }
+            ),
+        };
+        self.scene.warnings.push(format!("{who}: {why}"));
     }
 
     /// The texture of a material's texture info: its image decoded once (shared by every
@@ -177,6 +206,38 @@ impl Walk<'_> {
         let image = TextureImage::decode(&bytes, self.image_label(index))?;
         self.texels_left -= u64::from(image.width()) * u64::from(image.height());
         Ok(image)
+    }
+}
+
+/// Why nothing of material `m` is seen (so a primitive drawn with it neither reflects nor
+/// blocks light, and is left out), if so. glTF 2.0, "Alpha Coverage": the base colour's alpha
+/// is the factor's times the texture's (and `COLOR_0`'s), each in [0, 1], so the factor
+/// bounds it from above whatever the texture:
+/// - MASK: a fragment is drawn when its alpha is at least `alphaCutoff` (default 0.5); a
+///   factor below the cutoff cuts the whole surface away.
+/// - BLEND: a fragment's alpha is its coverage; a factor of 0 covers nothing, in every
+///   viewer. (Any other BLEND is treated as opaque: a patch cannot let part of the light
+///   through, and a surface a viewer shows should not vanish.)
+pub(super) fn cut_away(m: &gltf::Material) -> Option<String> {
+    let alpha = m.pbr_metallic_roughness().base_color_factor()[3];
+    let who = match (m.index(), m.name()) {
+        (Some(i), Some(n)) => format!("materials[{i}] '{n}'"),
+        (Some(i), None) => format!("materials[{i}]"),
+        (None, _) => return None,
+    };
+    match m.alpha_mode() {
+        gltf::material::AlphaMode::Mask => {
+            let cutoff = m.alpha_cutoff().unwrap_or(0.5);
+            (alpha < cutoff).then(|| {
+                format!(
+                    "{who} is alphaMode MASK with a base colour alpha {alpha} below its alphaCutoff {cutoff}: entirely cut away"
+                )
+            })
+        }
+        gltf::material::AlphaMode::Blend => (alpha == 0.0).then(|| {
+            format!("{who} is alphaMode BLEND with a base colour alpha of 0: entirely transparent")
+        }),
+        gltf::material::AlphaMode::Opaque => None,
     }
 }
 

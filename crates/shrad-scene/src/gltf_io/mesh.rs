@@ -1,5 +1,7 @@
 //! One mesh instance: each triangle primitive of a node's mesh becomes an object (positions,
-//! indices, texture coordinates, vertex colours, the shrad extras of the node and mesh).
+//! morphed by the weights at rest; indices, texture coordinates, vertex colours, the shrad
+//! extras of the node and mesh). A primitive whose material is seen nowhere (alpha, see
+//! `material::cut_away`) is left out with a warning.
 
 use glam::{Affine3A, Mat4, Vec3};
 use gltf::mesh::Mode;
@@ -103,13 +105,31 @@ impl Walk<'_> {
         // counter-clockwise from the front in its own frame, and the world normal is the
         // inverse transpose of the local one (glTF 2.0, "Transformations").
         let world_from_object = Affine3A::from_mat4(inst.world);
+        // The morph target weights at rest (glTF 2.0, "Morph Targets"): the node's, else the
+        // mesh's, else all 0. An animation of them is not played (`anim` warns).
+        let weights = inst
+            .node
+            .and_then(gltf::Node::weights)
+            .or(mesh.weights())
+            .unwrap_or(&[]);
         let n_prims = mesh.primitives().len();
         for prim in mesh.primitives() {
             let at = Place {
                 who: format!("meshes[{}].primitives[{}]", mesh.index(), prim.index()),
                 inst: format!(" ({})", inst.label),
             };
-            let Some(mut shape) = self.primitive_shape(&prim, &at).map_err(bad)? else {
+            if let Some(why) = super::material::cut_away(&prim.material()) {
+                let mesh_name = mesh
+                    .name()
+                    .map(|n| format!(" of mesh '{n}'"))
+                    .unwrap_or_default();
+                self.scene.warnings.push(format!(
+                    "{}{mesh_name}{}: skipped (it neither reflects nor blocks light): {why}",
+                    at.who, at.inst
+                ));
+                continue;
+            }
+            let Some(mut shape) = self.primitive_shape(&prim, weights, &at).map_err(bad)? else {
                 continue;
             };
             let reader = prim.reader(|b| self.buffers.get(b.index()).map(|d| d.0.as_slice()));
@@ -142,11 +162,13 @@ impl Walk<'_> {
         Ok(())
     }
 
-    /// The positions and triangles of a primitive (`at` names it in messages); None (with a
-    /// warning) when it has nothing to light: not triangles, empty or without POSITION.
+    /// The positions (morphed by `weights`, see [`Walk::morph`]) and triangles of a primitive
+    /// (`at` names it in messages); None (with a warning) when it has nothing to light: not
+    /// triangles, empty or without POSITION.
     fn primitive_shape(
         &mut self,
         prim: &gltf::Primitive,
+        weights: &[f32],
         at: &Place,
     ) -> Result<Option<Mesh>, String> {
         let (who, inst) = (&at.who, &at.inst);
@@ -181,7 +203,8 @@ impl Walk<'_> {
         }
         let buffers = self.buffers;
         let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.0.as_slice()));
-        let positions = read_positions(&reader, pos_acc.count(), at)?;
+        let mut positions = read_positions(&reader, pos_acc.count(), at)?;
+        self.morph(prim, weights, &mut positions, at)?;
         let indices = read_indices(&reader, prim, positions.len(), at)?;
         self.warn_primitive_restart(prim, &indices, at);
         if mode == Mode::Triangles && indices.len() % 3 != 0 {
@@ -370,9 +393,9 @@ impl Walk<'_> {
 
 /// How messages name a primitive: its JSON path `who` (`meshes[0].primitives[1]`) and the
 /// instance `inst` (` (nodes[2] 'lamp')`); a property's path goes between the two.
-struct Place {
-    who: String,
-    inst: String,
+pub(super) struct Place {
+    pub(super) who: String,
+    pub(super) inst: String,
 }
 
 impl Place {

@@ -26,6 +26,7 @@ mod container;
 mod lights;
 mod material;
 mod mesh;
+mod morph;
 mod unpack;
 mod validate;
 mod walk;

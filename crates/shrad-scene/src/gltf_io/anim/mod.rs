@@ -407,8 +407,14 @@ impl Reader<'_> {
         if let Some(why) = ignored {
             entry.ignored += 1;
             if anim.playing {
+                // Morph targets are applied with the weights at rest (`mesh.rs`).
+                let rest = if path == "weights" {
+                    " (morphed meshes keep their pose at rest: the node's weights, else the mesh's)"
+                } else {
+                    ""
+                };
                 self.warnings
-                    .push(format!("{} channel {ci} {why}: ignored", anim.label));
+                    .push(format!("{} channel {ci} {why}: ignored{rest}", anim.label));
             }
             return Ok(None);
         }
