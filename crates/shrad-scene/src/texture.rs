@@ -5,8 +5,9 @@
 //! a sample is made linear through a 256-entry table (exactly the sRGB decode of each 8-bit
 //! value, so nothing is lost for the 8-bit PNG and JPEG files glTF uses). A 4096 x 4096
 //! texture costs 48 MiB (f32 linear RGB would be 192 MiB, RGB f16 96 MiB). 16-bit PNGs are
-//! quantised to 8 bits (an error below 0.2 % of the sRGB value). Alpha is dropped (shrad
-//! ignores base-colour alpha). Materials that use the same image hold the same
+//! quantised to 8 bits (an error below 0.2 % of the sRGB value). Alpha is dropped: patches
+//! are opaque (a material cut away whole by `alphaMode` is left out before it gets here,
+//! `gltf_io/material.rs`). Materials that use the same image hold the same
 //! [`std::sync::Arc`].
 
 use std::sync::{Arc, OnceLock};
