@@ -206,10 +206,16 @@ fn one_box_gltf() -> Value {
         ..Default::default()
     };
     s.objects.push(Object::new("tet", mesh, light));
-    let dir = temp_dir("one_box");
+    // A folder of its own per call: the tests that call this run in parallel, and each
+    // `temp_dir` empties its folder first (a shared one failed a test now and then).
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = temp_dir(&format!("one_box-{}-{n}", std::process::id()));
     let p = dir.join("one.gltf");
     write_gltf(&s, &p).unwrap();
-    serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap()
+    let json = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    json
 }
 
 fn tet_world(m: Mat4) -> Vec<[Vec3; 3]> {
