@@ -12,6 +12,7 @@ mod default_camera;
 mod environment;
 mod gltf_animation;
 mod gltf_camera_animation;
+mod gltf_files_outside;
 mod gltf_lights;
 mod gltf_morph_alpha;
 mod io;

@@ -253,10 +253,12 @@ fn has_buffer_without_data(p: &Path) -> bool {
 
 /// `v` (the JSON of the .gltf `p`) with area: the first three vertices of every POSITION
 /// accessor the scene draws set to (0, 0, 0), (1, 0, 0), (0, 1, 0) by sparse values in a new
-/// data-URI buffer (in the accessor's component type), and relative URIs made absolute so
-/// the copy reads the same external files. Whatever else the file holds is unchanged: it
-/// shows whether shrad reads the rest of a file refused for [`ZERO_POSITIONS`].
-fn with_area(p: &Path, mut v: Value) -> Value {
+/// data-URI buffer (in the accessor's component type), and the external files it names
+/// copied into `out`, where the copy is written, so that it reads the same files (shrad
+/// reads only files in the folder of the glTF file and below). Whatever else the file holds
+/// is unchanged: it shows whether shrad reads the rest of a file refused for
+/// [`ZERO_POSITIONS`].
+fn with_area(p: &Path, mut v: Value, out: &Path) -> Value {
     let dir = p.parent().unwrap();
     for kind in ["buffers", "images"] {
         for item in v
@@ -266,7 +268,8 @@ fn with_area(p: &Path, mut v: Value) -> Value {
             .flatten()
         {
             if let Some(uri) = item["uri"].as_str().filter(|u| !u.starts_with("data:")) {
-                item["uri"] = Value::from(dir.join(uri).display().to_string());
+                // A file that is not there (or a URL) stays missing, as in the original.
+                let _ = std::fs::copy(dir.join(uri), out.join(uri));
             }
         }
     }
@@ -353,7 +356,7 @@ fn indices_all_zero(p: &Path) -> bool {
 /// Load `p` given area by [`with_area`] (written into `out`): None if it loads with objects,
 /// else why not (the error, or the warnings of an empty scene).
 fn load_with_area(p: &Path, out: &Path) -> Option<String> {
-    let v = with_area(p, json_of(p)?);
+    let v = with_area(p, json_of(p)?, out);
     let copy = out.join(p.file_name()?);
     std::fs::write(&copy, serde_json::to_vec(&v).ok()?).ok()?;
     let r = load(&copy, &LoadOptions::default());

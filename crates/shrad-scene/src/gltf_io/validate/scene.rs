@@ -234,6 +234,8 @@ impl JsonCheck<'_> {
         self.reference(self.root, "scene", "", "scenes")?;
         for (i, s) in array(self.root, "scenes", "")?.iter().enumerate() {
             let at = format!("scenes[{i}]");
+            // Where each node was listed first.
+            let mut listed = std::collections::HashMap::new();
             for (k, n) in self
                 .references(s, "nodes", &at, "nodes")?
                 .into_iter()
@@ -242,6 +244,13 @@ impl JsonCheck<'_> {
                 if let Some(p) = self.parents[n] {
                     return Err(format!(
                         "{at}.nodes[{k}]: node {n} is not a root node (it is a child of node {p})"
+                    ));
+                }
+                // The schema's uniqueItems: a node has at most one place in the scene's
+                // hierarchy, and listed twice it would be drawn twice on itself.
+                if let Some(first) = listed.insert(n, k) {
+                    return Err(format!(
+                        "{at}.nodes: node {n} is listed twice (at {first} and {k}; a scene's root nodes must be unique)"
                     ));
                 }
             }
