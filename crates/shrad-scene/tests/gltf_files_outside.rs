@@ -6,7 +6,9 @@
 use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};
-use shrad_scene::{load, LoadOptions, Scene, SceneError};
+use shrad_scene::{load, LoadOptions, Scene};
+
+use crate::common::err_of;
 
 /// A fresh empty temporary directory for one test.
 fn temp_dir(name: &str) -> PathBuf {
@@ -56,26 +58,6 @@ fn triangle_gltf(uri: &str) -> Value {
 
 fn write_gltf(path: &Path, v: &Value) {
     std::fs::write(path, serde_json::to_vec(v).unwrap()).unwrap();
-}
-
-/// What a user reads: the error and its causes, as the CLI prints them.
-fn err_of(r: Result<Scene, SceneError>) -> String {
-    match r {
-        Ok(s) => panic!(
-            "expected an error, got a scene of {} objects (warnings {:?})",
-            s.objects.len(),
-            s.warnings
-        ),
-        Err(e) => {
-            let mut msg = e.to_string();
-            let mut cause = std::error::Error::source(&e);
-            while let Some(c) = cause {
-                msg = format!("{msg}: {c}");
-                cause = c.source();
-            }
-            msg
-        }
-    }
 }
 
 fn loads_one_object(path: &Path) -> Scene {

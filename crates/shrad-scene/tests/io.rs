@@ -9,6 +9,8 @@ use shrad_scene::{
     Scene, SceneError,
 };
 
+use crate::common::err_of;
+
 fn scenes_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")
 }
@@ -100,25 +102,6 @@ fn assert_same_objects(want: &Scene, got: &Scene) {
             g.material.emitted_radiance
         );
         assert_eq!(w.role, g.role, "object '{}': role", w.name);
-    }
-}
-
-fn err_of(r: Result<Scene, SceneError>) -> String {
-    match r {
-        Ok(s) => panic!(
-            "expected an error, got a scene of {} objects",
-            s.objects.len()
-        ),
-        // What a user reads: the error and its causes, as the CLI prints them.
-        Err(e) => {
-            let mut msg = e.to_string();
-            let mut cause = std::error::Error::source(&e);
-            while let Some(c) = cause {
-                msg = format!("{msg}: {c}");
-                cause = c.source();
-            }
-            msg
-        }
     }
 }
 
