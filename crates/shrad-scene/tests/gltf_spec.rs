@@ -1741,7 +1741,8 @@ fn nodes_scaled_to_zero_are_left_out_and_tiny_ones_kept() {
 }
 
 /// A node scaled so far that areas overflow 32-bit floats is refused with an error that
-/// says so (it was "patch size inf must be a positive number", from the engine).
+/// says so (it was "patch size inf must be a positive number", from the engine), and so is
+/// one scaled so small that they vanish (it loaded as patches of no area).
 #[test]
 fn coordinates_too_large_for_f32_are_refused_saying_so() {
     let dir = temp_dir("huge-scale");
@@ -1754,6 +1755,14 @@ fn coordinates_too_large_for_f32_are_refused_saying_so() {
             &["world coordinates reach", "scale the scene down"],
         );
     }
+    // Nor too small: its areas would vanish.
+    let root = quad_with(|v| v["nodes"][0]["scale"] = json!([1e-30, 1e-30, 1e-30]));
+    assert_refused(
+        &dir,
+        "tiny.gltf",
+        &root,
+        &["world size is", "scale the scene up"],
+    );
     // A kilometre-wide scene in millimetres is fine.
     let root = quad_with(|v| v["nodes"][0]["scale"] = json!([1e6, 1e6, 1e6]));
     let p = write_json(&dir, "mm.gltf", &root);

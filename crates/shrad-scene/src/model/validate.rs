@@ -73,6 +73,13 @@ fn geometry_problem(o: &Object) -> Option<String> {
     let reach = o
         .world_bounds()
         .map_or(0.0, |b| b.min.abs().max(b.max.abs()).max_element());
+    let size = o.world_bounds().map_or(0.0, |b| b.diagonal());
+    if size < MIN_SIZE {
+        return Some(format!(
+            "its world size is {size:.1e}, below the {MIN_SIZE:.0e} under which 32-bit \
+             arithmetic of its areas loses them: scale the scene up"
+        ));
+    }
     if reach.is_nan() || reach > MAX_COORDINATE {
         return Some(format!(
             "its world coordinates reach {reach:.1e}, beyond the {MAX_COORDINATE:.0e} that \
@@ -86,6 +93,11 @@ fn geometry_problem(o: &Object) -> Option<String> {
 /// 1e24) stay far from the 3.4e38 where 32-bit floats overflow (a node scaled by 1e30 made
 /// every area infinite, and the first error was about an infinite patch size).
 pub(crate) const MAX_COORDINATE: f32 = 1e12;
+
+/// The smallest world size (box diagonal) an object may have: its patches' areas (down to
+/// about 1e-24) stay far from the 1e-38 below which 32-bit floats lose them (a node scaled
+/// by 1e-30 loaded as 12 patches of no area and a black picture).
+pub(crate) const MIN_SIZE: f32 = 1e-9;
 
 /// What is wrong with an object's texture coordinates, vertex colours or the texture
 /// coordinate sets its textures read, if anything.
