@@ -46,11 +46,34 @@ pub fn write_atomic(
         }
     }
     let tmp = temp_path(path).ok_or_else(|| fail("not a file path".into()))?;
-    let result = write(&tmp).and_then(|()| std::fs::rename(&tmp, path).map_err(|e| e.to_string()));
-    result.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        fail(e)
-    })
+    // A device or a pipe (`-o /dev/null`) is written into, from a temporary file in the
+    // temporary directory (its own may not be writable): a rename would put a regular file
+    // in its place, and as root `-o /dev/null` once did.
+    let special = is_special(path);
+    let tmp = match special {
+        true => std::env::temp_dir().join(tmp.file_name().unwrap_or_default()),
+        false => tmp,
+    };
+    let put = |tmp: &Path| match special {
+        true => copy_into(tmp, path),
+        false => std::fs::rename(tmp, path),
+    };
+    let result = write(&tmp).and_then(|()| put(&tmp).map_err(|e| e.to_string()));
+    let _ = std::fs::remove_file(&tmp);
+    result.map_err(fail)
+}
+
+/// Whether `path` is there and is neither a regular file nor a folder: a device, a pipe or
+/// a socket, which an output is written into rather than renamed over.
+fn is_special(path: &Path) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir())
+}
+
+/// Copy the finished file `from` into the device or pipe `to`.
+fn copy_into(from: &Path, to: &Path) -> std::io::Result<()> {
+    let mut src = std::fs::File::open(from)?;
+    let mut dst = std::fs::OpenOptions::new().write(true).open(to)?;
+    std::io::copy(&mut src, &mut dst).map(|_| ())
 }
 
 /// The hidden name [`StagedFiles`] writes `dest` under until it commits: in the same folder
@@ -110,11 +133,16 @@ impl StagedFiles {
     pub fn commit(mut self) -> Result<(), WriteError> {
         let files = std::mem::take(&mut self.files);
         for (i, (staged, dest)) in files.iter().enumerate() {
-            if let Err(e) = std::fs::rename(staged, dest) {
+            let put = match is_special(dest) {
+                true => copy_into(staged, dest).and_then(|()| std::fs::remove_file(staged)),
+                false => std::fs::rename(staged, dest),
+            };
+            if let Err(e) = put {
                 for (later, _) in &files[i..] {
                     let _ = std::fs::remove_file(later);
                 }
-                for (_, done) in &files[..i] {
+                // (Never a device or a pipe: only what this set renamed into place.)
+                for (_, done) in files[..i].iter().filter(|(_, d)| !is_special(d)) {
                     let _ = std::fs::remove_file(done);
                 }
                 return Err(WriteError {
@@ -187,6 +215,41 @@ mod tests {
         );
         assert_eq!(std::fs::read(&path).unwrap(), b"old");
         assert_eq!(entries(&d), ["out.csv"]);
+    }
+
+    /// A pipe (as `/dev/null` or `/dev/stdout` would be) is written into, and stays a pipe:
+    /// a rename put a regular file in place of `/dev/null` once. (A FIFO of its own, not
+    /// `/dev/null`: a failure must not break the machine.)
+    #[test]
+    fn a_device_or_pipe_is_written_into_not_replaced() {
+        use std::io::Read;
+        use std::os::unix::fs::FileTypeExt;
+        let d = dir("fifo");
+        let fifo = d.join("out.png");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        assert!(made.is_ok_and(|s| s.success()), "mkfifo");
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || {
+                let mut got = Vec::new();
+                std::fs::File::open(&fifo)
+                    .unwrap()
+                    .read_to_end(&mut got)
+                    .unwrap();
+                got
+            })
+        };
+        write_atomic(&fifo, |tmp| {
+            assert_eq!(tmp.extension().unwrap(), "png");
+            std::fs::write(tmp, b"picture").map_err(|e| e.to_string())
+        })
+        .unwrap();
+        // (Checked before the reader is joined: had the pipe been renamed over, its reader
+        // would wait for a writer for ever.)
+        let kind = std::fs::symlink_metadata(&fifo).unwrap().file_type();
+        assert!(kind.is_fifo(), "replaced by {kind:?}");
+        assert_eq!(entries(&d), ["out.png"], "no temporary file left beside it");
+        assert_eq!(reader.join().unwrap(), b"picture");
     }
 
     #[test]
