@@ -67,12 +67,32 @@ fn main() -> Result<()> {
     }
     println!("moving: {}", steps.mean());
     let moving_rate = frames as f64 / t.elapsed().as_secs_f64();
-    // Left where it is: the frames after the drag (the object's first full update at rest).
+    // Left where it is: the frames after the drag (the object's first full update at rest),
+    // as the engine takes them, then (after another drag) as the viewer does, under a budget
+    // of twice the drag's mean frame (`shrad_view::settle_budget_ms`).
+    let drag_ms = steps.ms[0] / steps.frames.max(1) as f64;
     let mut steps = StepTimes::default();
     for _ in 0..60 {
         steps.add(&engine.step());
     }
     println!("after the drag: {}", steps.mean());
+    for k in 0..120 {
+        let phase = (k as f32 * 0.05).sin();
+        engine.set_transform(
+            object,
+            Affine3A::from_translation(Vec3::X * reach * phase) * rest,
+        )?;
+        engine.step();
+    }
+    let budget = shrad_view::settle_budget_ms(drag_ms);
+    let mut steps = StepTimes::default();
+    for _ in 0..60 {
+        steps.add(&engine.step_within(budget)?);
+    }
+    println!(
+        "after the drag, as the viewer ({budget:.1} ms budget): {}",
+        steps.mean()
+    );
     println!(
         "{scene_name} at {} patches, dispersive default: {static_rate:.1} frames/s static, {moving_rate:.1} frames/s while '{}' moves every frame",
         engine.world().patches.len(),

@@ -31,6 +31,15 @@ const PROBE_PERIOD: Duration = Duration::from_millis(400);
 /// A frame is calm when the radiosity changed by less than this fraction (sum over patches
 /// and channels of the absolute change over the sum of the values).
 const CALM: f64 = 2e-4;
+/// The frames after a drag (or any change) stops that run under a budget
+/// ([`EngineLoop::step_engine`]): enough for a mover's full update at rest to be prepared.
+const SETTLE_FRAMES: usize = 60;
+
+/// The budget of the frames after a change stops ([`EngineLoop::step_engine`]): twice what a
+/// frame cost while it went on (`drag_ms`), within 8-50 ms.
+pub fn settle_budget_ms(drag_ms: f64) -> f32 {
+    (2.0 * drag_ms).clamp(8.0, 50.0) as f32
+}
 
 /// State shared between the engine thread and the clients.
 pub struct Shared {
@@ -118,6 +127,8 @@ pub struct EngineLoop {
     quiet_frames: usize,
     /// Consecutive frames whose radiosity changed by less than [`CALM`].
     calm_frames: usize,
+    /// What a frame cost while something changed (ms, a running mean; 0: none yet).
+    drag_ms: f64,
     /// The radiosity of the previous frame.
     previous: Vec<Vec3>,
     /// Frame start instants of the last second (GI updates per second).
@@ -162,6 +173,7 @@ impl EngineLoop {
             continuous: false,
             quiet_frames: 0,
             calm_frames: 0,
+            drag_ms: 0.0,
             previous: Vec::new(),
             recent: VecDeque::new(),
             direct: None,
@@ -226,12 +238,36 @@ impl EngineLoop {
             if let Some(t) = self.last_step.replace(start) {
                 self.loop_ms = start.duration_since(t).as_secs_f64() * 1e3;
             }
-            let stats = self.engine.step();
+            let stats = self.step_engine();
             self.quiet_frames += 1;
             self.note_change_of_radiosity();
             self.publish(Some(&stats));
         }
         self.shared.inbox.close();
+    }
+
+    /// One frame of the engine. The [`SETTLE_FRAMES`] frames after a change stops run under a
+    /// budget of twice what a frame cost while it went on ([`settle_budget_ms`]): a mover's first
+    /// full update at rest (its near field, probes and emitters at full resolution) is then
+    /// prepared a piece a frame (`shrad`'s `dispersive/prepare.rs`) instead of stalling the
+    /// view for one frame (the Cornell box at 20k patches: 42 ms after frames of 8.8 ms,
+    /// `examples/engine_rate.rs`). While something changes, and after, a frame is the
+    /// engine's own.
+    fn step_engine(&mut self) -> shrad::frame::FrameStats {
+        let changing = self.quiet_frames == 0;
+        let settling = !changing && self.quiet_frames <= SETTLE_FRAMES && self.drag_ms > 0.0;
+        let stats = match settling {
+            true => self.engine.step_within(settle_budget_ms(self.drag_ms)).ok(),
+            false => None,
+        }
+        .unwrap_or_else(|| self.engine.step());
+        if changing {
+            self.drag_ms = match self.drag_ms > 0.0 {
+                true => 0.8 * self.drag_ms + 0.2 * stats.frame_ms,
+                false => stats.frame_ms,
+            };
+        }
+        stats
     }
 
     /// Every object updated twice since the last change, and a whole pass of frames in which

@@ -44,6 +44,7 @@ pub mod protocol;
 pub mod solvers;
 
 pub use access::AccessOptions;
+pub use engine_loop::settle_budget_ms;
 use engine_loop::{EngineLoop, Shared};
 pub use inbox::InboxCounts;
 
