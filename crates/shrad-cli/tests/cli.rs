@@ -109,6 +109,39 @@ fn unknown_option_values_and_absurd_parameters() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("magic"));
 }
 
+/// Every output is checked before anything is solved: a second output that cannot be
+/// written, or one at the picture's own path, was found only after the picture was written
+/// (half the set left behind, or the EXR silently in place of the PNG); `--frames 0` drew
+/// an unlit picture.
+#[test]
+fn outputs_and_frames_are_checked_before_the_solve() {
+    cornell_fails_cleanly(&[
+        (&["--hdr", "/nonexistent-dir/x.exr"], "/nonexistent-dir"),
+        (
+            &["--export-patches", "/nonexistent-dir/p.csv"],
+            "/nonexistent-dir",
+        ),
+        (&["--solver", "dispersive", "--frames", "0"], "--frames"),
+    ]);
+    let dir = temp_dir("same-output");
+    let out = dir.join("same.png");
+    let o = shrad(&[
+        "render",
+        "cornell",
+        "-q",
+        "--patches",
+        "200",
+        "-o",
+        out.to_str().unwrap(),
+        "--hdr",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("is also -o's output"), "{stderr}");
+    assert!(!out.exists());
+}
+
 #[test]
 fn unwritable_output_leaves_nothing() {
     let o = shrad(&[

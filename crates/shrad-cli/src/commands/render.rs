@@ -105,7 +105,62 @@ fn check_picture(args: &RenderArgs) -> Result<()> {
             args.time
         );
     }
+    if let Some(frames) = args.frames.filter(|f| !(1..=100_000).contains(f)) {
+        bail!("--frames must be between 1 and 100000, got {frames}");
+    }
+    check_outputs(args)
+}
+
+/// The outputs, before anything is solved (a picture written and a second output refused
+/// afterwards left half the set): each in a folder that exists, no two at one path; a
+/// warning when a file's extension is not its format's.
+fn check_outputs(args: &RenderArgs) -> Result<()> {
+    let png = args
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output(&args.scene.scene));
+    let outputs = [
+        ("-o", Some(png), "png"),
+        ("--hdr", args.hdr.clone(), "exr"),
+        ("--export-patches", args.export_patches.clone(), "csv"),
+    ];
+    let given: Vec<(&str, PathBuf, &str)> = outputs
+        .into_iter()
+        .filter_map(|(flag, path, ext)| Some((flag, path?, ext)))
+        .collect();
+    for (k, (flag, path, ext)) in given.iter().enumerate() {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            if !dir.is_dir() {
+                bail!(
+                    "{flag} {}: the folder {} does not exist",
+                    path.display(),
+                    dir.display()
+                );
+            }
+        }
+        if let Some((other, _, _)) = given[..k].iter().find(|(_, p, _)| same_file(p, path)) {
+            bail!("{flag} {} is also {other}'s output", path.display());
+        }
+        let has = path.extension().map(|e| e.to_string_lossy().to_lowercase());
+        if has.as_deref() != Some(*ext) && !args.scene.quiet {
+            eprintln!(
+                "warning: {flag} {}: written as {} whatever its extension",
+                path.display(),
+                ext.to_uppercase()
+            );
+        }
+    }
     Ok(())
+}
+
+/// Whether two output paths name one file (as written, or once their folders are resolved).
+fn same_file(a: &Path, b: &Path) -> bool {
+    let resolved = |p: &Path| {
+        let dir = p.parent().filter(|d| !d.as_os_str().is_empty());
+        let dir = std::fs::canonicalize(dir.unwrap_or(Path::new("."))).ok()?;
+        Some(dir.join(p.file_name()?))
+    };
+    a == b || (resolved(a).is_some() && resolved(a) == resolved(b))
 }
 
 /// Run the frames of a solve on `engine` and report them unless `quiet` (also `bake`'s).
