@@ -39,23 +39,61 @@ fn a_room_is_seen_from_inside_and_a_closed_object_from_outside() {
     }
 }
 
-/// A model is framed from its front, the +Z side looking towards -Z, as glTF has it ("the
-/// front of an asset faces +Z"): from -Z a single-sided model facing +Z (Khronos' Triangle)
-/// showed only the backs of its faces, a picture of the sky alone.
+/// A model is framed from its front and above: the +Z side, as glTF has it ("the front of
+/// an asset faces +Z"; from -Z a single-sided model facing +Z, Khronos' Triangle, showed
+/// only the backs of its faces), raised so that a flat floor is not seen edge-on.
 #[test]
-fn a_model_is_framed_from_the_plus_z_side() {
+fn a_model_is_framed_from_the_plus_z_side_and_above() {
     let s = one_box(
         false,
         false,
         Affine3A::from_translation(Vec3::new(1.0, 2.0, 3.0)),
     );
     let camera = s.camera_or_default();
-    let eye = camera.world_from_camera.translation;
+    let eye = Vec3::from(camera.world_from_camera.translation);
     let forward = -Vec3::from(camera.world_from_camera.matrix3.z_axis);
     let b = s.bounds().unwrap();
     assert!(eye.z > b.max.z, "eye {eye} not on the +Z side of {b:?}");
-    assert!(forward.dot(Vec3::NEG_Z) > 0.999, "looks along {forward}");
+    assert!(eye.y > b.max.y, "eye {eye} not above {b:?}");
+    assert!(forward.z < -0.8 && forward.y < -0.3, "looks along {forward}");
     // Straight at the model's centre.
-    let to_centre = (b.centre() - Vec3::from(eye)).normalize();
+    let to_centre = (b.centre() - eye).normalize();
     assert!(forward.dot(to_centre) > 0.999, "{forward} vs {to_centre}");
+    // The whole box in view: every corner within the vertical field of view.
+    for k in 0..8 {
+        let corner = Vec3::select(
+            glam::BVec3::new(k & 1 != 0, k & 2 != 0, k & 4 != 0),
+            b.max,
+            b.min,
+        );
+        let angle = forward.angle_between(corner - eye);
+        assert!(angle < 0.5 * camera.yfov, "corner {corner} at {angle} rad");
+    }
+}
+
+/// A flat floor facing up (an OBJ plane at y = 0) is seen from above, not edge-on (a picture
+/// of the sky alone from the side).
+#[test]
+fn a_flat_floor_is_seen_from_above() {
+    let mut material = Material::diffuse(Vec3::splat(0.8));
+    material.double_sided = false;
+    let quad = shrad_scene::Mesh::new(
+        vec![
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(-1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, -1.0),
+        ],
+        vec![[0, 1, 2], [0, 2, 3]],
+    );
+    let s = Scene {
+        objects: vec![Object::new("floor", quad, material)],
+        ..Default::default()
+    };
+    let camera = s.camera_or_default();
+    let eye = Vec3::from(camera.world_from_camera.translation);
+    let forward = -Vec3::from(camera.world_from_camera.matrix3.z_axis);
+    // The floor's normal is +Y: the camera must be above it, looking down at it.
+    assert!(eye.y > 0.1, "eye {eye} level with the floor");
+    assert!(forward.dot(Vec3::NEG_Y) > 0.3, "looks along {forward}");
 }

@@ -34,18 +34,21 @@ impl Camera {
         }
     }
 
-    /// A camera that frames the box `(lo, hi)` from its front, for scenes that have none:
-    /// from the +Z side looking towards -Z, as glTF has it ("the front of an asset faces
-    /// +Z"; Blender's front view exported Y-up): a single-sided model seen from -Z shows
-    /// only the backs of its faces, which are not drawn (Khronos' Triangle was a picture of
-    /// the sky alone).
+    /// A camera that frames the box `(lo, hi)` for scenes that have none: from its front and
+    /// above, the +Z side raised by about 27 degrees, looking at its centre. The front, as
+    /// glTF has it ("the front of an asset faces +Z"; Blender's front view exported Y-up):
+    /// a single-sided model seen from -Z shows only the backs of its faces, which are not
+    /// drawn (Khronos' Triangle was a picture of the sky alone). Raised, so that a flat
+    /// floor or table top (y up) is seen from above rather than edge-on. The box's
+    /// bounding sphere fills the view's height.
     pub fn framing(lo: Vec3, hi: Vec3) -> Self {
         let centre = 0.5 * (lo + hi);
-        let ext = hi - lo;
+        let radius = 0.5 * (hi - lo).length();
         let yfov = 40f32.to_radians();
-        let radius = 0.5 * ext.x.max(ext.y);
-        let dist = radius / (0.5 * yfov).tan() + 0.5 * ext.z;
-        Camera::look_at(centre + Vec3::Z * dist * 1.05, centre, yfov)
+        // The distance at which the sphere fits the field of view exactly.
+        let dist = (radius / (0.5 * yfov).sin()).max(1e-6);
+        let towards_eye = Vec3::new(0.0, 0.5, 1.0).normalize();
+        Camera::look_at(centre + towards_eye * dist, centre, yfov)
     }
 }
 
