@@ -38,6 +38,12 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
                 ),
             });
         }
+        if opts.animation.is_some() {
+            return Err(SceneError::invalid(
+                path,
+                "an animation can be selected in a glTF file only (a built-in scene has none)",
+            ));
+        }
         let mut scene = builtin(&name)?;
         let source = std::path::PathBuf::from(&scene.source);
         finish(&mut scene, &source, opts)?;

@@ -57,6 +57,16 @@ pub(crate) fn light(d: &LightDef, i: usize) -> Result<Light, String> {
     if d.kind != Kind::Spot && (d.inner_cone_deg.is_some() || d.outer_cone_deg.is_some()) {
         return Err("only a spot light has cone angles".into());
     }
+    // The strength as written, before it becomes an intensity the user never wrote.
+    for (key, v) in [
+        ("power", d.power),
+        ("irradiance", d.irradiance),
+        ("intensity", d.intensity),
+    ] {
+        if let Some(v) = v.filter(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(format!("{key} {v} must be finite and >= 0"));
+        }
+    }
     let intensity = match (d.kind, d.power, d.irradiance, d.intensity) {
         (Kind::Directional, None, Some(e), None) => e * LUMENS_PER_WATT,
         (Kind::Point | Kind::Spot, Some(p), None, None) => {

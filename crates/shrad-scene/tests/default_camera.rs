@@ -55,7 +55,10 @@ fn a_model_is_framed_from_the_plus_z_side_and_above() {
     let b = s.bounds().unwrap();
     assert!(eye.z > b.max.z, "eye {eye} not on the +Z side of {b:?}");
     assert!(eye.y > b.max.y, "eye {eye} not above {b:?}");
-    assert!(forward.z < -0.8 && forward.y < -0.3, "looks along {forward}");
+    assert!(
+        forward.z < -0.8 && forward.y < -0.3,
+        "looks along {forward}"
+    );
     // Straight at the model's centre.
     let to_centre = (b.centre() - eye).normalize();
     assert!(forward.dot(to_centre) > 0.999, "{forward} vs {to_centre}");

@@ -551,6 +551,26 @@ corners = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]
 emission = [1, 1, 1]
 "#;
 
+/// Two objects of one name: the second could never be found by it (`Engine::object`,
+/// Python, the viewer), and was accepted silently. An animation asked of a built-in scene
+/// (which has none) was ignored silently too.
+#[test]
+fn a_name_twice_and_an_animation_of_a_builtin_are_errors() {
+    let dir = temp_dir("toml_dup");
+    let p = write_toml(&dir, "dup.toml", &format!("{GOOD_OBJECT}{GOOD_OBJECT}"));
+    assert_err_names(
+        load(&p, &opts()),
+        "dup.toml",
+        "the name 'lamp' is already object 0's",
+    );
+    let asked = LoadOptions {
+        animation: Some("walk".into()),
+        ..opts()
+    };
+    let msg = err_of(load(Path::new("cornell"), &asked));
+    assert!(msg.contains("a built-in scene has none"), "{msg}");
+}
+
 #[test]
 fn toml_errors_name_file_object_and_key() {
     let dir = temp_dir("toml_err");

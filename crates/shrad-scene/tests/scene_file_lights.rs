@@ -73,6 +73,9 @@ irradiance = 2.0
 fn bad_lights_name_the_file_the_light_and_the_line() {
     let cases = [
         ("neg.toml", "kind = \"point\"\nposition = [0, 1, 0]\nintensity = -1.0", "intensity"),
+        // The value as written (it was "intensity -543.5141", converted from the power).
+        ("negpower.toml", "kind = \"point\"\nposition = [0, 1, 0]\npower = -10", "power -10 must be"),
+        ("nanirr.toml", "kind = \"directional\"\ndirection = [0, -1, 0]\nirradiance = nan", "irradiance NaN must be"),
         ("both.toml", "kind = \"point\"\nposition = [0, 1, 0]\npower = 1.0\nintensity = 1.0", "one of"),
         (
             "cone.toml",

@@ -306,6 +306,15 @@ impl SceneBuilder {
         let shape = def
             .shape
             .ok_or("needs 'shape' (quad, box, sphere or mesh)")?;
+        // An object is found by its name (`Engine::object`, Python, the viewer): two of one
+        // name made the second unreachable, silently.
+        if let Some(name) = def.name.as_deref() {
+            if let Some(k) = self.scene.objects.iter().position(|o| o.name == name) {
+                return Err(format!(
+                    "the name '{name}' is already object {k}'s: names must be unique"
+                ));
+            }
+        }
         let objects = object::build(self, index, shape, def)?;
         if shape != Shape::Mesh {
             self.shape_triangles += objects
