@@ -299,6 +299,9 @@ fn check_face_indices(text: &str) -> Result<(), String> {
             so_far[k] += 1;
             continue;
         }
+        if key == "f" && !line.trim_end().ends_with('\\') {
+            check_face_shape(ln, words.clone())?;
+        }
         if !matches!(key, "f" | "l") || words.clone().count() < 3 {
             continue;
         }
@@ -329,6 +332,33 @@ fn check_face_indices(text: &str) -> Result<(), String> {
                     ));
                 }
             }
+        }
+    }
+    Ok(())
+}
+
+/// A face (line `ln`, 0-based, its vertices `words`) of at least 3 vertices, each starting
+/// with an index: tobj dropped a face of two silently (a file of such faces was "a scene with
+/// no objects") and said "face parse error" of a word that is not one, with no line. (A line
+/// continued with `\` is left to tobj.)
+fn check_face_shape<'a>(
+    ln: usize,
+    words: impl Iterator<Item = &'a str> + Clone,
+) -> Result<(), String> {
+    let n = words.clone().count();
+    if n < 3 {
+        return Err(format!(
+            "line {}: a face needs at least 3 vertices, this one has {n}",
+            ln + 1
+        ));
+    }
+    for w in words {
+        let index = w.split('/').next().unwrap_or("");
+        if index.parse::<isize>().is_err() {
+            return Err(format!(
+                "line {}: face vertex '{w}' does not start with a vertex index",
+                ln + 1
+            ));
         }
     }
     Ok(())

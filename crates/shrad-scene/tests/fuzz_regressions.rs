@@ -205,11 +205,15 @@ fn obj_face_indices_out_of_bounds_name_the_line() {
         );
     }
     assert_eq!(load_face("ok.obj", "f -3/-1/-1 2/1/1 3/0/0").unwrap(), 1);
-    // Two vertices are a line, ignored with its indices: the file has no triangle.
+    // A face of two vertices is not one (tobj read it as a line, and the file as one of no
+    // objects): an error naming the line, before its indices are looked at.
     let msg = load_face("two.obj", "f 1/9/-7 2/9/9")
         .unwrap_err()
         .to_string();
-    assert!(msg.contains("no objects"), "{msg}");
+    assert!(
+        msg.contains("line 6: a face needs at least 3 vertices"),
+        "{msg}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -770,6 +770,33 @@ fn index_out_of_range() {
     let p = dir.join("index.obj");
     std::fs::write(&p, "o panel\nv 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\nf 1 3 7\n").unwrap();
     assert_err_names(load(&p, &opts()), "index.obj", "out of bounds");
+    // A face of two vertices (tobj dropped it: "the scene has no objects") and one word
+    // that is no index (tobj: "face parse error", no line): both name their line.
+    for (name, face, fault) in [
+        (
+            "two.obj",
+            "f 1 2",
+            "line 5: a face needs at least 3 vertices, this one has 2",
+        ),
+        (
+            "word.obj",
+            "f 1 2 x",
+            "line 5: face vertex 'x' does not start with a vertex index",
+        ),
+    ] {
+        let p = dir.join(name);
+        let text = format!("o panel\nv 0 0 0\nv 1 0 0\nv 1 1 0\n{face}\n");
+        std::fs::write(&p, text).unwrap();
+        assert_err_names(load(&p, &opts()), name, fault);
+    }
+    // Faces of three or more, with texture and normal indices, negative ones, still load.
+    let p = dir.join("fine.obj");
+    let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3//1 -1\n";
+    std::fs::write(&p, text).unwrap();
+    assert_eq!(
+        load(&p, &opts()).unwrap().objects[0].mesh.triangles.len(),
+        2
+    );
 }
 
 #[test]
