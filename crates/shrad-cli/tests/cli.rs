@@ -37,6 +37,13 @@ fn fails_cleanly(scene: &Path, extra: &[&str], needle: &str) {
     );
 }
 
+/// `shrad render cornell -q --patches 200` with `extra`.
+fn render_small_cornell(extra: &[&str]) -> Output {
+    let mut args = vec!["render", "cornell", "-q", "--patches", "200"];
+    args.extend_from_slice(extra);
+    shrad(&args)
+}
+
 /// Rendering the Cornell box with each case's options fails cleanly, naming its needle.
 fn cornell_fails_cleanly(cases: &[(&[&str], &str)]) {
     for &(extra, needle) in cases {
@@ -125,34 +132,17 @@ fn outputs_and_frames_are_checked_before_the_solve() {
     ]);
     let dir = temp_dir("same-output");
     let out = dir.join("same.png");
-    let o = shrad(&[
-        "render",
-        "cornell",
-        "-q",
-        "--patches",
-        "200",
-        "-o",
-        out.to_str().unwrap(),
-        "--hdr",
-        out.to_str().unwrap(),
-    ]);
+    let out = out.to_str().unwrap();
+    let o = render_small_cornell(&["-o", out, "--hdr", out]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("is also -o's output"), "{stderr}");
-    assert!(!out.exists());
+    assert!(!Path::new(out).exists());
 }
 
 #[test]
 fn unwritable_output_leaves_nothing() {
-    let o = shrad(&[
-        "render",
-        "cornell",
-        "-q",
-        "--patches",
-        "200",
-        "-o",
-        "/nonexistent-dir/x.png",
-    ]);
+    let o = render_small_cornell(&["-o", "/nonexistent-dir/x.png"]);
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("/nonexistent-dir/x.png"));
 }

@@ -34,3 +34,12 @@ pub use obj_io::write_obj;
 pub use roles::infer_roles;
 pub use texture::{srgb_to_linear, Filter, Texture, TextureImage, UvTransform, Wrap};
 pub use write_atomic::{staged_path, write_atomic, StagedFiles, WriteError};
+
+/// A fresh empty folder `shrad-NAME-PID` in the temporary directory, for unit tests.
+#[cfg(test)]
+pub(crate) fn test_folder(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("shrad-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}

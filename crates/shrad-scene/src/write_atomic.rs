@@ -168,10 +168,7 @@ mod tests {
     use super::*;
 
     fn dir(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("shrad-write-{}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
+        crate::test_folder(&format!("write-{name}"))
     }
 
     fn entries(d: &Path) -> Vec<String> {

@@ -160,7 +160,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
         let dir = std::fs::canonicalize(dir.unwrap_or(Path::new("."))).ok()?;
         Some(dir.join(p.file_name()?))
     };
-    a == b || (resolved(a).is_some() && resolved(a) == resolved(b))
+    a == b || resolved(a).is_some_and(|a| resolved(b) == Some(a))
 }
 
 /// Run the frames of a solve on `engine` and report them unless `quiet` (also `bake`'s).

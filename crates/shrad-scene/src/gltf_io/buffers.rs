@@ -289,10 +289,7 @@ mod tests {
 
     /// A fresh empty folder for one test.
     fn folder(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("shrad-buffers-{}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
+        crate::test_folder(&format!("buffers-{name}"))
     }
 
     #[test]

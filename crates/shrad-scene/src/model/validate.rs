@@ -70,10 +70,10 @@ fn geometry_problem(o: &Object) -> Option<String> {
     {
         return Some("transform is not finite or is singular".into());
     }
-    let reach = o
-        .world_bounds()
-        .map_or(0.0, |b| b.min.abs().max(b.max.abs()).max_element());
-    let size = o.world_bounds().map_or(0.0, |b| b.diagonal());
+    // One pass over the vertices for both bounds.
+    let bounds = o.world_bounds();
+    let reach = bounds.map_or(0.0, |b| b.min.abs().max(b.max.abs()).max_element());
+    let size = bounds.map_or(0.0, |b| b.diagonal());
     if size < MIN_SIZE {
         return Some(format!(
             "its world size is {size:.1e}, below the {MIN_SIZE:.0e} under which 32-bit \
