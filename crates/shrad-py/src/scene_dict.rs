@@ -75,6 +75,7 @@ pub fn load_dict(
     .map_err(fail)?;
     let mut scene = build(definition, &source).map_err(fail)?;
     shrad::scene::infer_roles(&mut scene);
+    shrad::scene::warn_faces_turned_away(&mut scene);
     scene
         .validate(Path::new(&source), false)
         .map_err(|e| crate::to_py_err(e.into()))?;

@@ -31,7 +31,7 @@ pub use node_anim::{
     AnimationInfo, GraphNode, Interpolation, NodeAnimation, NodeGraph, NodeRest, Track, TrackValue,
 };
 pub use obj_io::write_obj;
-pub use roles::infer_roles;
+pub use roles::{infer_roles, warn_faces_turned_away};
 pub use texture::{srgb_to_linear, Filter, Texture, TextureImage, UvTransform, Wrap};
 pub use write_atomic::{staged_path, write_atomic, StagedFiles, WriteError};
 

@@ -70,6 +70,7 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
 /// Role inference, reflectance clamping and validation.
 fn finish(scene: &mut Scene, path: &Path, opts: &LoadOptions) -> Result<(), SceneError> {
     infer_roles(scene);
+    crate::roles::warn_faces_turned_away(scene);
     clamp_reflectance(scene);
     scene.validate(path, opts.drop_degenerate)
 }

@@ -195,7 +195,7 @@ impl Scene {
 /// Whether object `o`'s faces look, on the whole (weighted by area), towards `centre`: a
 /// room seen from inside rather than a closed object seen from outside. Its front is
 /// counter-clockwise in its own frame, so a mirroring transform turns it.
-fn faces_towards(o: &crate::Object, centre: Vec3) -> bool {
+pub(crate) fn faces_towards(o: &crate::Object, centre: Vec3) -> bool {
     let m = o.world_from_object;
     let side = if m.matrix3.determinant() < 0.0 {
         -1.0
