@@ -18,7 +18,7 @@ fn bake_lightmap_passes_the_validator_and_loads_in_three() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../validation/bake");
     assert!(
         root.join("node_modules/gltf-validator").is_dir(),
-        "validation/bake/node_modules is missing: run scripts/setup-python (npm ci there)"
+        "validation/bake/node_modules is missing: run scripts/setup-bake-validators (npm ci there)"
     );
     let v = Command::new("node")
         .arg(root.join("validate.mjs"))

@@ -23,7 +23,7 @@ def node_check(*files):
     if node is None:
         pytest.skip("node is not installed (the bake's validators run in node)")
     if not (VALIDATION / "node_modules" / "gltf-validator").is_dir():
-        pytest.fail("validation/bake/node_modules is missing: run scripts/setup-python (npm ci there)")
+        pytest.fail("validation/bake/node_modules is missing: run scripts/setup-bake-validators (npm ci there)")
     out = subprocess.run(
         [node, str(VALIDATION / "validate.mjs"), *map(str, files)],
         capture_output=True,
