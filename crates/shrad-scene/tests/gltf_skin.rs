@@ -559,7 +559,8 @@ fn a_skin_naming_a_missing_node_is_refused() {
 /// vertices say, and an animation turns its upper joint (nodes[2]). Its bounds, and those
 /// with nodes[2] turned 90 degrees about +z at rest (rotation [0, 0, 0.7071068, 0.7071068]),
 /// computed independently by a plain-Python skinning of the file (JSON, base64 and struct
-/// only: the joints' TRS composed, times the inverse bind matrices, blended by WEIGHTS_0):
+/// only: the joints' TRS composed, times the inverse bind matrices, blended by WEIGHTS_0;
+/// `tests/data/khronos/simple_skin_rest.py`):
 ///
 /// - as published: min (-0.5, 0, 0), max (0.5, 2, 0);
 /// - nodes[2] turned: min (-1, 0, 0), max (0.5, 1.5, 0); vertices 8 and 9 (weight 1 on
