@@ -15,6 +15,7 @@ mod gltf_camera_animation;
 mod gltf_files_outside;
 mod gltf_lights;
 mod gltf_morph_alpha;
+mod gltf_skin;
 mod io;
 mod lightmap_uvs;
 mod scene_file_lights;

@@ -1,7 +1,8 @@
 //! One mesh instance: each triangle primitive of a node's mesh becomes an object (positions,
-//! morphed by the weights at rest; indices, texture coordinates, vertex colours, the shrad
-//! extras of the node and mesh). A primitive whose material is seen nowhere (alpha, see
-//! `material::cut_away`) is left out with a warning.
+//! morphed by the weights at rest, then placed by the node's skin if it has one, see `skin`;
+//! indices, texture coordinates, vertex colours, the shrad extras of the node and mesh). A
+//! primitive whose material is seen nowhere (alpha, see `material::cut_away`) is left out
+//! with a warning.
 
 use glam::{Affine3A, Mat4, Vec3};
 use gltf::mesh::Mode;
@@ -66,6 +67,8 @@ pub(super) struct Instance<'a, 'd> {
     pub parent: Option<&'a gltf::Node<'d>>,
     /// The node's world transform.
     pub world: Mat4,
+    /// The node's skin, if it has one: its mesh is then placed by the skin (see `skin`).
+    pub skin: Option<usize>,
     /// How messages name the instance: `nodes[3] 'lamp'`, or `placed at the origin`.
     pub label: String,
 }
@@ -112,6 +115,7 @@ impl Walk<'_> {
             .and_then(gltf::Node::weights)
             .or(mesh.weights())
             .unwrap_or(&[]);
+        let skinning = self.skin_of(inst).map_err(bad)?;
         let n_prims = mesh.primitives().len();
         for prim in mesh.primitives() {
             let at = Place {
@@ -129,7 +133,11 @@ impl Walk<'_> {
                 ));
                 continue;
             }
-            let Some(mut shape) = self.primitive_shape(&prim, weights, &at).map_err(bad)? else {
+            let skinned = self.skinned(skinning.as_ref(), &prim, &at);
+            let Some(mut shape) = self
+                .primitive_shape(&prim, weights, skinned, &at)
+                .map_err(bad)?
+            else {
                 continue;
             };
             let reader = prim.reader(|b| self.buffers.get(b.index()).map(|d| d.0.as_slice()));
@@ -147,9 +155,13 @@ impl Walk<'_> {
                 base_name.clone()
             };
             let mut object = Object::new(name, shape, material);
-            object.world_from_object = world_from_object;
-            if let Some(node) = inst.node {
-                self.animate(&mut object, node.index());
+            // A skinned mesh is in world space already, and its node's animation does not
+            // move it (glTF 2.0, "Skins"; its joints' animation does not play: `skin_of`).
+            if skinned.is_none() {
+                object.world_from_object = world_from_object;
+                if let Some(node) = inst.node {
+                    self.animate(&mut object, node.index());
+                }
             }
             object.role = node_role.or(mesh_role);
             object.patch_size = node_patch.or(mesh_patch);
@@ -162,13 +174,15 @@ impl Walk<'_> {
         Ok(())
     }
 
-    /// The positions (morphed by `weights`, see [`Walk::morph`]) and triangles of a primitive
-    /// (`at` names it in messages); None (with a warning) when it has nothing to light: not
-    /// triangles, empty or without POSITION.
+    /// The positions (morphed by `weights`, see [`Walk::morph`], then placed by `skin` if
+    /// given, see `skin`) and triangles of a primitive (`at` names it in messages); None
+    /// (with a warning) when it has nothing to light: not triangles, empty or without
+    /// POSITION.
     fn primitive_shape(
         &mut self,
         prim: &gltf::Primitive,
         weights: &[f32],
+        skin: Option<&super::skin::Skinning>,
         at: &Place,
     ) -> Result<Option<Mesh>, String> {
         let (who, inst) = (&at.who, &at.inst);
@@ -205,6 +219,10 @@ impl Walk<'_> {
         let reader = prim.reader(|b| buffers.get(b.index()).map(|d| d.0.as_slice()));
         let mut positions = read_positions(&reader, pos_acc.count(), at)?;
         self.morph(prim, weights, &mut positions, at)?;
+        let mirrored = match skin {
+            Some(skin) => self.skin_positions(prim, skin, &mut positions, at)?,
+            None => Vec::new(),
+        };
         let indices = read_indices(&reader, prim, positions.len(), at)?;
         self.warn_primitive_restart(prim, &indices, at);
         if mode == Mode::Triangles && indices.len() % 3 != 0 {
@@ -213,7 +231,8 @@ impl Walk<'_> {
                 indices.len() % 3
             ));
         }
-        let triangles = to_triangles(mode, &indices);
+        let mut triangles = to_triangles(mode, &indices);
+        super::skin::keep_fronts(&mut triangles, &mirrored);
         if triangles.is_empty() {
             self.scene.warnings.push(format!(
                 "{who}{inst}: {} index(es) make no whole triangle: primitive skipped",

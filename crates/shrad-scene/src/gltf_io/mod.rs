@@ -2,7 +2,8 @@
 //!
 //! Import: every triangle primitive of every node of the default scene becomes one
 //! [`Object`](crate::Object) whose mesh is in the node's frame and whose `world_from_object` is the node's
-//! accumulated transform. Export: each object one node (matrix), one mesh, one material.
+//! accumulated transform (a skinned node's mesh: placed by its skin, in world space, with
+//! the identity; see `skin`). Export: each object one node (matrix), one mesh, one material.
 //!
 //! A file is read in this order, one file a step:
 //! - `container`: a GLB split into its JSON and BIN chunks;
@@ -14,7 +15,8 @@
 //! - `validate` again, once the gltf crate has the document: the values of the attributes
 //!   shrad does not use (normals, tangents, joints, weights), warnings only;
 //! - `anim`: the animations, into a node graph;
-//! - `walk`, `mesh`, `material`: the default scene's nodes walked into objects.
+//! - `walk`, `mesh`, `material`: the default scene's nodes walked into objects; `skin`
+//!   places the meshes of skinned nodes by their skins at rest (in world space).
 //!
 //! `write` is the exporter, on `builder` (accessors, buffer and GLB container), which
 //! `shrad::bake` writes its lit meshes with too.
@@ -27,6 +29,7 @@ mod lights;
 mod material;
 mod mesh;
 mod morph;
+mod skin;
 mod unpack;
 mod validate;
 mod walk;
@@ -225,50 +228,36 @@ fn placeholder_sources(root: &mut Value) {
     }
 }
 
-/// Take the animations (which `anim` reads from the raw JSON) and the skins (not read, with
-/// a warning) out of `root`, for the gltf crate; returns the animations.
-fn take_animations_and_skins(root: &mut Value, warnings: &mut Vec<String>) -> Vec<Value> {
-    let mut raw_animations = Vec::new();
-    if let Some(root) = root.as_object_mut() {
-        if let Some(Value::Array(a)) = root.remove("animations") {
-            raw_animations = a;
-        }
-        if root
-            .remove("skins")
-            .is_some_and(|s| s.as_array().is_some_and(|s| !s.is_empty()))
-        {
-            warnings.push(
-                "glTF skins ignored: skinned meshes stay in their bind pose (joints still move as nodes)".into(),
-            );
-        }
-        if let Some(Value::Array(nodes)) = root.get_mut("nodes") {
-            for n in nodes.iter_mut().filter_map(Value::as_object_mut) {
-                n.remove("skin");
-            }
-        }
+/// Take the animations (which `anim` reads from the raw JSON) out of `root`, for the gltf
+/// crate.
+fn take_animations(root: &mut Value) -> Vec<Value> {
+    match root.as_object_mut().and_then(|r| r.remove("animations")) {
+        Some(Value::Array(a)) => a,
+        _ => Vec::new(),
     }
-    raw_animations
 }
 
-/// The checked and unpacked JSON split three ways: what the reader needs of the raw JSON
+/// The checked and unpacked JSON split four ways: what the reader needs of the raw JSON
 /// later (accessors, bufferViews and textures: small, no buffer data), the raw animations
-/// (read by `anim`), and the document made acceptable to the gltf crate (which it takes
-/// uncopied: base64 buffers can be large). Animations are read by `anim` and skins are not
-/// read; both are left out of what the gltf crate sees, which would refuse some valid ones
-/// (an animation channel without a target node, as the specification allows).
-fn split_for_crate(mut value: Value, warnings: &mut Vec<String>) -> ForCrate {
+/// (read by `anim`), the skins (read by `skin`), and the document made acceptable to the
+/// gltf crate (which it takes uncopied: base64 buffers can be large). Animations and skins
+/// are left out of what the gltf crate sees, which would refuse some valid ones (an
+/// animation channel without a target node, as the specification allows).
+fn split_for_crate(mut value: Value) -> ForCrate {
     let kept = json!({
         "accessors": value["accessors"].clone(),
         "bufferViews": value["bufferViews"].clone(),
         "textures": value["textures"].clone(),
     });
-    let raw_animations = take_animations_and_skins(&mut value, warnings);
+    let raw_animations = take_animations(&mut value);
+    let skins = skin::FileSkins::take(&mut value);
     fill_position_bounds(&mut value);
     placeholder_sources(&mut value);
     let no_position = crate_compatible(&mut value);
     ForCrate {
         kept,
         raw_animations,
+        skins,
         root: value,
         no_position,
     }
@@ -278,6 +267,7 @@ fn split_for_crate(mut value: Value, warnings: &mut Vec<String>) -> ForCrate {
 struct ForCrate {
     kept: Value,
     raw_animations: Vec<Value>,
+    skins: skin::FileSkins,
     root: Value,
     /// Primitives without POSITION taken out.
     no_position: usize,
@@ -322,9 +312,10 @@ fn read_bytes(
     let ForCrate {
         kept,
         raw_animations,
+        mut skins,
         root,
         no_position,
-    } = split_for_crate(value, &mut warnings);
+    } = split_for_crate(value);
     // The gltf crate's own messages begin "invalid glTF: " already.
     let root: gltf::json::Root =
         serde_json::from_value(root).map_err(|e| bad(format!("invalid glTF: {e}")))?;
@@ -333,6 +324,7 @@ fn read_bytes(
     validate::check_values(&value_checks, &doc, &buffers, &mut warnings);
     let animations =
         anim::read(&raw_animations, &doc, &buffers, animation, &mut warnings).map_err(bad)?;
+    skins.place(&doc);
     let mut cx = walk::Walk {
         path,
         base,
@@ -351,6 +343,7 @@ fn read_bytes(
         texels_left: crate::texture::MAX_FILE_TEXELS,
         materials: std::collections::HashMap::new(),
         file_lights,
+        skins,
         skipped: walk::Skipped {
             no_position,
             ..Default::default()

@@ -35,6 +35,8 @@ pub(super) struct Walk<'a> {
     pub(super) materials: HashMap<Option<usize>, Material>,
     /// The file's punctual lights and which node instances which.
     pub(super) file_lights: super::lights::FileLights,
+    /// The file's skins and each node's, with every node's rest transform.
+    pub(super) skins: super::skin::FileSkins,
     /// What the walk skipped, for the message when nothing is left to light.
     pub(super) skipped: Skipped,
 }
@@ -171,11 +173,16 @@ impl Walk<'_> {
         if let Some(&Some(l)) = self.file_lights.node_light.get(node.index()) {
             self.light(l, node.index(), world);
         }
-        if let Some(mesh) = node.mesh().filter(|_| !self.hidden(&world, &node_label)) {
+        // A skinned mesh is placed by its skin, whatever the node's own transform (glTF 2.0,
+        // "Skins"): a zero scale there hides nothing.
+        let skin = self.skins.of_node(node.index());
+        let drawn = |w: &mut Self| skin.is_some() || !w.hidden(&world, &node_label);
+        if let Some(mesh) = node.mesh().filter(|_| drawn(self)) {
             let inst = super::mesh::Instance {
                 node: Some(&node),
                 parent: parent_node,
                 world,
+                skin,
                 label: node_label,
             };
             self.mesh(&inst, &mesh)?;
@@ -255,6 +262,7 @@ impl Walk<'_> {
                 node: None,
                 parent: None,
                 world: Mat4::IDENTITY,
+                skin: None,
                 label: "placed at the origin".into(),
             };
             self.mesh(&inst, &m)?;

@@ -2,8 +2,9 @@
 //! the animations that play, read into a [`NodeGraph`]. The raw JSON of `animations` was
 //! checked for references by the reader (`validate::check_json`); the rest is checked here,
 //! where the accessor data is at hand: sampler interpolation, accessor types, key counts,
-//! key times finite and strictly increasing, values finite. Morph-target weights, skins and
-//! `KHR_animation_pointer` channels are ignored with a warning.
+//! key times finite and strictly increasing, values finite. Morph-target weights and
+//! `KHR_animation_pointer` channels are ignored with a warning (and a skinned mesh is drawn
+//! at rest, see `skin`, with a warning when its joints are animated).
 
 use std::sync::Arc;
 

@@ -7,8 +7,9 @@
 //! accessor without data (an attribute, its indices, a morph target; for a Draco primitive,
 //! its compressed stream) is marked with [`MARK`] and the reason, skipped with a warning by
 //! the walk (`mesh.rs`) and left alone by the decoders here; an animation sampler that reads
-//! one is marked likewise and skipped by `anim`. Nothing else reads an accessor (skins are
-//! not read), so an accessor without data is never read.
+//! one is marked likewise and skipped by `anim`. Only a skin's inverse bind matrices are
+//! read elsewhere (`skin`, for a skinned mesh the scene draws): without data, that is an error
+//! saying so. No other accessor without data is read.
 
 use serde_json::{json, Value};
 

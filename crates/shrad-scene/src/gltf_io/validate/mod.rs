@@ -17,7 +17,7 @@ mod lint_layout;
 mod scene;
 mod values;
 
-pub(super) use values::{check as check_values, plan as plan_values};
+pub(super) use values::{check as check_values, plan as plan_values, Floats};
 
 use serde_json::Value;
 

@@ -1,6 +1,8 @@
-//! Warning-only rules (see `lint`) on the values of attributes shrad does not use: NORMAL
-//! and TANGENT (shrad computes face normals) and JOINTS_n / WEIGHTS_n (shrad does not
-//! skin). Every primitive of every mesh is checked, drawn or not, whatever its mode, as the
+//! Warning-only rules (see `lint`) on the values of attributes shrad does not use or uses
+//! only where a skin uses them: NORMAL and TANGENT (shrad computes face normals) and
+//! JOINTS_n / WEIGHTS_n (read by `skin` for the meshes a skinned node draws, which refuses
+//! what it cannot skin with: a joint beyond the skin with a weight, weights all zero; the
+//! rest is warned of here, for every mesh). Every primitive of every mesh is checked, drawn or not, whatever its mode, as the
 //! Khronos glTF-Validator checks them; one warning for each accessor and broken rule, with
 //! how many elements break it and the first.
 //!
@@ -120,8 +122,8 @@ pub(in crate::gltf_io) fn plan(root: &Value, zeros: &[usize]) -> ValueChecks {
 }
 
 /// The elements of an N-component accessor as f64 (normalized integers converted as glTF 2.0,
-/// "Animations" and `KHR_mesh_quantization`, say).
-enum Floats<'s, const N: usize>
+/// "Animations" and `KHR_mesh_quantization`, say). `skin` reads the weights it skins with so.
+pub(in crate::gltf_io) enum Floats<'s, const N: usize>
 where
     [f32; N]: Item,
     [i8; N]: Item,
@@ -146,7 +148,11 @@ where
 {
     /// The reader of `acc` if it has N components, floats or normalized integers of a type
     /// `signed` allows (else the attribute-type lint has warned, and its values are not read).
-    fn new<'a, F>(acc: &gltf::Accessor<'a>, get: F, signed: bool) -> Option<Self>
+    pub(in crate::gltf_io) fn new<'a, F>(
+        acc: &gltf::Accessor<'a>,
+        get: F,
+        signed: bool,
+    ) -> Option<Self>
     where
         F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
     {
