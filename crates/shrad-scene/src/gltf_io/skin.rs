@@ -16,9 +16,11 @@
 //! Refused, naming the file, the primitive and the node: a joint index beyond the skin's
 //! joints with a non-zero weight (one with a zero weight contributes nothing; `validate`
 //! warns of it), inverse bind matrices fewer than the joints (more are allowed: glTF 2.0
-//! asks at least one for each joint) or not MAT4 FLOAT, and a blended matrix that is
-//! singular or not finite. A skin whose joints name nodes that do not exist is refused by
-//! `validate` before.
+//! asks at least one for each joint) or not MAT4 FLOAT, and a blended matrix that is not
+//! finite. A skin whose joints name nodes that do not exist is refused by `validate` before.
+//! A singular blended matrix (a joint scaled to zero at rest: how a rig hides a part, as a
+//! node scaled to zero is hidden) flattens its vertices where it puts them, with a warning;
+//! the triangles it leaves without area are dropped as every degenerate glTF triangle is.
 //!
 //! A vertex whose weights are all zero breaks glTF 2.0 (they sum to 1), but a valid file
 //! may have them: an accessor without bufferView is all zeros, and the glTF-Validator does
@@ -285,6 +287,7 @@ impl Walk<'_> {
         let sets = self.influences(prim, positions.len(), at)?;
         let mut mirrored = Vec::with_capacity(positions.len());
         let mut unweighted = (0, None);
+        let mut flattened = (0, None);
         for (k, p) in positions.iter_mut().enumerate() {
             let m = match blend(&sets, k, &skin.joints) {
                 Ok(Some(m)) => m,
@@ -302,12 +305,14 @@ impl Walk<'_> {
                 }
             };
             let m3 = Mat3::from_mat4(m);
-            if !m.is_finite() || crate::model::is_singular(&m3) {
+            if !m.is_finite() {
                 return Err(format!(
-                    "{who}{inst}: the blended skinning matrix of vertex {k} is {} (determinant {}): the vertex cannot be placed",
-                    if m.is_finite() { "singular" } else { "not finite" },
-                    m3.determinant()
+                    "{who}{inst}: the blended skinning matrix of vertex {k} is not finite: the vertex cannot be placed"
                 ));
+            }
+            if crate::model::is_singular(&m3) {
+                flattened.0 += 1;
+                flattened.1.get_or_insert(k);
             }
             *p = m.transform_point3(*p);
             mirrored.push(m3.determinant() < 0.0);
@@ -317,6 +322,12 @@ impl Walk<'_> {
             self.scene.warnings.push(format!(
                 "{who}.attributes.{}{inst}: {n} of {} vertices have every weight zero (first: vertex {k}); a skinned vertex's weights sum to 1 (glTF 2.0, Skins): they are left unskinned, placed by the node's own transform",
                 sets.collect::<Vec<_>>().join(" + "),
+                positions.len()
+            ));
+        }
+        if let (n, Some(k)) = flattened {
+            self.scene.warnings.push(format!(
+                "{who}{inst}: the blended skinning matrix of {n} of {} vertices is singular (first: vertex {k}; a joint scaled to zero at rest, as a rig hides a part): they are placed flattened, and triangles left without area are dropped",
                 positions.len()
             ));
         }
