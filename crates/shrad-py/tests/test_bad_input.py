@@ -71,6 +71,16 @@ def test_converge_still_settles_the_dispersive_light(cornell):
     np.testing.assert_allclose(e.radiosity.sum(), before.sum(), rtol=2e-4)
 
 
+@pytest.mark.parametrize("write", [shrad.write_exr, shrad.write_png])
+def test_a_picture_too_large_to_write_is_refused_before_it_is_copied(write, tmp_path):
+    # A broadcast view costs numpy nothing; its copy (120 GB) aborted the process.
+    huge = np.broadcast_to(np.zeros(3, np.float32), (100_000, 100_000, 3))
+    path = tmp_path / "huge.exr"
+    with pytest.raises(ValueError, match="100000x100000 pixels: a side may be at most 16384"):
+        write(path, huge)
+    assert not path.exists()
+
+
 def test_objects_by_a_bad_index_or_type(cornell):
     e = shrad.Engine(cornell, solver="reference", preset="fast")
     n = len(cornell.objects)
