@@ -128,6 +128,18 @@ def test_a_bad_budget_is_refused_by_every_solver(cornell, solver):
     assert e.frames == 1
 
 
+def test_numpy_scalars_are_numbers_as_settings(cornell):
+    # A sweep over np.arange gives numpy scalars: they were "expected a number, got int64".
+    e = shrad.Engine(cornell, "dispersive", cube_res=np.int64(8), probe_margin=np.float32(0.25), splat_smoothing=np.bool_(False))
+    assert (e.option("cube_res"), e.option("splat_smoothing")) == ("8", "false")
+    assert float(e.option("probe_margin")) == 0.25
+    e.set_option("cube_res", np.uint16(16))
+    assert e.option("cube_res") == "16"
+    for bad in [np.complex64(1), [8], None]:
+        with pytest.raises(ValueError, match="setting cube_res: expected a number, a bool or a string"):
+            e.set_option("cube_res", bad)
+
+
 OWN_POOL_TWO_THREADS = """
 import threading, shrad
 e = shrad.Engine(shrad.load("cornell", patches=1500), solver="grid", threads=2)
