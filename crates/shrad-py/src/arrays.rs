@@ -61,9 +61,9 @@ pub fn read_vec3s(a: &PyArrayLike2<'_, f32, AllowTypeChange>, what: &str) -> PyR
     })
 }
 
-/// `(M, 3)` vertex indices (any integer dtype numpy can cast to uint32 safely).
-pub fn read_triangles(
-    a: &PyArrayLike2<'_, i64, AllowTypeChange>,
+/// `(M, 3)` vertex indices (`T` int64 or uint64, to which numpy casts the other integers).
+pub fn read_triangles<T: numpy::Element + Copy + Into<i128>>(
+    a: &PyArrayLike2<'_, T, AllowTypeChange>,
     vertices: usize,
     what: &str,
 ) -> PyResult<Vec<[u32; 3]>> {
@@ -78,8 +78,8 @@ pub fn read_triangles(
     for (t, r) in view.rows().into_iter().enumerate() {
         let mut tri = [0u32; 3];
         for k in 0..3 {
-            let i = r[k];
-            if i < 0 || i as u64 >= vertices as u64 {
+            let i: i128 = r[k].into();
+            if i < 0 || i >= vertices as i128 {
                 return Err(PyValueError::new_err(format!(
                     "{what}: triangle {t} has vertex index {i} out of range ({vertices} vertices)"
                 )));

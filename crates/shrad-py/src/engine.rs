@@ -11,20 +11,11 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use shrad::engine::Engine;
 use shrad::render::{RenderOptions, Shading};
-use shrad::scene::Camera;
 
+use crate::args::{self, ObjRef};
 use crate::arrays;
 use crate::scene::PyScene;
 use crate::to_py_err;
-
-/// An object by name or by index.
-#[derive(FromPyObject)]
-pub enum ObjRef {
-    /// Its index in `Scene.objects`.
-    Index(usize),
-    /// Its name.
-    Name(String),
-}
 
 /// The live engine over one scene: a patched world and one solver.
 ///
@@ -52,11 +43,23 @@ pub struct PyEngine {
 
 impl PyEngine {
     /// Run `f` on the engine with the GIL released.
+    /// The lock is taken on the calling thread, outside the engine's own pool: a thread that
+    /// waits for it inside the pool held one of the pool's workers, and with `threads=2` a
+    /// second Python thread's call during a frame hung both for good.
     fn with<T: Send>(&self, py: Python<'_>, f: impl FnOnce(&mut Engine) -> T + Send) -> T {
-        py.detach(|| match &self.pool {
-            Some(pool) => pool.install(|| f(&mut self.lock())),
-            None => f(&mut self.lock()),
+        py.detach(|| {
+            let mut guard = self.lock();
+            let e: &mut Engine = &mut guard;
+            self.on_pool(|| f(e))
         })
+    }
+
+    /// Run `f` in the engine's own thread pool, if it has one.
+    fn on_pool<T: Send>(&self, f: impl FnOnce() -> T + Send) -> T {
+        match &self.pool {
+            Some(pool) => pool.install(f),
+            None => f(),
+        }
     }
 
     fn lock(&self) -> MutexGuard<'_, Engine> {
@@ -65,76 +68,62 @@ impl PyEngine {
         self.inner.lock().unwrap_or_else(|e| e.into_inner())
     }
 
+    /// `Engine::converge` with the GIL released, taking it back between frames to run the
+    /// Python signal handlers on the calling thread (the library's loop would hold Ctrl-C
+    /// back until the last frame). The engine stays locked throughout, so another thread's
+    /// calls wait for the end as before (no deadlock: every call releases the GIL before
+    /// it waits for the lock). The same frames: `frames_to_converge`, then for the
+    /// dispersive solver up to `MAX_SETTLING_FRAMES` until one changes the radiosity by at
+    /// most `SETTLED` (relative, L1), as `Engine::converge_with_progress` steps them.
+    fn converge_interruptible(
+        &self,
+        py: Python<'_>,
+        passes: usize,
+    ) -> PyResult<Vec<shrad::frame::FrameStats>> {
+        use shrad::engine::{MAX_SETTLING_FRAMES, SETTLED};
+        let signals = || Python::attach(|py| py.check_signals());
+        py.detach(|| {
+            let mut guard = self.lock();
+            let e: &mut Engine = &mut guard;
+            let frames = e.frames_to_converge(passes);
+            let mut stats = Vec::with_capacity(frames);
+            for _ in 0..frames {
+                stats.push(self.on_pool(|| e.step()));
+                signals()?;
+            }
+            if e.solver_choice().name() != "dispersive" {
+                return Ok(stats);
+            }
+            let mut previous = e.radiosity().to_vec();
+            for _ in 0..MAX_SETTLING_FRAMES {
+                stats.push(self.on_pool(|| e.step()));
+                let now = e.radiosity();
+                let (change, total) =
+                    now.iter()
+                        .zip(&previous)
+                        .fold((0f64, 0f64), |(c, t), (a, b)| {
+                            let d = (*a - *b).abs().element_sum() as f64;
+                            (c + d, t + a.element_sum() as f64)
+                        });
+                if change <= SETTLED * total {
+                    break;
+                }
+                previous.copy_from_slice(now);
+                signals()?;
+            }
+            Ok(stats)
+        })
+    }
+
     fn object(&self, py: Python<'_>, obj: &ObjRef) -> PyResult<usize> {
         match obj {
             ObjRef::Index(i) => {
                 let n = self.with(py, |e| e.world().scene.objects.len());
-                if *i >= n {
-                    return Err(PyValueError::new_err(format!(
-                        "object index {i} out of range ({n} objects)"
-                    )));
-                }
-                Ok(*i)
+                ObjRef::index_within(*i, n, "object")
             }
             ObjRef::Name(name) => self.with(py, |e| e.object(name)).map_err(to_py_err),
         }
     }
-}
-
-/// A camera from `{"eye": [..], "target": [..], "yfov_deg": 40}`.
-pub fn camera_from(d: &Bound<'_, PyDict>) -> PyResult<Camera> {
-    let get3 = |k: &str| -> PyResult<Option<Vec3>> {
-        match d.get_item(k)? {
-            None => Ok(None),
-            Some(v) => {
-                let a: [f32; 3] = v.extract().map_err(|_| {
-                    PyValueError::new_err(format!("camera '{k}' must be [x, y, z]"))
-                })?;
-                Ok(Some(Vec3::from(a)))
-            }
-        }
-    };
-    for k in d.keys() {
-        let k: String = k.extract()?;
-        if !["eye", "target", "yfov_deg", "aspect_ratio"].contains(&k.as_str()) {
-            return Err(PyValueError::new_err(format!(
-                "camera: unknown key '{k}' (known: eye, target, yfov_deg, aspect_ratio)"
-            )));
-        }
-    }
-    let eye = get3("eye")?.ok_or_else(|| PyValueError::new_err("camera needs 'eye'"))?;
-    let target = get3("target")?.ok_or_else(|| PyValueError::new_err("camera needs 'target'"))?;
-    let yfov: f32 = d.get_item("yfov_deg")?.map_or(Ok(40.0), |v| v.extract())?;
-    if !(eye.is_finite() && target.is_finite()) || (eye - target).length() < 1e-9 {
-        return Err(PyValueError::new_err(
-            "camera: eye and target must be finite and apart",
-        ));
-    }
-    if !(yfov > 0.0 && yfov < 180.0) {
-        return Err(PyValueError::new_err(format!(
-            "camera: yfov_deg {yfov} must be between 0 and 180"
-        )));
-    }
-    let mut c = Camera::look_at(eye, target, yfov.to_radians());
-    c.aspect_ratio = d
-        .get_item("aspect_ratio")?
-        .map(|v| v.extract())
-        .transpose()?;
-    Ok(c)
-}
-
-fn backend(name: &str) -> PyResult<shrad::vis::Backend> {
-    use shrad::vis::Backend;
-    Ok(match name {
-        "auto" => Backend::Auto,
-        "embree" => Backend::Embree,
-        "bvh" => Backend::Bvh,
-        _ => {
-            return Err(PyValueError::new_err(format!(
-                "backend '{name}' is not auto, embree or bvh"
-            )))
-        }
-    })
 }
 
 #[pymethods]
@@ -165,7 +154,7 @@ impl PyEngine {
             }
         };
         let choice = crate::settings::choice(solver, preset, settings)?;
-        let backend = self::backend(backend)?;
+        let backend = args::backend(backend)?;
         let (scene, sizing) = (scene.scene.as_ref().clone(), scene.sizing);
         let build = || Engine::new(scene, sizing, backend, choice);
         let engine = py
@@ -299,7 +288,10 @@ impl PyEngine {
         intensity: Option<f32>,
     ) -> PyResult<()> {
         let l = match &light {
-            ObjRef::Index(i) => *i,
+            ObjRef::Index(i) => {
+                let n = self.with(py, |e| e.world().scene.lights.len());
+                ObjRef::index_within(*i, n, "light")?
+            }
             ObjRef::Name(name) => self.with(py, |e| e.light(name)).map_err(to_py_err)?,
         };
         let m = match matrix {
@@ -347,24 +339,32 @@ impl PyEngine {
     fn step<'py>(&self, py: Python<'py>, budget_ms: Option<f32>) -> PyResult<Bound<'py, PyAny>> {
         let stats = match budget_ms {
             None => self.with(py, |e| Ok(e.step())),
+            // Checked here for every solver (the library checks the dispersive's only).
+            Some(ms) if !(ms.is_finite() && ms > 0.0) => Err(shrad::Error::Invalid(format!(
+                "budget_ms must be a positive number, got {ms}"
+            ))),
             Some(ms) => self.with(py, |e| e.step_within(ms)),
         }
         .map_err(to_py_err)?;
         crate::to_py(py, &stats)
     }
 
-    /// Frames a static scene needs to converge: every object updated ``passes`` times.
+    /// Frames a static scene needs to converge: every object updated ``passes`` times
+    /// (0 to 1000).
     #[pyo3(signature = (passes=2))]
-    fn frames_to_converge(&self, py: Python<'_>, passes: usize) -> usize {
-        self.with(py, |e| e.frames_to_converge(passes))
+    fn frames_to_converge(&self, py: Python<'_>, passes: i64) -> PyResult<usize> {
+        let passes = args::passes(passes)?;
+        Ok(self.with(py, |e| e.frames_to_converge(passes)))
     }
 
-    /// Step until a static scene has converged (every object updated ``passes`` times, then,
-    /// for the dispersive solver, until a frame changes the radiosity by less than 1e-4);
-    /// the statistics of every frame.
+    /// Step until a static scene has converged (every object updated ``passes`` times, 0 to
+    /// 1000, then, for the dispersive solver, until a frame changes the radiosity by less
+    /// than 1e-4); the statistics of every frame. Ctrl-C (KeyboardInterrupt) stops it
+    /// between two frames, the engine whole.
     #[pyo3(signature = (passes=2))]
-    fn converge<'py>(&self, py: Python<'py>, passes: usize) -> PyResult<Bound<'py, PyAny>> {
-        let stats = self.with(py, |e| e.converge(passes));
+    fn converge<'py>(&self, py: Python<'py>, passes: i64) -> PyResult<Bound<'py, PyAny>> {
+        let passes = args::passes(passes)?;
+        let stats = self.converge_interruptible(py, passes)?;
         crate::to_py(py, &stats)
     }
 
@@ -495,13 +495,14 @@ impl PyEngine {
     fn render<'py>(
         &self,
         py: Python<'py>,
-        width: u32,
-        height: u32,
-        spp: u32,
+        width: i64,
+        height: i64,
+        spp: i64,
         camera: Option<&Bound<'py, PyDict>>,
         shading: &str,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let camera = camera.map(camera_from).transpose()?;
+        let (width, height, spp) = args::image_size(width, height, spp)?;
+        let camera = camera.map(args::camera_from).transpose()?;
         let shading = match shading {
             "smooth" => Shading::Smooth,
             "flat" => Shading::Flat,
@@ -562,9 +563,10 @@ impl PyEngine {
         path: std::path::PathBuf,
         time: Option<f32>,
         frames: Option<usize>,
-        passes: usize,
+        passes: i64,
         exposure: Option<f32>,
     ) -> PyResult<Bound<'py, PyAny>> {
+        let passes = args::passes(passes)?;
         let options = shrad::bake::BakeOptions {
             time,
             frames,

@@ -22,6 +22,7 @@ fn image_from(a: &Bound<'_, PyAny>) -> PyResult<Image> {
             "image must have shape (H, W, 3) with H, W >= 1, got {shape:?}"
         )));
     }
+    check_size(shape[1], shape[0])?;
     let view = a.as_array();
     let pixels: Vec<Vec3> = match view.as_slice() {
         Some(s) => bytemuck::cast_slice::<f32, Vec3>(s).to_vec(),
@@ -37,6 +38,30 @@ fn image_from(a: &Bound<'_, PyAny>) -> PyResult<Image> {
         emitter: vec![false; pixels.len()],
         pixels,
     })
+}
+
+/// Refuse a picture larger than any the library renders, or than memory holds, before it
+/// is copied: a (100000, 100000, 3) array (a broadcast view costs numpy nothing) would abort
+/// the process in the allocator. The copy and the encoder's buffers: 3 floats a pixel twice,
+/// and a margin.
+fn check_size(width: usize, height: usize) -> PyResult<()> {
+    use shrad::limits::{available_bytes, MAX_IMAGE_SIDE};
+    if width.max(height) > MAX_IMAGE_SIDE as usize {
+        return Err(PyValueError::new_err(format!(
+            "image of {width}x{height} pixels: a side may be at most {MAX_IMAGE_SIDE}"
+        )));
+    }
+    let need = (width * height) as u64 * 36;
+    let available = available_bytes();
+    if need > available {
+        return Err(PyValueError::new_err(format!(
+            "image of {width}x{height} pixels would need about {:.1} GiB of memory to write \
+             ({:.1} GiB available)",
+            need as f64 / (1u64 << 30) as f64,
+            available as f64 / (1u64 << 30) as f64
+        )));
+    }
+    Ok(())
 }
 
 /// Write a linear OpenEXR (RGB, 32-bit float) of an (H, W, 3) picture such as

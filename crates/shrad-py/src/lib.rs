@@ -9,6 +9,7 @@ use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyPermissionError, PyValu
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
+mod args;
 mod arrays;
 mod engine;
 mod images;

@@ -63,7 +63,12 @@ pub fn load_dict(
     patch_size: Option<f32>,
 ) -> PyResult<PyScene> {
     let source: String = match definition.get_item("name")? {
-        Some(n) => n.extract()?,
+        Some(n) => n.extract().map_err(|_| {
+            pyo3::exceptions::PyTypeError::new_err(format!(
+                "the scene's 'name' must be a string, got {}",
+                n.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+            ))
+        })?,
         None => "<dict>".to_string(),
     };
     let fail = |m: String| PyValueError::new_err(format!("{source}: {m}"));
@@ -294,12 +299,21 @@ fn mesh_data(d: &Bound<'_, PyDict>) -> Result<Option<Mesh>, String> {
         (Some(_), None) => return Err("mesh data needs 'triangles' (M, 3)".into()),
     };
     let positions = vec3s(&positions, "positions")?;
-    let triangles: PyArrayLike2<'_, i64, AllowTypeChange> = arrays::aligned(&triangles)
-        .map_err(|e| e.to_string())?
-        .extract()
-        .map_err(|e| format!("'triangles' must be an (M, 3) array of integers: {e}"))?;
-    let triangles = arrays::read_triangles(&triangles, positions.len(), "'triangles'")
-        .map_err(|e| e.to_string())?;
+    let triangles = table_of(&triangles, "triangles", "iu")?;
+    let unsigned64 = triangles
+        .getattr("dtype")
+        .and_then(|d| d.getattr("str"))
+        .is_ok_and(|s| s.to_string().ends_with("u8"));
+    let message = |e: PyErr| e.value(d.py()).to_string();
+    let triangles = if unsigned64 {
+        // uint64 indices read as they are (as int64 the largest would wrap to negatives).
+        let t: PyArrayLike2<'_, u64, AllowTypeChange> = triangles.extract().map_err(message)?;
+        arrays::read_triangles(&t, positions.len(), "'triangles'")
+    } else {
+        let t: PyArrayLike2<'_, i64, AllowTypeChange> = triangles.extract().map_err(message)?;
+        arrays::read_triangles(&t, positions.len(), "'triangles'")
+    }
+    .map_err(message)?;
     let mut mesh = Mesh::new(positions, triangles);
     if let Some(colors) = colors {
         let colors = vec3s(&colors, "colors")?;
@@ -323,9 +337,47 @@ fn mesh_data(d: &Bound<'_, PyDict>) -> Result<Option<Mesh>, String> {
 
 /// An `(N, 3)` array of numbers named `what`.
 fn vec3s(a: &Bound<'_, PyAny>, what: &str) -> Result<Vec<glam::Vec3>, String> {
-    let a: PyArrayLike2<'_, f32, AllowTypeChange> = arrays::aligned(a)
-        .map_err(|e| e.to_string())?
+    let a: PyArrayLike2<'_, f32, AllowTypeChange> = table_of(a, what, "iuf")?
         .extract()
-        .map_err(|e| format!("'{what}' must be an (N, 3) array of numbers: {e}"))?;
-    arrays::read_vec3s(&a, &format!("'{what}'")).map_err(|e| e.to_string())
+        .map_err(|e: PyErr| e.value(a.py()).to_string())?;
+    arrays::read_vec3s(&a, &format!("'{what}'")).map_err(|e| e.value(a.py()).to_string())
+}
+
+/// `a` as a numpy array of rows of 3, checked before any conversion: its shape, and its
+/// dtype's kind among `kinds` (numpy's letters: `i` signed and `u` unsigned integers, `f`
+/// floats), so that float indices are not truncated nor complex numbers cut to their real
+/// part without a word.
+fn table_of<'py>(
+    a: &Bound<'py, PyAny>,
+    what: &str,
+    kinds: &str,
+) -> Result<Bound<'py, PyAny>, String> {
+    let rows = if kinds.contains('f') { "N" } else { "M" };
+    let kind = if kinds.contains('f') {
+        "numbers"
+    } else {
+        "integers"
+    };
+    let fail = |m: String| format!("'{what}' must be an ({rows}, 3) array of {kind}: {m}");
+    let array = a
+        .py()
+        .import("numpy")
+        .and_then(|np| np.call_method1("asarray", (arrays::aligned(a)?,)))
+        .map_err(|e| fail(e.value(a.py()).to_string()))?;
+    let shape: Vec<usize> = array
+        .getattr("shape")
+        .and_then(|s| s.extract())
+        .map_err(|e| fail(e.to_string()))?;
+    if shape.len() != 2 || shape[1] != 3 {
+        return Err(fail(format!("got shape {shape:?}")));
+    }
+    let dtype = array.getattr("dtype").map_err(|e| fail(e.to_string()))?;
+    let k: String = dtype
+        .getattr("kind")
+        .and_then(|k| k.extract())
+        .map_err(|e| fail(e.to_string()))?;
+    if !kinds.contains(k.as_str()) {
+        return Err(fail(format!("got dtype {dtype}")));
+    }
+    Ok(array)
 }

@@ -6,15 +6,13 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString};
 use shrad::solver::SolverChoice;
 
-/// A Python value as the text a setting parses (`True` -> `true`, `0.5` -> `0.5`).
+/// A Python value as the text a setting parses (`True` -> `true`, `0.5` -> `0.5`). numpy
+/// scalars count as the numbers they are (`np.int64(16)`, `np.float32(0.5)`, `np.bool_`),
+/// as a sweep over `np.arange(...)` gives them.
 pub fn value_text(key: &str, v: &Bound<'_, PyAny>) -> PyResult<String> {
-    if v.is_instance_of::<PyBool>() {
-        return Ok(if v.extract::<bool>()? {
-            "true"
-        } else {
-            "false"
-        }
-        .to_string());
+    let ty = v.get_type().name()?.to_string();
+    if v.is_instance_of::<PyBool>() || ty == "bool" || ty == "bool_" {
+        return Ok(if v.is_truthy()? { "true" } else { "false" }.to_string());
     }
     if v.is_instance_of::<PyInt>()
         || v.is_instance_of::<PyFloat>()
@@ -22,9 +20,15 @@ pub fn value_text(key: &str, v: &Bound<'_, PyAny>) -> PyResult<String> {
     {
         return Ok(v.str()?.to_string());
     }
+    // An integer type (`__index__`) as its int, a real one (`__float__`) as its float.
+    if v.hasattr("__index__")? {
+        return Ok(v.call_method0("__index__")?.str()?.to_string());
+    }
+    if v.hasattr("__float__")? && !ty.contains("complex") {
+        return Ok(v.call_method0("__float__")?.str()?.to_string());
+    }
     Err(PyValueError::new_err(format!(
-        "setting {key}: expected a number, a bool or a string, got {}",
-        v.get_type().name()?
+        "setting {key}: expected a number, a bool or a string, got {ty}"
     )))
 }
 

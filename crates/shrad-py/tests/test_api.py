@@ -295,7 +295,14 @@ def test_a_toml_file_and_a_dict_make_the_same_scene(tmp_path):
         (lambda d: d["objects"][1].update(colour=[1, 1, 1]), "object 1 'lamp': unknown field `colour`"),
         (lambda d: d["objects"][0].update(corners=[[0, 0, 0]] * 4), "'corners' does not apply to shape 'box'"),
         (lambda d: d["objects"][2].update(triangles=np.array([[0, 1, 99]])), "vertex index 99 out of range"),
-        (lambda d: d["objects"][2].update(positions=np.zeros((4, 2))), "shape (N, 3)"),
+        (lambda d: d["objects"][2].update(positions=np.zeros((4, 2))), "'positions' must be an (N, 3) array of numbers: got shape [4, 2]"),
+        (lambda d: d["objects"][2].update(positions=np.zeros(72)), "'positions' must be an (N, 3) array of numbers: got shape [72]"),
+        (lambda d: d["objects"][2].update(positions=np.zeros((24, 3), complex)), "numbers: got dtype complex128"),
+        # Float indices were truncated (0.7 -> 0), NaN became index -9223372036854775808.
+        (lambda d: d["objects"][2].update(triangles=d["objects"][2]["triangles"] + 0.7), "integers: got dtype float64"),
+        (lambda d: d["objects"][2].update(triangles=np.ones((2, 3), bool)), "integers: got dtype bool"),
+        (lambda d: d["objects"][2].update(triangles=np.array([[0, 1, 2**64 - 1]], np.uint64)), "vertex index 18446744073709551615 out of range"),
+        (lambda d: d["objects"][2].update(triangles=np.array([[0, 1, -1]])), "'triangles': triangle 0 has vertex index -1 out of range (24 vertices)"),
         (lambda d: d["objects"][1].update(emission=[-1, 0, 0]), "emission must be >= 0"),
         (lambda d: d["objects"][2].update(reflectance=[1.5, 0, 0]), "reflectance"),
         (lambda d: d["objects"][2].update(key=[{"time": math.inf}]), "key 0: time must be finite"),
@@ -308,6 +315,12 @@ def test_bad_dicts_raise_value_error_naming_what(change, message):
     with pytest.raises(ValueError, match="py-room") as info:
         shrad.load_dict(d)
     assert message in str(info.value)
+    assert "Error:" not in str(info.value), "a message, not a nested exception's repr"
+
+
+def test_a_dict_names_its_name_when_it_is_no_string():
+    with pytest.raises(TypeError, match="the scene's 'name' must be a string, got 3"):
+        shrad.load_dict({**room_dict(), "name": 3})
 
 
 def test_a_gltf_without_its_bin_is_file_not_found_naming_both(tmp_path):

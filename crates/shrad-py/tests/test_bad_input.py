@@ -1,0 +1,167 @@
+"""Bad input from a demanding user: each is a clear Python exception naming what is wrong,
+never a panic, an abort in the allocator, or a call that cannot be stopped."""
+
+import signal
+import time
+
+import numpy as np
+import pytest
+
+import shrad
+
+
+def test_passes_are_bounded_not_an_abort(cornell, tmp_path):
+    e = shrad.Engine(cornell, solver="dispersive")
+    # converge(10**9) asked the allocator for 528 GB of frame statistics up front and
+    # aborted the process; 2**62 was a PanicException (capacity overflow).
+    for passes in [10**9, 2**62, -1]:
+        with pytest.raises(ValueError, match=f"passes must be between 0 and 1000, got {passes}"):
+            e.converge(passes)
+        with pytest.raises(ValueError, match="passes must be between"):
+            e.frames_to_converge(passes)
+        with pytest.raises(ValueError, match="passes must be between"):
+            e.bake(tmp_path / "out.glb", passes=passes)
+    assert not (tmp_path / "out.glb").exists()
+    assert e.frames == 0
+    assert e.frames_to_converge(1000) == 1000 * e.frames_to_converge(1)
+
+
+class Interrupted(Exception):
+    pass
+
+
+def test_a_signal_stops_converge_between_frames(cornell):
+    # Ctrl-C is SIGINT, whose handler raises KeyboardInterrupt: the library's converge loop
+    # held every handler back until its last frame. Here SIGALRM's handler raises instead
+    # (a KeyboardInterrupt that escaped would stop pytest), by the same path.
+    e = shrad.Engine(cornell, solver="grid")  # a whole frame of probes each time
+    t = time.perf_counter()
+    e.step()
+    frame = time.perf_counter() - t
+    passes = 20
+
+    def handler(*_):
+        raise Interrupted
+
+    old = signal.signal(signal.SIGALRM, handler)
+    try:
+        signal.setitimer(signal.ITIMER_REAL, 1.5 * frame)
+        t = time.perf_counter()
+        with pytest.raises(Interrupted):
+            e.converge(passes)
+        stopped = time.perf_counter() - t
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+    assert 1 < e.frames < 1 + passes, e.frames
+    assert stopped < 5 * frame + 1.0, (stopped, frame)
+    # The engine is whole: a frame in progress ends before the handler runs.
+    e.step()
+    assert np.isfinite(e.radiosity).all()
+
+
+def test_converge_still_settles_the_dispersive_light(cornell):
+    e = shrad.Engine(cornell, solver="dispersive")
+    stats = e.converge(2)
+    # Every object twice, then frames until the light settles (fewer than 256).
+    assert e.frames_to_converge(2) < len(stats) < e.frames_to_converge(2) + 256
+    assert [s["frame"] for s in stats] == list(range(len(stats)))
+    before = e.radiosity
+    e.step()
+    np.testing.assert_allclose(e.radiosity.sum(), before.sum(), rtol=2e-4)
+
+
+@pytest.mark.parametrize("write", [shrad.write_exr, shrad.write_png])
+def test_a_picture_too_large_to_write_is_refused_before_it_is_copied(write, tmp_path):
+    # A broadcast view costs numpy nothing; its copy (120 GB) aborted the process.
+    huge = np.broadcast_to(np.zeros(3, np.float32), (100_000, 100_000, 3))
+    path = tmp_path / "huge.exr"
+    with pytest.raises(ValueError, match="100000x100000 pixels: a side may be at most 16384"):
+        write(path, huge)
+    assert not path.exists()
+
+
+def test_objects_by_a_bad_index_or_type(cornell):
+    e = shrad.Engine(cornell, solver="reference", preset="fast")
+    n = len(cornell.objects)
+    for bad in [-1, n, 2**70]:
+        with pytest.raises(ValueError, match=f"object index {bad} out of range \\({n} objects\\)"):
+            e.set_transform(bad, np.eye(4))
+        with pytest.raises(ValueError, match=f"object index {bad} out of range"):
+            e.transform(bad)
+        with pytest.raises(ValueError, match=f"object index {bad} out of range"):
+            e.set_emission(bad, [0, 0, 0])
+    with pytest.raises(ValueError, match="light index -1 out of range \\(0 lights\\)"):
+        e.set_light(-1)
+    for bad in [1.0, None, True, [0]]:
+        with pytest.raises(TypeError, match="an object is a name \\(str\\) or an index \\(int\\), got"):
+            e.transform(bad)
+    np.testing.assert_array_equal(e.transform(np.int64(1)), e.transform(1))
+
+
+def test_render_sizes_and_cameras(cornell):
+    e = shrad.Engine(cornell, solver="reference", preset="fast")
+    with pytest.raises(ValueError, match="image size -1x10 with 4 samples per pixel: each must be at least 1"):
+        e.render(-1, 10)
+    with pytest.raises(ValueError, match="image size 8x8 with -2 samples"):
+        e.render(8, 8, spp=-2)
+    with pytest.raises(ValueError, match="image size 8589934592x8: a side may be at most 16384"):
+        e.render(2**33, 8)
+    cam = {"eye": [278, 273, -800], "target": [278, 273, 0]}
+    for a in [0, -1, float("nan"), float("inf")]:
+        with pytest.raises(ValueError, match="aspect_ratio .* must be a positive number"):
+            e.render(8, 8, camera={**cam, "aspect_ratio": a})
+    with pytest.raises(ValueError, match="camera 'yfov_deg' must be a number, got '40'"):
+        e.render(8, 8, camera={**cam, "yfov_deg": "40"})
+    assert e.render(8, 8, spp=1, camera={**cam, "aspect_ratio": 2.0}).shape == (8, 8, 3)
+
+
+@pytest.mark.parametrize("solver", ["dispersive", "grid", "reference"])
+def test_a_bad_budget_is_refused_by_every_solver(cornell, solver):
+    # The dispersive solver refused these; the grid and the reference took them.
+    e = shrad.Engine(cornell, solver=solver, preset="fast" if solver == "reference" else "default")
+    for ms in [-1.0, 0.0, float("nan"), float("inf")]:
+        with pytest.raises(ValueError, match="must be a positive number"):
+            e.step(ms)
+    assert e.frames == 0
+    e.step(50.0)
+    assert e.frames == 1
+
+
+def test_numpy_scalars_are_numbers_as_settings(cornell):
+    # A sweep over np.arange gives numpy scalars: they were "expected a number, got int64".
+    e = shrad.Engine(cornell, "dispersive", cube_res=np.int64(8), probe_margin=np.float32(0.25), splat_smoothing=np.bool_(False))
+    assert (e.option("cube_res"), e.option("splat_smoothing")) == ("8", "false")
+    assert float(e.option("probe_margin")) == 0.25
+    e.set_option("cube_res", np.uint16(16))
+    assert e.option("cube_res") == "16"
+    for bad in [np.complex64(1), [8], None]:
+        with pytest.raises(ValueError, match="setting cube_res: expected a number, a bool or a string"):
+            e.set_option("cube_res", bad)
+
+
+OWN_POOL_TWO_THREADS = """
+import threading, shrad
+e = shrad.Engine(shrad.load("cornell", patches=1500), solver="grid", threads=2)
+seen = []
+readers = [threading.Timer(0.25 * k, lambda: seen.append(e.radiosity.shape)) for k in (1, 2)]
+for r in readers:
+    r.start()
+for _ in range(4):
+    e.step()
+for r in readers:
+    r.join()
+assert len(seen) == len(readers), seen
+print("ok", e.frames)
+"""
+
+
+def test_an_engine_with_its_own_threads_serves_two_python_threads():
+    # A call waiting for the engine took the lock inside the engine's own pool, holding a
+    # worker: with threads=2 the other thread's frame and the waiting call hung for good.
+    # In a child process, so that a hang fails the test instead of stalling the suite.
+    import subprocess
+    import sys
+
+    run = subprocess.run([sys.executable, "-c", OWN_POOL_TWO_THREADS], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0 and run.stdout.startswith("ok 4"), (run.stdout, run.stderr[-2000:])
