@@ -69,49 +69,22 @@ impl PyEngine {
     }
 
     /// `Engine::converge` with the GIL released, taking it back between frames to run the
-    /// Python signal handlers on the calling thread (the library's loop would hold Ctrl-C
-    /// back until the last frame). The engine stays locked throughout, so another thread's
-    /// calls wait for the end as before (no deadlock: every call releases the GIL before
-    /// it waits for the lock). The same frames: `frames_to_converge`, then for the
-    /// dispersive solver up to `MAX_SETTLING_FRAMES` until one changes the radiosity by at
-    /// most `SETTLED` (relative, L1), as `Engine::converge_with_progress` steps them.
+    /// Python signal handlers on the calling thread (the library's loop alone would hold
+    /// Ctrl-C back until the last frame): `Engine::converge_by` with a step that checks them.
+    /// The engine stays locked throughout, so another thread's calls wait for the end as
+    /// before (no deadlock: every call releases the GIL before it waits for the lock).
     fn converge_interruptible(
         &self,
         py: Python<'_>,
         passes: usize,
     ) -> PyResult<Vec<shrad::frame::FrameStats>> {
-        use shrad::engine::{MAX_SETTLING_FRAMES, SETTLED};
-        let signals = || Python::attach(|py| py.check_signals());
         py.detach(|| {
             let mut guard = self.lock();
-            let e: &mut Engine = &mut guard;
-            let frames = e.frames_to_converge(passes);
-            let mut stats = Vec::with_capacity(frames);
-            for _ in 0..frames {
-                stats.push(self.on_pool(|| e.step()));
-                signals()?;
-            }
-            if e.solver_choice().name() != "dispersive" {
-                return Ok(stats);
-            }
-            let mut previous = e.radiosity().to_vec();
-            for _ in 0..MAX_SETTLING_FRAMES {
-                stats.push(self.on_pool(|| e.step()));
-                let now = e.radiosity();
-                let (change, total) =
-                    now.iter()
-                        .zip(&previous)
-                        .fold((0f64, 0f64), |(c, t), (a, b)| {
-                            let d = (*a - *b).abs().element_sum() as f64;
-                            (c + d, t + a.element_sum() as f64)
-                        });
-                if change <= SETTLED * total {
-                    break;
-                }
-                previous.copy_from_slice(now);
-                signals()?;
-            }
-            Ok(stats)
+            guard.converge_by(passes, |e| {
+                let stats = self.on_pool(|| e.step());
+                Python::attach(|py| py.check_signals())?;
+                Ok(stats)
+            })
         })
     }
 

@@ -416,16 +416,35 @@ impl Engine {
         passes: usize,
         progress: &dyn Progress,
     ) -> Vec<FrameStats> {
-        let frames = self.solver.frames_to_converge(passes);
-        let mut stats: Vec<FrameStats> = (0..frames)
-            .map(|_| self.step_with_progress(progress))
-            .collect();
+        let step =
+            |e: &mut Engine| Ok::<_, std::convert::Infallible>(e.step_with_progress(progress));
+        match self.converge_by(passes, step) {
+            Ok(stats) => stats,
+            Err(never) => match never {},
+        }
+    }
+
+    /// [`Engine::converge`] with each frame stepped by `step`, whose error ends the run
+    /// there (a front end's interruption: Python's Ctrl-C is seen between frames, on the
+    /// calling thread). The frames a front end needs no copy of: [`Engine::frames_to_converge`],
+    /// then for the dispersive solver up to [`MAX_SETTLING_FRAMES`] until one changes the
+    /// radiosity by at most [`SETTLED`] (relative, L1). The statistics grow a frame at a
+    /// time (a count of frames far beyond what can be stepped allocates nothing up front).
+    pub fn converge_by<E>(
+        &mut self,
+        passes: usize,
+        mut step: impl FnMut(&mut Engine) -> Result<FrameStats, E>,
+    ) -> Result<Vec<FrameStats>, E> {
+        let mut stats = Vec::new();
+        for _ in 0..self.solver.frames_to_converge(passes) {
+            stats.push(step(self)?);
+        }
         if !matches!(self.solver, Solver::Dispersive(_)) {
-            return stats;
+            return Ok(stats);
         }
         let mut previous = self.radiosity().to_vec();
         for _ in 0..MAX_SETTLING_FRAMES {
-            stats.push(self.step_with_progress(progress));
+            stats.push(step(self)?);
             let now = self.radiosity();
             let (change, total) = now
                 .iter()
@@ -441,7 +460,7 @@ impl Engine {
             }
             previous.copy_from_slice(now);
         }
-        stats
+        Ok(stats)
     }
 
     /// The radiosity `B` of every patch (linear RGB, W/m^2).

@@ -106,7 +106,7 @@ impl Solver {
     pub fn frames_to_converge(&self, passes: usize) -> usize {
         match self {
             Solver::Reference { .. } => 1,
-            Solver::Dispersive(d) => passes * d.frames_per_pass(),
+            Solver::Dispersive(d) => passes.saturating_mul(d.frames_per_pass()),
             Solver::Grid(_) => passes,
         }
     }

@@ -52,3 +52,40 @@ fn steering_by_transforms_matches_the_same_keyframes() {
     assert!((a - b).abs() < 1e-4, "{a} vs {b}");
     assert!(a < 0.15, "error {a}");
 }
+
+/// `converge_by` steps the frames `converge` does (the same count, the same light), and an
+/// error from its step ends the run at that frame (how a front end stops it: Python's
+/// Ctrl-C).
+#[test]
+fn converge_by_steps_what_converge_does_and_stops_at_an_error() {
+    let make = || {
+        let choice = SolverChoice::Dispersive(DispersiveOptions::improved());
+        let scene = shrad::scene::cornell_box();
+        Engine::new(scene, PatchSizing::Count(1500), Backend::Auto, choice).unwrap()
+    };
+    let (mut a, mut b) = (make(), make());
+    let want = a.converge(2);
+    let got = b.converge_by(2, |e| Ok::<_, ()>(e.step())).unwrap();
+    assert_eq!(want.len(), got.len());
+    assert!(
+        want.len() > b.frames_to_converge(2),
+        "no settling frames to compare"
+    );
+    // The same light up to the float noise of parallel sums (rayon splits as it steals).
+    let worst = (a.radiosity().iter().zip(b.radiosity()))
+        .map(|(x, y)| (*x - *y).abs().max_element() / (1e-3 + y.max_element()))
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-4, "radiosity differs by {worst}");
+    let mut c = make();
+    let mut stepped = 0;
+    let stop = c.converge_by(2, |e| {
+        stepped += 1;
+        let stats = e.step();
+        if stepped == 3 {
+            return Err("stop");
+        }
+        Ok(stats)
+    });
+    assert_eq!(stop.err(), Some("stop"));
+    assert_eq!((stepped, c.frames()), (3, 3));
+}
