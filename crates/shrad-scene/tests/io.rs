@@ -624,15 +624,21 @@ fn toml_errors_name_file_object_and_key() {
         "radius.toml",
         "'radius' does not apply to shape 'quad'",
     );
-    // Missing mesh file: names both files.
+    // Missing mesh file: names both files, and why it cannot be read (the OS's reason was
+    // lost in the nested message: "nowhere.glb: cannot read file").
     let p = write_toml(
         &dir,
         "missing_mesh.toml",
         &format!("{GOOD_OBJECT}\n[[object]]\nshape = \"mesh\"\nfile = \"nowhere.glb\"\n"),
     );
-    let msg = err_of(load(&p, &opts()));
+    let msg = load(&p, &opts())
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
     assert!(
-        msg.contains("missing_mesh.toml") && msg.contains("nowhere.glb"),
+        msg.contains("missing_mesh.toml")
+            && msg.contains("nowhere.glb")
+            && msg.contains("cannot read file: No such file"),
         "{msg}"
     );
     // Filter that matches nothing.

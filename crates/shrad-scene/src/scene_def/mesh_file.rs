@@ -77,12 +77,24 @@ fn read_file(
     }
     if format == Some(Format::Toml) {
         let sub =
-            crate::scene_file::read_nested(file_path, depth + 1).map_err(|e| e.to_string())?;
+            crate::scene_file::read_nested(file_path, depth + 1).map_err(|e| with_causes(&e))?;
         let n = sub.objects.len();
         Ok((sub, vec![Default::default(); n]))
     } else {
-        read_any(file_path, o.animation.as_deref()).map_err(|e| e.to_string())
+        read_any(file_path, o.animation.as_deref()).map_err(|e| with_causes(&e))
     }
+}
+
+/// An error's message with its causes (`cannot read file: No such file or directory`): the
+/// nested file's error becomes part of a message, where its cause would be lost.
+fn with_causes(e: &dyn std::error::Error) -> String {
+    let mut message = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        message = format!("{message}: {c}");
+        cause = c.source();
+    }
+    message
 }
 
 /// Does the part pass the definition's `node` and `mesh` filters?
