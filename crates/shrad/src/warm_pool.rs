@@ -15,6 +15,12 @@
 //! after [`IDLE_TURN`] without work it hands its place back (it queues itself again and
 //! returns), and it ends when the closure does. The cost is the other cores' time during the
 //! frame, which a frame on a machine of its own would spend waiting anyway.
+//!
+//! A spinner runs whatever the pool holds, so nothing may be queued into the pool of a
+//! frame that blocks until the frame ends: a spinner that picks it up never returns, and
+//! the frame waits for its spinners. The Python binding once did (another thread's call took
+//! the engine's lock inside the engine's own pool, and hung for good); it now takes the lock
+//! on the calling thread. Wait outside the pool, never in it.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
