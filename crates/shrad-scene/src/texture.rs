@@ -5,9 +5,10 @@
 //! a sample is made linear through a 256-entry table (exactly the sRGB decode of each 8-bit
 //! value, so nothing is lost for the 8-bit PNG and JPEG files glTF uses). A 4096 x 4096
 //! texture costs 48 MiB (f32 linear RGB would be 192 MiB, RGB f16 96 MiB). 16-bit PNGs are
-//! quantised to 8 bits (an error below 0.2 % of the sRGB value). Alpha is dropped: patches
-//! are opaque (a material cut away whole by `alphaMode` is left out before it gets here,
-//! `gltf_io/material.rs`). Materials that use the same image hold the same
+//! quantised to 8 bits (an error below 0.2 % of the sRGB value). Alpha is dropped (patches
+//! are opaque), except for an image a glTF `alphaMode: MASK` material uses as its base
+//! colour: that one keeps an alpha plane (1 byte a texel) that the loader cuts the surface
+//! by (`gltf_io/cutout.rs`). Materials that use the same image hold the same
 //! [`std::sync::Arc`].
 
 use std::sync::{Arc, OnceLock};
@@ -24,6 +25,11 @@ pub struct TextureImage {
     height: u32,
     /// `r, g, b` bytes of each texel.
     texels: Vec<u8>,
+    /// The alpha byte of each texel, kept only when asked for ([`TextureImage::decode_with`])
+    /// and the image has an alpha channel; None: every texel is opaque.
+    alpha: Option<Vec<u8>>,
+    /// The least and greatest alpha byte, computed once.
+    alpha_range: std::sync::OnceLock<(u8, u8)>,
     /// [`TextureImage::mean`], computed once (an image shared by many primitives without
     /// texture coordinates is averaged for each of them).
     mean: std::sync::OnceLock<Vec3>,
@@ -36,6 +42,7 @@ impl PartialEq for TextureImage {
             && self.width == other.width
             && self.height == other.height
             && self.texels == other.texels
+            && self.alpha == other.alpha
     }
 }
 
@@ -96,13 +103,35 @@ impl TextureImage {
                 width,
                 height,
                 texels,
+                alpha: None,
+                alpha_range: std::sync::OnceLock::new(),
                 mean: std::sync::OnceLock::new(),
             })
+    }
+
+    /// This image with alpha bytes `alpha` (one a texel, row-major); `None` when the count
+    /// does not match.
+    pub fn with_alpha(mut self, alpha: Vec<u8>) -> Option<TextureImage> {
+        (alpha.len() as u64 == u64::from(self.width) * u64::from(self.height)).then(|| {
+            self.alpha = Some(alpha);
+            self.alpha_range = std::sync::OnceLock::new();
+            self
+        })
     }
     /// Decode a PNG or JPEG file's bytes (sRGB) as `name`. A small file can decode huge (a
     /// 16000 x 16000 1-bit PNG is 31 KB): the size the header declares is checked before
     /// anything is allocated, at most `MAX_TEXTURE_SIZE` (8192) a side and 256 MiB decoded.
     pub fn decode(bytes: &[u8], name: String) -> Result<TextureImage, String> {
+        TextureImage::decode_with(bytes, name, false)
+    }
+
+    /// [`TextureImage::decode`], keeping the alpha channel too when `keep_alpha` is set
+    /// and the image has one.
+    pub fn decode_with(
+        bytes: &[u8],
+        name: String,
+        keep_alpha: bool,
+    ) -> Result<TextureImage, String> {
         let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
             .with_guessed_format()
             .map_err(|e| e.to_string())?;
@@ -113,8 +142,19 @@ impl TextureImage {
         reader.limits(limits);
         let img = reader.decode().map_err(|e| e.to_string())?;
         let (w, h) = (img.width(), img.height());
+        let alpha = (keep_alpha && img.color().has_alpha()).then(|| {
+            let a = img.to_luma_alpha8().into_raw();
+            a.chunks_exact(2).map(|p| p[1]).collect::<Vec<u8>>()
+        });
         let rgb = img.into_rgb8().into_raw();
-        TextureImage::from_srgb8(name, w, h, rgb).ok_or_else(|| "the image is empty".to_string())
+        let image = TextureImage::from_srgb8(name, w, h, rgb)
+            .ok_or_else(|| "the image is empty".to_string())?;
+        match alpha {
+            Some(a) => image
+                .with_alpha(a)
+                .ok_or_else(|| "bad alpha plane".to_string()),
+            None => Ok(image),
+        }
     }
     /// Width in texels.
     pub fn width(&self) -> u32 {
@@ -124,9 +164,31 @@ impl TextureImage {
     pub fn height(&self) -> u32 {
         self.height
     }
-    /// Bytes held by the texels.
+    /// Bytes held by the texels (and the alpha plane, if kept).
     pub fn bytes(&self) -> usize {
-        self.texels.len()
+        self.texels.len() + self.alpha.as_ref().map_or(0, Vec::len)
+    }
+    /// Whether an alpha plane is kept (see [`TextureImage::decode_with`]).
+    pub fn has_alpha(&self) -> bool {
+        self.alpha.is_some()
+    }
+    /// Alpha of texel `(x, y)` (in range), in [0, 1]; 1 without an alpha plane.
+    #[inline]
+    pub fn texel_alpha(&self, x: u32, y: u32) -> f32 {
+        match &self.alpha {
+            Some(a) => f32::from(a[y as usize * self.width as usize + x as usize]) / 255.0,
+            None => 1.0,
+        }
+    }
+    /// The least and greatest texel alpha, in [0, 1] (computed on the first call).
+    pub fn alpha_range(&self) -> (f32, f32) {
+        let (lo, hi) = *self.alpha_range.get_or_init(|| match &self.alpha {
+            Some(a) => a
+                .iter()
+                .fold((u8::MAX, u8::MIN), |(lo, hi), &x| (lo.min(x), hi.max(x))),
+            None => (u8::MAX, u8::MAX),
+        });
+        (f32::from(lo) / 255.0, f32::from(hi) / 255.0)
     }
     /// Linear RGB of texel `(x, y)` (in range).
     #[inline]
@@ -288,6 +350,51 @@ impl Texture {
     /// panics: a non-finite coordinate reads some texel of the image.
     #[inline]
     pub fn sample(&self, uv: Vec2) -> Vec3 {
+        self.filtered(uv, |img, x, y| img.texel(x, y))
+    }
+
+    /// Alpha at texture coordinates `uv` (as [`Texture::sample`] samples colour): 1 for an
+    /// image without an alpha plane.
+    #[inline]
+    pub fn sample_alpha(&self, uv: Vec2) -> f32 {
+        self.filtered(uv, |img, x, y| Vec3::splat(img.texel_alpha(x, y)))
+            .x
+    }
+
+    /// The least and greatest texel alpha that a sample anywhere in the texel-space box
+    /// `lo..hi` (from [`Texture::texel_coords`]) can be made of, with either filter and
+    /// the wrap modes: so every sample of a triangle whose corners lie in the box is
+    /// between them. None when the box covers more than `max_texels` texels (or is not
+    /// finite).
+    pub fn alpha_bounds(&self, lo: Vec2, hi: Vec2, max_texels: u64) -> Option<(f32, f32)> {
+        let img = &*self.image;
+        if !img.has_alpha() {
+            return Some((1.0, 1.0));
+        }
+        if !(lo.is_finite() && hi.is_finite()) {
+            return None;
+        }
+        let (x0, x1) = ((lo.x - 0.5).floor(), (hi.x + 0.5).floor());
+        let (y0, y1) = ((lo.y - 0.5).floor(), (hi.y + 0.5).floor());
+        let count = (f64::from(x1 - x0) + 1.0) * (f64::from(y1 - y0) + 1.0);
+        if count > max_texels as f64 {
+            return None;
+        }
+        let (mut a, mut b) = (1f32, 0f32);
+        for y in y0 as i64..=y1 as i64 {
+            let y = self.wrap_t.index(y, img.height);
+            for x in x0 as i64..=x1 as i64 {
+                let t = img.texel_alpha(self.wrap_s.index(x, img.width), y);
+                a = a.min(t);
+                b = b.max(t);
+            }
+        }
+        Some((a, b))
+    }
+
+    /// What `fetch` gives at `uv` through the sampler (transform, wrap, filter).
+    #[inline]
+    fn filtered(&self, uv: Vec2, fetch: impl Fn(&TextureImage, u32, u32) -> Vec3) -> Vec3 {
         let img = &*self.image;
         let p = self.texel_coords(uv);
         // Far outside any sensible range a coordinate keeps no sub-texel precision anyway.
@@ -296,7 +403,7 @@ impl Texture {
             Filter::Nearest => {
                 let x = self.wrap_s.index(p.x.floor() as i64, img.width);
                 let y = self.wrap_t.index(p.y.floor() as i64, img.height);
-                img.texel(x, y)
+                fetch(img, x, y)
             }
             Filter::Linear => {
                 let q = p - Vec2::splat(0.5);
@@ -307,8 +414,8 @@ impl Texture {
                 let x1 = self.wrap_s.index(ix + 1, img.width);
                 let y0 = self.wrap_t.index(iy, img.height);
                 let y1 = self.wrap_t.index(iy + 1, img.height);
-                let top = img.texel(x0, y0).lerp(img.texel(x1, y0), tx);
-                let bottom = img.texel(x0, y1).lerp(img.texel(x1, y1), tx);
+                let top = fetch(img, x0, y0).lerp(fetch(img, x1, y0), tx);
+                let bottom = fetch(img, x0, y1).lerp(fetch(img, x1, y1), tx);
                 top.lerp(bottom, ty)
             }
         }
