@@ -14,6 +14,7 @@ mod gltf_animation;
 mod gltf_camera_animation;
 mod gltf_files_outside;
 mod gltf_lights;
+mod gltf_mask_cutout;
 mod gltf_morph_alpha;
 mod gltf_skin;
 mod io;

@@ -6,9 +6,11 @@
 //! is either opaque or, when nothing of it can be seen, cut away: a MASK material whose base
 //! colour alpha factor is below its `alphaCutoff`, or a BLEND one whose alpha factor is 0.
 //! (Base colour alpha is the factor times the texture's and `COLOR_0`'s alphas, each at most
-//! 1: a factor below the cutoff cuts every texel away, textured or not.) Every other MASK or
-//! BLEND material is treated as opaque, with a warning once per material when that is not
-//! what a viewer shows (a MASK texture's cut-outs, a BLEND surface's transparency).
+//! 1: a factor below the cutoff cuts every texel away, textured or not.) A MASK material
+//! with a base colour texture is cut by its texels' alpha in geometry, primitive by
+//! primitive (`cutout`); its image is decoded with an alpha plane. Every other BLEND
+//! material is treated as opaque, with a warning once per material (a viewer shows it
+//! transparent).
 
 use glam::Vec3;
 
@@ -65,11 +67,8 @@ impl Walk<'_> {
         let alpha = m.pbr_metallic_roughness().base_color_factor()[3];
         let textured = m.pbr_metallic_roughness().base_color_texture().is_some();
         let why = match m.alpha_mode() {
-            gltf::material::AlphaMode::Opaque => return,
-            gltf::material::AlphaMode::Mask if !textured => return,
-            gltf::material::AlphaMode::Mask => {
-                "alphaMode MASK with a texture: cut-outs are not represented, the surface is treated as opaque".to_string()
-            }
+            // A textured MASK is cut by its texture in geometry (`cutout`), which warns.
+            gltf::material::AlphaMode::Opaque | gltf::material::AlphaMode::Mask => return,
             gltf::material::AlphaMode::Blend => format!(
                 "alphaMode BLEND (base colour alpha {alpha}{}): transparency is not represented, the surface is treated as opaque",
                 if textured { " times the texture's" } else { "" }
@@ -139,6 +138,19 @@ impl Walk<'_> {
         Some(t)
     }
 
+    /// The sources of the images that `alphaMode: MASK` materials use as base colour: those
+    /// are decoded with their alpha plane (the others without: it would cost a byte a texel
+    /// for nothing).
+    pub(super) fn mask_sources(&self) -> std::collections::HashSet<ImageSource> {
+        self.doc
+            .materials()
+            .filter(|m| m.alpha_mode() == gltf::material::AlphaMode::Mask)
+            .filter_map(|m| m.pbr_metallic_roughness().base_color_texture())
+            .filter_map(|info| self.json["textures"][info.texture().index()]["source"].as_u64())
+            .map(|i| self.image_source(i as usize))
+            .collect()
+    }
+
     /// `image N 'name'` (or its URI) for messages.
     fn image_label(&self, index: usize) -> String {
         let json = self.doc.as_json().images.get(index);
@@ -203,7 +215,8 @@ impl Walk<'_> {
                 crate::texture::MAX_FILE_TEXELS
             ));
         }
-        let image = TextureImage::decode(&bytes, self.image_label(index))?;
+        let keep_alpha = self.mask_images.contains(&self.image_source(index));
+        let image = TextureImage::decode_with(&bytes, self.image_label(index), keep_alpha)?;
         self.texels_left -= u64::from(image.width()) * u64::from(image.height());
         Ok(image)
     }

@@ -2,7 +2,8 @@
 //! morphed by the weights at rest, then placed by the node's skin if it has one, see `skin`;
 //! indices, texture coordinates, vertex colours, the shrad extras of the node and mesh). A
 //! primitive whose material is seen nowhere (alpha, see `material::cut_away`) is left out
-//! with a warning.
+//! with a warning; a MASK primitive with a base colour texture is cut by its alpha (see
+//! `cutout`).
 
 use glam::{Affine3A, Mat4, Vec3};
 use gltf::mesh::Mode;
@@ -146,7 +147,9 @@ impl Walk<'_> {
                 .map_err(bad)?;
             // After the material and attributes, so that a primitive without area has been
             // read (and checked) as far as any other.
-            if !self.drop_zero_area(&mut shape, &at.both()) {
+            if !self.drop_zero_area(&mut shape, &at.both())
+                || !self.cut_mask(&prim, &reader, &mut shape, &material, &at)
+            {
                 continue;
             }
             let name = if n_prims > 1 {
@@ -418,7 +421,7 @@ pub(super) struct Place {
 }
 
 impl Place {
-    fn both(&self) -> String {
+    pub(super) fn both(&self) -> String {
         format!("{}{}", self.who, self.inst)
     }
 }

@@ -25,6 +25,7 @@ mod anim;
 mod buffers;
 pub mod builder;
 mod container;
+mod cutout;
 mod lights;
 mod material;
 mod mesh;
@@ -342,6 +343,9 @@ fn read_bytes(
         textures: std::collections::HashMap::new(),
         texels_left: crate::texture::MAX_FILE_TEXELS,
         materials: std::collections::HashMap::new(),
+        mask_images: std::collections::HashSet::new(),
+        cutout_left: cutout::MAX_ADDED,
+        cutout_capped: false,
         file_lights,
         skins,
         skipped: walk::Skipped {
@@ -349,6 +353,7 @@ fn read_bytes(
             ..Default::default()
         },
     };
+    cx.mask_images = cx.mask_sources();
     cx.scene()?;
     Ok((cx.scene, cx.names))
 }

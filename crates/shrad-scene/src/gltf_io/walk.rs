@@ -33,6 +33,13 @@ pub(super) struct Walk<'a> {
     pub(super) texels_left: u64,
     /// Each material once converted (None: the default material).
     pub(super) materials: HashMap<Option<usize>, Material>,
+    /// The images an `alphaMode: MASK` material uses as its base colour: decoded with their
+    /// alpha plane (see `cutout`).
+    pub(super) mask_images: std::collections::HashSet<super::material::ImageSource>,
+    /// Triangles the MASK cut-outs may still add ([`super::cutout::MAX_ADDED`] at first).
+    pub(super) cutout_left: usize,
+    /// Whether that cap was reached (warned once).
+    pub(super) cutout_capped: bool,
     /// The file's punctual lights and which node instances which.
     pub(super) file_lights: super::lights::FileLights,
     /// The file's skins and each node's, with every node's rest transform.
