@@ -6,17 +6,8 @@
 //! coordinate (x = u, z = v), so a kept triangle's centroid x is its u, and a floor quad
 //! (opaque, untextured) so that a scene is left when the leaf is cut away whole.
 
-use std::path::PathBuf;
-
 use serde_json::{json, Value};
-use shrad_scene::{load, LoadOptions, Object, Scene};
-
-fn temp_dir(name: &str) -> PathBuf {
-    crate::common::temp_dir(&format!(
-        "shrad-gltf-mask-cutout-{}-{name}",
-        std::process::id()
-    ))
-}
+use shrad_scene::{Object, Scene};
 
 /// An RGBA PNG of `w x h` texels whose alpha at texel `(x, y)` is `alpha(x, y)`, as a
 /// data URI.
@@ -112,9 +103,7 @@ fn mask(texture_info: Value, extra: Value) -> Value {
 }
 
 fn load_json(name: &str, root: &Value) -> Scene {
-    let p = temp_dir(name).join(format!("{name}.gltf"));
-    std::fs::write(&p, serde_json::to_string(root).unwrap()).unwrap();
-    load(&p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{name}: refused: {e}"))
+    crate::common::load_gltf_json("gltf-mask-cutout", name, root)
 }
 
 fn leaf(s: &Scene) -> Option<&Object> {

@@ -14,18 +14,9 @@
 //! mesh. A textured MASK material is cut by its texture (see `gltf_mask_cutout`); other
 //! BLEND materials stay opaque, with a warning once per material.
 
-use std::path::{Path, PathBuf};
-
 use glam::Vec3;
 use serde_json::{json, Value};
-use shrad_scene::{load, LoadOptions, Object, Scene};
-
-fn temp_dir(name: &str) -> PathBuf {
-    crate::common::temp_dir(&format!(
-        "shrad-gltf-morph-alpha-{}-{name}",
-        std::process::id()
-    ))
-}
+use shrad_scene::{Object, Scene};
 
 /// Accessors over one buffer, built up as a test needs them.
 #[derive(Default)]
@@ -175,16 +166,8 @@ fn bounds(data: &[[f32; 3]]) -> ([f32; 3], [f32; 3]) {
     (lo, hi)
 }
 
-fn write(dir: &Path, name: &str, root: &Value) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, serde_json::to_string_pretty(root).unwrap()).unwrap();
-    p
-}
-
 fn load_json(name: &str, root: &Value) -> Scene {
-    let dir = temp_dir(name);
-    let p = write(&dir, &format!("{name}.gltf"), root);
-    load(&p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{name}: refused: {e}"))
+    crate::common::load_gltf_json("gltf-morph-alpha", name, root)
 }
 
 fn object<'a>(s: &'a Scene, name: &str) -> &'a Object {

@@ -21,17 +21,13 @@
 //!
 //! Unskinned (the reader before skins were read) the strip stayed flat at z = 0.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::{Mat4, Quat, Vec3};
 use serde_json::{json, Value};
 use shrad_scene::{load, LoadOptions, Object, Scene};
 
 use crate::common::err_of;
-
-fn temp_dir(name: &str) -> PathBuf {
-    crate::common::temp_dir(&format!("shrad-gltf-skin-{}-{name}", std::process::id()))
-}
 
 /// Accessors over one embedded buffer.
 #[derive(Default)]
@@ -203,23 +199,14 @@ fn strip(s: Strip) -> Value {
     }))
 }
 
-fn write(dir: &Path, name: &str, root: &Value) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, serde_json::to_string_pretty(root).unwrap()).unwrap();
-    p
-}
-
 fn load_json(name: &str, root: &Value) -> Scene {
-    let dir = temp_dir(name);
-    let p = write(&dir, &format!("{name}.gltf"), root);
-    load(&p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{name}: refused: {e}"))
+    crate::common::load_gltf_json("gltf-skin", name, root)
 }
 
 /// The error loading `root` gives; it names the file.
 fn refused(name: &str, root: &Value) -> String {
-    let dir = temp_dir(name);
     let file = format!("{name}.gltf");
-    let p = write(&dir, &file, root);
+    let p = crate::common::gltf_json_file("gltf-skin", name, root);
     let e = err_of(load(&p, &LoadOptions::default()));
     assert!(
         e.contains(&file),

@@ -15,6 +15,23 @@ pub fn temp_dir(name: &str) -> PathBuf {
     d
 }
 
+/// Write glTF JSON `root` as `NAME.gltf` in a fresh folder of its own (named after the test
+/// file's `suite`, this process and `name`, so that tests never share one) and return its
+/// path.
+pub fn gltf_json_file(suite: &str, name: &str, root: &serde_json::Value) -> PathBuf {
+    let dir = temp_dir(&format!("shrad-{suite}-{}-{name}", std::process::id()));
+    let p = dir.join(format!("{name}.gltf"));
+    std::fs::write(&p, serde_json::to_string_pretty(root).unwrap()).unwrap();
+    p
+}
+
+/// Load glTF JSON `root` written by [`gltf_json_file`]; a refusal fails the test.
+pub fn load_gltf_json(suite: &str, name: &str, root: &serde_json::Value) -> shrad_scene::Scene {
+    let p = gltf_json_file(suite, name, root);
+    shrad_scene::load(&p, &shrad_scene::LoadOptions::default())
+        .unwrap_or_else(|e| panic!("{name}: refused: {e}"))
+}
+
 /// The error of a load that should have failed, as a user reads it (the CLI prints the
 /// error and its causes); a scene loaded instead is a failure of the test.
 pub fn err_of(r: Result<shrad_scene::Scene, shrad_scene::SceneError>) -> String {
