@@ -109,14 +109,14 @@ impl PyEngine {
         solver: &str,
         preset: &str,
         backend: &str,
-        threads: Option<usize>,
+        threads: Option<i64>,
         settings: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<PyEngine> {
         let pool = match threads {
             None => None,
             Some(n) if (1..=1024).contains(&n) => Some(
                 rayon::ThreadPoolBuilder::new()
-                    .num_threads(n)
+                    .num_threads(n as usize)
                     .build()
                     .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("threads: {e}")))?,
             ),

@@ -97,7 +97,7 @@ impl PyScene {
 
     /// The same scene cut differently.
     #[pyo3(signature = (patches=None, patch_size=None))]
-    fn with_patches(&self, patches: Option<usize>, patch_size: Option<f32>) -> PyResult<PyScene> {
+    fn with_patches(&self, patches: Option<i64>, patch_size: Option<f32>) -> PyResult<PyScene> {
         Ok(PyScene {
             scene: self.scene.clone(),
             sizing: sizing(&self.scene, patches, patch_size)?,
@@ -146,9 +146,17 @@ impl PyScene {
 /// scene file's settings, then the default.
 pub fn sizing(
     scene: &Scene,
-    patches: Option<usize>,
+    patches: Option<i64>,
     patch_size: Option<f32>,
 ) -> PyResult<PatchSizing> {
+    // Taken as a signed number, so that a negative count is a ValueError naming it (as
+    // `usize`, pyo3 raised an OverflowError that named the argument only in its notes).
+    let patches = (patches.map(usize::try_from).transpose()).map_err(|_| {
+        pyo3::exceptions::PyValueError::new_err(format!(
+            "patches must be a positive count of patches, got {}",
+            patches.unwrap_or_default()
+        ))
+    })?;
     PatchSizing::choose(
         patch_size,
         patches,
@@ -171,7 +179,7 @@ pub fn sizing(
 pub fn load(
     py: Python<'_>,
     path: std::path::PathBuf,
-    patches: Option<usize>,
+    patches: Option<i64>,
     patch_size: Option<f32>,
     animation: Option<String>,
     drop_degenerate: bool,

@@ -59,7 +59,7 @@ use crate::scene::{sizing, PyScene};
 #[pyo3(signature = (definition, *, patches=None, patch_size=None))]
 pub fn load_dict(
     definition: &Bound<'_, PyDict>,
-    patches: Option<usize>,
+    patches: Option<i64>,
     patch_size: Option<f32>,
 ) -> PyResult<PyScene> {
     let source: String = match definition.get_item("name")? {

@@ -165,3 +165,14 @@ def test_an_engine_with_its_own_threads_serves_two_python_threads():
 
     run = subprocess.run([sys.executable, "-c", OWN_POOL_TWO_THREADS], capture_output=True, text=True, timeout=60)
     assert run.returncode == 0 and run.stdout.startswith("ok 4"), (run.stdout, run.stderr[-2000:])
+
+
+def test_a_negative_count_is_a_value_error_naming_it(cornell):
+    # As unsigned arguments these were pyo3's OverflowError ("can't convert negative int to
+    # unsigned"), the argument named only in the exception's notes.
+    with pytest.raises(ValueError, match="patches must be a positive count of patches, got -1"):
+        shrad.load("cornell", patches=-1)
+    with pytest.raises(ValueError, match="patches must be a positive count of patches, got -5"):
+        cornell.with_patches(-5)
+    with pytest.raises(ValueError, match="threads must be between 1 and 1024, got -1"):
+        shrad.Engine(cornell, threads=-1)
