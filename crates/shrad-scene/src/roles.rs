@@ -1,6 +1,6 @@
 //! Role inference for imported meshes that carry none (spec section 3).
 
-use crate::{Aabb, Role, Scene};
+use crate::{Role, Scene};
 
 /// Give every object without a role one: emissive objects are lights; an object whose
 /// bounding box touches the scene's box and spans at least half of it on two axes is
@@ -45,18 +45,10 @@ pub fn infer_roles(scene: &mut Scene) -> usize {
 /// outside, a pedestal) is not warned of. Nothing is changed (which side is meant is the
 /// author's to say).
 pub fn warn_faces_turned_away(scene: &mut Scene) {
-    let others = (scene.objects.iter())
-        .filter(|o| o.role != Some(Role::Boundary))
-        .filter_map(crate::Object::world_bounds)
-        .reduce(Aabb::union);
-    let Some(others) = others else {
+    let Some(centre) = scene.centre_of_the_held() else {
         return;
     };
-    let centre = 0.5 * (others.min + others.max);
-    let holds = |o: &crate::Object| {
-        o.world_bounds()
-            .is_some_and(|b| b.min.cmplt(centre).all() && centre.cmplt(b.max).all())
-    };
+    let holds = |o: &crate::Object| crate::model::holds(o, centre);
     let turned: Vec<String> = (scene.objects.iter().enumerate())
         .filter(|(_, o)| o.role == Some(Role::Boundary) && !o.material.double_sided)
         .filter(|(_, o)| holds(o) && !crate::model::faces_towards(o, centre))

@@ -1,5 +1,5 @@
-//! The camera a scene without one gets: inside a room that encloses it, outside a closed
-//! object that is the whole scene (a glTF sample model's box, which the camera inside saw
+//! The camera a scene without one gets: inside a room that encloses it (its faces inward,
+//! or double-sided around the other objects), outside a closed object that is the whole scene (a glTF sample model's box, which the camera inside saw
 //! only from behind its faces: a picture of the sky alone).
 
 use glam::{Affine3A, Vec3};
@@ -31,11 +31,19 @@ fn a_room_is_seen_from_inside_and_a_closed_object_from_outside() {
     for (m, what) in [(Affine3A::IDENTITY, "as it is"), (mirror, "mirrored")] {
         assert!(camera_inside(&one_box(true, false, m)), "room {what}");
         assert!(!camera_inside(&one_box(false, false, m)), "object {what}");
-        // Both sides are front: a room all the same.
+        // Both sides are front: a room when it holds something, else a model seen from
+        // outside (a glTF model exported double-sided, as Blender does, was a picture of
+        // one colour from inside its own box).
         assert!(
-            camera_inside(&one_box(false, true, m)),
-            "double-sided {what}"
+            !camera_inside(&one_box(false, true, m)),
+            "double-sided alone {what}"
         );
+        let mut room = one_box(false, true, m);
+        let mut held = room.objects[0].clone();
+        held.mesh = box_mesh(Vec3::splat(0.5), false);
+        held.role = Some(Role::Interior);
+        room.objects.push(held);
+        assert!(camera_inside(&room), "double-sided holding a box {what}");
     }
 }
 

@@ -21,6 +21,6 @@ pub use light::{Light, LightKind, LUMENS_PER_WATT};
 pub use material::Material;
 pub use mesh::Mesh;
 pub use object::{Object, Role};
-pub(crate) use scene::faces_towards;
+pub(crate) use scene::{faces_towards, holds};
 pub use scene::{Camera, Scene, SceneSettings};
 pub(crate) use validate::is_singular;

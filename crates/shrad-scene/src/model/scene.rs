@@ -127,8 +127,19 @@ impl Scene {
             .unwrap_or_else(|| self.camera_or_default())
     }
 
+    /// The centre of the box of every object that is not boundary (what a room holds), if
+    /// there is one.
+    pub(crate) fn centre_of_the_held(&self) -> Option<Vec3> {
+        let held = (self.objects.iter())
+            .filter(|o| o.role != Some(Role::Boundary))
+            .filter_map(crate::Object::world_bounds)
+            .reduce(crate::Aabb::union)?;
+        Some(0.5 * (held.min + held.max))
+    }
+
     /// The scene's camera, or one that frames the scene. When a boundary object encloses
-    /// the scene (a room: its faces look inward, or it is double-sided), the camera stands
+    /// the scene (a room: its faces look inward, or it is double-sided and holds the other
+    /// objects), the camera stands
     /// inside it, near the -Z wall, looking in: from outside it would see only the room's
     /// outer side. A closed object alone (a glTF sample model's box) is framed from outside.
     pub fn camera_or_default(&self) -> Camera {
@@ -138,13 +149,17 @@ impl Scene {
                 .unwrap_or(crate::Aabb::new(Vec3::splat(-1.0), Vec3::ONE));
             let ext = hi - lo;
             let centre = 0.5 * (lo + hi);
+            // A double-sided object is a room only when it holds the others: alone (a
+            // glTF model exported double-sided, as Blender does) it is framed from outside.
+            let held = self.centre_of_the_held();
             let encloses = self.objects.iter().any(|o| {
                 o.role == Some(Role::Boundary)
                     && o.world_bounds().is_some_and(|b| {
                         (b.min - lo).max_element() <= 1e-3 * ext.max_element()
                             && (hi - b.max).max_element() <= 1e-3 * ext.max_element()
                     })
-                    && (o.material.double_sided || faces_towards(o, centre))
+                    && (faces_towards(o, centre)
+                        || o.material.double_sided && held.is_some_and(|h| holds(o, h)))
             });
             if encloses {
                 let eye = Vec3::new(centre.x, lo.y + 0.55 * ext.y, lo.z + 0.03 * ext.z);
@@ -190,6 +205,12 @@ impl Scene {
                     })
             })
     }
+}
+
+/// Whether `point` is strictly inside object `o`'s world box.
+pub(crate) fn holds(o: &crate::Object, point: Vec3) -> bool {
+    o.world_bounds()
+        .is_some_and(|b| b.min.cmplt(point).all() && point.cmplt(b.max).all())
 }
 
 /// Whether object `o`'s faces look, on the whole (weighted by area), towards `centre`: a
