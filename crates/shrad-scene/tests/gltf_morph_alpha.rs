@@ -18,50 +18,9 @@ use glam::Vec3;
 use serde_json::{json, Value};
 use shrad_scene::{Object, Scene};
 
-/// Accessors over one buffer, built up as a test needs them.
-#[derive(Default)]
-struct Bin {
-    bytes: Vec<u8>,
-    views: Vec<Value>,
-    accessors: Vec<Value>,
-}
+use crate::common::gltf_bin::{bounds, Bin};
 
 impl Bin {
-    /// A view of `bytes` (padded to 4 bytes), with `extra` JSON merged in; returns its index.
-    fn view(&mut self, bytes: &[u8], extra: Value) -> usize {
-        let offset = self.bytes.len();
-        self.bytes.extend_from_slice(bytes);
-        while self.bytes.len() % 4 != 0 {
-            self.bytes.push(0);
-        }
-        let mut v = json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len()});
-        if let (Some(v), Some(extra)) = (v.as_object_mut(), extra.as_object()) {
-            v.extend(extra.clone());
-        }
-        self.views.push(v);
-        self.views.len() - 1
-    }
-
-    fn push(&mut self, a: Value) -> usize {
-        self.accessors.push(a);
-        self.accessors.len() - 1
-    }
-
-    /// A VEC3 FLOAT accessor of `data`, with min and max.
-    fn vec3(&mut self, data: &[[f32; 3]]) -> usize {
-        let bytes: Vec<u8> = data
-            .iter()
-            .flatten()
-            .flat_map(|x| x.to_le_bytes())
-            .collect();
-        let v = self.view(&bytes, json!({}));
-        let (lo, hi) = bounds(data);
-        self.push(
-            json!({"bufferView": v, "componentType": 5126, "count": data.len(),
-                         "type": "VEC3", "min": lo, "max": hi}),
-        )
-    }
-
     /// A VEC3 accessor of normalized SHORTs (`KHR_mesh_quantization`), each element padded
     /// to 8 bytes (byteStride 8, as vertex attributes are aligned to 4 bytes).
     fn vec3_short(&mut self, data: &[[i16; 3]]) -> usize {
@@ -131,39 +90,6 @@ impl Bin {
                          "type": "SCALAR", "min": [lo], "max": [hi]}),
         )
     }
-
-    fn indices(&mut self, data: &[u16]) -> usize {
-        let bytes: Vec<u8> = data.iter().flat_map(|i| i.to_le_bytes()).collect();
-        let v = self.view(&bytes, json!({"target": 34963}));
-        self.push(
-            json!({"bufferView": v, "componentType": 5123, "count": data.len(),
-                         "type": "SCALAR"}),
-        )
-    }
-
-    /// `root` with this buffer's accessors, views and (embedded) buffer.
-    fn finish(self, mut root: Value) -> Value {
-        root["asset"] = json!({"version": "2.0"});
-        root["accessors"] = json!(self.accessors);
-        root["bufferViews"] = json!(self.views);
-        root["buffers"] = json!([{
-            "byteLength": self.bytes.len(),
-            "uri": format!("data:application/octet-stream;base64,{}", base64::encode(&self.bytes))
-        }]);
-        root
-    }
-}
-
-fn bounds(data: &[[f32; 3]]) -> ([f32; 3], [f32; 3]) {
-    let mut lo = [f32::INFINITY; 3];
-    let mut hi = [f32::NEG_INFINITY; 3];
-    for e in data {
-        for k in 0..3 {
-            lo[k] = lo[k].min(e[k]);
-            hi[k] = hi[k].max(e[k]);
-        }
-    }
-    (lo, hi)
 }
 
 fn load_json(name: &str, root: &Value) -> Scene {

@@ -28,51 +28,12 @@ use serde_json::{json, Value};
 use shrad_scene::{load, LoadOptions, Object, Scene};
 
 use crate::common::err_of;
-
-/// Accessors over one embedded buffer.
-#[derive(Default)]
-struct Bin {
-    bytes: Vec<u8>,
-    views: Vec<Value>,
-    accessors: Vec<Value>,
-}
+use crate::common::gltf_bin::Bin;
 
 impl Bin {
-    /// An accessor of `bytes` (`count` elements of `ty`, component type `ct`), with `extra`
-    /// JSON merged in.
-    fn accessor(&mut self, bytes: &[u8], count: usize, ty: &str, ct: u32, extra: Value) -> usize {
-        let offset = self.bytes.len();
-        self.bytes.extend_from_slice(bytes);
-        while self.bytes.len() % 4 != 0 {
-            self.bytes.push(0);
-        }
-        self.views
-            .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len()}));
-        let mut a = json!({"bufferView": self.views.len() - 1, "componentType": ct,
-                           "count": count, "type": ty});
-        if let (Some(a), Some(extra)) = (a.as_object_mut(), extra.as_object()) {
-            a.extend(extra.clone());
-        }
-        self.accessors.push(a);
-        self.accessors.len() - 1
-    }
-
     fn floats(&mut self, data: &[f32], count: usize, ty: &str, extra: Value) -> usize {
         let bytes: Vec<u8> = data.iter().flat_map(|x| x.to_le_bytes()).collect();
         self.accessor(&bytes, count, ty, 5126, extra)
-    }
-
-    fn positions(&mut self, data: &[[f32; 3]]) -> usize {
-        let mut lo = [f32::INFINITY; 3];
-        let mut hi = [f32::NEG_INFINITY; 3];
-        for e in data {
-            for k in 0..3 {
-                lo[k] = lo[k].min(e[k]);
-                hi[k] = hi[k].max(e[k]);
-            }
-        }
-        let flat: Vec<f32> = data.iter().flatten().copied().collect();
-        self.floats(&flat, data.len(), "VEC3", json!({"min": lo, "max": hi}))
     }
 
     fn joints(&mut self, data: &[[u8; 4]]) -> usize {
@@ -88,22 +49,6 @@ impl Bin {
     fn matrices(&mut self, data: &[Mat4]) -> usize {
         let flat: Vec<f32> = data.iter().flat_map(|m| m.to_cols_array()).collect();
         self.floats(&flat, data.len(), "MAT4", json!({}))
-    }
-
-    fn indices(&mut self, data: &[u16]) -> usize {
-        let bytes: Vec<u8> = data.iter().flat_map(|i| i.to_le_bytes()).collect();
-        self.accessor(&bytes, data.len(), "SCALAR", 5123, json!({}))
-    }
-
-    fn finish(self, mut root: Value) -> Value {
-        root["asset"] = json!({"version": "2.0"});
-        root["accessors"] = json!(self.accessors);
-        root["bufferViews"] = json!(self.views);
-        root["buffers"] = json!([{
-            "byteLength": self.bytes.len(),
-            "uri": format!("data:application/octet-stream;base64,{}", base64::encode(&self.bytes))
-        }]);
-        root
     }
 }
 
@@ -164,7 +109,7 @@ impl Default for Strip {
 /// and its child "tip", nodes[2]); both nodes are roots of the scene.
 fn strip(s: Strip) -> Value {
     let mut b = Bin::default();
-    let pos = b.positions(&STRIP);
+    let pos = b.vec3(&STRIP);
     let joints = b.joints(&s.joints);
     let weights = b.weights(&s.weights);
     let idx = b.indices(&[0, 2, 1, 1, 2, 3, 2, 4, 3, 3, 4, 5]);
@@ -174,7 +119,7 @@ fn strip(s: Strip) -> Value {
     });
     let mut mesh = json!({"name": "StripMesh", "primitives": [prim.clone()]});
     if let Some(t) = s.target {
-        let t = b.positions(&t);
+        let t = b.vec3(&t);
         prim["targets"] = json!([{"POSITION": t}]);
         mesh = json!({"name": "StripMesh", "primitives": [prim], "weights": [1.0]});
     }

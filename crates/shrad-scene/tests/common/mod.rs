@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod blender;
+pub mod gltf_bin;
 pub mod panics;
 
 use std::path::PathBuf;
