@@ -282,7 +282,7 @@ impl NodeGraph {
 }
 
 /// What moves an object imported from an animated glTF node:
-/// `world_from_object(t) = outer · graph.world_at(node, t)`.
+/// `world_from_object(t) = outer · graph.world_at(node, t) · inner`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct NodeAnimation {
     /// The file's node hierarchy (shared by every object of the file).
@@ -292,12 +292,15 @@ pub struct NodeAnimation {
     /// Applied on top (a scene file's rest transform of the object; identity for a glTF
     /// read on its own).
     pub outer: Affine3A,
+    /// Applied first, in the node's frame (an instance's own transform, when the node draws
+    /// its mesh by `EXT_mesh_gpu_instancing`; else the identity).
+    pub inner: Affine3A,
 }
 
 impl NodeAnimation {
     /// The object's world transform at time `t` (before any scene-file keys).
     pub fn world_from_object_at(&self, t: f32) -> Affine3A {
-        self.outer * self.graph.world_at(self.node, t)
+        self.outer * self.graph.world_at(self.node, t) * self.inner
     }
 
     /// Time of the last key that moves the object.

@@ -7,12 +7,14 @@
 
 mod blender_animation;
 mod blender_camera;
+mod blender_instancing;
 mod common;
 mod default_camera;
 mod environment;
 mod gltf_animation;
 mod gltf_camera_animation;
 mod gltf_files_outside;
+mod gltf_instancing;
 mod gltf_lights;
 mod gltf_mask_cutout;
 mod gltf_morph_alpha;

@@ -66,8 +66,12 @@ pub(super) struct Instance<'a, 'd> {
     pub node: Option<&'a gltf::Node<'d>>,
     /// That node's parent, if any.
     pub parent: Option<&'a gltf::Node<'d>>,
-    /// The node's world transform.
+    /// The world transform of what is drawn: the node's, times the instance's own when
+    /// `instance` is given.
     pub world: Mat4,
+    /// Which instance of an instanced node (`instancing`) this is, with its own transform
+    /// in the node's frame.
+    pub instance: Option<(usize, Mat4)>,
     /// The node's skin, if it has one: its mesh is then placed by the skin (see `skin`).
     pub skin: Option<usize>,
     /// How messages name the instance: `nodes[3] 'lamp'`, or `placed at the origin`.
@@ -98,13 +102,7 @@ impl Walk<'_> {
             .node
             .and_then(gltf::Node::name)
             .or(named.and_then(gltf::Node::name));
-        let base_name = node_name
-            .or(mesh.name())
-            .map(str::to_string)
-            .unwrap_or_else(|| match inst.node {
-                Some(node) => format!("node{}", node.index()),
-                None => format!("mesh{}", mesh.index()),
-            });
+        let base_name = object_base_name(inst, mesh, node_name);
         // A mirroring transform (negative determinant) is kept as it is: the mesh stays
         // counter-clockwise from the front in its own frame, and the world normal is the
         // inverse transpose of the local one (glTF 2.0, "Transformations").
@@ -163,7 +161,10 @@ impl Walk<'_> {
             if skinned.is_none() {
                 object.world_from_object = world_from_object;
                 if let Some(node) = inst.node {
-                    self.animate(&mut object, node.index());
+                    let inner = inst
+                        .instance
+                        .map_or(Affine3A::IDENTITY, |(_, m)| Affine3A::from_mat4(m));
+                    self.animate(&mut object, node.index(), inner);
                 }
             }
             object.role = node_role.or(mesh_role);
@@ -507,6 +508,23 @@ fn to_triangles(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
             .map(|i| [idx[0], idx[i], idx[i + 1]])
             .collect(),
         _ => Vec::new(),
+    }
+}
+
+/// The name of the objects `inst` makes of `mesh`: the node's name (or its named parent's,
+/// `node_name`), else the mesh's, else `node<i>` / `mesh<i>`; an instance's with its number
+/// (`Tree#3`).
+fn object_base_name(inst: &Instance, mesh: &gltf::Mesh, node_name: Option<&str>) -> String {
+    let base = node_name
+        .or(mesh.name())
+        .map(str::to_string)
+        .unwrap_or_else(|| match inst.node {
+            Some(node) => format!("node{}", node.index()),
+            None => format!("mesh{}", mesh.index()),
+        });
+    match inst.instance {
+        Some((k, _)) => format!("{base}#{k}"),
+        None => base,
     }
 }
 

@@ -11,11 +11,13 @@
 //!   it (every index, length, enum and factor), so that crate has nothing to trip on;
 //! - `buffers`: the buffers loaded (GLB BIN chunk, data URIs, files);
 //! - `unpack`: compressed (meshopt, Draco), quantized and implicit (zero) data decoded into
-//!   plain buffer views of one new buffer, so the gltf crate reads only what it can;
+//!   plain buffer views of one new buffer, so the gltf crate reads only what it can; then
+//!   `instancing` reads the instanced nodes' instances (`EXT_mesh_gpu_instancing`);
 //! - `validate` again, once the gltf crate has the document: the values of the attributes
 //!   shrad does not use (normals, tangents, joints, weights), warnings only;
 //! - `anim`: the animations, into a node graph;
-//! - `walk`, `mesh`, `material`: the default scene's nodes walked into objects; `skin`
+//! - `walk`, `mesh`, `material`: the default scene's nodes walked into objects (an
+//!   instanced node's mesh once per instance); `skin`
 //!   places the meshes of skinned nodes by their skins at rest (in world space).
 //!
 //! `write` is the exporter, on `builder` (accessors, buffer and GLB container), which
@@ -26,6 +28,7 @@ mod buffers;
 pub mod builder;
 mod container;
 mod cutout;
+mod instancing;
 mod lights;
 mod material;
 mod mesh;
@@ -124,7 +127,8 @@ fn integral_floats_to_integers(v: &mut Value) {
 
 /// What the gltf crate refuses though the specification allows it, or which shrad has
 /// already done: the extensions `unpack` decoded (the texture extensions, whose images
-/// the material reader picks, and the punctual lights, which `lights` reads) out of `extensionsRequired` / `extensionsUsed` (the crate
+/// the material reader picks, the punctual lights, which `lights` reads, and the instancing,
+/// which `instancing` reads) out of `extensionsRequired` / `extensionsUsed` (the crate
 /// refuses a required extension it does not know); a scene without `nodes` given an empty
 /// list (optional in the specification, required by the crate); primitives without
 /// POSITION removed (returns how many); accessors of a type glTF 2.0 does not define made
@@ -137,6 +141,7 @@ fn crate_compatible(root: &mut Value) -> usize {
         "EXT_texture_webp",
         "KHR_texture_basisu",
         lights::EXTENSION,
+        instancing::EXTENSION,
     ];
     for key in ["extensionsRequired", "extensionsUsed"] {
         if let Some(list) = root.get_mut(key).and_then(Value::as_array_mut) {
@@ -305,6 +310,7 @@ fn read_bytes(
     if !unpacked.bytes.is_empty() {
         buffers.push(unpacked.bytes);
     }
+    let instances = unpacked.instances;
     validate::check_views_have_data(&value, &buffers).map_err(bad)?;
     validate::check_sparse_indices(&value, &buffers).map_err(bad)?;
     // Planned on the JSON before the skins are taken out of it; read once the crate has it.
@@ -348,6 +354,7 @@ fn read_bytes(
         cutout_capped: false,
         file_lights,
         skins,
+        instances,
         skipped: walk::Skipped {
             no_position,
             ..Default::default()

@@ -44,6 +44,8 @@ pub(super) struct Walk<'a> {
     pub(super) file_lights: super::lights::FileLights,
     /// The file's skins and each node's, with every node's rest transform.
     pub(super) skins: super::skin::FileSkins,
+    /// The instanced nodes' instances (`EXT_mesh_gpu_instancing`, see `instancing`).
+    pub(super) instances: super::instancing::FileInstances,
     /// What the walk skipped, for the message when nothing is left to light.
     pub(super) skipped: Skipped,
 }
@@ -64,14 +66,16 @@ pub(super) struct Skipped {
 }
 
 impl Walk<'_> {
-    /// Give `object`, instanced by node `node`, its node animation if the node or an
-    /// ancestor is animated; its rest transform becomes its pose at time 0.
-    pub(super) fn animate(&self, object: &mut Object, node: usize) {
+    /// Give `object`, drawn by node `node` (at `inner` in the node's frame: an instance's
+    /// own transform, else the identity), its node animation if the node or an ancestor is
+    /// animated; its rest transform becomes its pose at time 0.
+    pub(super) fn animate(&self, object: &mut Object, node: usize, inner: Affine3A) {
         if let Some(graph) = self.graph.as_ref().filter(|g| g.moves(node)) {
             let anim = crate::NodeAnimation {
                 graph: graph.clone(),
                 node,
                 outer: Affine3A::IDENTITY,
+                inner,
             };
             object.world_from_object = anim.world_from_object_at(0.0);
             object.node_animation = Some(anim);
@@ -89,6 +93,7 @@ impl Walk<'_> {
             graph: graph.clone(),
             node,
             outer: Affine3A::IDENTITY,
+            inner: Affine3A::IDENTITY,
         });
         self.scene.camera = self.scene.camera_at(0.0);
     }
@@ -105,6 +110,7 @@ impl Walk<'_> {
                 graph: graph.clone(),
                 node,
                 outer: Affine3A::IDENTITY,
+                inner: Affine3A::IDENTITY,
             };
             light.world_from_light = anim.world_from_object_at(0.0);
             light.node_animation = Some(anim);
@@ -182,17 +188,8 @@ impl Walk<'_> {
         }
         // A skinned mesh is placed by its skin, whatever the node's own transform (glTF 2.0,
         // "Skins"): a zero scale there hides nothing.
-        let skin = self.skins.of_node(node.index());
-        let drawn = |w: &mut Self| skin.is_some() || !w.hidden(&world, &node_label);
-        if let Some(mesh) = node.mesh().filter(|_| drawn(self)) {
-            let inst = super::mesh::Instance {
-                node: Some(&node),
-                parent: parent_node,
-                world,
-                skin,
-                label: node_label,
-            };
-            self.mesh(&inst, &mesh)?;
+        if let Some(mesh) = node.mesh() {
+            self.node_mesh(&node, parent_node, &mesh, world, node_label)?;
         }
         for child in node.children() {
             self.node(child, Some(&node), world, depth + 1)?;
@@ -202,6 +199,54 @@ impl Walk<'_> {
 }
 
 impl Walk<'_> {
+    /// Draw `mesh`, the mesh of `node` (world transform `world`): once, or once per
+    /// instance of an instanced node (`instancing`), each at the node's transform times its
+    /// own.
+    fn node_mesh(
+        &mut self,
+        node: &gltf::Node,
+        parent_node: Option<&gltf::Node>,
+        mesh: &gltf::Mesh,
+        world: Mat4,
+        node_label: String,
+    ) -> Result<(), SceneError> {
+        // A skinned mesh is placed by its skin, whatever the node's own transform (glTF 2.0,
+        // "Skins"): a zero scale there hides nothing, and its instances would all be placed
+        // alike (it is drawn once, with a warning).
+        let skin = self.skins.of_node(node.index());
+        let mut instances = self.instances.of_node(node.index()).map(<[Mat4]>::to_vec);
+        if instances.is_some() && skin.is_some() {
+            self.scene.warnings.push(format!(
+                "{node_label}: a skinned mesh drawn by instances ({}) is drawn once, where its skin puts it",
+                super::instancing::EXTENSION
+            ));
+            instances = None;
+        }
+        let places: Vec<Option<(usize, Mat4)>> = match instances {
+            Some(list) => list.into_iter().enumerate().map(Some).collect(),
+            None => vec![None],
+        };
+        for instance in places {
+            let (label, world) = match instance {
+                Some((k, m)) => (format!("{node_label} instance {k}"), world * m),
+                None => (node_label.clone(), world),
+            };
+            if skin.is_none() && self.hidden(&world, &label) {
+                continue;
+            }
+            let inst = super::mesh::Instance {
+                node: Some(node),
+                parent: parent_node,
+                world,
+                instance,
+                skin,
+                label,
+            };
+            self.mesh(&inst, mesh)?;
+        }
+        Ok(())
+    }
+
     /// Walk the default scene (else the first), or, in a file without scenes, every root
     /// node and then every mesh that no node instances, once at the origin. A scene left
     /// with nothing to light is empty, with a warning saying why.
@@ -269,6 +314,7 @@ impl Walk<'_> {
                 node: None,
                 parent: None,
                 world: Mat4::IDENTITY,
+                instance: None,
                 skin: None,
                 label: "placed at the origin".into(),
             };

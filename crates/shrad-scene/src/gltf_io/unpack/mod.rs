@@ -59,12 +59,15 @@ pub(super) struct Unpack<'a> {
 pub(super) struct Unpacked {
     pub(super) bytes: Vec<u8>,
     pub(super) zeros: Vec<usize>,
+    /// The instanced nodes' instances (`EXT_mesh_gpu_instancing`), read from the decoded
+    /// data.
+    pub(super) instances: super::instancing::FileInstances,
 }
 
 /// Rewrite `root` so that every compressed, quantized or implicit (zero) piece of data the
 /// reader needs lies in a plain buffer view; returns the bytes of the one new buffer (empty
 /// when nothing was decoded), whose `buffers` entry has been appended to `root`, and the
-/// accessors given zeros only.
+/// accessors given zeros only, with the instanced nodes' instances.
 pub(super) fn unpack(root: &mut Value, buffers: &[Vec<u8>]) -> Result<Unpacked, String> {
     let mut u = Unpack {
         root,
@@ -76,6 +79,7 @@ pub(super) fn unpack(root: &mut Value, buffers: &[Vec<u8>]) -> Result<Unpacked, 
     u.mark_without_data();
     draco::decode_primitives(&mut u)?;
     u.fill_zeros()?;
+    let instances = super::instancing::read(&u)?;
     u.dequantize()?;
     let out = std::mem::take(&mut u.out);
     if !out.is_empty() {
@@ -92,6 +96,7 @@ pub(super) fn unpack(root: &mut Value, buffers: &[Vec<u8>]) -> Result<Unpacked, 
     Ok(Unpacked {
         bytes: out,
         zeros: u.zeros,
+        instances,
     })
 }
 
@@ -233,7 +238,7 @@ impl Unpack<'_> {
 
     /// Every component of accessor `i` as floats (sparse substitution applied); the accessor
     /// has a bufferView and was bounds-checked by `validate`, and is checked again here.
-    fn read_f32(&self, i: usize) -> Result<Vec<f32>, String> {
+    pub(super) fn read_f32(&self, i: usize) -> Result<Vec<f32>, String> {
         let at = format!("accessors[{i}]");
         let a = &self.root["accessors"][i];
         let ty = a["type"].as_str().unwrap_or("SCALAR");

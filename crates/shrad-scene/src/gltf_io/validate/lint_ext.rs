@@ -15,6 +15,7 @@ const PLACES: &[(&str, &[&str])] = &[
     ("KHR_mesh_quantization", &[]),
     ("KHR_texture_transform", &["textureInfo"]),
     ("KHR_lights_punctual", &["root", "node"]),
+    ("EXT_mesh_gpu_instancing", &["node"]),
     ("KHR_draco_mesh_compression", &["primitive"]),
     ("EXT_meshopt_compression", &["buffer", "bufferView"]),
     ("EXT_texture_webp", &["texture"]),

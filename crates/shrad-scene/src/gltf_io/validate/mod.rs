@@ -30,6 +30,7 @@ const IMPLEMENTED_EXTENSIONS: &[&str] = &[
     "KHR_draco_mesh_compression",
     "EXT_texture_webp",
     "KHR_lights_punctual",
+    "EXT_mesh_gpu_instancing",
 ];
 
 /// What shrad loses when it ignores an extension the file only uses (the specification
