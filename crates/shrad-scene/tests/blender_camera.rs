@@ -61,6 +61,23 @@ fn shrad_puts_the_camera_where_blender_has_it() {
     );
 }
 
+/// The same file rewritten by gltfpack (`animated_camera_gltfpack.glb`: `gltfpack -i
+/// animated_camera.glb -o animated_camera_gltfpack.glb -cc`, gltfpack 1.x from npm): its
+/// keys in meshopt-compressed views, translations with the EXPONENTIAL filter and rotations
+/// (normalized shorts) with the QUATERNION filter. (The dolly's turn has no negative
+/// component, so this file would not have shown meshopt-rs's QUATERNION bug: the instancing
+/// fixture and `unpack::meshopt`'s unit test do.)
+#[test]
+fn gltfpacks_compressed_keys_put_the_camera_where_blender_has_it() {
+    let (eye, view, up) = worst(
+        &data().join("animated_camera_gltfpack.glb"),
+        &data().join("animated_camera.json"),
+    );
+    eprintln!("gltfpack: worst eye error {eye:.2e} m, view {view:.2e} rad, up {up:.2e} rad");
+    assert!(eye < 1e-2, "eye {eye}");
+    assert!(view < 1e-2 && up < 1e-2, "view {view}, up {up}");
+}
+
 #[test]
 fn fresh_blender_camera_export_when_blender_is_installed() {
     let out = std::env::temp_dir().join(format!("shrad-blender-cam-{}", std::process::id()));

@@ -1,14 +1,13 @@
 //! `EXT_meshopt_compression`: buffer views compressed by meshoptimizer's vertex and index
-//! codecs (with an optional filter), decoded by meshopt-rs into the new buffer. The view's
+//! codecs (with an optional filter), decoded by meshopt-rs into the new buffer (the
+//! QUATERNION filter by shrad: [`decode_quaternion`] says why). The view's
 //! own `buffer` is then usually a placeholder without data (`"fallback": true`).
 //!
 //! Specification: KhronosGroup/glTF, `extensions/2.0/Vendor/EXT_meshopt_compression`.
 
 use meshopt_rs::index::{buffer::decode_index_buffer, sequence::decode_index_sequence};
 use meshopt_rs::vertex::buffer::decode_vertex_buffer;
-use meshopt_rs::vertex::filter::{
-    decode_filter_exp, decode_filter_oct_16, decode_filter_oct_8, decode_filter_quat,
-};
+use meshopt_rs::vertex::filter::{decode_filter_exp, decode_filter_oct_16, decode_filter_oct_8};
 use serde_json::{json, Value};
 
 use super::Unpack;
@@ -216,6 +215,30 @@ fn vertex_words(
         62 63 64)
 }
 
+/// One quaternion of the QUATERNION filter (the specification's Appendix B, "Filter 2"):
+/// components 0-2 are three of the quaternion's components, as *signed* K-bit integers
+/// scaled by `1 / (sqrt(2) sf)`; component 3 holds `sf` (with its low two bits set) and, in
+/// those two bits, which component was left out (the largest, made non-negative), which is
+/// `sqrt(1 - x^2 - y^2 - z^2)`. The output is the four components as signed normalized
+/// 16-bit integers. meshopt-rs 0.1's `decode_filter_quat` reads the components as
+/// *unsigned* (a negative component became a large positive one): gltfpack's instance and
+/// animation rotations came out wrong wherever a component was negative.
+fn decode_quaternion(c: [i16; 4]) -> [i16; 4] {
+    let sf = i32::from(c[3]) | 3;
+    let scale = std::f32::consts::FRAC_1_SQRT_2 / sf as f32;
+    let [x, y, z] = [c[0], c[1], c[2]].map(|v| f32::from(v) * scale);
+    let w = (1.0 - x * x - y * y - z * z).max(0.0).sqrt();
+    // Rounded to the nearest integer, halves away from zero, as the reference decoder.
+    let snorm = |v: f32| (v * 32767.0).round() as i16;
+    let left_out = (c[3] & 3) as usize;
+    let mut out = [0i16; 4];
+    out[(left_out + 1) & 3] = snorm(x);
+    out[(left_out + 2) & 3] = snorm(y);
+    out[(left_out + 3) & 3] = snorm(z);
+    out[left_out] = snorm(w);
+    out
+}
+
 /// Apply the extension's filter in place (stride checked to suit it).
 fn filter(filter: &str, stride: usize, words: &mut [u32]) {
     match (filter, stride) {
@@ -226,7 +249,17 @@ fn filter(filter: &str, stride: usize, words: &mut [u32]) {
                 *w = u32::from_le_bytes(b);
             }
         }
-        ("OCTAHEDRAL" | "QUATERNION", _) => {
+        ("QUATERNION", _) => {
+            for p in words.chunks_exact_mut(2) {
+                let (a, b) = (p[0].to_le_bytes(), p[1].to_le_bytes());
+                let c = [[a[0], a[1]], [a[2], a[3]], [b[0], b[1]], [b[2], b[3]]]
+                    .map(i16::from_le_bytes);
+                let q = decode_quaternion(c).map(|x| x as u16);
+                p[0] = u32::from(q[0]) | u32::from(q[1]) << 16;
+                p[1] = u32::from(q[2]) | u32::from(q[3]) << 16;
+            }
+        }
+        ("OCTAHEDRAL", _) => {
             let mut v: Vec<[u16; 4]> = words
                 .chunks_exact(2)
                 .map(|p| {
@@ -239,11 +272,7 @@ fn filter(filter: &str, stride: usize, words: &mut [u32]) {
                     ]
                 })
                 .collect();
-            if filter == "OCTAHEDRAL" {
-                decode_filter_oct_16(&mut v);
-            } else {
-                decode_filter_quat(&mut v);
-            }
+            decode_filter_oct_16(&mut v);
             for (p, q) in words.chunks_exact_mut(2).zip(v) {
                 p[0] = u32::from(q[0]) | u32::from(q[1]) << 16;
                 p[1] = u32::from(q[2]) | u32::from(q[3]) << 16;
@@ -251,5 +280,51 @@ fn filter(filter: &str, stride: usize, words: &mut [u32]) {
         }
         ("EXPONENTIAL", _) => decode_filter_exp(words),
         _ => {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The filter's encoding of unit quaternion `q` with 12-bit components, as the
+    /// specification describes it: the largest component is left out (the quaternion
+    /// negated first if it is negative), the others scaled by `sqrt(2) sf`.
+    fn encode(q: [f32; 4]) -> ([i16; 4], [f32; 4]) {
+        let m = (0..4)
+            .max_by(|&a, &b| q[a].abs().total_cmp(&q[b].abs()))
+            .unwrap();
+        let q = if q[m] < 0.0 { q.map(|v| -v) } else { q };
+        let sf = 4095i16;
+        let c =
+            |k: usize| (q[(m + k) & 3] * std::f32::consts::SQRT_2 * f32::from(sf)).round() as i16;
+        ([c(1), c(2), c(3), (sf & !3) | m as i16], q)
+    }
+
+    #[test]
+    fn quaternions_with_negative_components_decode_to_themselves() {
+        let n = |q: [f32; 4]| {
+            let l = q.iter().map(|v| v * v).sum::<f32>().sqrt();
+            q.map(|v| v / l)
+        };
+        for q in [
+            n([0.1, -0.5, 0.3, -0.8]),
+            n([-0.7, 0.0, 0.0, 0.7]),
+            n([0.0, 0.0, -0.2958, 0.9553]),
+            n([0.25, 0.25, 0.57, -0.74]),
+            [0.0, 0.0, 0.0, 1.0],
+        ] {
+            let (c, want) = encode(q);
+            let got = decode_quaternion(c);
+            for k in 0..4 {
+                // 12-bit components: within 1 / (sqrt(2) 4095) of the quaternion, about 6
+                // units of the 16-bit output.
+                let w = (want[k] * 32767.0).round();
+                assert!(
+                    (f32::from(got[k]) - w).abs() <= 8.0,
+                    "{q:?}: got {got:?}, want {want:?}"
+                );
+            }
+        }
     }
 }
