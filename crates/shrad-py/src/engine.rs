@@ -15,6 +15,7 @@ use shrad::render::{RenderOptions, Shading};
 use crate::args::{self, ObjRef};
 use crate::arrays;
 use crate::scene::PyScene;
+use crate::stop::Stop;
 use crate::to_py_err;
 
 /// The live engine over one scene: a patched world and one solver.
@@ -28,7 +29,7 @@ use crate::to_py_err;
 /// ``backend`` is ``"auto"``, ``"embree"`` or ``"bvh"``. ``threads`` gives the engine
 /// worker threads of its own (default: the process's shared pool, one per core), so that
 /// engines in several Python threads each keep their cores. The precomputation runs here,
-/// with the GIL released.
+/// with the GIL released; Ctrl-C (KeyboardInterrupt) stops it (no engine is made).
 ///
 /// Steer it with ``set_transform``, ``set_emission``, ``set_time`` and ``set_option``;
 /// advance it with ``step()``; read ``radiosity``, ``vertex_colors``, the patch arrays
@@ -51,6 +52,21 @@ impl PyEngine {
             let mut guard = self.lock();
             let e: &mut Engine = &mut guard;
             self.on_pool(|| f(e))
+        })
+    }
+
+    /// [`PyEngine::with`] for long work that Ctrl-C stops ([`crate::stop`]): `f` runs on a
+    /// thread of its own with the progress to hand the library, the engine locked there
+    /// (outside the pool, as in `with`).
+    fn with_stoppable<T: Send>(
+        &self,
+        py: Python<'_>,
+        f: impl FnOnce(&mut Engine, &Stop) -> Result<T, shrad::Error> + Send,
+    ) -> PyResult<T> {
+        crate::stop::interruptible(py, |stop| {
+            let mut guard = self.lock();
+            let e: &mut Engine = &mut guard;
+            self.on_pool(|| f(e, stop))
         })
     }
 
@@ -129,13 +145,13 @@ impl PyEngine {
         let choice = crate::settings::choice(solver, preset, settings)?;
         let backend = args::backend(backend)?;
         let (scene, sizing) = (scene.scene.as_ref().clone(), scene.sizing);
-        let build = || Engine::new(scene, sizing, backend, choice);
-        let engine = py
-            .detach(|| match &pool {
+        let engine = crate::stop::interruptible(py, |stop| {
+            let build = || Engine::new_with_progress(scene, sizing, backend, choice, stop);
+            match &pool {
                 Some(p) => p.install(build),
                 None => build(),
-            })
-            .map_err(to_py_err)?;
+            }
+        })?;
         Ok(PyEngine {
             inner: Mutex::new(engine),
             pool,
@@ -500,8 +516,9 @@ impl PyEngine {
     /// The relative L2 error of the current state against a reference solve of the same
     /// state (area-weighted, lights left out; fractions, not percent): a dict with
     /// ``overall``, ``boundary`` and ``interior`` (NaN where a role has no patches).
+    /// Ctrl-C (KeyboardInterrupt) stops the reference solve.
     fn error<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let e = self.with(py, |e| e.error());
+        let e = self.with_stoppable(py, |e, stop| e.error_with_progress(stop))?;
         crate::to_py(py, &e)
     }
 
@@ -528,7 +545,8 @@ impl PyEngine {
     /// ``passes`` times, and write ``path`` as ``export_gltf`` does; with ``frames``, a
     /// sequence of that many files evenly over the animation (``out.glb`` ->
     /// ``out_0000.glb``, ``out_0001.glb``, ...), each a whole scene at its pose, at the first
-    /// file's exposure. Returns one dict per file.
+    /// file's exposure. Returns one dict per file. Ctrl-C (KeyboardInterrupt) stops it
+    /// before any file is in place, the engine whole at the frame it reached.
     #[pyo3(signature = (path, *, time=None, frames=None, passes=2, exposure=None))]
     fn bake<'py>(
         &self,
@@ -546,9 +564,9 @@ impl PyEngine {
             passes,
             exposure,
         };
-        let baked = self
-            .with(py, |e| shrad::bake::bake(e, &path, &options))
-            .map_err(to_py_err)?;
+        let baked = self.with_stoppable(py, |e, stop| {
+            shrad::bake::bake_with_progress(e, &path, &options, stop)
+        })?;
         crate::to_py(py, &baked)
     }
 

@@ -4,8 +4,11 @@
 //!
 //! Errors: a bad input is a `ValueError`, a file that cannot be read or written an
 //! `OSError`, each with the message the CLI prints (it names the file and what is wrong).
+//! Ctrl-C stops the long calls ([`stop`]).
 
-use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyPermissionError, PyValueError};
+use pyo3::exceptions::{
+    PyFileNotFoundError, PyKeyboardInterrupt, PyOSError, PyPermissionError, PyValueError,
+};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -16,9 +19,11 @@ mod images;
 mod scene;
 mod scene_dict;
 mod settings;
+mod stop;
 
 /// A library error as the Python exception a user expects: `OSError` for files that
-/// cannot be read or written, `ValueError` for everything else.
+/// cannot be read or written, `KeyboardInterrupt` for work stopped (`stop`), `ValueError`
+/// for everything else.
 pub(crate) fn to_py_err(e: shrad::Error) -> PyErr {
     use shrad::scene::SceneError;
     let message = e.to_string();
@@ -41,6 +46,9 @@ pub(crate) fn to_py_err(e: shrad::Error) -> PyErr {
         // Listed, not `_`: a new kind of error has to be sorted into one or the other.
         shrad::Error::Scene(SceneError::Invalid { .. } | SceneError::UnknownFormat { .. })
         | shrad::Error::Invalid(_) => PyValueError::new_err(message),
+        // What `stop::interruptible` asked for after a signal handler raised; it raises that
+        // handler's exception, so this one is seen only if the library stops by itself.
+        shrad::Error::Interrupted => PyKeyboardInterrupt::new_err(message),
     }
 }
 

@@ -2,6 +2,7 @@
 never a panic, an abort in the allocator, or a call that cannot be stopped."""
 
 import signal
+import threading
 import time
 
 import numpy as np
@@ -56,6 +57,90 @@ def test_a_signal_stops_converge_between_frames(cornell):
     assert 1 < e.frames < 1 + passes, e.frames
     assert stopped < 5 * frame + 1.0, (stopped, frame)
     # The engine is whole: a frame in progress ends before the handler runs.
+    e.step()
+    assert np.isfinite(e.radiosity).all()
+
+
+def sigint_during(call, after):
+    """`call()` while another thread sends SIGINT (what Ctrl-C sends) to this process `after`
+    seconds in. Python runs the handler on the main thread, here raising Interrupted (a
+    KeyboardInterrupt that escaped would stop pytest), as a library call that ends early
+    at Ctrl-C raises KeyboardInterrupt. Returns (whether `call` raised Interrupted, seconds
+    until it ended); a signal that lands after `call` returned raises here."""
+
+    def handler(*_):
+        raise Interrupted
+
+    old = signal.signal(signal.SIGINT, handler)
+    timer = threading.Timer(after, signal.pthread_kill, (threading.main_thread().ident, signal.SIGINT))
+    try:
+        timer.start()
+        t = time.perf_counter()
+        try:
+            call()
+            interrupted = False
+        except Interrupted:
+            interrupted = True
+        took = time.perf_counter() - t
+        timer.join()
+    finally:
+        try:
+            timer.cancel()
+        finally:
+            signal.signal(signal.SIGINT, old)
+    return interrupted, took
+
+
+# The dispersive set-up of `large`: mostly its wall-exchange rows (60k patches x 128 rays),
+# which stop between chunks; patching and the BVH before them (a tenth of it) do not.
+LARGE = {"solver": "dispersive", "wall_rays": 128}
+
+
+@pytest.fixture(scope="module")
+def large():
+    """A scene whose dispersive set-up and reference solve take a second or two each, the
+    engine built without a signal and how long that took."""
+    scene = shrad.load("cornell", patches=60000)
+    t = time.perf_counter()
+    engine = shrad.Engine(scene, **LARGE)
+    return scene, engine, time.perf_counter() - t
+
+
+def test_a_signal_stops_building_an_engine(large):
+    # The set-up held Ctrl-C back until it had finished; now it stops within one object or
+    # one chunk of wall rays, and no engine is made. (Stopped at a tenth of the whole, it
+    # ends far before the whole would: a call that ran on would end after it.)
+    scene, _, whole = large
+    interrupted, took = sigint_during(lambda: shrad.Engine(scene, **LARGE), whole / 10)
+    assert interrupted
+    assert took < whole / 2, (took, whole)
+
+
+def test_a_signal_stops_the_reference_solve_of_error(large):
+    _, e, _ = large
+    t = time.perf_counter()
+    before = e.error()
+    whole = time.perf_counter() - t
+    interrupted, took = sigint_during(e.error, whole / 10)
+    assert interrupted
+    assert took < whole / 2, (took, whole)
+    # The engine is whole.
+    assert e.error() == before
+
+
+def test_a_signal_stops_a_bake_before_any_file(cornell, tmp_path):
+    # A thousand passes of the dispersive solver, its objects kept awake: seconds of frames
+    # (2000 of about 1.5 ms).
+    e = shrad.Engine(cornell, solver="dispersive", sleep_tolerance=0)
+    passes = 1000
+    path = tmp_path / "out.glb"
+    interrupted, _ = sigint_during(lambda: e.bake(path, passes=passes), 0.2)
+    assert interrupted
+    # It stopped partway through its frames (a bake that ran on stepped them all and wrote
+    # the file), and left no file, not even a staged one.
+    assert e.frames < e.frames_to_converge(passes), e.frames
+    assert list(tmp_path.iterdir()) == []
+    # The engine is whole.
     e.step()
     assert np.isfinite(e.radiosity).all()
 

@@ -34,7 +34,8 @@ use shrad_vis::Backend;
 
 use crate::frame::{Changes, FrameStats};
 use crate::metrics::{relative_error, RelativeError};
-use crate::reference::{solve, ReferenceOptions};
+use crate::progress::{uninterrupted, Unstoppable};
+use crate::reference::{solve, try_solve, ReferenceOptions};
 use crate::render::{Image, RenderOptions};
 use crate::solver::{Solver, SolverChoice};
 use crate::{Error, NoProgress, PatchSizing, Progress, World};
@@ -71,8 +72,22 @@ impl Engine {
         backend: Backend,
         choice: SolverChoice,
     ) -> Result<Engine, Error> {
+        Engine::new_with_progress(scene, sizing, backend, choice, &NoProgress)
+    }
+
+    /// [`Engine::new`], reporting the solver's set-up to `progress` and stopping with
+    /// [`Error::Interrupted`] (no engine) when it asks to ([`Engine::from_world_with_progress`]).
+    pub fn new_with_progress(
+        scene: Scene,
+        sizing: PatchSizing,
+        backend: Backend,
+        choice: SolverChoice,
+        progress: &dyn Progress,
+    ) -> Result<Engine, Error> {
         choice.validate()?;
-        Engine::from_world(World::new(scene, sizing, backend)?, choice)
+        crate::progress::check(progress)?;
+        let world = World::new(scene, sizing, backend)?;
+        Engine::from_world_with_progress(world, choice, progress)
     }
 
     /// An engine over an already patched world; `choice` is validated first.
@@ -81,7 +96,8 @@ impl Engine {
     }
 
     /// [`Engine::from_world`], reporting the solver's set-up to `progress` (a large scene's
-    /// takes seconds).
+    /// takes seconds); [`Error::Interrupted`] when it asks to stop
+    /// ([`Solver::new_with_progress`]).
     pub fn from_world_with_progress(
         world: World,
         choice: SolverChoice,
@@ -383,14 +399,30 @@ impl Engine {
 
     /// [`Engine::step`], reporting the progress of a long frame to `progress`: the
     /// reference's form factors and iterations. A dispersive or grid frame (milliseconds)
-    /// reports nothing; a caller running many of them counts frames itself.
+    /// reports nothing; a caller running many of them counts frames itself. It never stops
+    /// the frame ([`Engine::try_step_with_progress`] does).
     pub fn step_with_progress(&mut self, progress: &dyn Progress) -> FrameStats {
+        uninterrupted(self.try_step_with_progress(&Unstoppable(progress)))
+    }
+
+    /// [`Engine::step_with_progress`], or [`Error::Interrupted`] when `progress` asks to
+    /// stop (before the frame, or within a reference frame): the engine is then as it was,
+    /// its changes still pending for the next frame.
+    pub fn try_step_with_progress(&mut self, progress: &dyn Progress) -> Result<FrameStats, Error> {
         let changes = std::mem::take(&mut self.pending);
-        let stats = self
+        match self
             .solver
-            .step_with_progress(&self.world, &changes, progress);
-        self.frames += 1;
-        stats
+            .try_step_with_progress(&self.world, &changes, progress)
+        {
+            Ok(stats) => {
+                self.frames += 1;
+                Ok(stats)
+            }
+            Err(e) => {
+                self.pending = changes;
+                Err(e)
+            }
+        }
     }
 
     /// Frames a static scene needs to converge: every object updated `passes` times.
@@ -497,6 +529,17 @@ impl Engine {
         let (reference, _) = solve(&self.world, &self.reference_options, &NoProgress);
         relative_error(&self.world.patches, self.solver.radiosity(), &reference)
     }
+
+    /// [`Engine::error`], reporting the reference solve to `progress`, or
+    /// [`Error::Interrupted`] when it asks to stop ([`crate::reference::try_solve`]).
+    pub fn error_with_progress(&self, progress: &dyn Progress) -> Result<RelativeError, Error> {
+        let (reference, _) = try_solve(&self.world, &self.reference_options, progress)?;
+        Ok(relative_error(
+            &self.world.patches,
+            self.solver.radiosity(),
+            &reference,
+        ))
+    }
 }
 
 #[cfg(test)]
@@ -526,6 +569,96 @@ mod tests {
             self.ended
                 .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         }
+    }
+
+    /// Asks to stop once `after` units of work are done (Python's Ctrl-C sets such a flag
+    /// from outside); counts the steps begun and ended.
+    struct StopAfter {
+        after: u64,
+        done: std::sync::atomic::AtomicU64,
+        open: std::sync::atomic::AtomicI64,
+    }
+
+    impl StopAfter {
+        fn new(after: u64) -> StopAfter {
+            StopAfter {
+                after,
+                done: Default::default(),
+                open: Default::default(),
+            }
+        }
+    }
+
+    impl Progress for StopAfter {
+        fn begin(&self, _: &str, _: u64) {
+            self.open.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
+        fn advance(&self, n: u64) {
+            self.done.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+        }
+        fn end(&self) {
+            self.open.fetch_sub(1, std::sync::atomic::Ordering::Relaxed);
+        }
+        fn stop_requested(&self) -> bool {
+            self.done.load(std::sync::atomic::Ordering::Relaxed) >= self.after
+        }
+    }
+
+    fn cornell(solver: &str, preset: &str) -> Engine {
+        Engine::new(
+            shrad_scene::cornell_box(),
+            PatchSizing::Count(300),
+            Backend::Auto,
+            SolverChoice::preset(solver, preset).unwrap(),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn a_progress_that_asks_to_stop_ends_the_long_work_interrupted() {
+        use std::sync::atomic::Ordering::Relaxed;
+        fn interrupted<T>(r: Result<T, Error>) -> bool {
+            matches!(r, Err(Error::Interrupted))
+        }
+        // Setting up the dispersive solver: stopped after its first object (the Cornell box
+        // has two), or before any work.
+        for after in [0, 1] {
+            let stop = StopAfter::new(after);
+            let built = Engine::new_with_progress(
+                shrad_scene::cornell_box(),
+                PatchSizing::Count(300),
+                Backend::Auto,
+                SolverChoice::preset("dispersive", "default").unwrap(),
+                &stop,
+            );
+            assert!(interrupted(built), "after {after}");
+            assert_eq!(stop.done.load(Relaxed), after);
+            assert_eq!(stop.open.load(Relaxed), 0, "every step begun is ended");
+        }
+        // `error()`'s reference solve: stopped after the direct light, before the form
+        // factors; the engine is whole.
+        let mut e = cornell("dispersive", "default");
+        e.step();
+        let stop = StopAfter::new(1);
+        assert!(interrupted(e.error_with_progress(&stop)));
+        assert_eq!(stop.done.load(Relaxed), 1);
+        assert_eq!(stop.open.load(Relaxed), 0);
+        assert!(e
+            .error_with_progress(&NoProgress)
+            .unwrap()
+            .overall
+            .is_finite());
+        // A reference frame: stopped within its solve (after the direct light and the form
+        // factors); the frame is not counted and the radiosity is as it was.
+        let mut e = cornell("reference", "fast");
+        let before = e.radiosity().to_vec();
+        let stop = StopAfter::new(2);
+        assert!(interrupted(e.try_step_with_progress(&stop)));
+        assert_eq!(stop.open.load(Relaxed), 0);
+        assert_eq!((e.frames(), e.radiosity()), (0, &before[..]));
+        // The infallible forms never stop.
+        assert_eq!(e.step_with_progress(&StopAfter::new(0)).frame, 0);
+        assert_eq!(e.frames(), 1);
     }
 
     #[test]

@@ -12,19 +12,20 @@ use rayon::prelude::*;
 use crate::progress::Progress;
 use crate::sampling::{hammersley, hash, square_to_cosine_hemisphere, unit};
 use crate::sparse::SparseRows;
-use crate::World;
+use crate::{Error, World};
 
 /// Sparse form-factor matrix: row `i` holds `(patch seen, F_ij)`, columns ascending.
 pub type FormFactors = SparseRows<(u32, f32)>;
 
 /// Estimate the form factors of the patches in `rows` (all others get empty rows) with
 /// `rays` rays each. Patches with zero reflectance need no row; pass only those you need.
+/// [`Error::Interrupted`] when `progress` asks to stop (checked between chunks of rays).
 pub fn form_factors(
     world: &World,
     rows: &[u32],
     rays: u32,
     progress: &dyn Progress,
-) -> FormFactors {
+) -> Result<FormFactors, Error> {
     form_factors_with(world, rows, rays, &[], progress)
 }
 
@@ -35,14 +36,14 @@ pub fn form_factors_with(
     rays: u32,
     exclude: &[u32],
     progress: &dyn Progress,
-) -> FormFactors {
+) -> Result<FormFactors, Error> {
     let n = world.patches.len();
     let mut per_patch: Vec<Vec<(u32, f32)>> = vec![Vec::new(); n];
-    let rows_out = form_factor_rows(world, rows, rays, exclude, |_| true, progress);
+    let rows_out = form_factor_rows(world, rows, rays, exclude, |_| true, progress)?;
     for (&i, row) in rows.iter().zip(rows_out) {
         per_patch[i as usize] = row;
     }
-    SparseRows::from_rows(per_patch)
+    Ok(SparseRows::from_rows(per_patch))
 }
 
 /// The `rays` form-factor rays of patch `i` (world space): stratified points on the patch
@@ -90,6 +91,8 @@ fn point_in(quad: bool, c: &[Vec3; 4], u: f32, v: f32) -> Vec3 {
 }
 
 /// Sparse form-factor rows `(patch seen, F)` of `rows`, keeping the columns `keep` accepts.
+/// [`Error::Interrupted`] when `progress` asks to stop: it is asked before each chunk of
+/// about a million rays, where the progress advances.
 pub fn form_factor_rows(
     world: &World,
     rows: &[u32],
@@ -97,12 +100,13 @@ pub fn form_factor_rows(
     exclude: &[u32],
     keep: impl Fn(usize) -> bool + Sync,
     progress: &dyn Progress,
-) -> Vec<Vec<(u32, f32)>> {
+) -> Result<Vec<Vec<(u32, f32)>>, Error> {
     let rays = rays.max(1) as usize;
     let chunk = ((1 << 20) / rays).max(1);
     let mut out = Vec::with_capacity(rows.len());
     progress.begin("form factors", rows.len() as u64);
     for ids in rows.chunks(chunk) {
+        crate::progress::check(progress).inspect_err(|_| progress.end())?;
         let mut origins = vec![Vec3::ZERO; ids.len() * rays];
         let mut dirs = vec![Vec3::ZERO; ids.len() * rays];
         origins
@@ -124,7 +128,7 @@ pub fn form_factor_rows(
         progress.advance(ids.len() as u64);
     }
     progress.end();
-    out
+    Ok(out)
 }
 
 /// The form-factor row of a patch whose `rays` rays saw the patches `seen` (those kept, in

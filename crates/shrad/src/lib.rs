@@ -67,6 +67,10 @@ pub enum Error {
     /// An output file could not be written (nothing is left behind).
     #[error("{0}: cannot write: {1}")]
     Output(PathBuf, String),
+    /// The front end asked the work to stop ([`Progress::stop_requested`]); what it was
+    /// making was thrown away.
+    #[error("interrupted")]
+    Interrupted,
 }
 
 /// With `SHRAD_TRACE` set, print the time since `t` of a part of the frame to stderr (the

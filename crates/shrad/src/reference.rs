@@ -19,8 +19,8 @@ use crate::direct::direct_irradiance;
 pub use crate::form_factors::{
     form_factor_rows, form_factors, form_factors_with, patch_rays, FormFactors,
 };
-use crate::progress::Progress;
-use crate::World;
+use crate::progress::{check, uninterrupted, Progress, Unstoppable};
+use crate::{Error, World};
 
 /// Settings of the reference solver.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -66,15 +66,16 @@ pub use crate::frame::ReferenceStats;
 
 /// One reference frame through the common frame interface: a converged [`solve`] of the
 /// world as it is, its statistics as [`SolverStats::Reference`](crate::frame::SolverStats).
+/// [`Error::Interrupted`] when `progress` asks to stop ([`try_solve`]).
 pub fn frame(
     world: &World,
     options: &ReferenceOptions,
     frame: u64,
     progress: &dyn Progress,
-) -> (Vec<Vec3>, Vec<Vec3>, crate::frame::FrameStats) {
+) -> Result<(Vec<Vec3>, Vec<Vec3>, crate::frame::FrameStats), Error> {
     let t = Instant::now();
     let rays_before = world.rays_cast();
-    let (radiosity, punctual, stats) = solve_parts(world, options, progress);
+    let (radiosity, punctual, stats) = solve_parts(world, options, progress)?;
     let out = crate::frame::FrameStats {
         frame_ms: t.elapsed().as_secs_f64() * 1e3,
         energy: stats.energy,
@@ -85,26 +86,38 @@ pub fn frame(
         rays_cast: world.rays_cast() - rays_before,
         ..crate::frame::FrameStats::new(frame, crate::frame::SolverStats::Reference(stats))
     };
-    (radiosity, punctual, out)
+    Ok((radiosity, punctual, out))
 }
 
-/// Solve the radiosity of `world` at its current time.
+/// Solve the radiosity of `world` at its current time, reporting to `progress` (it never
+/// stops this: [`try_solve`] does).
 pub fn solve(
     world: &World,
     options: &ReferenceOptions,
     progress: &dyn Progress,
 ) -> (Vec<Vec3>, ReferenceStats) {
-    let (radiosity, _, stats) = solve_parts(world, options, progress);
-    (radiosity, stats)
+    uninterrupted(try_solve(world, options, &Unstoppable(progress)))
 }
 
-/// [`solve`], with the punctual lights' direct irradiance of every patch (what a picture
-/// replaces by its per-pixel value).
+/// [`solve`], or [`Error::Interrupted`] when `progress` asks to stop: asked after the direct
+/// light, before each chunk of form-factor rays and each iteration.
+pub fn try_solve(
+    world: &World,
+    options: &ReferenceOptions,
+    progress: &dyn Progress,
+) -> Result<(Vec<Vec3>, ReferenceStats), Error> {
+    let (radiosity, _, stats) = solve_parts(world, options, progress)?;
+    Ok((radiosity, stats))
+}
+
+/// [`try_solve`], with the punctual lights' direct irradiance of every patch (what a
+/// picture replaces by its per-pixel value).
 pub fn solve_parts(
     world: &World,
     options: &ReferenceOptions,
     progress: &dyn Progress,
-) -> (Vec<Vec3>, Vec<Vec3>, ReferenceStats) {
+) -> Result<(Vec<Vec3>, Vec<Vec3>, ReferenceStats), Error> {
+    check(progress)?;
     let p = &world.patches;
     let n = p.len();
     let mut stats = ReferenceStats::default();
@@ -124,10 +137,11 @@ pub fn solve_parts(
     progress.advance(1);
     progress.end();
     stats.direct_seconds = t.elapsed().as_secs_f64();
+    check(progress)?;
 
     // Form factors.
     let t = Instant::now();
-    let ff = form_factors(world, &all, options.rays_per_patch, progress);
+    let ff = form_factors(world, &all, options.rays_per_patch, progress)?;
     stats.form_factor_seconds = t.elapsed().as_secs_f64();
     stats.form_factor_entries = ff.entries();
     stats.form_factor_bytes = ff.bytes();
@@ -145,6 +159,7 @@ pub fn solve_parts(
     };
     progress.begin("radiosity iterations", options.max_iterations as u64);
     for it in 0..options.max_iterations {
+        check(progress).inspect_err(|_| progress.end())?;
         next.par_iter_mut().enumerate().for_each(|(i, out)| {
             let gathered: Vec3 = ff
                 .row(i)
@@ -187,5 +202,5 @@ pub fn solve_parts(
         .zip(&world.exitance)
         .map(|(r, m)| *r + *m)
         .collect();
-    (radiosity, punctual, stats)
+    Ok((radiosity, punctual, stats))
 }

@@ -6,6 +6,7 @@ use glam::Vec3;
 use crate::dispersive::{Dispersive, DispersiveOptions};
 use crate::frame::{Changes, FrameStats};
 use crate::grid::{Grid, GridOptions};
+use crate::progress::{check, uninterrupted, Unstoppable};
 use crate::reference::ReferenceOptions;
 use crate::{NoProgress, Progress, World};
 
@@ -48,7 +49,8 @@ impl Solver {
     }
 
     /// [`Solver::new`], reporting the set-up's progress (the dispersive objects' transfer
-    /// vectors, the wall rows) to `progress`.
+    /// vectors, the wall rows) to `progress`; [`crate::Error::Interrupted`] when it asks to
+    /// stop (no solver is made).
     pub fn new_with_progress(
         world: &World,
         choice: SolverChoice,
@@ -76,14 +78,28 @@ impl Solver {
 
     /// One frame, reporting the progress of a long one: the reference's form factors and
     /// iterations (a frame of it can take minutes). A dispersive or grid frame takes
-    /// milliseconds and reports nothing.
+    /// milliseconds and reports nothing. Never stops ([`Solver::try_step_with_progress`]
+    /// does).
     pub fn step_with_progress(
         &mut self,
         world: &World,
         changes: &Changes,
         progress: &dyn Progress,
     ) -> FrameStats {
-        match self {
+        uninterrupted(self.try_step_with_progress(world, changes, &Unstoppable(progress)))
+    }
+
+    /// [`Solver::step_with_progress`], or [`crate::Error::Interrupted`] when `progress` asks
+    /// to stop: before the frame, and within a reference frame (whose solve is thrown away:
+    /// the solver is as it was).
+    pub fn try_step_with_progress(
+        &mut self,
+        world: &World,
+        changes: &Changes,
+        progress: &dyn Progress,
+    ) -> Result<FrameStats, crate::Error> {
+        check(progress)?;
+        Ok(match self {
             Solver::Reference {
                 options,
                 radiosity,
@@ -91,7 +107,7 @@ impl Solver {
                 punctual,
             } => {
                 let (solved, direct, stats) =
-                    crate::reference::frame(world, options, *frames, progress);
+                    crate::reference::frame(world, options, *frames, progress)?;
                 *radiosity = solved;
                 *punctual = direct;
                 *frames += 1;
@@ -99,7 +115,7 @@ impl Solver {
             }
             Solver::Dispersive(d) => d.step(world, changes),
             Solver::Grid(g) => g.step(world, changes),
-        }
+        })
     }
 
     /// Frames a static scene needs to converge (`passes` updates of every object).

@@ -2,9 +2,10 @@
 //! as errors.
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
 use glam::Vec3;
-use shrad::bake::{bake, frame_path, write_gltf, BakeOptions};
+use shrad::bake::{bake, bake_with_progress, frame_path, write_gltf, BakeOptions};
 use shrad::engine::Engine;
 use shrad::scene::staged_path;
 use shrad::solver::SolverChoice;
@@ -151,6 +152,60 @@ fn a_sequence_that_fails_partway_leaves_no_file_of_it() {
         ["out_0000.glb", "out_0001.glb", "out_0002.glb"]
     );
     assert!(gltf::import(frame_path(&path, 2)).is_ok());
+}
+
+/// Asks to stop once `after` units of work are done (a front end's Ctrl-C).
+struct StopAfter {
+    after: u64,
+    done: AtomicU64,
+}
+
+impl shrad::Progress for StopAfter {
+    fn begin(&self, _: &str, _: u64) {}
+    fn advance(&self, n: u64) {
+        self.done.fetch_add(n, Relaxed);
+    }
+    fn end(&self) {}
+    fn stop_requested(&self) -> bool {
+        self.done.load(Relaxed) >= self.after
+    }
+}
+
+#[test]
+fn a_bake_asked_to_stop_is_interrupted_and_writes_nothing() {
+    let d = dir("stop");
+    let path = d.join("out.glb");
+    let options = BakeOptions {
+        frames: Some(3),
+        passes: 1,
+        ..Default::default()
+    };
+    // The reference: within the first file's solve (after its direct light).
+    let mut e = animated_engine();
+    let stop = StopAfter {
+        after: 1,
+        done: AtomicU64::new(0),
+    };
+    let err = bake_with_progress(&mut e, &path, &options, &stop).unwrap_err();
+    assert!(matches!(err, shrad::Error::Interrupted), "{err}");
+    assert_eq!(err.to_string(), "interrupted");
+    assert_eq!(e.frames(), 0);
+    // The dispersive solver: its frames between files; the first file was staged.
+    let mut e = Engine::from_world(
+        e.into_world(),
+        SolverChoice::preset("dispersive", "default").unwrap(),
+    )
+    .unwrap();
+    let stop = StopAfter {
+        after: 1,
+        done: AtomicU64::new(0),
+    };
+    let err = bake_with_progress(&mut e, &path, &options, &stop).unwrap_err();
+    assert!(matches!(err, shrad::Error::Interrupted), "{err}");
+    assert_eq!(stop.done.load(Relaxed), 1, "one file staged");
+    assert!(entries(&d).is_empty(), "{:?}", entries(&d));
+    // The engine is whole: a bake without the stop writes the sequence.
+    assert_eq!(bake(&mut e, &path, &options).unwrap().len(), 3);
 }
 
 #[test]

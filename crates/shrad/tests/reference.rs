@@ -35,7 +35,7 @@ fn backends() -> Vec<Backend> {
 fn ff01(scene: Scene, backend: Backend) -> f32 {
     let world = World::new(scene, PatchSizing::Size(10.0), backend).unwrap();
     assert_eq!(world.patches.len(), 2);
-    let ff = form_factors(&world, &[0], 1 << 20, &NoProgress);
+    let ff = form_factors(&world, &[0], 1 << 20, &NoProgress).unwrap();
     ff.row(0)
         .iter()
         .filter(|(j, _)| *j == 1)
@@ -87,7 +87,7 @@ fn reciprocity_of_unequal_patches() {
         Material::diffuse(Vec3::splat(0.5)),
     );
     let world = World::new(s, PatchSizing::Size(10.0), Backend::Auto).unwrap();
-    let ff = form_factors(&world, &[0, 1], 1 << 19, &NoProgress);
+    let ff = form_factors(&world, &[0, 1], 1 << 19, &NoProgress).unwrap();
     let f01: f32 = ff
         .row(0)
         .iter()

@@ -42,6 +42,7 @@ use shrad_scene::gltf_builder::TRIANGLES;
 use shrad_scene::StagedFiles;
 
 use crate::engine::Engine;
+use crate::progress::check;
 use crate::solver::SolverChoice;
 use crate::{Error, NoProgress, Progress, World};
 
@@ -116,7 +117,8 @@ pub fn bake(engine: &mut Engine, path: &Path, options: &BakeOptions) -> Result<V
 
 /// [`bake`], reporting progress: with the reference, its steps in each file's solve (form
 /// factors, iterations: minutes); with the other solvers, whose frames take milliseconds,
-/// the files of a sequence.
+/// the files of a sequence. When `progress` asks to stop, [`Error::Interrupted`]: no file
+/// is written (the staged ones are removed), the engine is whole at the frame it reached.
 pub fn bake_with_progress(
     engine: &mut Engine,
     path: &Path,
@@ -184,10 +186,15 @@ pub fn bake_files(
         };
         let written = engine.set_time(t).and_then(|()| {
             // Not `converge(0)`: the reference solves once whatever the passes, so a
-            // state just solved would be solved again.
+            // state just solved would be solved again. A stop asked for ends the bake
+            // between frames (or within a reference frame), before any file is in place.
             if options.passes > 0 {
-                engine.converge_with_progress(options.passes, step_bar);
+                engine.converge_by(options.passes, |e| {
+                    check(progress)?;
+                    e.try_step_with_progress(step_bar)
+                })?;
             }
+            check(progress)?;
             let e = *exposure.get_or_insert_with(|| auto_exposure(engine));
             stage(engine, &file, e, &mut staged)
         });
@@ -195,6 +202,7 @@ pub fn bake_files(
         file_bar.advance(1);
     }
     file_bar.end();
+    check(progress)?;
     staged.commit()?;
     Ok(out)
 }

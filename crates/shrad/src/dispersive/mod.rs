@@ -189,7 +189,9 @@ impl Dispersive {
         Dispersive::new_with_progress(world, options, &crate::NoProgress)
     }
 
-    /// [`Dispersive::new`], reporting each object's set-up and the wall rows to `progress`.
+    /// [`Dispersive::new`], reporting each object's set-up and the wall rows to `progress`;
+    /// [`crate::Error::Interrupted`] when it asks to stop (asked before each object and each
+    /// chunk of wall rays).
     pub fn new_with_progress(
         world: &World,
         options: DispersiveOptions,
@@ -226,20 +228,23 @@ impl Dispersive {
             _ => 1,
         };
         progress.begin("setting up objects", interior.len() as u64);
-        let objects: Vec<ObjectProbes> = interior
+        let objects: Result<Vec<ObjectProbes>, crate::Error> = interior
             .into_iter()
             .map(|o| {
+                crate::progress::check(progress)?;
                 let ob = ObjectProbes::new(world, o, &options, split);
                 progress.advance(1);
-                ob
+                Ok(ob)
             })
             .collect();
         progress.end();
+        let objects = objects?;
         // Rays that pass where an object moves are re-traced then (`refresh_wall_rows`).
         let wall_rays = wall_rows::wall_rays_for(boundary_patches.len(), options.wall_rays);
         let wall_rows = options
             .wall_exchange
-            .then(|| WallRows::new(world, &boundary_patches, wall_rays, false, progress));
+            .then(|| WallRows::new(world, &boundary_patches, wall_rays, false, progress))
+            .transpose()?;
         let object_boxes: Vec<shrad_scene::Aabb> = (0..world.scene.objects.len())
             .map(|o| world_box(world, o))
             .collect();

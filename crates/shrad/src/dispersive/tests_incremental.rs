@@ -34,7 +34,8 @@ fn moving_an_occluder_keeps_direct_light_and_wall_rows_exact() {
         &[],
         |j| receives_as_boundary(&world, j),
         &crate::NoProgress,
-    );
+    )
+    .unwrap();
     let kept = d.wall_rows.as_ref().unwrap().rows();
     assert!(plain
         .iter()

@@ -223,14 +223,15 @@ impl WallRows {
     /// The rows of `rays` rays from each patch of `boundary`; every object occludes, only
     /// boundary-to-boundary entries are kept (light via interior objects is Step 3's). Traced
     /// now when `eager` (and always up to [`WALL_EAGER_RAYS`]), else empty and all dirty:
-    /// [`WallRows::retrace`] builds them over the next frames.
+    /// [`WallRows::retrace`] builds them over the next frames. [`crate::Error::Interrupted`]
+    /// when `progress` asks to stop (before each chunk of about a million rays).
     pub(super) fn new(
         world: &World,
         boundary: &[u32],
         rays: u32,
         eager: bool,
         progress: &dyn crate::Progress,
-    ) -> WallRows {
+    ) -> Result<WallRows, crate::Error> {
         let rays = rays.max(1) as usize;
         let words = rays.div_ceil(64);
         let n = boundary.len();
@@ -271,6 +272,7 @@ impl WallRows {
             let chunk = ((1 << 20) / rays).max(1) * rays;
             progress.begin("wall-exchange rows", n as u64);
             loop {
+                crate::progress::check(progress).inspect_err(|_| progress.end())?;
                 let traced = out.retrace(world, boundary, chunk);
                 if traced == 0 {
                     break;
@@ -280,14 +282,15 @@ impl WallRows {
             progress.end();
         }
         out.cursor = 0;
-        out
+        Ok(out)
     }
 
     /// The rows of [`WallRows::new`], none traced yet, whatever their size (for tests of the
     /// lazy build on small scenes).
     #[cfg(test)]
     pub(super) fn new_unbuilt(world: &World, boundary: &[u32], rays: u32) -> WallRows {
-        let mut rows = WallRows::new(world, &boundary[..0], rays, false, &crate::NoProgress);
+        let mut rows = WallRows::new(world, &boundary[..0], rays, false, &crate::NoProgress)
+            .expect("NoProgress never stops");
         let n = boundary.len();
         let r = rows.rays;
         rows.rows = SparseRows::from_rows(vec![Vec::<(u32, f32)>::new(); n]);
