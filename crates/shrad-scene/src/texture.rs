@@ -8,7 +8,7 @@
 //! quantised to 8 bits (an error below 0.2 % of the sRGB value). Alpha is dropped (patches
 //! are opaque), except for an image a glTF `alphaMode: MASK` material uses as its base
 //! colour: that one keeps an alpha plane (1 byte a texel) that the loader cuts the surface
-//! by (`gltf_io/cutout.rs`). Materials that use the same image hold the same
+//! by (`cutout.rs`). Materials that use the same image hold the same
 //! [`std::sync::Arc`].
 
 use std::sync::{Arc, OnceLock};
