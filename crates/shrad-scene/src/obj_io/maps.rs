@@ -253,23 +253,34 @@ fn texture(spec: &MapSpec, image: Arc<TextureImage>) -> Texture {
 pub(super) struct Alpha {
     /// The `map_d` texture (loaded).
     pub map: Option<Texture>,
-    /// `d`, or 1 − `Tr`, in [0, 1], and which statement gave it (None: neither, 1).
-    pub dissolve: Option<(f32, &'static str)>,
+    /// Its dissolve (None: 1).
+    pub dissolve: Option<Dissolve>,
 }
 
-/// The dissolve of material `mat` (see the module's documentation): `d`, else 1 − `Tr`
-/// (clamped to [0, 1]); None when it has neither, `Tr` is not a number, or it names a
-/// `map_d`.
-pub(super) fn dissolve(mat: &tobj::Material) -> Option<(f32, &'static str)> {
+/// A material's uniform dissolve.
+#[derive(Clone, Debug)]
+pub(super) struct Dissolve {
+    /// `d`, or 1 − `Tr`, clamped to [0, 1].
+    pub d: f32,
+    /// The statement as the MTL file has it (`d 0.3`, `Tr 1`), for warnings.
+    pub said: String,
+}
+
+/// The dissolve of material `mat` (see the module's documentation): `d`, else 1 − `Tr`;
+/// None when it has neither, `Tr` is not a number, `d` is NaN, or it names a `map_d`.
+pub(super) fn dissolve(mat: &tobj::Material) -> Option<Dissolve> {
     if mat.dissolve_texture.is_some() {
         return None;
     }
-    let (d, from) = match (mat.dissolve, mat.unknown_param.get("Tr")) {
-        (Some(d), _) => (d, "d"),
-        (None, Some(tr)) => (1.0 - tr.trim().parse::<f32>().ok()?, "Tr"),
+    let (d, said) = match (mat.dissolve, mat.unknown_param.get("Tr")) {
+        (Some(d), _) => (d, format!("d {d}")),
+        (None, Some(tr)) => (1.0 - tr.trim().parse::<f32>().ok()?, format!("Tr {tr}")),
         (None, None) => return None,
     };
-    (!d.is_nan()).then(|| (d.clamp(0.0, 1.0), from))
+    (!d.is_nan()).then(|| Dissolve {
+        d: d.clamp(0.0, 1.0),
+        said,
+    })
 }
 
 /// The cut-outs of one OBJ file: the triangles they may still add ([`MAX_ADDED`] at first).

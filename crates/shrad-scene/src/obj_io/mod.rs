@@ -59,20 +59,20 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
             .material_id
             .and_then(|i| materials.get(i))
             .map_or("", |m| m.name.as_str());
-        match alpha.dissolve {
-            Some((d, from)) if d <= 0.0 => {
+        match &alpha.dissolve {
+            Some(d) if d.d <= 0.0 => {
                 scene.warnings.push(format!(
-                    "{}: object '{name}' skipped (it neither reflects nor blocks light): material '{mat_name}' is fully transparent ({from} {})",
+                    "{}: object '{name}' skipped (it neither reflects nor blocks light): material '{mat_name}' is fully transparent ({})",
                     path.display(),
-                    if from == "d" { 0 } else { 1 }
+                    d.said
                 ));
                 continue;
             }
-            Some((d, from)) if d < 1.0 && partly_warned.insert(mat_name.to_string()) => {
+            Some(d) if d.d < 1.0 && partly_warned.insert(mat_name.to_string()) => {
                 scene.warnings.push(format!(
-                    "{}: material '{mat_name}' is partly transparent ({from} {}): transparency is not represented, the surface is treated as opaque",
+                    "{}: material '{mat_name}' is partly transparent ({}): transparency is not represented, the surface is treated as opaque",
                     path.display(),
-                    if from == "d" { d } else { 1.0 - d }
+                    d.said
                 ));
             }
             _ => {}
