@@ -7,6 +7,7 @@
 
 mod aabb;
 mod builtin;
+mod cutout;
 mod error;
 mod gltf_io;
 mod load;

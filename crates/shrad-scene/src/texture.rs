@@ -7,9 +7,9 @@
 //! texture costs 48 MiB (f32 linear RGB would be 192 MiB, RGB f16 96 MiB). 16-bit PNGs are
 //! quantised to 8 bits (an error below 0.2 % of the sRGB value). Alpha is dropped (patches
 //! are opaque), except for an image a glTF `alphaMode: MASK` material uses as its base
-//! colour: that one keeps an alpha plane (1 byte a texel) that the loader cuts the surface
-//! by (`gltf_io/cutout.rs`). Materials that use the same image hold the same
-//! [`std::sync::Arc`].
+//! colour, and an OBJ `map_d` (its chosen channel as the alpha plane): those keep an alpha
+//! plane (1 byte a texel) that the loader cuts the surface by (`cutout.rs`). Materials that
+//! use the same image hold the same [`std::sync::Arc`].
 
 use std::sync::{Arc, OnceLock};
 
@@ -79,6 +79,33 @@ pub const MAX_TEXTURE_SIZE: u32 = 8192;
 /// the factor alone), so a small file naming many huge images stays bounded.
 pub const MAX_FILE_TEXELS: u64 = 2 * (MAX_TEXTURE_SIZE as u64) * (MAX_TEXTURE_SIZE as u64);
 
+/// Which channel of an image a scalar map reads (see [`TextureImage::decode_scalar`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum ScalarChannel {
+    /// The alpha channel when the image has one, else the luminance.
+    Auto,
+    /// The alpha channel (an image without one is opaque: 255).
+    Alpha,
+    /// The luminance (the `image` crate's, of the stored sRGB values).
+    Luminance,
+    /// Red (0), green (1) or blue (2).
+    Rgb(usize),
+}
+
+/// Decode a PNG or JPEG file's bytes, at most `MAX_TEXTURE_SIZE` a side and 256 MiB decoded
+/// (the header's size is checked before anything is allocated).
+fn decode_limited(bytes: &[u8]) -> Result<image::DynamicImage, String> {
+    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| e.to_string())?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_TEXTURE_SIZE);
+    limits.max_image_height = Some(MAX_TEXTURE_SIZE);
+    limits.max_alloc = Some(256 << 20);
+    reader.limits(limits);
+    reader.decode().map_err(|e| e.to_string())
+}
+
 impl TextureImage {
     /// The width and height a PNG or JPEG file's header declares, read without decoding.
     pub(crate) fn declared_size(bytes: &[u8]) -> Result<(u32, u32), String> {
@@ -132,15 +159,7 @@ impl TextureImage {
         name: String,
         keep_alpha: bool,
     ) -> Result<TextureImage, String> {
-        let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
-            .with_guessed_format()
-            .map_err(|e| e.to_string())?;
-        let mut limits = image::Limits::default();
-        limits.max_image_width = Some(MAX_TEXTURE_SIZE);
-        limits.max_image_height = Some(MAX_TEXTURE_SIZE);
-        limits.max_alloc = Some(256 << 20);
-        reader.limits(limits);
-        let img = reader.decode().map_err(|e| e.to_string())?;
+        let img = decode_limited(bytes)?;
         let (w, h) = (img.width(), img.height());
         let alpha = (keep_alpha && img.color().has_alpha()).then(|| {
             let a = img.to_luma_alpha8().into_raw();
@@ -155,6 +174,32 @@ impl TextureImage {
                 .ok_or_else(|| "bad alpha plane".to_string()),
             None => Ok(image),
         }
+    }
+
+    /// A scalar map (an OBJ `map_d`) from a PNG or JPEG file's bytes (limits as
+    /// [`TextureImage::decode`]): its alpha plane is `channel` of the image, read as the
+    /// stored 8-bit value over 255 (no sRGB decode), and its colour is that value as grey.
+    pub(crate) fn decode_scalar(
+        bytes: &[u8],
+        name: String,
+        channel: ScalarChannel,
+    ) -> Result<TextureImage, String> {
+        let img = decode_limited(bytes)?;
+        let (w, h) = (img.width(), img.height());
+        let channel = match channel {
+            ScalarChannel::Auto if img.color().has_alpha() => ScalarChannel::Alpha,
+            ScalarChannel::Auto => ScalarChannel::Luminance,
+            c => c,
+        };
+        let values: Vec<u8> = match channel {
+            ScalarChannel::Alpha => img.to_luma_alpha8().pixels().map(|p| p[1]).collect(),
+            ScalarChannel::Luminance | ScalarChannel::Auto => img.to_luma8().into_raw(),
+            ScalarChannel::Rgb(k) => img.to_rgb8().pixels().map(|p| p[k.min(2)]).collect(),
+        };
+        let grey = values.iter().flat_map(|&v| [v; 3]).collect();
+        TextureImage::from_srgb8(name, w, h, grey)
+            .and_then(|i| i.with_alpha(values))
+            .ok_or_else(|| "the image is empty".to_string())
     }
     /// Width in texels.
     pub fn width(&self) -> u32 {

@@ -21,4 +21,5 @@ mod gltf_morph_alpha;
 mod gltf_skin;
 mod io;
 mod lightmap_uvs;
+mod obj_map_d;
 mod scene_file_lights;

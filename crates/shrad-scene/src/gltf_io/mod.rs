@@ -350,7 +350,7 @@ fn read_bytes(
         texels_left: crate::texture::MAX_FILE_TEXELS,
         materials: std::collections::HashMap::new(),
         mask_images: std::collections::HashSet::new(),
-        cutout_left: cutout::MAX_ADDED,
+        cutout_left: crate::cutout::MAX_ADDED,
         cutout_capped: false,
         file_lights,
         skins,

@@ -36,7 +36,7 @@ pub(super) struct Walk<'a> {
     /// The images an `alphaMode: MASK` material uses as its base colour: decoded with their
     /// alpha plane (see `cutout`).
     pub(super) mask_images: std::collections::HashSet<super::material::ImageSource>,
-    /// Triangles the MASK cut-outs may still add ([`super::cutout::MAX_ADDED`] at first).
+    /// Triangles the MASK cut-outs may still add ([`crate::cutout::MAX_ADDED`] at first).
     pub(super) cutout_left: usize,
     /// Whether that cap was reached (warned once).
     pub(super) cutout_capped: bool,

@@ -2,18 +2,22 @@
 //!
 //! Import: each model (`o` / `g`, split further by `usemtl`) becomes one object in world
 //! space (identity transform), faces triangulated; `Kd` is the reflectance, `Ke` the emitted
-//! radiance. OBJ has no roles: they are inferred. Export: world-space vertices, one `o` per
-//! object, one material per object with `Kd` and `Ke`.
+//! radiance, `map_Kd` the base colour texture; `map_d` cuts the surface and `d` / `Tr` may
+//! leave it out (`maps`). OBJ has no roles: they are inferred. Export: world-space
+//! vertices, one `o` per object, one material per object with `Kd` and `Ke`.
+
+mod maps;
 
 use std::cell::RefCell;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::fmt::Write as _;
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 
-use crate::{Material, Mesh, Object, Scene, SceneError, Texture, TextureImage};
+use crate::{Material, Mesh, Object, Scene, SceneError};
+use maps::{Alpha, Cutouts, Maps};
 
 /// Read an OBJ file (and the MTL files it names) into a scene, no role inference or validation.
 pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
@@ -30,29 +34,60 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
         ..Default::default()
     };
     let materials = materials_or_default(path, parsed.materials, &parsed.problems, &mut scene)?;
-    let mut maps = DiffuseMaps {
-        obj: path,
-        lib_dirs: parsed
-            .libraries
-            .into_iter()
-            .filter_map(|k| k.parent().map(Path::to_path_buf))
-            .chain([dir.to_path_buf()])
-            .collect(),
-        images: HashMap::new(),
-    };
+    let lib_dirs = parsed
+        .libraries
+        .into_iter()
+        .filter_map(|k| k.parent().map(Path::to_path_buf))
+        .chain([dir.to_path_buf()])
+        .collect();
+    let mut maps = Maps::new(path, lib_dirs);
     let mut seen = HashMap::<String, usize>::new();
+    let (mut cutouts, mut partly_warned) = (Cutouts::default(), HashSet::new());
     for (mi, model) in parsed.models.iter().enumerate() {
         if model.mesh.indices.is_empty() {
             continue;
         }
-        let material = model_material(model, &materials, &mut maps, &mut scene.warnings);
+        let (material, alpha) = model_material(model, &materials, &mut maps, &mut scene.warnings);
         let base = if model.name.is_empty() {
             format!("object{mi}")
         } else {
             model.name.clone()
         };
         let name = unique_name(&mut seen, base);
-        let object = model_object(path, model, name, material, &mut scene.warnings);
+        let mat_name = model
+            .mesh
+            .material_id
+            .and_then(|i| materials.get(i))
+            .map_or("", |m| m.name.as_str());
+        match &alpha.dissolve {
+            Some(d) if d.d <= 0.0 => {
+                scene.warnings.push(format!(
+                    "{}: object '{name}' skipped (it neither reflects nor blocks light): material '{mat_name}' is fully transparent ({})",
+                    path.display(),
+                    d.said
+                ));
+                continue;
+            }
+            Some(d) if d.d < 1.0 && partly_warned.insert(mat_name.to_string()) => {
+                scene.warnings.push(format!(
+                    "{}: material '{mat_name}' is partly transparent ({}): transparency is not represented, the surface is treated as opaque",
+                    path.display(),
+                    d.said
+                ));
+            }
+            _ => {}
+        }
+        let textured = material.base_color_texture.is_some();
+        let mut object = model_object(path, model, name, material, &alpha, &mut scene.warnings);
+        if let Some(map) = alpha.map.as_ref().filter(|_| !object.mesh.uvs.is_empty()) {
+            if !cutouts.apply(path, &mut object, mat_name, map, &mut scene.warnings) {
+                continue;
+            }
+        }
+        if !textured {
+            // Texture coordinates read for `map_d` alone.
+            object.mesh.uvs.clear();
+        }
         scene.objects.push(object);
     }
     Ok(scene)
@@ -132,77 +167,38 @@ fn materials_or_default(
     }
 }
 
-/// The `map_Kd` images, each decoded once. Their paths are relative to the MTL file that
-/// names them (tobj does not say which one: the first library directory holding the file
-/// wins).
-struct DiffuseMaps<'a> {
-    obj: &'a Path,
-    lib_dirs: Vec<PathBuf>,
-    images: HashMap<String, Option<std::sync::Arc<TextureImage>>>,
-}
-
-impl DiffuseMaps<'_> {
-    /// The image `map_Kd` names, or `None` with a warning when it cannot be loaded.
-    fn get(
-        &mut self,
-        name: &str,
-        warnings: &mut Vec<String>,
-    ) -> Option<std::sync::Arc<TextureImage>> {
-        // Options (`-s 1 1 1 -o ...`) come before the file name.
-        let file = if name.trim_start().starts_with('-') {
-            name.split_whitespace().last().unwrap_or(name)
-        } else {
-            name.trim()
-        };
-        let (lib_dirs, obj) = (&self.lib_dirs, self.obj);
-        self.images
-            .entry(file.to_string())
-            .or_insert_with(|| {
-                let found = lib_dirs.iter().map(|d| d.join(file)).find(|p| p.is_file());
-                let r = match &found {
-                    None => Err("file not found".to_string()),
-                    Some(p) => std::fs::read(p)
-                        .map_err(|e| e.to_string())
-                        .and_then(|b| TextureImage::decode(&b, file.to_string())),
-                };
-                match r {
-                    Ok(img) => Some(std::sync::Arc::new(img)),
-                    Err(e) => {
-                        warnings.push(format!(
-                            "{}: map_Kd '{file}' cannot be loaded ({e}); using Kd alone",
-                            obj.display()
-                        ));
-                        None
-                    }
-                }
-            })
-            .clone()
-    }
-}
-
-/// A model's material: its `Kd`, `Ke` and `map_Kd`, or the default.
+/// A model's material: its `Kd`, `Ke` and `map_Kd`, or the default; and its transparency
+/// (`map_d`, `d` / `Tr`).
 fn model_material(
     model: &tobj::Model,
     materials: &[tobj::Material],
-    maps: &mut DiffuseMaps,
+    maps: &mut Maps,
     warnings: &mut Vec<String>,
-) -> Material {
+) -> (Material, Alpha) {
     match model.mesh.material_id {
         Some(id) => match materials.get(id) {
-            Some(mat) => Material {
-                reflectance: mat
-                    .diffuse
-                    .map_or(Material::default().reflectance, Vec3::from),
-                emitted_radiance: mat.emissive.map_or(Vec3::ZERO, Vec3::from),
-                double_sided: false,
-                base_color_texture: mat
-                    .diffuse_texture
-                    .as_deref()
-                    .and_then(|t| maps.get(t, warnings))
-                    .map(Texture::new),
-                emissive_texture: None,
-            },
-            None => Material::default(),
+            Some(mat) => (
+                Material {
+                    reflectance: mat
+                        .diffuse
+                        .map_or(Material::default().reflectance, Vec3::from),
+                    emitted_radiance: mat.emissive.map_or(Vec3::ZERO, Vec3::from),
+                    double_sided: false,
+                    base_color_texture: mat
+                        .diffuse_texture
+                        .as_deref()
+                        .and_then(|t| maps.colour(t, warnings)),
+                    emissive_texture: None,
+                },
+                Alpha {
+                    map: mat
+                        .dissolve_texture
+                        .as_deref()
+                        .and_then(|t| maps.alpha(t, warnings)),
+                    dissolve: maps::dissolve(mat),
+                },
+            ),
+            None => (Material::default(), Alpha::default()),
         },
         None => {
             if !materials.is_empty() {
@@ -212,7 +208,7 @@ fn model_material(
                     model.name
                 ));
             }
-            Material::default()
+            (Material::default(), Alpha::default())
         }
     }
 }
@@ -230,13 +226,15 @@ fn unique_name(seen: &mut HashMap<String, usize>, base: String) -> String {
     name
 }
 
-/// One model as an object: its mesh, with texture coordinates when it has a texture (or
-/// the texture averaged into the reflectance when it has none).
+/// One model as an object: its mesh, with texture coordinates when it has a texture or a
+/// `map_d` (without them, the texture is averaged into the reflectance and `map_d` is not
+/// read, with a warning).
 fn model_object(
     path: &Path,
     model: &tobj::Model,
     name: String,
     mut material: Material,
+    alpha: &Alpha,
     warnings: &mut Vec<String>,
 ) -> Object {
     let m = &model.mesh;
@@ -251,22 +249,29 @@ fn model_object(
         .map(|c| [c[0], c[1], c[2]])
         .collect();
     let mut mesh = Mesh::new(positions, triangles);
-    if let Some(t) = &material.base_color_texture {
-        if m.texcoords.len() == 2 * mesh.positions.len() {
-            // OBJ's v grows upwards from the image's bottom; glTF's (shrad's) downwards.
-            mesh.uvs = vec![m
-                .texcoords
-                .chunks_exact(2)
-                .map(|c| Vec2::new(c[0], 1.0 - c[1]))
-                .collect()];
-        } else {
-            warnings.push(format!(
-                "{}: object '{name}' has no texture coordinates: map_Kd averaged to one colour",
-                path.display()
-            ));
-            material.reflectance *= t.image.mean();
-            material.base_color_texture = None;
-        }
+    let has_uvs = m.texcoords.len() == 2 * mesh.positions.len();
+    if has_uvs && (material.base_color_texture.is_some() || alpha.map.is_some()) {
+        // OBJ's v grows upwards from the image's bottom; glTF's (shrad's) downwards.
+        mesh.uvs = vec![m
+            .texcoords
+            .chunks_exact(2)
+            .map(|c| Vec2::new(c[0], 1.0 - c[1]))
+            .collect()];
+    }
+    if let Some(t) = material.base_color_texture.as_ref().filter(|_| !has_uvs) {
+        warnings.push(format!(
+            "{}: object '{name}' has no texture coordinates: map_Kd averaged to one colour",
+            path.display()
+        ));
+        material.reflectance *= t.image.mean();
+        material.base_color_texture = None;
+    }
+    if let Some(t) = alpha.map.as_ref().filter(|_| !has_uvs) {
+        warnings.push(format!(
+            "{}: object '{name}' has no texture coordinates: map_d '{}' not read (the surface stays opaque)",
+            path.display(),
+            t.image.name
+        ));
     }
     Object::new(name, mesh, material)
 }
