@@ -137,6 +137,7 @@ fn crate_compatible(root: &mut Value) -> usize {
     const DONE: &[&str] = &[
         "KHR_mesh_quantization",
         "EXT_meshopt_compression",
+        "KHR_meshopt_compression",
         "KHR_draco_mesh_compression",
         "EXT_texture_webp",
         "KHR_texture_basisu",

@@ -12,7 +12,9 @@ use serde_json::{json, Value};
 
 use super::Unpack;
 
-const EXT: &str = "EXT_meshopt_compression";
+/// The two names of the extension: `KHR_meshopt_compression` is `EXT_meshopt_compression`
+/// with a version 1 attribute codec and a COLOR filter added (its Appendix C).
+const EXTENSIONS: [&str; 2] = ["EXT_meshopt_compression", "KHR_meshopt_compression"];
 
 /// The extension's fields, checked.
 struct Compressed {
@@ -29,13 +31,14 @@ struct Compressed {
 pub(super) fn decode_views(u: &mut Unpack) -> Result<(), String> {
     let n = u.root["bufferViews"].as_array().map_or(0, Vec::len);
     for v in 0..n {
-        let Some(ext) = u.root["bufferViews"][v]
-            .pointer(&format!("/extensions/{EXT}"))
-            .cloned()
-        else {
+        let view = &u.root["bufferViews"][v];
+        let Some((name, ext)) = EXTENSIONS.iter().find_map(|n| {
+            view.pointer(&format!("/extensions/{n}"))
+                .map(|e| (*n, e.clone()))
+        }) else {
             continue;
         };
-        let at = format!("bufferViews[{v}].extensions.{EXT}");
+        let at = format!("bufferViews[{v}].extensions.{name}");
         let c = fields(&ext, &at, u.buffers.len())?;
         let view_len = u.root["bufferViews"][v]["byteLength"].as_u64().unwrap_or(0);
         let size = (c.count as u64).saturating_mul(c.stride as u64);
@@ -64,7 +67,7 @@ pub(super) fn decode_views(u: &mut Unpack) -> Result<(), String> {
         view["buffer"] = json!(u.buffers.len());
         view["byteOffset"] = json!(offset);
         if let Some(exts) = view.get_mut("extensions").and_then(Value::as_object_mut) {
-            exts.remove(EXT);
+            exts.remove(name);
         }
     }
     Ok(())
@@ -126,9 +129,10 @@ fn fields(ext: &Value, at: &str, buffers: usize) -> Result<Compressed, String> {
         "OCTAHEDRAL" => s == 4 || s == 8,
         "QUATERNION" => s == 8,
         "EXPONENTIAL" => s % 4 == 0,
+        "COLOR" => s == 4 || s == 8,
         f => {
             return Err(format!(
-                "{at}.filter: '{f}' is not NONE, OCTAHEDRAL, QUATERNION or EXPONENTIAL"
+                "{at}.filter: '{f}' is not NONE, OCTAHEDRAL, QUATERNION, EXPONENTIAL or COLOR"
             ))
         }
     };
@@ -164,6 +168,15 @@ fn decode(c: &Compressed, src: &[u8]) -> Result<Vec<u8>, String> {
             let mut d = vec![0u32; c.count];
             decode_index_sequence(&mut d, src).map_err(|x| e(&x))?;
             Ok(d.iter().flat_map(|i| i.to_le_bytes()).collect())
+        }
+        // Version 1 (KHR_meshopt_compression), which meshopt-rs 0.1 does not know.
+        _ if src.first() == Some(&super::attributes_v1::HEADER) => {
+            let bytes = super::attributes_v1::decode(c.stride, c.count, src)?;
+            let mut words: Vec<u32> = (bytes.chunks_exact(4))
+                .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+                .collect();
+            filter(&c.filter, c.stride, &mut words);
+            Ok(words.iter().flat_map(|w| w.to_le_bytes()).collect())
         }
         _ => {
             let mut words = vertex_words(c.stride / 4, c.count, src).map_err(|x| e(&x))?;
@@ -213,6 +226,30 @@ fn vertex_words(
         1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25 26 27 28 29 30 31 32
         33 34 35 36 37 38 39 40 41 42 43 44 45 46 47 48 49 50 51 52 53 54 55 56 57 58 59 60 61
         62 63 64)
+}
+
+/// One colour of the COLOR filter (`KHR_meshopt_compression`, Appendix B, "Filter 4"), its
+/// `bits`-bit components (8 or 16, as unsigned values): Y, Co, Cg (signed) and an alpha of
+/// K-1 bits under a set bit K-1 that gives K; the output is R, G, B, A as unsigned
+/// normalized `bits`-bit integers (clamped: the encoder keeps them in range).
+fn decode_color(c: [u32; 4], bits: u32) -> [u32; 4] {
+    let max = (1u32 << bits) - 1;
+    let signed = |v: u32| ((v << (32 - bits)) as i32) >> (32 - bits);
+    if c[3] == 0 {
+        // No bit gives K: not a valid encoding.
+        return [0; 4];
+    }
+    let k_max = (1i64 << (32 - c[3].leading_zeros())) - 1;
+    let (y, co, cg) = (
+        i64::from(c[0]),
+        i64::from(signed(c[1])),
+        i64::from(signed(c[2])),
+    );
+    let (r, g, b) = (y + co - cg, y + cg, y - co - cg);
+    let a = i64::from(c[3]) & (k_max >> 1);
+    let a = (a << 1) | (a & 1);
+    let scale = f64::from(max) / k_max as f64;
+    [r, g, b, a].map(|v| ((v as f64 * scale).round() as i64).clamp(0, i64::from(max)) as u32)
 }
 
 /// One quaternion of the QUATERNION filter (the specification's Appendix B, "Filter 2"):
@@ -279,6 +316,20 @@ fn filter(filter: &str, stride: usize, words: &mut [u32]) {
             }
         }
         ("EXPONENTIAL", _) => decode_filter_exp(words),
+        ("COLOR", 4) => {
+            for w in words.iter_mut() {
+                let c = w.to_le_bytes().map(u32::from);
+                *w = u32::from_le_bytes(decode_color(c, 8).map(|x| x as u8));
+            }
+        }
+        ("COLOR", _) => {
+            for p in words.chunks_exact_mut(2) {
+                let c = [p[0] & 0xffff, p[0] >> 16, p[1] & 0xffff, p[1] >> 16];
+                let q = decode_color(c, 16);
+                p[0] = q[0] | q[1] << 16;
+                p[1] = q[2] | q[3] << 16;
+            }
+        }
         _ => {}
     }
 }

@@ -2,7 +2,8 @@
 //! it sees the file: every decoded byte goes into one new buffer appended to the file's.
 //!
 //! In this order:
-//! 1. `meshopt`: `EXT_meshopt_compression` buffer views decoded (meshopt-rs);
+//! 1. `meshopt`: `EXT_meshopt_compression` and `KHR_meshopt_compression` buffer views
+//!    decoded (meshopt-rs; the version 1 attribute codec by `attributes_v1`);
 //!    then `no_data`: primitives and animation samplers whose data is not in the file
 //!    marked to be skipped (nothing below reads them);
 //! 2. `draco`: `KHR_draco_mesh_compression` primitives decoded (draco-oxide-decoder) into
@@ -30,6 +31,7 @@
 //! is allocated, and every decoded count against the accessor that declares it; indices are
 //! bounds-checked against the vertex count where the mesh is read (`mesh.rs`).
 
+mod attributes_v1;
 mod draco;
 mod meshopt;
 pub(super) mod no_data;

@@ -18,6 +18,7 @@ const PLACES: &[(&str, &[&str])] = &[
     ("EXT_mesh_gpu_instancing", &["node"]),
     ("KHR_draco_mesh_compression", &["primitive"]),
     ("EXT_meshopt_compression", &["buffer", "bufferView"]),
+    ("KHR_meshopt_compression", &["buffer", "bufferView"]),
     ("EXT_texture_webp", &["texture"]),
     ("KHR_texture_basisu", &["texture"]),
     ("KHR_materials_", &["material"]),

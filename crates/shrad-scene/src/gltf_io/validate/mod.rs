@@ -27,6 +27,7 @@ const IMPLEMENTED_EXTENSIONS: &[&str] = &[
     "KHR_texture_transform",
     "KHR_mesh_quantization",
     "EXT_meshopt_compression",
+    "KHR_meshopt_compression",
     "KHR_draco_mesh_compression",
     "EXT_texture_webp",
     "KHR_lights_punctual",
