@@ -10,6 +10,7 @@ mod builtin;
 mod cutout;
 mod error;
 mod gltf_io;
+mod ktx2;
 mod load;
 mod model;
 mod node_anim;

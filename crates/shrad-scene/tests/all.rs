@@ -15,6 +15,7 @@ mod gltf_animation;
 mod gltf_camera_animation;
 mod gltf_files_outside;
 mod gltf_instancing;
+mod gltf_ktx2;
 mod gltf_lights;
 mod gltf_mask_cutout;
 mod gltf_morph_alpha;

@@ -200,13 +200,15 @@ impl Walk<'_> {
         } else {
             return Err("image has neither uri nor bufferView".into());
         };
-        if bytes.starts_with(b"\xABKTX 20\xBB\r\n\x1A\n") {
-            return Err(
-                "it is a KTX2 / Basis Universal image (KHR_texture_basisu), which shrad cannot decode"
-                    .into(),
-            );
-        }
-        let (w, h) = TextureImage::declared_size(&bytes)?;
+        // A KTX2 / Basis Universal image (KHR_texture_basisu) is transcoded to RGBA.
+        let ktx2 = match bytes.starts_with(crate::ktx2::KTX2_MAGIC) {
+            true => Some(crate::ktx2::Ktx2::open(&bytes)?),
+            false => None,
+        };
+        let (w, h) = match &ktx2 {
+            Some(k) => k.size,
+            None => TextureImage::declared_size(&bytes)?,
+        };
         let texels = u64::from(w) * u64::from(h);
         if texels > self.texels_left {
             return Err(format!(
@@ -216,7 +218,10 @@ impl Walk<'_> {
             ));
         }
         let keep_alpha = self.mask_images.contains(&self.image_source(index));
-        let image = TextureImage::decode_with(&bytes, self.image_label(index), keep_alpha)?;
+        let image = match ktx2 {
+            Some(k) => k.decode(self.image_label(index), keep_alpha)?,
+            None => TextureImage::decode_with(&bytes, self.image_label(index), keep_alpha)?,
+        };
         self.texels_left -= u64::from(image.width()) * u64::from(image.height());
         Ok(image)
     }

@@ -191,8 +191,8 @@ fn crate_compatible(root: &mut Value) -> usize {
 }
 
 /// The image each texture reads: `EXT_texture_webp`'s (shrad decodes WebP), else the core
-/// `source`, else `KHR_texture_basisu`'s (which shrad cannot decode: the material then warns
-/// and uses its factor). A texture may have none (the specification requires `source` only
+/// `source` (a PNG or JPEG, lossless or closer to the original than a GPU format), else
+/// `KHR_texture_basisu`'s (a KTX2 image, transcoded to RGBA). A texture may have none (the specification requires `source` only
 /// when no extension provides the image): the material then warns and uses its factor.
 fn choose_texture_sources(root: &mut Value) {
     for t in root

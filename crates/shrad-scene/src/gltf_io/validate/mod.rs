@@ -32,6 +32,7 @@ const IMPLEMENTED_EXTENSIONS: &[&str] = &[
     "EXT_texture_webp",
     "KHR_lights_punctual",
     "EXT_mesh_gpu_instancing",
+    "KHR_texture_basisu",
 ];
 
 /// What shrad loses when it ignores an extension the file only uses (the specification
@@ -39,9 +40,6 @@ const IMPLEMENTED_EXTENSIONS: &[&str] = &[
 fn ignored_extension_note(name: &str) -> &'static str {
     match name {
         "KHR_materials_unlit" => "unlit materials are read as diffuse reflectors",
-        "KHR_texture_basisu" => {
-            "KTX2 / Basis Universal images are not decoded: the fallback image is used, else the factor alone"
-        }
         "MSFT_texture_dds" => "the fallback image is used",
         "KHR_materials_variants" => "the default material of each primitive is used",
         n if n.starts_with("KHR_materials_") => {
