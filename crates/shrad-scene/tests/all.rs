@@ -20,6 +20,7 @@ mod gltf_lights;
 mod gltf_mask_cutout;
 mod gltf_morph_alpha;
 mod gltf_skin;
+mod gltf_visibility;
 mod io;
 mod lightmap_uvs;
 mod obj_map_d;

@@ -36,6 +36,7 @@ mod morph;
 mod skin;
 mod unpack;
 mod validate;
+mod visibility;
 mod walk;
 mod write;
 
@@ -127,8 +128,8 @@ fn integral_floats_to_integers(v: &mut Value) {
 
 /// What the gltf crate refuses though the specification allows it, or which shrad has
 /// already done: the extensions `unpack` decoded (the texture extensions, whose images
-/// the material reader picks, the punctual lights, which `lights` reads, and the instancing,
-/// which `instancing` reads) out of `extensionsRequired` / `extensionsUsed` (the crate
+/// the material reader picks, the punctual lights, which `lights` reads, the instancing,
+/// which `instancing` reads, and the visibility, which `visibility` reads) out of `extensionsRequired` / `extensionsUsed` (the crate
 /// refuses a required extension it does not know); a scene without `nodes` given an empty
 /// list (optional in the specification, required by the crate); primitives without
 /// POSITION removed (returns how many); accessors of a type glTF 2.0 does not define made
@@ -143,6 +144,7 @@ fn crate_compatible(root: &mut Value) -> usize {
         "KHR_texture_basisu",
         lights::EXTENSION,
         instancing::EXTENSION,
+        visibility::EXTENSION,
     ];
     for key in ["extensionsRequired", "extensionsUsed"] {
         if let Some(list) = root.get_mut(key).and_then(Value::as_array_mut) {
@@ -299,6 +301,7 @@ fn read_bytes(
     integral_floats_to_integers(&mut value);
     validate::check_json(&value, blob.map(<[u8]>::len), &mut warnings).map_err(bad)?;
     let file_lights = lights::read(&value, &mut warnings).map_err(bad)?;
+    let visible = visibility::read(&value).map_err(bad)?;
     if value["meshes"].as_array().is_none_or(Vec::is_empty) {
         return Err(bad(
             "the file has no mesh (shrad lights triangle meshes, and this glTF defines none)"
@@ -356,6 +359,7 @@ fn read_bytes(
         file_lights,
         skins,
         instances,
+        visible,
         skipped: walk::Skipped {
             no_position,
             ..Default::default()

@@ -46,6 +46,8 @@ pub(super) struct Walk<'a> {
     pub(super) skins: super::skin::FileSkins,
     /// The instanced nodes' instances (`EXT_mesh_gpu_instancing`, see `instancing`).
     pub(super) instances: super::instancing::FileInstances,
+    /// Each node's own `visible` (`KHR_node_visibility`, see `visibility`).
+    pub(super) visible: Vec<bool>,
     /// What the walk skipped, for the message when nothing is left to light.
     pub(super) skipped: Skipped,
 }
@@ -132,13 +134,13 @@ impl Walk<'_> {
         true
     }
 
-    /// Walk `node` (child of `parent_node`, whose world transform is `parent`) and its
-    /// descendants.
+    /// Walk `node` (child of `parent_node`, whose world transform is `parent`; `shown`:
+    /// whether the parent is visible, `KHR_node_visibility`) and its descendants.
     pub(super) fn node(
         &mut self,
         node: gltf::Node,
         parent_node: Option<&gltf::Node>,
-        parent: Mat4,
+        (parent, shown): (Mat4, bool),
         depth: usize,
     ) -> Result<(), SceneError> {
         if depth > MAX_DEPTH {
@@ -159,42 +161,55 @@ impl Walk<'_> {
                 format!("{node_label}: transform is not finite"),
             ));
         }
-        if let Some(cam) = node.camera() {
-            if self.scene.camera.is_none() {
-                match cam.projection() {
-                    gltf::camera::Projection::Perspective(p) => {
-                        let (_, r, t) = world.to_scale_rotation_translation();
-                        self.scene.camera = Some(Camera {
-                            world_from_camera: Affine3A::from_rotation_translation(
-                                r.normalize(),
-                                t,
-                            ),
-                            // A yfov of pi or more is allowed (warned about by
-                            // `validate`); a perspective picture needs less.
-                            yfov: p.yfov().min(179f32.to_radians()),
-                            aspect_ratio: p.aspect_ratio(),
-                        });
-                        self.animate_camera(node.index());
-                    }
-                    gltf::camera::Projection::Orthographic(_) => self
-                        .scene
-                        .warnings
-                        .push(format!("{node_label}: orthographic camera ignored")),
-                }
-            }
+        // Cameras are not hidden (KHR_node_visibility); meshes and lights are.
+        self.camera(&node, world, &node_label);
+        let visible = shown && self.visible.get(node.index()).copied().unwrap_or(true);
+        if shown && !visible {
+            self.scene.warnings.push(format!(
+                "{node_label}: hidden ({}): its meshes and lights, and its descendants', are left out",
+                super::visibility::EXTENSION
+            ));
         }
-        if let Some(&Some(l)) = self.file_lights.node_light.get(node.index()) {
+        if let Some(&Some(l)) = self
+            .file_lights
+            .node_light
+            .get(node.index())
+            .filter(|_| visible)
+        {
             self.light(l, node.index(), world);
         }
-        // A skinned mesh is placed by its skin, whatever the node's own transform (glTF 2.0,
-        // "Skins"): a zero scale there hides nothing.
-        if let Some(mesh) = node.mesh() {
+        if let Some(mesh) = node.mesh().filter(|_| visible) {
             self.node_mesh(&node, parent_node, &mesh, world, node_label)?;
         }
         for child in node.children() {
-            self.node(child, Some(&node), world, depth + 1)?;
+            self.node(child, Some(&node), (world, visible), depth + 1)?;
         }
         Ok(())
+    }
+
+    /// The scene's camera from `node` (world transform `world`), if it has the first
+    /// perspective camera of the walk.
+    fn camera(&mut self, node: &gltf::Node, world: Mat4, node_label: &str) {
+        let Some(cam) = node.camera().filter(|_| self.scene.camera.is_none()) else {
+            return;
+        };
+        match cam.projection() {
+            gltf::camera::Projection::Perspective(p) => {
+                let (_, r, t) = world.to_scale_rotation_translation();
+                self.scene.camera = Some(Camera {
+                    world_from_camera: Affine3A::from_rotation_translation(r.normalize(), t),
+                    // A yfov of pi or more is allowed (warned about by `validate`); a
+                    // perspective picture needs less.
+                    yfov: p.yfov().min(179f32.to_radians()),
+                    aspect_ratio: p.aspect_ratio(),
+                });
+                self.animate_camera(node.index());
+            }
+            gltf::camera::Projection::Orthographic(_) => self
+                .scene
+                .warnings
+                .push(format!("{node_label}: orthographic camera ignored")),
+        }
     }
 }
 
@@ -268,7 +283,7 @@ impl Walk<'_> {
             }
         };
         for node in roots {
-            self.node(node, None, Mat4::IDENTITY, 0)?;
+            self.node(node, None, (Mat4::IDENTITY, true), 0)?;
         }
         if doc.scenes().len() == 0 {
             self.library_meshes()?;

@@ -16,6 +16,7 @@ const PLACES: &[(&str, &[&str])] = &[
     ("KHR_texture_transform", &["textureInfo"]),
     ("KHR_lights_punctual", &["root", "node"]),
     ("EXT_mesh_gpu_instancing", &["node"]),
+    ("KHR_node_visibility", &["node"]),
     ("KHR_draco_mesh_compression", &["primitive"]),
     ("EXT_meshopt_compression", &["buffer", "bufferView"]),
     ("KHR_meshopt_compression", &["buffer", "bufferView"]),

@@ -33,6 +33,7 @@ const IMPLEMENTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "EXT_mesh_gpu_instancing",
     "KHR_texture_basisu",
+    "KHR_node_visibility",
 ];
 
 /// What shrad loses when it ignores an extension the file only uses (the specification
