@@ -212,3 +212,31 @@ fn a_uniform_dissolve_leaves_out_only_what_is_fully_transparent() {
     let o = leaf(&s).unwrap_or_else(|| panic!("no leaf: {:?}", s.warnings));
     assert!((coverage(o).0 - 0.5).abs() < 1e-4, "{:?}", s.warnings);
 }
+
+/// Loaded through a scene file, an OBJ's warning names the file once: the scene file
+/// prefixes its mesh files' warnings with their path, which the OBJ reader's carry already
+/// ("leaf.obj: leaf.obj: map_d ..." before).
+#[test]
+fn a_scene_files_obj_warnings_name_the_file_once() {
+    let dir = crate::common::temp_dir(&format!("shrad-obj-map-d-{}-scene", std::process::id()));
+    std::fs::write(
+        dir.join("leaf.mtl"),
+        "newmtl leaf\nKd 0.5 0.5 0.5\nmap_d gone.png\n",
+    )
+    .unwrap();
+    let obj = "mtllib leaf.mtl\nv 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\n\
+        vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl leaf\nf 1/1 4/4 3/3 2/2\n";
+    std::fs::write(dir.join("leaf.obj"), obj).unwrap();
+    let toml = "[[object]]\nname = \"leaf\"\nshape = \"mesh\"\nfile = \"leaf.obj\"\n\
+        [[object]]\nname = \"lamp\"\nrole = \"light\"\nshape = \"quad\"\n\
+        corners = [[0, 3, 0], [1, 3, 0], [1, 3, 1], [0, 3, 1]]\nemission = [1, 1, 1]\n";
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, toml).unwrap();
+    let s = load(&scene, &LoadOptions::default()).unwrap();
+    let w = s
+        .warnings
+        .iter()
+        .find(|w| w.contains("gone.png"))
+        .expect("the map_d warning");
+    assert_eq!(w.matches("leaf.obj").count(), 1, "{w}");
+}

@@ -20,11 +20,14 @@ pub(super) fn parts(
 ) -> Result<Vec<Object>, String> {
     let file_path: PathBuf = builder.base_dir.join(file);
     let (sub, names) = read_file(&file_path, file, o, builder.depth)?;
+    // A warning is named by the file it is about; the OBJ reader's already are.
+    let named = format!("{}: ", file_path.display());
     for w in &sub.warnings {
-        builder
-            .scene
-            .warnings
-            .push(format!("{}: {w}", file_path.display()));
+        let w = match w.starts_with(&named) {
+            true => w.clone(),
+            false => format!("{named}{w}"),
+        };
+        builder.scene.warnings.push(w);
     }
     let parts: Vec<Object> = sub
         .objects
