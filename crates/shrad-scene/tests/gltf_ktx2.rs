@@ -38,18 +38,12 @@ fn checker(x: u32, y: u32) -> [u8; 3] {
 /// buffer, the extension required.
 fn textured_quad(ktx2: &[u8]) -> serde_json::Value {
     let mut b = Bin::default();
-    let pos = b.vec3(&[
-        [0.0, 0.0, 0.0],
-        [1.0, 0.0, 0.0],
-        [1.0, 1.0, 0.0],
-        [0.0, 1.0, 0.0],
-    ]);
+    let (pos, idx) = b.unit_square();
     let uv_bytes: Vec<u8> = [0.0f32, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0]
         .iter()
         .flat_map(|x| x.to_le_bytes())
         .collect();
     let uv = b.accessor(&uv_bytes, 4, "VEC2", 5126, json!({}));
-    let idx = b.indices(&[0, 1, 2, 0, 2, 3]);
     let image_view = b.view(ktx2, json!({}));
     b.finish(json!({
         "extensionsUsed": ["KHR_texture_basisu"],

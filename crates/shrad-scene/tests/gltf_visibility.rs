@@ -15,13 +15,7 @@ const SUITE: &str = "visibility";
 /// the lamp draws the same quad.
 fn file() -> Value {
     let mut b = Bin::default();
-    let pos = b.vec3(&[
-        [0.0, 0.0, 0.0],
-        [1.0, 0.0, 0.0],
-        [1.0, 1.0, 0.0],
-        [0.0, 1.0, 0.0],
-    ]);
-    let idx = b.indices(&[0, 1, 2, 0, 2, 3]);
+    let (pos, idx) = b.unit_square();
     let hidden = json!({"KHR_node_visibility": {"visible": false}});
     b.finish(json!({
         "extensionsUsed": ["KHR_node_visibility", "KHR_lights_punctual"],

@@ -75,6 +75,18 @@ impl Bin {
         )
     }
 
+    /// The unit square (0, 0, 0) .. (1, 1, 0) facing +z as two triangles: its POSITION and
+    /// index accessors.
+    pub fn unit_square(&mut self) -> (usize, usize) {
+        let pos = self.vec3(&[
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ]);
+        (pos, self.indices(&[0, 1, 2, 0, 2, 3]))
+    }
+
     /// `root` with this buffer's accessors, views and (embedded) buffer.
     pub fn finish(self, mut root: Value) -> Value {
         root["asset"] = json!({"version": "2.0"});
