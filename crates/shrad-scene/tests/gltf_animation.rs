@@ -10,6 +10,8 @@ use glam::{Affine3A, Quat, Vec3};
 use serde_json::{json, Value};
 use shrad_scene::{load, LoadOptions, Scene, SceneError};
 
+use crate::common::gltf_bin::Bin;
+
 fn temp_dir(name: &str) -> PathBuf {
     crate::common::temp_dir(&format!("shrad-gltf-anim-{}-{name}", std::process::id()))
 }
@@ -18,70 +20,17 @@ fn b64(data: &[u8]) -> String {
     base64::encode(data)
 }
 
-/// Accessors over one buffer, built up as a test needs them.
-#[derive(Default)]
-struct Bin {
-    bytes: Vec<u8>,
-    views: Vec<Value>,
-    accessors: Vec<Value>,
-}
-
 impl Bin {
-    /// An accessor of `ty` ("SCALAR", "VEC3", "VEC4") over `data`; returns its index.
-    fn floats(&mut self, ty: &str, data: &[f32]) -> usize {
-        let dims = match ty {
-            "SCALAR" => 1,
-            "VEC3" => 3,
-            _ => 4,
-        };
-        let offset = self.bytes.len();
-        for x in data {
-            self.bytes.extend_from_slice(&x.to_le_bytes());
-        }
-        self.views
-            .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": 4 * data.len()}));
-        let mut a = json!({"bufferView": self.views.len() - 1, "componentType": 5126,
-                           "count": data.len() / dims, "type": ty});
-        if dims == 1 && data.iter().all(|x| x.is_finite()) {
-            let lo = data.iter().copied().fold(f32::INFINITY, f32::min);
-            let hi = data.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-            a["min"] = json!([lo]);
-            a["max"] = json!([hi]);
-        }
-        self.accessors.push(a);
-        self.accessors.len() - 1
-    }
-
     /// A normalized SHORT VEC4 accessor (quantised rotations, as glTF allows).
-    fn shorts(&mut self, data: &[i16]) -> usize {
-        let offset = self.bytes.len();
-        for x in data {
-            self.bytes.extend_from_slice(&x.to_le_bytes());
-        }
-        self.views
-            .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": 2 * data.len()}));
-        self.accessors.push(
-            json!({"bufferView": self.views.len() - 1, "componentType": 5122,
-                                   "normalized": true, "count": data.len() / 4, "type": "VEC4"}),
-        );
-        self.accessors.len() - 1
-    }
-
-    fn indices(&mut self, data: &[u16]) -> usize {
-        let offset = self.bytes.len();
-        for x in data {
-            self.bytes.extend_from_slice(&x.to_le_bytes());
-        }
-        while self.bytes.len() % 4 != 0 {
-            self.bytes.push(0);
-        }
-        self.views
-            .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": 2 * data.len()}));
-        self.accessors.push(
-            json!({"bufferView": self.views.len() - 1, "componentType": 5123,
-                                   "count": data.len(), "type": "SCALAR"}),
-        );
-        self.accessors.len() - 1
+    fn normalized_shorts(&mut self, data: &[i16]) -> usize {
+        let bytes: Vec<u8> = data.iter().flat_map(|x| x.to_le_bytes()).collect();
+        self.accessor(
+            &bytes,
+            data.len() / 4,
+            "VEC4",
+            5122,
+            json!({"normalized": true}),
+        )
     }
 }
 
@@ -101,22 +50,22 @@ fn quat_z(deg: f32) -> [f32; 4] {
 /// with out-tangent (0,1,0) and in-tangent (0,3,0)), 3 "Lamp" (static).
 fn fixture() -> (Value, Bin) {
     let mut b = Bin::default();
-    let pos = b.floats(
+    let pos = b.floats_of(
         "VEC3",
         &flat(&[[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]),
     );
     b.accessors[pos]["min"] = json!([0.0, 0.0, 0.0]);
     b.accessors[pos]["max"] = json!([1.0, 1.0, 0.0]);
     let idx = b.indices(&[0, 1, 2, 0, 2, 3]);
-    let t3 = b.floats("SCALAR", &[0.0, 1.0, 2.0]);
-    let mover_t = b.floats("VEC3", &flat(&[[0., 0., 0.], [2., 0., 0.], [2., 2., 0.]]));
-    let t2 = b.floats("SCALAR", &[0.0, 2.0]);
-    let mover_r = b.floats("VEC4", &[quat_z(0.0), quat_z(90.0)].concat());
-    let step_t = b.floats("SCALAR", &[0.0, 1.0]);
-    let scaler_s = b.floats("VEC3", &flat(&[[1., 1., 1.], [2., 2., 2.]]));
-    let cubic_t = b.floats("SCALAR", &[0.0, 2.0]);
+    let t3 = b.floats_of("SCALAR", &[0.0, 1.0, 2.0]);
+    let mover_t = b.floats_of("VEC3", &flat(&[[0., 0., 0.], [2., 0., 0.], [2., 2., 0.]]));
+    let t2 = b.floats_of("SCALAR", &[0.0, 2.0]);
+    let mover_r = b.floats_of("VEC4", &[quat_z(0.0), quat_z(90.0)].concat());
+    let step_t = b.floats_of("SCALAR", &[0.0, 1.0]);
+    let scaler_s = b.floats_of("VEC3", &flat(&[[1., 1., 1.], [2., 2., 2.]]));
+    let cubic_t = b.floats_of("SCALAR", &[0.0, 2.0]);
     // in-tangent, value, out-tangent per key; the unused outer tangents are odd on purpose.
-    let scaler_t = b.floats(
+    let scaler_t = b.floats_of(
         "VEC3",
         &flat(&[
             [9., 9., 9.],
@@ -373,8 +322,8 @@ node = "Lamp"
 fn morph_weights_and_pointer_channels_are_ignored_with_a_warning() {
     let dir = temp_dir("weights");
     let (mut v, mut b) = fixture();
-    let t = b.floats("SCALAR", &[0.0, 1.0]);
-    let w = b.floats("SCALAR", &[0.0, 1.0]);
+    let t = b.floats_of("SCALAR", &[0.0, 1.0]);
+    let w = b.floats_of("SCALAR", &[0.0, 1.0]);
     v["animations"].as_array_mut().unwrap().push(json!({
         "name": "Shape",
         "channels": [
@@ -412,7 +361,7 @@ fn quantised_rotation_keys() {
     let dir = temp_dir("quantised");
     let (mut v, mut b) = fixture();
     // 0 and 90 deg about Z as normalized SHORTs: (0, 0, 0, 32767), (0, 0, 23170, 23170).
-    let r = b.shorts(&[0, 0, 0, 32767, 0, 0, 23170, 23170]);
+    let r = b.normalized_shorts(&[0, 0, 0, 32767, 0, 0, 23170, 23170]);
     v["animations"][0]["samplers"][1]["output"] = json!(r);
     let p = write(&dir, "q.gltf", &finish(v, &b));
     let s = load(&p, &LoadOptions::default()).unwrap();
@@ -429,7 +378,7 @@ fn a_sampler_that_cannot_play_is_skipped_and_the_rest_plays() {
     let dir = temp_dir("skipped-sampler");
     let (mut v, mut b) = fixture();
     // MoverAction's translation keys at 0, 1, 1.
-    let t = b.floats("SCALAR", &[0.0, 1.0, 1.0]);
+    let t = b.floats_of("SCALAR", &[0.0, 1.0, 1.0]);
     v["animations"][0]["samplers"][0]["input"] = json!(t);
     // ScalerAction's scale keys in a second buffer, which has no uri.
     let n = b.accessors.len();
@@ -497,7 +446,7 @@ fn malformed_animation_data_is_refused() {
     refused(
         "nan-time",
         |v, b| {
-            let t = b.floats("SCALAR", &[0.0, f32::NAN, 2.0]);
+            let t = b.floats_of("SCALAR", &[0.0, f32::NAN, 2.0]);
             v["animations"][0]["samplers"][0]["input"] = json!(t);
         },
         &["animations[0].samplers[0].input", "not finite"],
@@ -505,7 +454,7 @@ fn malformed_animation_data_is_refused() {
     refused(
         "vec3-times",
         |v, b| {
-            let t = b.floats("VEC3", &[0.0, 1.0, 2.0]);
+            let t = b.floats_of("VEC3", &[0.0, 1.0, 2.0]);
             v["animations"][0]["samplers"][0]["input"] = json!(t);
         },
         &["animations[0].samplers[0].input", "SCALAR FLOAT"],
@@ -513,7 +462,7 @@ fn malformed_animation_data_is_refused() {
     refused(
         "count",
         |v, b| {
-            let o = b.floats("VEC3", &flat(&[[0., 0., 0.], [1., 0., 0.]]));
+            let o = b.floats_of("VEC3", &flat(&[[0., 0., 0.], [1., 0., 0.]]));
             v["animations"][0]["samplers"][0]["output"] = json!(o);
         },
         &["animations[0].samplers[0].output", "2 values", "3 keys"],
@@ -526,8 +475,8 @@ fn malformed_animation_data_is_refused() {
     refused(
         "cubic-one-key",
         |v, b| {
-            let t = b.floats("SCALAR", &[0.0]);
-            let o = b.floats("VEC3", &[0.0; 9]);
+            let t = b.floats_of("SCALAR", &[0.0]);
+            let o = b.floats_of("VEC3", &[0.0; 9]);
             v["animations"][1]["samplers"][1]["input"] = json!(t);
             v["animations"][1]["samplers"][1]["output"] = json!(o);
         },
@@ -566,7 +515,7 @@ fn malformed_animation_data_is_refused() {
     refused(
         "zero-quaternion",
         |v, b| {
-            let o = b.floats("VEC4", &[0.0; 8]);
+            let o = b.floats_of("VEC4", &[0.0; 8]);
             v["animations"][0]["samplers"][1]["output"] = json!(o);
         },
         &["animations[0].samplers[1].output", "zero quaternion"],

@@ -29,12 +29,6 @@ const SUITE: &str = "instancing";
 const EXPECTED: [[f32; 3]; 3] = [[12.0, 0.0, 0.0], [20.0, 2.0, 0.0], [8.0, 10.0, 0.0]];
 
 impl Bin {
-    /// A FLOAT accessor of `data`, `count` elements of `ty`.
-    fn float_list(&mut self, data: &[f32], count: usize, ty: &str) -> usize {
-        let bytes: Vec<u8> = data.iter().flat_map(|x| x.to_le_bytes()).collect();
-        self.accessor(&bytes, count, ty, 5126, json!({}))
-    }
-
     /// A normalized SHORT VEC4 accessor of unit quaternions `data` (as
     /// KHR_mesh_quantization and the extension allow for ROTATION).
     fn short_quaternions(&mut self, data: &[[f32; 4]]) -> usize {
@@ -65,10 +59,10 @@ fn instanced(rotations: impl Fn(&mut Bin, &[[f32; 4]]) -> usize, animated: bool)
     let mut b = Bin::default();
     let pos = b.vec3(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
     let idx = b.indices(&[0, 1, 2]);
-    let t = b.float_list(&[0.0, 0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 5.0, 0.0], 3, "VEC3");
+    let t = b.floats_of("VEC3", &[0.0, 0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 5.0, 0.0]);
     let id = [0.0, 0.0, 0.0, 1.0];
     let r = rotations(&mut b, &[id, quarter_turn_z(), id]);
-    let s = b.float_list(&[1.0, 1.0, 1.0, 1.0, 1.0, 1.0, -1.0, 1.0, 1.0], 3, "VEC3");
+    let s = b.floats_of("VEC3", &[1.0, 1.0, 1.0, 1.0, 1.0, 1.0, -1.0, 1.0, 1.0]);
     let mut root = json!({
         "extensionsUsed": ["EXT_mesh_gpu_instancing"],
         "scene": 0,
@@ -82,10 +76,8 @@ fn instanced(rotations: impl Fn(&mut Bin, &[[f32; 4]]) -> usize, animated: bool)
         "meshes": [{"name": "Leaf", "primitives": [{"attributes": {"POSITION": pos}, "indices": idx}]}]
     });
     if animated {
-        let times = b.float_list(&[0.0, 1.0], 2, "SCALAR");
-        let moves = b.float_list(&[10.0, 0.0, 0.0, 30.0, 0.0, 0.0], 2, "VEC3");
-        b.accessors[times]["min"] = json!([0.0]);
-        b.accessors[times]["max"] = json!([1.0]);
+        let times = b.floats_of("SCALAR", &[0.0, 1.0]);
+        let moves = b.floats_of("VEC3", &[10.0, 0.0, 0.0, 30.0, 0.0, 0.0]);
         root["animations"] = json!([{
             "name": "Walk",
             "channels": [{"sampler": 0, "target": {"node": 0, "path": "translation"}}],
@@ -97,7 +89,7 @@ fn instanced(rotations: impl Fn(&mut Bin, &[[f32; 4]]) -> usize, animated: bool)
 
 fn float_rotations(b: &mut Bin, q: &[[f32; 4]]) -> usize {
     let flat: Vec<f32> = q.iter().flatten().copied().collect();
-    b.float_list(&flat, q.len(), "VEC4")
+    b.floats_of("VEC4", &flat)
 }
 
 /// Where vertex 1 of `scene`'s object `k` lands at time `t`.

@@ -65,6 +65,26 @@ impl Bin {
         )
     }
 
+    /// A FLOAT accessor of `ty` ("SCALAR", "VEC2", "VEC3", "VEC4") over `data`; a SCALAR one
+    /// (key times) with min and max when its values are finite, as glTF requires of an
+    /// animation's input.
+    pub fn floats_of(&mut self, ty: &str, data: &[f32]) -> usize {
+        let dims = match ty {
+            "SCALAR" => 1,
+            "VEC2" => 2,
+            "VEC3" => 3,
+            _ => 4,
+        };
+        let bytes: Vec<u8> = data.iter().flat_map(|x| x.to_le_bytes()).collect();
+        let mut extra = json!({});
+        if dims == 1 && data.iter().all(|x| x.is_finite()) {
+            let lo = data.iter().copied().fold(f32::INFINITY, f32::min);
+            let hi = data.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+            extra = json!({"min": [lo], "max": [hi]});
+        }
+        self.accessor(&bytes, data.len() / dims, ty, 5126, extra)
+    }
+
     /// A SCALAR UNSIGNED_SHORT accessor of triangle indices.
     pub fn indices(&mut self, data: &[u16]) -> usize {
         let bytes: Vec<u8> = data.iter().flat_map(|i| i.to_le_bytes()).collect();
