@@ -79,6 +79,42 @@ pub const MAX_TEXTURE_SIZE: u32 = 8192;
 /// the factor alone), so a small file naming many huge images stays bounded.
 pub const MAX_FILE_TEXELS: u64 = 2 * (MAX_TEXTURE_SIZE as u64) * (MAX_TEXTURE_SIZE as u64);
 
+/// What the images of one file may still decode to, in texels ([`MAX_FILE_TEXELS`] at
+/// first), shared by a glTF's textures and an OBJ's maps: checked from an image's header
+/// before it is decoded, taken once it is.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TexelBudget {
+    left: u64,
+}
+
+impl Default for TexelBudget {
+    fn default() -> Self {
+        TexelBudget {
+            left: MAX_FILE_TEXELS,
+        }
+    }
+}
+
+impl TexelBudget {
+    /// Whether an image of `w x h` texels fits what is left; why not if it does not.
+    pub(crate) fn check(&self, (w, h): (u32, u32)) -> Result<(), String> {
+        let texels = u64::from(w) * u64::from(h);
+        if texels > self.left {
+            return Err(format!(
+                "its {w} x {h} texels pass what is left ({}) of the {MAX_FILE_TEXELS} texels all textures of a file may decode to",
+                self.left
+            ));
+        }
+        Ok(())
+    }
+
+    /// Take a decoded image's texels.
+    pub(crate) fn take(&mut self, image: &TextureImage) {
+        let texels = u64::from(image.width()) * u64::from(image.height());
+        self.left = self.left.saturating_sub(texels);
+    }
+}
+
 /// Which channel of an image a scalar map reads (see [`TextureImage::decode_scalar`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum ScalarChannel {
@@ -517,5 +553,17 @@ mod tests {
         let mid = t.sample(Vec2::new(0.5, 0.25));
         assert!((mid.x - 0.5).abs() < 1e-6, "{mid}");
         assert!((checker().mean().x - 0.5).abs() < 1e-6);
+    }
+
+    /// A file's images share one budget of texels (a glTF's textures, an OBJ's maps),
+    /// checked from each header before it is decoded, taken once it is.
+    #[test]
+    fn a_files_images_share_one_budget_of_texels() {
+        let mut budget = TexelBudget { left: 20 };
+        let image = TextureImage::from_srgb8("a", 4, 4, vec![0; 48]).unwrap();
+        budget.check((4, 4)).unwrap();
+        budget.take(&image);
+        let e = budget.check((4, 4)).unwrap_err();
+        assert!(e.contains("4 x 4 texels pass what is left (4)"), "{e}");
     }
 }

@@ -9,21 +9,10 @@
 use serde_json::{json, Value};
 use shrad_scene::{Object, Scene};
 
-/// An RGBA PNG of `w x h` texels whose alpha at texel `(x, y)` is `alpha(x, y)`, as a
+/// An RGBA PNG of `w x h` green texels whose alpha at texel `(x, y)` is `alpha(x, y)`, as a
 /// data URI.
 fn png(w: u32, h: u32, alpha: impl Fn(u32, u32) -> u8) -> String {
-    let mut img = image::RgbaImage::new(w, h);
-    for (x, y, p) in img.enumerate_pixels_mut() {
-        *p = image::Rgba([60, 160, 60, alpha(x, y)]);
-    }
-    let mut bytes = Vec::new();
-    image::DynamicImage::ImageRgba8(img)
-        .write_to(
-            &mut std::io::Cursor::new(&mut bytes),
-            image::ImageFormat::Png,
-        )
-        .unwrap();
-    format!("data:image/png;base64,{}", base64::encode(&bytes))
+    crate::common::rgba_png_uri(w, h, [60, 160, 60], alpha)
 }
 
 fn f32s(data: &[f32]) -> Vec<u8> {

@@ -358,18 +358,7 @@ fn a_fully_masked_primitive_is_left_out() {
 
 /// A 2 x 2 RGBA PNG (half its texels transparent) as a data URI.
 fn rgba_png() -> String {
-    let mut img = image::RgbaImage::new(2, 2);
-    for (x, _, p) in img.enumerate_pixels_mut() {
-        *p = image::Rgba([200, 200, 200, if x == 0 { 255 } else { 0 }]);
-    }
-    let mut bytes = Vec::new();
-    image::DynamicImage::ImageRgba8(img)
-        .write_to(
-            &mut std::io::Cursor::new(&mut bytes),
-            image::ImageFormat::Png,
-        )
-        .unwrap();
-    format!("data:image/png;base64,{}", base64::encode(&bytes))
+    crate::common::rgba_png_uri(2, 2, [200, 200, 200], |x, _| if x == 0 { 255 } else { 0 })
 }
 
 /// A textured MASK material (foliage) is cut by its texture's alpha (`gltf_mask_cutout`

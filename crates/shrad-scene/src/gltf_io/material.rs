@@ -209,20 +209,13 @@ impl Walk<'_> {
             Some(k) => k.size,
             None => TextureImage::declared_size(&bytes)?,
         };
-        let texels = u64::from(w) * u64::from(h);
-        if texels > self.texels_left {
-            return Err(format!(
-                "its {w} x {h} texels pass what is left ({}) of the {} texels all textures of a file may decode to",
-                self.texels_left,
-                crate::texture::MAX_FILE_TEXELS
-            ));
-        }
+        self.texels.check((w, h))?;
         let keep_alpha = self.mask_images.contains(&self.image_source(index));
         let image = match ktx2 {
             Some(k) => k.decode(self.image_label(index), keep_alpha)?,
             None => TextureImage::decode_with(&bytes, self.image_label(index), keep_alpha)?,
         };
-        self.texels_left -= u64::from(image.width()) * u64::from(image.height());
+        self.texels.take(&image);
         Ok(image)
     }
 }

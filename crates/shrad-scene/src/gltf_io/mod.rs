@@ -351,7 +351,7 @@ fn read_bytes(
         graph: animations.graph,
         names: Vec::new(),
         textures: std::collections::HashMap::new(),
-        texels_left: crate::texture::MAX_FILE_TEXELS,
+        texels: crate::texture::TexelBudget::default(),
         materials: std::collections::HashMap::new(),
         mask_images: std::collections::HashSet::new(),
         cutout_left: crate::cutout::MAX_ADDED,

@@ -29,8 +29,8 @@ pub(super) struct Walk<'a> {
     pub(super) names: Vec<PartNames>,
     /// Each image source decoded once (None: could not be loaded), shared by the materials.
     pub(super) textures: HashMap<super::material::ImageSource, Option<Arc<TextureImage>>>,
-    /// Texels the file's textures may still decode to ([`crate::texture::MAX_FILE_TEXELS`] at first).
-    pub(super) texels_left: u64,
+    /// What the file's textures may still decode to.
+    pub(super) texels: crate::texture::TexelBudget,
     /// Each material once converted (None: the default material).
     pub(super) materials: HashMap<Option<usize>, Material>,
     /// The images an `alphaMode: MASK` material uses as its base colour: decoded with their

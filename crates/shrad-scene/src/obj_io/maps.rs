@@ -30,7 +30,7 @@ use std::sync::Arc;
 use glam::Vec2;
 
 use crate::cutout::{cut, Mask, MAX_ADDED};
-use crate::texture::ScalarChannel;
+use crate::texture::{ScalarChannel, TexelBudget};
 use crate::{Object, Texture, TextureImage, UvTransform, Wrap};
 
 /// The cutoff `map_d`'s alpha is cut at (glTF's default `alphaCutoff`, the usual one for
@@ -130,10 +130,8 @@ pub(super) struct Maps<'a> {
     pub obj: &'a Path,
     pub lib_dirs: Vec<PathBuf>,
     images: HashMap<(String, Kind), Option<Arc<TextureImage>>>,
-    /// Texels the file's images may still decode to (as a glTF's: at most
-    /// [`crate::texture::MAX_FILE_TEXELS`] for all of them together, checked from each
-    /// image's header before it is decoded).
-    texels_left: u64,
+    /// What the file's images may still decode to (as a glTF's).
+    texels: TexelBudget,
 }
 
 impl<'a> Maps<'a> {
@@ -142,7 +140,7 @@ impl<'a> Maps<'a> {
             obj,
             lib_dirs,
             images: HashMap::new(),
-            texels_left: crate::texture::MAX_FILE_TEXELS,
+            texels: TexelBudget::default(),
         }
     }
 
@@ -193,7 +191,7 @@ impl<'a> Maps<'a> {
         fallback: &str,
     ) -> Option<Arc<TextureImage>> {
         let (lib_dirs, obj) = (&self.lib_dirs, self.obj);
-        let texels_left = &mut self.texels_left;
+        let texels = &mut self.texels;
         self.images
             .entry((file.to_string(), kind))
             .or_insert_with(|| {
@@ -201,12 +199,14 @@ impl<'a> Maps<'a> {
                 let r = match &found {
                     None => Err("file not found".to_string()),
                     Some(p) => std::fs::read(p).map_err(|e| e.to_string()).and_then(|b| {
-                        take_texels(texels_left, &b)?;
+                        texels.check(TextureImage::declared_size(&b)?)?;
                         let name = file.to_string();
-                        match kind {
+                        let image = match kind {
                             Kind::Colour => TextureImage::decode(&b, name),
                             Kind::Scalar(c) => TextureImage::decode_scalar(&b, name, channel(c)),
-                        }
+                        }?;
+                        texels.take(&image);
+                        Ok(image)
                     }),
                 };
                 match r {
@@ -222,21 +222,6 @@ impl<'a> Maps<'a> {
             })
             .clone()
     }
-}
-
-/// Take the texels image `bytes` declares from `left` (what the file's images may still
-/// decode to), or say why not, before anything is decoded.
-fn take_texels(left: &mut u64, bytes: &[u8]) -> Result<(), String> {
-    let (w, h) = TextureImage::declared_size(bytes)?;
-    let texels = u64::from(w) * u64::from(h);
-    if texels > *left {
-        return Err(format!(
-            "its {w} x {h} texels pass what is left ({left}) of the {} texels all images of a file may decode to",
-            crate::texture::MAX_FILE_TEXELS
-        ));
-    }
-    *left -= texels;
-    Ok(())
 }
 
 /// The channel of `-imfchan` letter `c` (`a`: none given).
@@ -396,21 +381,5 @@ mod tests {
         assert_eq!(parse_map("-unknown 1 2 on leaf.png").file, "leaf.png");
         // An option with nothing left for the file: the last word is the file.
         assert_eq!(parse_map("-clamp leaf.png").file, "leaf.png");
-    }
-
-    /// The file's images share one budget of texels, taken from each header before it is
-    /// decoded (without it an OBJ could name image after image of 8192 x 8192).
-    #[test]
-    fn a_files_images_share_one_budget_of_texels() {
-        let mut png = Vec::new();
-        image::DynamicImage::ImageRgb8(image::RgbImage::new(4, 4))
-            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-            .unwrap();
-        let mut left = 20;
-        take_texels(&mut left, &png).unwrap();
-        assert_eq!(left, 4);
-        let e = take_texels(&mut left, &png).unwrap_err();
-        assert!(e.contains("4 x 4 texels pass what is left (4)"), "{e}");
-        assert_eq!(left, 4);
     }
 }

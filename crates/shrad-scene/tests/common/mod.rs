@@ -53,3 +53,20 @@ pub fn err_of(r: Result<shrad_scene::Scene, shrad_scene::SceneError>) -> String 
         }
     }
 }
+
+/// A `w x h` RGBA PNG of colour `rgb` whose alpha at texel `(x, y)` is `alpha(x, y)`, as a
+/// data URI.
+pub fn rgba_png_uri(w: u32, h: u32, rgb: [u8; 3], alpha: impl Fn(u32, u32) -> u8) -> String {
+    let mut img = image::RgbaImage::new(w, h);
+    for (x, y, p) in img.enumerate_pixels_mut() {
+        *p = image::Rgba([rgb[0], rgb[1], rgb[2], alpha(x, y)]);
+    }
+    let mut bytes = Vec::new();
+    image::DynamicImage::ImageRgba8(img)
+        .write_to(
+            &mut std::io::Cursor::new(&mut bytes),
+            image::ImageFormat::Png,
+        )
+        .unwrap();
+    format!("data:image/png;base64,{}", base64::encode(&bytes))
+}

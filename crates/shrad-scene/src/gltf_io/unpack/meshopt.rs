@@ -169,17 +169,15 @@ fn decode(c: &Compressed, src: &[u8]) -> Result<Vec<u8>, String> {
             decode_index_sequence(&mut d, src).map_err(|x| e(&x))?;
             Ok(d.iter().flat_map(|i| i.to_le_bytes()).collect())
         }
-        // Version 1 (KHR_meshopt_compression), which meshopt-rs 0.1 does not know.
-        _ if src.first() == Some(&super::attributes_v1::HEADER) => {
-            let bytes = super::attributes_v1::decode(c.stride, c.count, src)?;
-            let mut words: Vec<u32> = (bytes.chunks_exact(4))
-                .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
-                .collect();
-            filter(&c.filter, c.stride, &mut words);
-            Ok(words.iter().flat_map(|w| w.to_le_bytes()).collect())
-        }
         _ => {
-            let mut words = vertex_words(c.stride / 4, c.count, src).map_err(|x| e(&x))?;
+            // Version 1 (KHR_meshopt_compression), which meshopt-rs 0.1 does not know, by
+            // shrad's decoder; version 0 by meshopt-rs.
+            let mut words = match src.first() == Some(&super::attributes_v1::HEADER) {
+                true => (super::attributes_v1::decode(c.stride, c.count, src)?.chunks_exact(4))
+                    .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+                    .collect(),
+                false => vertex_words(c.stride / 4, c.count, src).map_err(|x| e(&x))?,
+            };
             filter(&c.filter, c.stride, &mut words);
             Ok(words.iter().flat_map(|w| w.to_le_bytes()).collect())
         }
