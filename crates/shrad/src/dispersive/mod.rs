@@ -42,6 +42,7 @@ mod near_field;
 mod object_state;
 mod options;
 mod prepare;
+mod probe_visibility;
 mod resend;
 mod scheduler;
 mod setup;
@@ -59,6 +60,8 @@ mod tests;
 mod tests_incremental;
 #[cfg(test)]
 mod tests_prepare;
+#[cfg(test)]
+mod tests_probe_visibility;
 mod touched;
 mod wall_rows;
 

@@ -15,6 +15,7 @@ use shrad_sh::trilinear_weights;
 
 use super::caches::{EmitterCache, ProbeCache};
 use super::near_field::NearField;
+use super::probe_visibility::ProbeVisibility;
 use super::setup::{emitter_groups, self_transfer, EmitterGroup};
 use super::DispersiveOptions;
 use crate::sparse::SparseRows;
@@ -65,6 +66,8 @@ pub(super) struct ObjectProbes {
     /// may have changed, while the rest of `near` is current (`stale.rs`): only they are
     /// measured again.
     pub(super) near_stale: Vec<u32>,
+    /// Which probes each patch sees (`probe_visibility.rs`; empty when off or unmeasured).
+    pub(super) probe_vis: ProbeVisibility,
     /// Step 2's cached probe hits (`caches.rs`).
     pub(super) probe_cache: ProbeCache,
     /// Step 3's cached emitter rays (`caches.rs`).
@@ -137,6 +140,7 @@ impl ObjectProbes {
             near: NearField::default(),
             near_pending: None,
             near_stale: Vec::new(),
+            probe_vis: ProbeVisibility::default(),
             probe_cache: ProbeCache::default(),
             emitter_cache: EmitterCache::default(),
             moving: false,

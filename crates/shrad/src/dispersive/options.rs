@@ -183,6 +183,11 @@ pub struct DispersiveOptions {
     pub near_rays: u32,
     /// The near field's reach as a fraction of the object's probe box diagonal.
     pub near_reach: f32,
+    /// Leave out of a patch's interpolation the probes another object hides from it (a
+    /// shadow ray per patch and probe, measured once the object rests and again where a
+    /// mover passed; `probe_visibility.rs`): a crate sunk into the floor is not lit below
+    /// it from the probes above (beyond the paper, whose interpolation reads all 8).
+    pub probe_visibility: bool,
 }
 
 impl DispersiveOptions {
@@ -215,6 +220,7 @@ impl DispersiveOptions {
             resend_tolerance: 0.0,
             near_rays: 0,
             near_reach: 0.25,
+            probe_visibility: false,
         }
     }
 
@@ -244,6 +250,7 @@ impl DispersiveOptions {
             one_emitter_while_moving: true,
             resend_tolerance: 0.02,
             near_rays: 64,
+            probe_visibility: true,
             ..Self::paper()
         }
     }

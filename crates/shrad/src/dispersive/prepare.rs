@@ -96,6 +96,12 @@ impl Dispersive {
         if !probes.whole {
             return false;
         }
+        // Where the probes now stand (repaired), which of them each patch sees.
+        let visibility = self.measure_visibility_within(world, k, (deadline, worked));
+        let worked = worked || visibility.worked;
+        if !visibility.whole {
+            return false;
+        }
         let emitters = self.trace_emitters_within(world, k, (deadline, worked));
         let worked = worked || emitters.worked;
         // What was measured in this frame may have taken the time the update needed.
@@ -190,6 +196,28 @@ impl Dispersive {
         Stage {
             whole,
             worked: worked && !worked_before,
+        }
+    }
+
+    /// Which probes object `k`'s patches see (`probe_visibility.rs`), a probe's segments at
+    /// a time until `deadline` (at least one unless the preparation already `worked` in this
+    /// frame).
+    fn measure_visibility_within(
+        &mut self,
+        world: &World,
+        k: usize,
+        (deadline, worked): (Instant, bool),
+    ) -> Stage {
+        let m = world.patches.world_from_local[self.objects[k].object];
+        let (mut first, mut pieces) = (!worked, 0);
+        let whole = self.refresh_probe_visibility(world, k, m, || {
+            let go = std::mem::take(&mut first) || Instant::now() < deadline;
+            pieces += usize::from(go);
+            go
+        });
+        Stage {
+            whole,
+            worked: pieces > 0,
         }
     }
 

@@ -136,6 +136,7 @@ impl Dispersive {
                 let ob = &mut self.objects[k];
                 ob.probe_cache = ProbeCache::default();
                 ob.emitter_cache = EmitterCache::default();
+                ob.probe_vis.forget();
                 // A coarse mover's openness is not a cache but its stand-in until it rests
                 // (`note_changes`).
                 if !(ob.moving && self.options.coarse_while_moving) {
@@ -162,9 +163,11 @@ impl Dispersive {
             if moved.contains(&ob.object) {
                 ob.probe_cache = ProbeCache::default();
                 ob.emitter_cache = EmitterCache::default();
+                ob.probe_vis.forget();
                 continue;
             }
             test.forget_openness(world, ob);
+            test.forget_probe_visibility(world, ob);
             test.forget_probe_rays(ob);
             if boundary_moved {
                 ob.emitter_cache = EmitterCache::default();
@@ -232,6 +235,17 @@ impl StaleTest<'_> {
         } else if !ob.near_stale.is_empty() {
             ob.openness_current = false;
         }
+    }
+
+    /// Mark stale the patch-to-probe segments a box meets (`probe_visibility.rs`).
+    fn forget_probe_visibility(&self, world: &World, ob: &mut ObjectProbes) {
+        let probe_box = ob
+            .probe_box
+            .transformed(world.patches.world_from_local[ob.object]);
+        let boxes: Vec<Aabb> = self.swept.boxes().copied().collect();
+        (ob.probe_vis).forget_where(world, (ob.object, &probe_box), &boxes, |from, to| {
+            self.meets(from, to - from, 1.0)
+        });
     }
 
     /// Mark stale the probe texels whose rays a box meets (the probes in parallel).

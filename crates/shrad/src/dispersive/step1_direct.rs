@@ -93,6 +93,7 @@ impl Dispersive {
                 self.scheduler.disturb(k, 4.0);
                 // Its surroundings changed: probes go back to the corners and are re-checked.
                 ob.probe_scale = [Vec3::ONE; 8];
+                ob.probe_vis.forget();
                 // Contact openness is measured again at every update, except while coarse
                 // updates stand in for it (`coarse_while_moving`): then the last measure
                 // serves until it rests (above).

@@ -66,6 +66,7 @@ impl Dispersive {
             super::tr("capture_corner_probes", tt);
             let tt = Instant::now();
             self.objects[k].probe_scale = scale;
+            self.refresh_probe_visibility(world, k, m, || true);
             let probes = self.probes_in_object_frame(k, m, probes);
             let e = self.interpolate_probes(world, k, &probes);
             super::tr("interpolate", tt);
@@ -77,6 +78,26 @@ impl Dispersive {
             lit.push(k);
         }
         lit
+    }
+
+    /// Measure which probes object `k`'s patches see where it is not current
+    /// (`probe_visibility.rs`), for the probes where they stand now (`m`: the object's
+    /// place), until `more()` says there is no time left (the update itself measures it
+    /// all). Returns whether it is all current. Nothing to do in a coarse update (the object
+    /// moves: its probes move with it, and every probe is read as in the paper).
+    pub(super) fn refresh_probe_visibility(
+        &mut self,
+        world: &World,
+        k: usize,
+        m: Affine3A,
+        more: impl FnMut() -> bool,
+    ) -> bool {
+        if !self.options.probe_visibility || self.cameras_for(k).2 {
+            return true;
+        }
+        let ob = &mut self.objects[k];
+        let places = super::probe_visibility::probe_places(m, |c| ob.probe_local(c));
+        ob.probe_vis.refresh(world, ob.object, &places, more)
     }
 
     /// With transfer vectors (object frame) the probes are rotated into the object's frame
@@ -118,22 +139,31 @@ impl Dispersive {
         let echo = self.near_echo(world, k);
         let range = p.range(ob.object);
         let with_transfer = !ob.transfer.is_empty();
+        let use_visibility = self.options.probe_visibility && !self.cameras_for(kk).2;
         range
             .clone()
             .into_par_iter()
             .map(|i| {
                 let k = i - range.start;
+                // The probes another object hides from this patch are left out (none hidden
+                // while it is not measured).
+                let hidden = match use_visibility {
+                    true => ob.probe_vis.hidden(k),
+                    false => 0,
+                };
                 let mut l = [Vec3::ZERO; MAX_COEFFS];
                 let mut sum_w = 0.0;
-                for (sh, &wc) in probes.iter().zip(&ob.weights[k]) {
-                    if let Some(sh) = sh {
+                for (c, (sh, &wc)) in probes.iter().zip(&ob.weights[k]).enumerate() {
+                    if let Some(sh) = sh.as_ref().filter(|_| hidden >> c & 1 == 0) {
                         for (a, &b) in l[..nc].iter_mut().zip(sh.coeffs()) {
                             *a += b * wc;
                         }
                         sum_w += wc;
                     }
                 }
-                if sum_w <= 0.0 {
+                // No probe it may read: every valid one hidden (a buried patch gets no
+                // probe light, but its near field and its own), or none valid.
+                if sum_w <= 0.0 && hidden == 0 {
                     return Vec3::ZERO;
                 }
                 let mut lobe = [0f32; MAX_COEFFS];
@@ -153,7 +183,17 @@ impl Dispersive {
                 for (a, b) in lobe.iter_mut().zip(near_lobe) {
                     *a -= b;
                 }
-                let dot: Vec3 = l[..nc].iter().zip(&lobe[..nc]).map(|(a, &b)| *a * b).sum();
+                let dot: Vec3 = match sum_w > 0.0 {
+                    true => {
+                        l[..nc]
+                            .iter()
+                            .zip(&lobe[..nc])
+                            .map(|(a, &b)| *a * b)
+                            .sum::<Vec3>()
+                            / sum_w
+                    }
+                    false => Vec3::ZERO,
+                };
                 let own: Vec3 = if with_transfer {
                     ob.self_view(k)
                         .iter()
@@ -165,7 +205,7 @@ impl Dispersive {
                 } else {
                     Vec3::ZERO
                 };
-                (dot / sum_w).max(Vec3::ZERO) + own + near
+                dot.max(Vec3::ZERO) + own + near
             })
             .collect()
     }

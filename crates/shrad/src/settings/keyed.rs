@@ -105,6 +105,7 @@ impl Keyed for DispersiveOptions {
             "resend_tolerance" => Value::Float(self.resend_tolerance.into()),
             "near_rays" => Value::Int(self.near_rays.into()),
             "near_reach" => Value::Float(self.near_reach.into()),
+            "probe_visibility" => Value::Bool(self.probe_visibility),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
     }
@@ -194,6 +195,7 @@ impl Keyed for DispersiveOptions {
             "resend_tolerance" => self.resend_tolerance = as_f32(value),
             "near_rays" => self.near_rays = as_u32(value),
             "near_reach" => self.near_reach = as_f32(value),
+            "probe_visibility" => self.probe_visibility = as_bool(value),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
         Ok(())

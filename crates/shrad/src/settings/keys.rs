@@ -238,6 +238,10 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
         1.0,
         "the near field's reach, a fraction of the object's probe box diagonal",
     ),
+    flag(
+        "probe_visibility",
+        "leave out of a patch's interpolation the probes another object hides from it (a crate sunk into the floor is not lit below it from the probes above; off: all 8, the paper)",
+    ),
 ];
 
 /// The grid baseline's keys (fields of [`GridOptions`]).

@@ -1,0 +1,135 @@
+//! Probe visibility (`probe_visibility.rs`): a patch reads only the probes no other object
+//! hides from it. Checked against the reference on a block sunk into the floor, and, after
+//! a mover passed, against what a freshly built solver measures in the same world.
+
+use glam::{Affine3A, Vec3};
+
+use super::tests::{cornell, object_named};
+use super::*;
+
+/// The area-weighted mean radiosity (summed over the channels) of object `o`'s patches
+/// whose centre is below (`below`) or above the floor (y = 0).
+fn mean_radiosity(world: &World, b: &[Vec3], o: usize, below: bool) -> f64 {
+    let p = &world.patches;
+    let (mut sum, mut area) = (0f64, 0f64);
+    for i in p.range(o).filter(|&i| (p.centre[i].y < 0.0) == below) {
+        sum += (p.area[i] * b[i].element_sum()) as f64;
+        area += p.area[i] as f64;
+    }
+    assert!(
+        area > 0.0,
+        "no patch {} the floor",
+        ["above", "below"][below as usize]
+    );
+    sum / area
+}
+
+#[test]
+fn a_block_sunk_into_the_floor_is_not_lit_below_it() {
+    // The Cornell box's short block lowered by 40 % of its height: its lower part is under
+    // the floor, where no light reaches (the reference), while its probes, moved up out of
+    // the floor, see the lit room.
+    let mut world = cornell(4000);
+    let block = object_named(&world, "short_block");
+    let rest = world.patches.world_from_local[block]
+        * Affine3A::from_mat3(world.patches.local_from_object[block]);
+    let range = world.patches.range(block);
+    let height = (range.clone().map(|i| world.patches.centre[i].y)).fold(0f32, f32::max);
+    let sunk = Affine3A::from_translation(Vec3::Y * -0.4 * height) * rest;
+    assert!(world.move_object(block, sunk).unwrap());
+    let reference = crate::reference::solve(
+        &world,
+        &crate::reference::ReferenceOptions::standard(),
+        &crate::NoProgress,
+    )
+    .0;
+    let converged = |probe_visibility: bool| {
+        let options = DispersiveOptions {
+            probe_visibility,
+            ..DispersiveOptions::improved()
+        };
+        let mut d = Dispersive::new(&world, options).unwrap();
+        d.converge(&world, 8);
+        d.radiosity().to_vec()
+    };
+    let (on, off) = (converged(true), converged(false));
+    let lit_above = mean_radiosity(&world, &reference, block, false);
+    let dark_below = mean_radiosity(&world, &reference, block, true);
+    assert!(
+        dark_below < 0.02 * lit_above,
+        "reference: {dark_below} under, {lit_above} above"
+    );
+    // Without it the buried part reads the probes above the floor (the test's point).
+    let off_below = mean_radiosity(&world, &off, block, true);
+    assert!(
+        off_below > 0.2 * lit_above,
+        "off: {off_below} under, {lit_above} above"
+    );
+    // With it, about as dark as the reference.
+    let on_below = mean_radiosity(&world, &on, block, true);
+    assert!(
+        on_below < 0.05 * lit_above,
+        "on: {on_below} under, {lit_above} above"
+    );
+    // And the part above the floor is as the reference's as it was.
+    let on_above = mean_radiosity(&world, &on, block, false);
+    let off_above = mean_radiosity(&world, &off, block, false);
+    let bias = |x: f64| (x / lit_above - 1.0).abs();
+    assert!(
+        bias(on_above) <= bias(off_above) + 0.03,
+        "{on_above} / {off_above} / {lit_above}"
+    );
+}
+
+#[test]
+fn after_a_mover_passed_probe_visibility_is_what_a_fresh_measure_gives() {
+    // The tall block dragged into the short block's probe box and left there, hiding some
+    // of its probes from some of its patches: the segments the mover's boxes met are
+    // measured again, and every object's visibility equals a fresh measure of its probes
+    // where they stand (repaired probes keep their places while their object rests, so a
+    // solver built in the final world may have put some elsewhere).
+    let mut world = cornell(3000);
+    let (short, tall) = (
+        object_named(&world, "short_block"),
+        object_named(&world, "tall_block"),
+    );
+    let at = |o: usize, w: &World| {
+        w.patches.world_from_local[o] * Affine3A::from_mat3(w.patches.local_from_object[o])
+    };
+    let (rest, short_at) = (at(tall, &world), at(short, &world));
+    let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
+    d.converge(&world, 4);
+    let k_short = d.objects.iter().position(|ob| ob.object == short).unwrap();
+    let before: Vec<u8> = (0..world.patches.range(short).len())
+        .map(|k| d.objects[k_short].probe_vis.hidden(k))
+        .collect();
+    let short_places = d.objects[k_short].probe_vis.measured_at();
+    assert!(short_places.iter().all(Option::is_some), "measured at rest");
+    // Towards the short block, in a few drags, to beside it.
+    let towards = short_at.translation - rest.translation;
+    for s in [0.2f32, 0.4, 0.55] {
+        let m = Affine3A::from_translation(Vec3::from(towards) * s) * rest;
+        assert!(world.move_object(tall, m).unwrap());
+        let moved = Changes {
+            moved: vec![tall],
+            ..Default::default()
+        };
+        d.step(&world, &moved);
+    }
+    d.converge(&world, 4);
+    let mut changed = 0;
+    for ob in &d.objects {
+        let places = ob.probe_vis.measured_at().map(|at| at.expect("measured"));
+        assert!(ob.probe_vis.is_current(&places));
+        let mut fresh = super::probe_visibility::ProbeVisibility::default();
+        assert!(fresh.refresh(&world, ob.object, &places, || true));
+        for j in 0..world.patches.range(ob.object).len() {
+            let (kept, measured) = (ob.probe_vis.hidden(j), fresh.hidden(j));
+            assert_eq!(kept, measured, "object {} patch {j}", ob.object);
+            if ob.object == short && kept != before[j] {
+                changed += 1;
+            }
+        }
+    }
+    assert!(changed > 0, "the mover hid some probes from some patches");
+}
