@@ -61,7 +61,7 @@ mod tests_incremental;
 #[cfg(test)]
 mod tests_prepare;
 #[cfg(test)]
-mod tests_probe_visibility;
+mod tests_near;
 mod touched;
 mod wall_rows;
 

@@ -15,6 +15,9 @@
 //!
 //! `E = L . (T - N) + sum_near (B_q - M_q) / near_rays`, `N = pi / near_rays sum_near Y(w_j)`.
 //!
+//! Of `B_q` the light the object itself sent `q` is taken in from its own near-field rows
+//! read backwards, not from its Step 3 emitters (`Dispersive::near_echo`).
+//!
 //! A face resting on another surface meets it at once: its near field is the (dark) surface
 //! under it, which is what contact openness approximated with black; the near field then
 //! stands in for it. Like contact openness it is geometry: measured again when the object or
@@ -22,7 +25,7 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
-use shrad_scene::Aabb;
+use shrad_scene::{Aabb, Role};
 use shrad_sh::{eval_basis, num_coeffs};
 use shrad_vis::Hit;
 
@@ -477,10 +480,12 @@ impl Dispersive {
     }
 
     /// The radiosity object `k` itself put on the boundary patches its near field meets
-    /// (its Step 3 light, reflected): taken out of what the near field gathers. Close to
-    /// the floor, Step 3's emitter and the near field otherwise make a loop in which a
-    /// sphere's underside lights the floor under it and is lit back (measured: undersides
-    /// 4-5x too bright among 128 objects).
+    /// (its Step 3 light, reflected), less what its own patches send them through the near
+    /// field's rows: taken out of what the near field gathers. Close to the floor, Step 3's
+    /// emitter and the near field otherwise make a loop in which a sphere's underside lights
+    /// the floor under it and is lit back (measured: undersides 4-5x too bright among 128
+    /// objects); the rows read backwards carry that light where it goes, with form factors
+    /// whose loop gain is below 1 (`ρ_p ρ_q Σ F_pq F_qp`).
     ///
     /// One value per patch the near field sees (`NearField::seen`), summed over the
     /// contribution's entries, which `resend.rs` may list more than once per patch: a hash
@@ -495,6 +500,26 @@ impl Dispersive {
         for &(q, e) in &ob.to_boundary {
             if let Some(h) = ob.near.seen_index(q) {
                 echo[h] += world.reflectance[q as usize] * e;
+            }
+        }
+        // What the object's own patches within reach send each boundary patch they see, by
+        // their near-field rows read backwards (reciprocity: `A_q F_qp = A_p F_pq`), goes
+        // back in: the light that goes from a sphere's underside to the floor under it and
+        // back, which Step 3's emitters put in the wrong place at that range (undersides
+        // 22 % too dark without it, docs/results.md §14).
+        let p = &world.patches;
+        let mut back = vec![Vec3::ZERO; ob.near.seen.len()];
+        for (kp, i) in p.range(ob.object).enumerate() {
+            let sent = (self.radiosity[i] - world.exitance[i]) * p.area[i];
+            for &(h, f) in ob.near.view.row(kp) {
+                back[h as usize] += sent * f;
+            }
+        }
+        for ((e, b), &q) in echo.iter_mut().zip(back).zip(&ob.near.seen) {
+            let q = q as usize;
+            // Another object's light is its own probes' and near field's, not this echo.
+            if p.role(q) != Role::Interior {
+                *e -= world.reflectance[q] * b / p.area[q].max(f32::MIN_POSITIVE);
             }
         }
         echo
