@@ -59,9 +59,9 @@ mod tests;
 #[cfg(test)]
 mod tests_incremental;
 #[cfg(test)]
-mod tests_prepare;
-#[cfg(test)]
 mod tests_near;
+#[cfg(test)]
+mod tests_prepare;
 mod touched;
 mod wall_rows;
 
