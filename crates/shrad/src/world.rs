@@ -125,9 +125,11 @@ impl World {
         crate::limits::check_patches(&scene.source, plan)?;
         // A scene without patches (a valid glTF with nothing to light loads empty) is a
         // world too: every solver, picture and bake of it is empty or the background.
-        let patches = Patches::build(&scene, PatchSizing::Size(plan.patch_size));
-        let meshes: Vec<MeshRef<'_>> = patches
-            .meshes
+        let mut patches = Patches::build(&scene, PatchSizing::Size(plan.patch_size));
+        // The backend copies the patch meshes into its own structure; the world keeps none
+        // (at 1M patches they were about 80 MB of a peak that must stay under 1.5 GiB).
+        let patch_meshes = std::mem::take(&mut patches.meshes);
+        let meshes: Vec<MeshRef<'_>> = patch_meshes
             .iter()
             .zip(&patches.object_role)
             .map(|(m, role)| MeshRef {
@@ -140,6 +142,8 @@ impl World {
             .collect();
         let inner = shrad_vis::build(backend, &meshes, &patches.world_from_local)
             .map_err(|e| Error::Invalid(e.to_string()))?;
+        drop(meshes);
+        drop(patch_meshes);
         let rays_cast = Arc::new(AtomicU64::new(0));
         let vis = Box::new(Counted {
             inner,

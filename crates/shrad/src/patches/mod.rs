@@ -124,7 +124,8 @@ pub struct Patches {
     /// counter-clockwise from the front there): what the lights' exact irradiance and the
     /// probe boxes are computed from.
     pub shapes: Vec<Mesh>,
-    /// Patch mesh of each object, for visibility.
+    /// Patch mesh of each object, for visibility: [`crate::World::new`] hands them to the
+    /// visibility backend, which keeps its own copy, and leaves this empty.
     pub meshes: Vec<ObjectMesh>,
     /// Per-corner surface attributes of the patches of objects that need them (textured or
     /// vertex-coloured); see [`Patches::corner_attrs`].
