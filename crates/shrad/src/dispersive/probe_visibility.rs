@@ -14,7 +14,7 @@
 //! again only where it can have changed: the segments a mover's box met, and every segment
 //! to a probe that was repaired to another place.
 
-use glam::{Affine3A, Vec3};
+use glam::Vec3;
 use shrad_scene::Aabb;
 
 use crate::World;
@@ -78,8 +78,9 @@ impl ProbeVisibility {
     /// was never measured or now stands elsewhere (`probes`: where they stand now, world),
     /// a probe at a time while `more()` says there is time (asked before each probe), so
     /// that an update prepared under a budget measures it in pieces (`prepare.rs`).
-    /// `object`: whose patches, and which is transparent to the rays. Returns whether all is
-    /// current.
+    /// `object`: whose patches, and which is transparent to the rays. Every probe is measured,
+    /// an invalid one too (its bits are not read): what is measured is geometry alone, which
+    /// a preparation can measure before the light. Returns whether all is current.
     pub(super) fn refresh(
         &mut self,
         world: &World,
@@ -139,11 +140,4 @@ impl ProbeVisibility {
             };
         }
     }
-}
-
-/// Where each probe of a box stands in the world (`probe_local(c)` in the object frame,
-/// placed by `m`). An invalid probe is measured too (its bits are not read): what is
-/// measured is then geometry alone, which a preparation can measure before the light.
-pub(super) fn probe_places(m: Affine3A, probe_local: impl Fn(usize) -> Vec3) -> [Vec3; 8] {
-    std::array::from_fn(|c| m.transform_point3(probe_local(c)))
 }

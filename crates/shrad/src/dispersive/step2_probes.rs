@@ -92,12 +92,18 @@ impl Dispersive {
         m: Affine3A,
         more: impl FnMut() -> bool,
     ) -> bool {
-        if !self.options.probe_visibility || self.cameras_for(k).2 {
+        if !self.reads_probe_visibility(k) {
             return true;
         }
         let ob = &mut self.objects[k];
-        let places = super::probe_visibility::probe_places(m, |c| ob.probe_local(c));
+        let places = std::array::from_fn(|c| m.transform_point3(ob.probe_local(c)));
         ob.probe_vis.refresh(world, ob.object, &places, more)
+    }
+
+    /// Whether object `k`'s update reads (and so measures) which probes its patches see:
+    /// with `probe_visibility`, except in a coarse update.
+    fn reads_probe_visibility(&self, k: usize) -> bool {
+        self.options.probe_visibility && !self.cameras_for(k).2
     }
 
     /// With transfer vectors (object frame) the probes are rotated into the object's frame
@@ -139,7 +145,7 @@ impl Dispersive {
         let echo = self.near_echo(world, k);
         let range = p.range(ob.object);
         let with_transfer = !ob.transfer.is_empty();
-        let use_visibility = self.options.probe_visibility && !self.cameras_for(kk).2;
+        let use_visibility = self.reads_probe_visibility(kk);
         range
             .clone()
             .into_par_iter()
