@@ -294,7 +294,7 @@ impl PyEngine {
             None => None,
         };
         self.with(py, |e| {
-            let Some(now) = e.world().scene.lights.get(l) else {
+            let Some(now) = e.world().scene.lights.get(l).map(|n| n.at(e.time())) else {
                 return Err(shrad::Error::Invalid(format!(
                     "light index {l} out of range ({} lights)",
                     e.world().scene.lights.len()

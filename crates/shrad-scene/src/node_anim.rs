@@ -30,7 +30,8 @@ impl Interpolation {
     }
 }
 
-/// A value a channel animates: translation or scale ([`Vec3`]) or rotation ([`Quat`]).
+/// A value a channel animates: translation or scale ([`Vec3`]), rotation ([`Quat`]), or a
+/// light's or material's property (`property_tracks`: [`Vec3`] colours, `f32` scalars).
 pub trait TrackValue: Copy + Default {
     /// Linear interpolation (slerp for quaternions) at `s` in [0, 1].
     fn interpolate(a: Self, b: Self, s: f32) -> Self;
@@ -61,6 +62,25 @@ impl TrackValue for Vec3 {
             s,
         )
         .truncate()
+    }
+    fn scaled(self, k: f32) -> Self {
+        self * k
+    }
+}
+
+impl TrackValue for f32 {
+    fn interpolate(a: Self, b: Self, s: f32) -> Self {
+        a + (b - a) * s
+    }
+    fn hermite(v0: Self, m0: Self, v1: Self, m1: Self, s: f32) -> Self {
+        hermite4(
+            Vec4::new(v0, 0.0, 0.0, 0.0),
+            Vec4::new(m0, 0.0, 0.0, 0.0),
+            Vec4::new(v1, 0.0, 0.0, 0.0),
+            Vec4::new(m1, 0.0, 0.0, 0.0),
+            s,
+        )
+        .x
     }
     fn scaled(self, k: f32) -> Self {
         self * k

@@ -12,6 +12,7 @@ mod common;
 mod default_camera;
 mod environment;
 mod gltf_animation;
+mod gltf_animation_pointer;
 mod gltf_camera_animation;
 mod gltf_files_outside;
 mod gltf_instancing;

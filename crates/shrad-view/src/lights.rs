@@ -34,7 +34,9 @@ fn each_light(engine: &Engine, describe: impl Fn(&Light, Value) -> Value) -> Val
             .enumerate()
             .map(|(l, light)| {
                 let m = engine.light_transform(l).unwrap_or(light.world_from_light);
-                describe(light, state(light, m))
+                // Its colour, intensity and cone now (animated ones: at the engine's time).
+                let now = light.at(engine.time());
+                describe(&now, state(&now, m))
             })
             .collect(),
     )

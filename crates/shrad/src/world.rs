@@ -184,7 +184,10 @@ impl World {
         let mut moved = Vec::new();
         let mut relit = Vec::new();
         for (o, object) in self.scene.objects.iter().enumerate() {
-            if !first && object.animation.is_none() && object.node_animation.is_none() {
+            let still = object.animation.is_none()
+                && object.node_animation.is_none()
+                && object.emission_tracks.is_none();
+            if !first && still {
                 continue;
             }
             let world_from_object = object.world_from_object_at(t);
@@ -218,7 +221,7 @@ impl World {
         for (l, light) in self.scene.lights.iter().enumerate() {
             if first || light.is_animated() {
                 self.lights[l] =
-                    crate::lights::LightState::new(light, &light.world_from_light_at(t));
+                    crate::lights::LightState::new(&light.at(t), &light.world_from_light_at(t));
             }
         }
         self.time = t;

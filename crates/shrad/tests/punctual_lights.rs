@@ -147,6 +147,77 @@ fn a_light_moved_through_the_engine_equals_the_scene_loaded_with_it_there() {
         .is_err());
 }
 
+/// A track of `values` at times 0 and 2, linear.
+fn ramp<T>(values: [T; 2]) -> shrad_scene::Track<T> {
+    shrad_scene::Track {
+        times: vec![0.0, 2.0],
+        values: values.into(),
+        interpolation: shrad_scene::Interpolation::Linear,
+    }
+}
+
+#[test]
+fn an_animated_light_and_glow_give_at_a_time_what_the_scene_with_their_values_then_gives() {
+    let (light_at, box_at) = (Vec3::new(-0.5, 1.5, 0.3), Vec3::new(0.3, 0.25, -0.2));
+    // The bulb's intensity and colour and the box's emission strength animated (as a glTF
+    // file's KHR_animation_pointer channels give them), against the same scene made with
+    // their values at t = 1.5 and nothing animated.
+    let mut animated = scene(light_at, box_at);
+    animated.lights[0].tracks = Some(shrad_scene::LightTracks {
+        intensity: Some(ramp([683.0, 2.0 * 683.0])),
+        color: Some(ramp([Vec3::ONE, Vec3::new(1.0, 0.6, 0.2)])),
+        ..Default::default()
+    });
+    animated.objects[1].emission_tracks = Some(shrad_scene::EmissionTracks {
+        rest_factor: Vec3::new(0.2, 0.1, 0.05),
+        rest_strength: 1.0,
+        factor: None,
+        strength: Some(ramp([0.0, 4.0])),
+    });
+    let mut then = scene(light_at, box_at);
+    then.lights[0].intensity = 683.0 * 1.75;
+    then.lights[0].color = Vec3::new(1.0, 0.7, 0.4);
+    then.objects[1].material.emitted_radiance = Vec3::new(0.2, 0.1, 0.05) * 3.0;
+    for (name, choice) in solvers() {
+        let mut engine = Engine::new(
+            animated.clone(),
+            PatchSizing::Count(2000),
+            Backend::Auto,
+            choice,
+        )
+        .unwrap();
+        engine.converge(2);
+        let at_rest = engine.radiosity().to_vec();
+        engine.set_time(1.5).unwrap();
+        engine.converge(4);
+        let mut fresh = Engine::new(
+            then.clone(),
+            PatchSizing::Count(2000),
+            Backend::Auto,
+            choice,
+        )
+        .unwrap();
+        fresh.converge(4);
+        let (a, b) = (engine.radiosity(), fresh.radiosity());
+        let worst = a
+            .iter()
+            .zip(b)
+            .map(|(x, y)| (*x - *y).abs().max_element())
+            .fold(0.0, f32::max);
+        let top = b.iter().map(|v| v.max_element()).fold(0.0, f32::max);
+        let tolerance = if name == "reference" { 1e-5 } else { 0.02 };
+        assert!(worst <= tolerance * top, "{name}: {worst} of {top}");
+        // And it did change: the light at t = 1.5 is brighter than at rest.
+        let sum = |r: &[Vec3]| r.iter().map(|v| v.x as f64).sum::<f64>();
+        assert!(
+            sum(a) > 1.5 * sum(&at_rest),
+            "{name}: {} against {}",
+            sum(a),
+            sum(&at_rest)
+        );
+    }
+}
+
 /// Pixels in between dark and lit at the far edge of the dark run of `row` (the shadow's
 /// edge on the floor): within 8 pixels before and 6 after the last dark pixel, those above a
 /// tenth and below nine tenths of the lit floor 6 pixels beyond.

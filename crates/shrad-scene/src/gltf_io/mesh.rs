@@ -156,6 +156,9 @@ impl Walk<'_> {
                 base_name.clone()
             };
             let mut object = Object::new(name, shape, material);
+            object.emission_tracks = (prim.material().index())
+                .and_then(|m| self.material_tracks.get(m))
+                .and_then(|k| k.emission(&prim.material()));
             // A skinned mesh is in world space already, and its node's animation does not
             // move it (glTF 2.0, "Skins"; its joints' animation does not play: `skin_of`).
             if skinned.is_none() {

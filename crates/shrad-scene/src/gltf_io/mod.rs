@@ -129,7 +129,8 @@ fn integral_floats_to_integers(v: &mut Value) {
 /// What the gltf crate refuses though the specification allows it, or which shrad has
 /// already done: the extensions `unpack` decoded (the texture extensions, whose images
 /// the material reader picks, the punctual lights, which `lights` reads, the instancing,
-/// which `instancing` reads, and the visibility, which `visibility` reads) out of `extensionsRequired` / `extensionsUsed` (the crate
+/// which `instancing` reads, the visibility, which `visibility` reads, and the animation
+/// pointers, which `anim` reads) out of `extensionsRequired` / `extensionsUsed` (the crate
 /// refuses a required extension it does not know); a scene without `nodes` given an empty
 /// list (optional in the specification, required by the crate); primitives without
 /// POSITION removed (returns how many); accessors of a type glTF 2.0 does not define made
@@ -145,6 +146,7 @@ fn crate_compatible(root: &mut Value) -> usize {
         lights::EXTENSION,
         instancing::EXTENSION,
         visibility::EXTENSION,
+        "KHR_animation_pointer",
     ];
     for key in ["extensionsRequired", "extensionsUsed"] {
         if let Some(list) = root.get_mut(key).and_then(Value::as_array_mut) {
@@ -333,8 +335,14 @@ fn read_bytes(
     let doc = gltf::Document::from_json(root).map_err(|e| bad(e.to_string()))?;
     let buffers: Vec<gltf::buffer::Data> = buffers.into_iter().map(gltf::buffer::Data).collect();
     validate::check_values(&value_checks, &doc, &buffers, &mut warnings);
-    let animations =
-        anim::read(&raw_animations, &doc, &buffers, animation, &mut warnings).map_err(bad)?;
+    let animations = anim::read(
+        &raw_animations,
+        (&doc, file_lights.lights.len()),
+        &buffers,
+        animation,
+        &mut warnings,
+    )
+    .map_err(bad)?;
     skins.place(&doc);
     let mut cx = walk::Walk {
         path,
@@ -349,6 +357,8 @@ fn read_bytes(
             ..Default::default()
         },
         graph: animations.graph,
+        light_tracks: animations.lights,
+        material_tracks: animations.materials,
         names: Vec::new(),
         textures: std::collections::HashMap::new(),
         texels: crate::texture::TexelBudget::default(),

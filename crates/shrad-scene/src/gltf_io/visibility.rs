@@ -1,8 +1,8 @@
 //! `KHR_node_visibility`: a node whose `visible` is false is not drawn, nor is anything
 //! below it, whatever their own `visible` (the extension's specification): its meshes and
 //! punctual lights, and its descendants', are left out. Cameras are not affected. An
-//! animation of `visible` (through `KHR_animation_pointer`, which shrad does not play) does
-//! not change it: a node is as its JSON says.
+//! animation of `visible` (a `KHR_animation_pointer` channel, which shrad ignores with a
+//! warning) does not change it: a node is as its JSON says.
 
 use serde_json::Value;
 

@@ -19,6 +19,10 @@ const MAX_DEPTH: usize = 512;
 pub(super) struct Walk<'a> {
     /// The node hierarchy with the animations that play (None: nothing moves).
     pub(super) graph: Option<Arc<NodeGraph>>,
+    /// `[l]`: the animated properties of the file's light `l` (`KHR_animation_pointer`).
+    pub(super) light_tracks: Vec<crate::LightTracks>,
+    /// `[m]`: the animated emission of the file's material `m` (`KHR_animation_pointer`).
+    pub(super) material_tracks: Vec<super::anim::MaterialTracks>,
     pub(super) path: &'a Path,
     pub(super) base: &'a Path,
     pub(super) doc: &'a gltf::Document,
@@ -101,12 +105,13 @@ impl Walk<'_> {
     }
 
     /// Put light `l` of the file on node `node` (world transform `world`), following the
-    /// node's animation when it or an ancestor is animated.
+    /// node's animation when it or an ancestor is animated, and its animated properties.
     fn light(&mut self, l: usize, node: usize, world: Mat4) {
         let Some(mut light) = self.file_lights.lights[l].clone() else {
             return;
         };
         light.world_from_light = Affine3A::from_mat4(world);
+        light.tracks = self.light_tracks.get(l).filter(|k| !k.is_empty()).cloned();
         if let Some(graph) = self.graph.as_ref().filter(|g| g.moves(node)) {
             let anim = crate::NodeAnimation {
                 graph: graph.clone(),

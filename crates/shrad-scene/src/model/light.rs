@@ -64,6 +64,8 @@ pub struct Light {
     pub world_from_light: Affine3A,
     /// Motion of the glTF node holding the light, if it or an ancestor is animated.
     pub node_animation: Option<crate::NodeAnimation>,
+    /// Its animated colour, intensity, range or cone angles (`KHR_animation_pointer`).
+    pub tracks: Option<crate::LightTracks>,
 }
 
 impl Light {
@@ -77,6 +79,7 @@ impl Light {
             range: None,
             world_from_light: Affine3A::IDENTITY,
             node_animation: None,
+            tracks: None,
         }
     }
 
@@ -154,16 +157,29 @@ impl Light {
         None
     }
 
-    /// Does anything about the light change over time?
-    pub fn is_animated(&self) -> bool {
-        self.node_animation.is_some()
+    /// The light's colour, intensity, range and cone angles at time `t`: its tracks'
+    /// values (kept valid, see [`crate::LightTracks::apply`]), else its own. The place is
+    /// [`Light::world_from_light_at`]'s.
+    pub fn at(&self, t: f32) -> Light {
+        match &self.tracks {
+            Some(tracks) => tracks.apply(self, t),
+            None => self.clone(),
+        }
     }
 
-    /// Time of the node animation's last key (0 for a static light).
+    /// Does anything about the light change over time?
+    pub fn is_animated(&self) -> bool {
+        self.node_animation.is_some() || self.tracks.as_ref().is_some_and(|k| !k.is_empty())
+    }
+
+    /// Time of the last key of the node animation or the property tracks (0 for a static
+    /// light).
     pub fn duration(&self) -> f32 {
-        self.node_animation
+        let node = self
+            .node_animation
             .as_ref()
-            .map_or(0.0, crate::NodeAnimation::duration)
+            .map_or(0.0, crate::NodeAnimation::duration);
+        node.max(self.tracks.as_ref().map_or(0.0, crate::LightTracks::end))
     }
 }
 

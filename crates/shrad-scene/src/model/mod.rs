@@ -3,7 +3,8 @@
 //! `M = pi * L_e`), counter-clockwise triangles seen from the front.
 //!
 //! One file an idea: [`Role`] and [`Object`] (`object.rs`), [`Material`], [`Mesh`], the
-//! keyframed [`Animation`], [`Camera`] and [`Scene`] (`scene.rs`), and the checks every
+//! keyframed [`Animation`], the animated light and emission properties
+//! (`property_tracks.rs`), [`Camera`] and [`Scene`] (`scene.rs`), and the checks every
 //! solver relies on ([`Scene::validate`], `validate.rs`).
 
 mod animation;
@@ -12,6 +13,7 @@ mod light;
 mod material;
 mod mesh;
 mod object;
+mod property_tracks;
 mod scene;
 mod validate;
 
@@ -21,6 +23,7 @@ pub use light::{Light, LightKind, LUMENS_PER_WATT};
 pub use material::Material;
 pub use mesh::Mesh;
 pub use object::{Object, Role};
+pub use property_tracks::{EmissionTracks, LightTracks};
 pub(crate) use scene::{faces_towards, holds};
 pub use scene::{Camera, Scene, SceneSettings};
 pub(crate) use validate::is_singular;

@@ -50,6 +50,9 @@ pub struct Object {
     pub animation: Option<Animation>,
     /// Motion imported from an animated glTF node (the scene file's keys go on top).
     pub node_animation: Option<crate::NodeAnimation>,
+    /// Emission animated in the file (`KHR_animation_pointer` on its glTF material; the
+    /// scene file's emission keys go on top).
+    pub emission_tracks: Option<crate::EmissionTracks>,
     /// Patch size for this object only (overrides the scene's), in scene units.
     pub patch_size: Option<f32>,
 }
@@ -65,6 +68,7 @@ impl Object {
             world_from_object: Affine3A::IDENTITY,
             animation: None,
             node_animation: None,
+            emission_tracks: None,
             patch_size: None,
         }
     }
@@ -98,9 +102,13 @@ impl Object {
             * base
     }
 
-    /// The material at time `t` (emission keys applied).
+    /// The material at time `t`: the file's emission tracks, then the scene file's emission
+    /// keys applied.
     pub fn material_at(&self, t: f32) -> Material {
         let mut m = self.material.clone();
+        if let Some(tracks) = &self.emission_tracks {
+            m.emitted_radiance = tracks.emitted_radiance_at(t);
+        }
         if let Some(e) = self.animation.as_ref().and_then(|a| a.emission_at(t)) {
             m.emitted_radiance = e;
         }
@@ -110,6 +118,7 @@ impl Object {
     /// Does anything about this object change over time?
     pub fn is_animated(&self) -> bool {
         self.node_animation.is_some()
+            || self.emission_tracks.is_some()
             || self
                 .animation
                 .as_ref()
@@ -123,6 +132,10 @@ impl Object {
             .node_animation
             .as_ref()
             .map_or(0.0, crate::NodeAnimation::duration);
-        a.max(n)
+        let e = self
+            .emission_tracks
+            .as_ref()
+            .map_or(0.0, crate::EmissionTracks::end);
+        a.max(n).max(e)
     }
 }

@@ -192,7 +192,7 @@ impl EngineLoop {
             Request::SetLightTransform { light, matrix } => {
                 let l = self.light(&light)?;
                 let m = protocol::affine_from_columns(&matrix)?;
-                let now = &self.engine.world().scene.lights[l];
+                let now = self.engine.world().scene.lights[l].at(self.engine.time());
                 let (color, intensity) = (now.color, now.intensity);
                 self.engine
                     .set_light(l, m, color, intensity)

@@ -168,7 +168,7 @@ impl LightState {
 pub fn states_at(lights: &[Light], t: f32) -> Vec<Option<LightState>> {
     lights
         .iter()
-        .map(|l| LightState::new(l, &l.world_from_light_at(t)))
+        .map(|l| LightState::new(&l.at(t), &l.world_from_light_at(t)))
         .collect()
 }
 

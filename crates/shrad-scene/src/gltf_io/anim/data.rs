@@ -69,10 +69,16 @@ pub(super) fn describe(acc: &gltf::Accessor) -> String {
 
 /// Can accessor `out` hold the values of a `path` channel?
 pub(super) fn output_type_fits(out: &gltf::Accessor, path: Path) -> bool {
+    let float = out.data_type() == DataType::F32 && !out.normalized();
     match path {
-        Path::Translation | Path::Scale => {
-            out.dimensions() == Dimensions::Vec3 && out.data_type() == DataType::F32
+        Path::Translation | Path::Scale | Path::LightColor | Path::EmissiveFactor => {
+            out.dimensions() == Dimensions::Vec3 && float
         }
+        Path::LightIntensity
+        | Path::LightRange
+        | Path::SpotInner
+        | Path::SpotOuter
+        | Path::EmissiveStrength => out.dimensions() == Dimensions::Scalar && float,
         Path::Rotation => {
             out.dimensions() == Dimensions::Vec4
                 && (out.data_type() == DataType::F32

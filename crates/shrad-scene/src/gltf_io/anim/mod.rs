@@ -2,9 +2,12 @@
 //! the animations that play, read into a [`NodeGraph`]. The raw JSON of `animations` was
 //! checked for references by the reader (`validate::check_json`); the rest is checked here,
 //! where the accessor data is at hand: sampler interpolation, accessor types, key counts,
-//! key times finite and strictly increasing, values finite. Morph-target weights and
-//! `KHR_animation_pointer` channels are ignored with a warning (and a skinned mesh is drawn
-//! at rest, see `skin`, with a warning when its joints are animated).
+//! key times finite and strictly increasing, values finite. `KHR_animation_pointer`
+//! channels play when they point at a node's transform, a punctual light's colour,
+//! intensity, range or cone, or a material's emission (`pointer`), into tracks the lights
+//! and objects take (`LightTracks`, `EmissionTracks`). Morph-target weights and other
+//! pointers are ignored with a warning (and a skinned mesh is drawn at rest, see `skin`,
+//! with a warning when its joints are animated).
 
 use std::sync::Arc;
 
@@ -13,10 +16,14 @@ use gltf::accessor::{DataType, Dimensions};
 use serde_json::Value;
 
 mod data;
+mod pointer;
+mod targets;
+mod values;
 
 use data::{describe, output_type_fits, read_floats};
+use values::keys_per_value;
 
-use crate::{AnimationInfo, GraphNode, Interpolation, NodeGraph, NodeRest, Track};
+use crate::{AnimationInfo, GraphNode, Interpolation, LightTracks, NodeGraph, NodeRest, Track};
 
 /// The animations read from one file.
 pub(crate) struct Animations {
@@ -24,14 +31,49 @@ pub(crate) struct Animations {
     pub graph: Option<Arc<NodeGraph>>,
     /// Every animation of the file.
     pub info: Vec<AnimationInfo>,
+    /// `[l]`: the animated properties of the file's light `l` (empty: none).
+    pub lights: Vec<LightTracks>,
+    /// `[m]`: the animated emission of the file's material `m`.
+    pub materials: Vec<MaterialTracks>,
 }
 
-/// What a channel animates.
+/// A material's animated emission factor and strength, as the file has them (the object
+/// takes them with the material's values at rest: `EmissionTracks`).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct MaterialTracks {
+    /// `emissiveFactor`.
+    pub factor: Option<Track<Vec3>>,
+    /// `KHR_materials_emissive_strength`'s `emissiveStrength`.
+    pub strength: Option<Track<f32>>,
+}
+
+impl MaterialTracks {
+    /// The emission of an object of glTF material `m` over time; `None` when nothing of it
+    /// is animated.
+    pub fn emission(&self, m: &gltf::Material) -> Option<crate::EmissionTracks> {
+        (self.factor.is_some() || self.strength.is_some()).then(|| crate::EmissionTracks {
+            rest_factor: Vec3::from(m.emissive_factor()),
+            rest_strength: m.emissive_strength().unwrap_or(1.0),
+            factor: self.factor.clone(),
+            strength: self.strength.clone(),
+        })
+    }
+}
+
+/// What a channel animates: a node's transform (the core channels, or a pointer to one),
+/// a punctual light's property or a material's emission (pointers).
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
 pub(super) enum Path {
     Translation,
     Rotation,
     Scale,
+    LightColor,
+    LightIntensity,
+    LightRange,
+    SpotInner,
+    SpotOuter,
+    EmissiveFactor,
+    EmissiveStrength,
 }
 
 impl Path {
@@ -40,6 +82,42 @@ impl Path {
             Path::Translation => "translation",
             Path::Rotation => "rotation",
             Path::Scale => "scale",
+            Path::LightColor => "color",
+            Path::LightIntensity => "intensity",
+            Path::LightRange => "range",
+            Path::SpotInner => "spot innerConeAngle",
+            Path::SpotOuter => "spot outerConeAngle",
+            Path::EmissiveFactor => "emissiveFactor",
+            Path::EmissiveStrength => "emissiveStrength",
+        }
+    }
+
+    /// The element type its sampler's output must have, for messages.
+    fn wants(self) -> &'static str {
+        match self {
+            Path::Rotation => "VEC4 FLOAT (or normalized BYTE / SHORT)",
+            Path::Translation | Path::Scale | Path::LightColor | Path::EmissiveFactor => {
+                "VEC3 FLOAT"
+            }
+            _ => "SCALAR FLOAT",
+        }
+    }
+}
+
+/// What a channel's path belongs to, with its index in the file.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+enum Owner {
+    Node(usize),
+    Light(usize),
+    Material(usize),
+}
+
+impl Owner {
+    fn label(self) -> String {
+        match self {
+            Owner::Node(n) => format!("node {n}"),
+            Owner::Light(l) => format!("light {l}"),
+            Owner::Material(m) => format!("material {m}"),
         }
     }
 }
@@ -105,9 +183,10 @@ fn name_of(a: &Value, i: usize) -> String {
 
 /// Read the hierarchy and the animations `raw` (the file's `animations` array, references
 /// already checked) that play: every one, or the one `which` names (name or index).
+/// `lights`: how many punctual lights the file defines.
 pub(crate) fn read(
     raw: &[Value],
-    doc: &gltf::Document,
+    (doc, lights): (&gltf::Document, usize),
     buffers: &[gltf::buffer::Data],
     which: Option<&str>,
     warnings: &mut Vec<String>,
@@ -118,18 +197,25 @@ pub(crate) fn read(
         buffers,
         warnings,
         nodes: rest_nodes(doc),
+        lights: vec![LightTracks::default(); lights],
+        materials: vec![MaterialTracks::default(); doc.materials().count()],
         taken: Default::default(),
     };
     let mut info = Vec::with_capacity(raw.len());
     for (ai, a) in raw.iter().enumerate() {
         info.push(reader.animation(ai, a, only.is_none_or(|o| o == ai))?);
     }
-    let nodes = reader.nodes;
+    let (nodes, lights, materials) = (reader.nodes, reader.lights, reader.materials);
     let graph = nodes
         .iter()
         .any(GraphNode::is_animated)
         .then(|| Arc::new(NodeGraph { nodes }));
-    Ok(Animations { graph, info })
+    Ok(Animations {
+        graph,
+        info,
+        lights,
+        materials,
+    })
 }
 
 /// Every node at rest, with its parent.
@@ -189,7 +275,7 @@ struct Current {
 
 /// What a channel targets, once it is known to be one this reader plays.
 struct Target {
-    node: usize,
+    owner: Owner,
     path: Path,
 }
 
@@ -199,8 +285,12 @@ struct Reader<'a> {
     buffers: &'a [gltf::buffer::Data],
     warnings: &'a mut Vec<String>,
     nodes: Vec<GraphNode>,
-    /// (node, path) -> the animation that animates it first.
-    taken: std::collections::HashMap<(usize, Path), String>,
+    /// `[l]`: light `l`'s tracks so far.
+    lights: Vec<LightTracks>,
+    /// `[m]`: material `m`'s emission tracks so far.
+    materials: Vec<MaterialTracks>,
+    /// (owner, path) -> the animation that animates it first.
+    taken: std::collections::HashMap<(Owner, Path), String>,
 }
 
 impl Reader<'_> {
@@ -318,7 +408,7 @@ impl Reader<'_> {
         samplers: &[Option<Sampler>],
     ) -> Result<(), String> {
         let here = format!("{}.channels[{ci}]", anim.at);
-        let Some(Target { node, path }) = self.target(entry, anim, ci, c, &here)? else {
+        let Some(Target { owner, path }) = self.target(entry, anim, ci, c, &here)? else {
             return Ok(());
         };
         let si = c["sampler"].as_u64().unwrap_or(u64::MAX) as usize;
@@ -339,99 +429,26 @@ impl Reader<'_> {
             entry.channels += 1;
             return Ok(());
         }
-        if let Some(first) = self.taken.get(&(node, path)) {
+        if let Some(first) = self.taken.get(&(owner, path)) {
             entry.ignored += 1;
             self.warnings.push(format!(
-                "{} channel {ci}: node {node} {} is already animated by {first}: ignored",
+                "{} channel {ci}: {} {} is already animated by {first}: ignored",
                 anim.label,
+                owner.label(),
                 path.name()
             ));
             return Ok(());
         }
-        self.taken.insert((node, path), anim.label.clone());
-        let per_key = keys_per_value(sampler);
-        match path {
-            Path::Translation => self.nodes[node].translation = Some(sampler.track(vec3s(&values))),
-            Path::Scale => {
-                let mut v = vec3s(&values);
-                if raise_collapsed_scales(&mut v, per_key) {
-                    self.warnings.push(format!(
-                        "{} channel {ci}: scale keys with a zero component raised to 1e-4 (a surface of no area has no patches)",
-                        anim.label
-                    ));
-                }
-                self.nodes[node].scale = Some(sampler.track(v));
-            }
-            Path::Rotation => {
-                let v = rotations(&values, per_key, &sh, sampler.output)?;
-                self.nodes[node].rotation = Some(sampler.track(v));
-            }
+        self.taken.insert((owner, path), anim.label.clone());
+        match owner {
+            Owner::Node(node) => self.node_track(node, path, sampler, &values, (anim, ci, &sh))?,
+            Owner::Light(l) => self.light_track(l, path, sampler, &values),
+            Owner::Material(m) => self.material_track(m, path, sampler, &values),
         }
         entry.channels += 1;
         entry.start = entry.start.min(sampler.times[0]);
         entry.end = entry.end.max(sampler.times[sampler.times.len() - 1]);
         Ok(())
-    }
-
-    /// The node and path channel `ci` animates; `None` (counted as ignored, with a warning
-    /// when the animation plays) for morph weights, pointers and extension channels.
-    fn target(
-        &mut self,
-        entry: &mut AnimationInfo,
-        anim: &Current,
-        ci: usize,
-        c: &Value,
-        here: &str,
-    ) -> Result<Option<Target>, String> {
-        let target = &c["target"];
-        let path = match target.get("path") {
-            Some(Value::String(p)) => p.as_str(),
-            None | Some(Value::Null) => {
-                return Err(format!("{here}.target.path: missing (required)"))
-            }
-            Some(v) => return Err(format!("{here}.target.path: {v} is not a string")),
-        };
-        let ignored = match path {
-            "translation" | "rotation" | "scale" => None,
-            "weights" => Some("targets morph weights".to_string()),
-            "pointer" => Some("is a KHR_animation_pointer channel".to_string()),
-            other => Some(format!("has the unknown target path '{other}'")),
-        };
-        let node = target
-            .get("node")
-            .and_then(Value::as_u64)
-            .map(|n| n as usize);
-        let ignored = ignored.or_else(|| {
-            node.is_none()
-                .then(|| "has no target node (an extension's channel)".to_string())
-        });
-        if let Some(why) = ignored {
-            entry.ignored += 1;
-            if anim.playing {
-                // Morph targets are applied with the weights at rest (`mesh.rs`).
-                let rest = if path == "weights" {
-                    " (morphed meshes keep their pose at rest: the node's weights, else the mesh's)"
-                } else {
-                    ""
-                };
-                self.warnings
-                    .push(format!("{} channel {ci} {why}: ignored{rest}", anim.label));
-            }
-            return Ok(None);
-        }
-        let node = node.unwrap_or_default();
-        if node >= self.nodes.len() {
-            return Err(format!(
-                "{here}.target.node: node {node} does not exist (the file has {})",
-                self.nodes.len()
-            ));
-        }
-        let path = match path {
-            "translation" => Path::Translation,
-            "rotation" => Path::Rotation,
-            _ => Path::Scale,
-        };
-        Ok(Some(Target { node, path }))
     }
 
     /// The sampler's output for a `path` channel: type and count checked, values finite.
@@ -448,15 +465,12 @@ impl Reader<'_> {
             .nth(sampler.output)
             .ok_or_else(|| format!("{sh}: accessor {} does not exist", sampler.output))?;
         if !output_type_fits(&out, path) {
-            let want = match path {
-                Path::Rotation => "VEC4 FLOAT (or normalized BYTE / SHORT)",
-                _ => "VEC3 FLOAT",
-            };
             return Err(format!(
-                "{sh}: accessor {} is {}, a {} channel ({here}) needs {want}",
+                "{sh}: accessor {} is {}, a {} channel ({here}) needs {}",
                 sampler.output,
                 describe(&out),
-                path.name()
+                path.name(),
+                path.wants()
             ));
         }
         let per_key = keys_per_value(sampler);
@@ -515,79 +529,6 @@ impl Reader<'_> {
             if lo.is_finite() {
                 entry.start = lo;
                 entry.end = hi;
-            }
-        }
-    }
-}
-
-/// Output elements per key: 3 for CUBICSPLINE (in-tangent, value, out-tangent), else 1.
-fn keys_per_value(sampler: &Sampler) -> usize {
-    if sampler.interpolation == Interpolation::CubicSpline {
-        3
-    } else {
-        1
-    }
-}
-
-fn vec3s(values: &[f32]) -> Vec<Vec3> {
-    values.chunks_exact(3).map(Vec3::from_slice).collect()
-}
-
-/// Scale values with a component under 1e-4 raised to it (keeping the sign); whether any
-/// was. Tangents may be zero; only values must not collapse a surface.
-fn raise_collapsed_scales(v: &mut [Vec3], per_key: usize) -> bool {
-    let mut raised = false;
-    for (e, s) in v.iter_mut().enumerate() {
-        let is_value = per_key == 1 || e % 3 == 1;
-        if is_value && s.abs().min_element() < 1e-4 {
-            raised = true;
-            *s = Vec3::select(
-                s.abs().cmplt(Vec3::splat(1e-4)),
-                Vec3::splat(1e-4).copysign(*s),
-                *s,
-            );
-        }
-    }
-    raised
-}
-
-/// Rotation keys as quaternions: values normalised (a zero one is an error naming the key
-/// of accessor `output`), cubic-spline keys made sign-continuous.
-fn rotations(values: &[f32], per_key: usize, sh: &str, output: usize) -> Result<Vec<Quat>, String> {
-    let mut v = Vec::with_capacity(values.len() / 4);
-    for (e, q) in values.chunks_exact(4).enumerate() {
-        let q = Quat::from_slice(q);
-        let is_value = per_key == 1 || e % 3 == 1;
-        if !is_value {
-            v.push(q);
-        } else if q.length() < 1e-6 {
-            return Err(format!(
-                "{sh}: rotation key {} of accessor {output} is a zero quaternion",
-                e / per_key
-            ));
-        } else {
-            v.push(q.normalize());
-        }
-    }
-    if per_key == 3 {
-        hemisphere_continuous(&mut v);
-    }
-    Ok(v)
-}
-
-/// Cubic-spline rotation keys (in-tangent, value, out-tangent per key) made sign-continuous:
-/// a key whose value lies in the other hemisphere from the one before (q and -q are the
-/// same rotation) is negated with its tangents. Blender's exporter writes such keys with
-/// tangents that point to the continuous sign (a box turning 90 -> 200 deg about Z keyed at
-/// (0, .71, 0, .71) then (.03, -.97, .17, .17), out-tangent towards the negated one); taken
-/// literally the spline cuts through the origin of quaternion space, a half-turn off
-/// Blender's pose between the keys. A file already continuous is unchanged; LINEAR keys
-/// need nothing (slerp takes the short way, as the specification says).
-fn hemisphere_continuous(keys: &mut [Quat]) {
-    for k in 1..keys.len() / 3 {
-        if keys[3 * k + 1].dot(keys[3 * k - 2]) < 0.0 {
-            for q in &mut keys[3 * k..3 * k + 3] {
-                *q = -*q;
             }
         }
     }

@@ -34,6 +34,7 @@ const IMPLEMENTED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "KHR_texture_basisu",
     "KHR_node_visibility",
+    "KHR_animation_pointer",
 ];
 
 /// What shrad loses when it ignores an extension the file only uses (the specification
