@@ -5,6 +5,7 @@
 //! own (Cargo.toml): each installs a panic hook that counts panics, which tests running
 //! beside it would disturb.
 
+mod blender_animated_lights;
 mod blender_animation;
 mod blender_camera;
 mod blender_instancing;

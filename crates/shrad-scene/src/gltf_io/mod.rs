@@ -15,7 +15,8 @@
 //!   `instancing` reads the instanced nodes' instances (`EXT_mesh_gpu_instancing`);
 //! - `validate` again, once the gltf crate has the document: the values of the attributes
 //!   shrad does not use (normals, tangents, joints, weights), warnings only;
-//! - `anim`: the animations, into a node graph;
+//! - `anim`: the animations, into a node graph and the lights' and materials' tracks
+//!   (`KHR_animation_pointer`), which `blender_quirks` reads as Blender means them;
 //! - `walk`, `mesh`, `material`: the default scene's nodes walked into objects (an
 //!   instanced node's mesh once per instance); `skin`
 //!   places the meshes of skinned nodes by their skins at rest (in world space).
@@ -24,6 +25,7 @@
 //! `shrad::bake` writes its lit meshes with too.
 
 mod anim;
+mod blender_quirks;
 mod buffers;
 pub mod builder;
 mod container;
@@ -335,7 +337,7 @@ fn read_bytes(
     let doc = gltf::Document::from_json(root).map_err(|e| bad(e.to_string()))?;
     let buffers: Vec<gltf::buffer::Data> = buffers.into_iter().map(gltf::buffer::Data).collect();
     validate::check_values(&value_checks, &doc, &buffers, &mut warnings);
-    let animations = anim::read(
+    let mut animations = anim::read(
         &raw_animations,
         (&doc, file_lights.lights.len()),
         &buffers,
@@ -343,6 +345,13 @@ fn read_bytes(
         &mut warnings,
     )
     .map_err(bad)?;
+    let generator = doc.as_json().asset.generator.as_deref();
+    blender_quirks::animated_lights(
+        &mut animations.lights,
+        &file_lights.lights,
+        generator,
+        &mut warnings,
+    );
     skins.place(&doc);
     let mut cx = walk::Walk {
         path,

@@ -26,6 +26,10 @@ pub struct LightTracks {
     pub inner_cone_angle: Option<Track<f32>>,
     /// A spot's outer cone angle, radians (`.../spot/outerConeAngle`).
     pub outer_cone_angle: Option<Track<f32>>,
+    /// A spot's blend as Blender has it, in place of `inner_cone_angle`: the inner angle is
+    /// the outer one times `1 - blend`. Blender's exporter (5.0) writes its spot blend's keys
+    /// as the inner cone angle's (see the glTF reader's `blender_quirks`).
+    pub blend: Option<Track<f32>>,
 }
 
 impl LightTracks {
@@ -36,6 +40,7 @@ impl LightTracks {
             && self.range.is_none()
             && self.inner_cone_angle.is_none()
             && self.outer_cone_angle.is_none()
+            && self.blend.is_none()
     }
 
     /// Time of the last key of any track.
@@ -45,6 +50,7 @@ impl LightTracks {
             &self.range,
             &self.inner_cone_angle,
             &self.outer_cone_angle,
+            &self.blend,
         ];
         let color = self.color.as_ref().map_or(0.0, Track::end);
         scalars
@@ -77,8 +83,11 @@ impl LightTracks {
             };
             let half_pi = std::f32::consts::FRAC_PI_2;
             let outer = at(&self.outer_cone_angle, outer_cone_angle).clamp(1e-4, half_pi);
-            let inner =
-                at(&self.inner_cone_angle, inner_cone_angle).clamp(0.0, outer * (1.0 - 1e-4));
+            let inner = match &self.blend {
+                Some(blend) => outer * (1.0 - blend.sample(t)),
+                None => at(&self.inner_cone_angle, inner_cone_angle),
+            };
+            let inner = inner.clamp(0.0, outer * (1.0 - 1e-4));
             out.kind = LightKind::Spot {
                 inner_cone_angle: inner,
                 outer_cone_angle: outer,
