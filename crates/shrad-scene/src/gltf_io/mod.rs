@@ -286,6 +286,22 @@ struct ForCrate {
     no_position: usize,
 }
 
+/// The file's animations (`anim`), the lights' keys read as Blender means them in a file
+/// Blender wrote (`blender_quirks`).
+fn read_animations(
+    raw: &[Value],
+    (doc, buffers): (&gltf::Document, &[gltf::buffer::Data]),
+    file_lights: &lights::FileLights,
+    which: Option<&str>,
+    warnings: &mut Vec<String>,
+) -> Result<anim::Animations, String> {
+    let lights = &file_lights.lights;
+    let mut animations = anim::read(raw, (doc, lights.len()), buffers, which, warnings)?;
+    let generator = doc.as_json().asset.generator.as_deref();
+    blender_quirks::animated_lights(&mut animations.lights, lights, generator, warnings);
+    Ok(animations)
+}
+
 fn read_bytes(
     path: &Path,
     bytes: &[u8],
@@ -337,21 +353,14 @@ fn read_bytes(
     let doc = gltf::Document::from_json(root).map_err(|e| bad(e.to_string()))?;
     let buffers: Vec<gltf::buffer::Data> = buffers.into_iter().map(gltf::buffer::Data).collect();
     validate::check_values(&value_checks, &doc, &buffers, &mut warnings);
-    let mut animations = anim::read(
+    let animations = read_animations(
         &raw_animations,
-        (&doc, file_lights.lights.len()),
-        &buffers,
+        (&doc, &buffers),
+        &file_lights,
         animation,
         &mut warnings,
     )
     .map_err(bad)?;
-    let generator = doc.as_json().asset.generator.as_deref();
-    blender_quirks::animated_lights(
-        &mut animations.lights,
-        &file_lights.lights,
-        generator,
-        &mut warnings,
-    );
     skins.place(&doc);
     let mut cx = walk::Walk {
         path,
