@@ -747,7 +747,7 @@ fn camera_parameters() {
 }
 
 #[test]
-fn required_extensions_shrad_lacks_are_errors() {
+fn required_extensions_shrad_lacks_are_errors_but_shading_ones_are_read_as_their_base() {
     let dir = temp_dir("extensions");
     // KHR_mesh_quantization, EXT_meshopt_compression, KHR_draco_mesh_compression and
     // EXT_texture_webp are implemented (tests/compressed.rs), KHR_texture_basisu too
@@ -782,6 +782,41 @@ fn required_extensions_shrad_lacks_are_errors() {
             s.warnings
         );
     }
+    // A shading extension a file requires (as 3ds Max's exporter writes them, e.g. Khronos'
+    // PotOfCoalsAnimationPointer) is read as the base material it refines, with a warning;
+    // the archived specular-glossiness, whose diffuse colour is in the extension, is not.
+    let root = quad_with(|v| {
+        let shading = json!(["KHR_materials_transmission", "KHR_materials_volume"]);
+        v["extensionsUsed"] = shading.clone();
+        v["extensionsRequired"] = shading;
+        v["materials"][0]["extensions"] = json!({"KHR_materials_transmission":
+            {"transmissionFactor": 1.0}, "KHR_materials_volume": {"thicknessFactor": 0.02}});
+    });
+    let p = write_json(&dir, "shading.gltf", &root);
+    let s = load_no_panic(&p).unwrap();
+    for ext in ["KHR_materials_transmission", "KHR_materials_volume"] {
+        let said = format!("extension '{ext}' is used (and required) but not implemented");
+        assert!(
+            s.warnings.iter().any(|w| w.contains(&said)),
+            "{ext}: {:?}",
+            s.warnings
+        );
+    }
+    let ext = "KHR_materials_pbrSpecularGlossiness";
+    let root = quad_with(|v| {
+        v["extensionsUsed"] = json!([ext]);
+        v["extensionsRequired"] = json!([ext]);
+    });
+    assert_refused(
+        &dir,
+        "spec-gloss.gltf",
+        &root,
+        &[
+            "extensionsRequired[0]",
+            &format!("'{ext}'"),
+            "does not implement",
+        ],
+    );
     // The one shrad implements may be required.
     let root = quad_with(|v| {
         v["extensionsUsed"] = json!(["KHR_materials_emissive_strength"]);

@@ -155,6 +155,17 @@ fn crate_compatible(root: &mut Value) -> usize {
             list.retain(|e| !e.as_str().is_some_and(|e| DONE.contains(&e)));
         }
     }
+    // Shading extensions a file requires are read as the base material they refine
+    // (`validate::SHADING_EXTENSIONS`, which warned); the crate would refuse them.
+    if let Some(list) = root
+        .get_mut("extensionsRequired")
+        .and_then(Value::as_array_mut)
+    {
+        list.retain(|e| {
+            !e.as_str()
+                .is_some_and(|e| validate::SHADING_EXTENSIONS.contains(&e))
+        });
+    }
     // A primitive without POSITION is skipped (warned about by `validate`); the crate
     // requires POSITION.
     let mut no_position = 0;

@@ -37,6 +37,27 @@ const IMPLEMENTED_EXTENSIONS: &[&str] = &[
     "KHR_animation_pointer",
 ];
 
+/// Khronos material extensions that refine how a surface shades beyond its base colour and
+/// emission (which shrad reads): a file that requires one still has the base material they
+/// refine, so shrad loads it (as three.js does) with the warning it gives when one is only
+/// used, rather than refusing it (3ds Max's and other exporters list them as required). Not
+/// `KHR_materials_pbrSpecularGlossiness` (archived), whose diffuse colour is in the
+/// extension itself: a file requiring it is refused.
+pub(super) const SHADING_EXTENSIONS: &[&str] = &[
+    "KHR_materials_anisotropy",
+    "KHR_materials_clearcoat",
+    "KHR_materials_diffuse_transmission",
+    "KHR_materials_dispersion",
+    "KHR_materials_ior",
+    "KHR_materials_iridescence",
+    "KHR_materials_sheen",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_unlit",
+    "KHR_materials_variants",
+    "KHR_materials_volume",
+];
+
 /// What shrad loses when it ignores an extension the file only uses (the specification
 /// says a file must then still load without it).
 fn ignored_extension_note(name: &str) -> &'static str {
@@ -383,7 +404,18 @@ impl JsonCheck<'_> {
                 .collect()
         };
         let required = names("extensionsRequired")?;
+        let used = names("extensionsUsed")?;
         for (i, e) in required.iter().enumerate() {
+            if SHADING_EXTENSIONS.contains(&e.as_str()) {
+                // Warned about below, as used (a required extension must be used too).
+                if !used.contains(e) {
+                    self.warnings.push(format!(
+                        "extensionsRequired[{i}]: '{e}' is not in extensionsUsed (glTF requires it there); {}",
+                        ignored_extension_note(e)
+                    ));
+                }
+                continue;
+            }
             if !IMPLEMENTED_EXTENSIONS.contains(&e.as_str()) {
                 return Err(format!(
                     "extensionsRequired[{i}]: the file requires extension '{e}', which shrad does not implement (shrad implements {})",
@@ -391,10 +423,15 @@ impl JsonCheck<'_> {
                 ));
             }
         }
-        for e in names("extensionsUsed")? {
+        for e in used {
             if !IMPLEMENTED_EXTENSIONS.contains(&e.as_str()) {
+                let required = if required.contains(&e) {
+                    " (and required)"
+                } else {
+                    ""
+                };
                 self.warnings.push(format!(
-                    "extension '{e}' is used but not implemented by shrad: {}",
+                    "extension '{e}' is used{required} but not implemented by shrad: {}",
                     ignored_extension_note(&e)
                 ));
             }
