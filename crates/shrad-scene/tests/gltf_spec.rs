@@ -783,8 +783,7 @@ fn required_extensions_shrad_lacks_are_errors_but_shading_ones_are_read_as_their
         );
     }
     // A shading extension a file requires (as 3ds Max's exporter writes them, e.g. Khronos'
-    // PotOfCoalsAnimationPointer) is read as the base material it refines, with a warning;
-    // the archived specular-glossiness, whose diffuse colour is in the extension, is not.
+    // PotOfCoalsAnimationPointer) is read as the base material it refines, with a warning.
     let root = quad_with(|v| {
         let shading = json!(["KHR_materials_transmission", "KHR_materials_volume"]);
         v["extensionsUsed"] = shading.clone();
@@ -802,21 +801,21 @@ fn required_extensions_shrad_lacks_are_errors_but_shading_ones_are_read_as_their
             s.warnings
         );
     }
+    // Specular-glossiness (archived, in older files, often required): its diffuse colour is
+    // the reflectance, in place of the metallic-roughness base colour.
     let ext = "KHR_materials_pbrSpecularGlossiness";
     let root = quad_with(|v| {
         v["extensionsUsed"] = json!([ext]);
         v["extensionsRequired"] = json!([ext]);
+        v["materials"][0]["pbrMetallicRoughness"] =
+            json!({"baseColorFactor": [0.9, 0.9, 0.9, 1.0]});
+        v["materials"][0]["extensions"] = json!({ext: {"diffuseFactor": [0.2, 0.4, 0.6, 1.0],
+            "specularFactor": [1.0, 1.0, 1.0], "glossinessFactor": 0.3}});
     });
-    assert_refused(
-        &dir,
-        "spec-gloss.gltf",
-        &root,
-        &[
-            "extensionsRequired[0]",
-            &format!("'{ext}'"),
-            "does not implement",
-        ],
-    );
+    let p = write_json(&dir, "spec-gloss.gltf", &root);
+    let s = load_no_panic(&p).unwrap();
+    assert_eq!(s.objects[0].material.reflectance, Vec3::new(0.2, 0.4, 0.6));
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     // The one shrad implements may be required.
     let root = quad_with(|v| {
         v["extensionsUsed"] = json!(["KHR_materials_emissive_strength"]);

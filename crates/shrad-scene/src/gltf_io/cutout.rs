@@ -38,7 +38,7 @@ impl Walk<'_> {
         let mask = Mask {
             texture,
             cutoff: m.alpha_cutoff().unwrap_or(0.5),
-            factor: m.pbr_metallic_roughness().base_color_factor()[3],
+            factor: super::material::base_color(&m).0[3],
             color_alpha,
         };
         let Some(cut) = cut(shape, &mask, &mut self.cutout_left) else {

@@ -17,6 +17,22 @@ use glam::Vec3;
 use super::{buffers::read_uri, walk::Walk};
 use crate::{Filter, Material, Texture, TextureImage, UvTransform, Wrap};
 
+/// A material's base colour factor (RGBA) and texture: the metallic-roughness model's, or,
+/// when the material has `KHR_materials_pbrSpecularGlossiness` (archived, still in older
+/// files), its `diffuseFactor` and `diffuseTexture`, which the extension says a client that
+/// reads it uses instead (its specular and glossiness change nothing diffuse).
+pub(super) fn base_color<'a>(
+    m: &gltf::Material<'a>,
+) -> ([f32; 4], Option<gltf::texture::Info<'a>>) {
+    match m.pbr_specular_glossiness() {
+        Some(sg) => (sg.diffuse_factor(), sg.diffuse_texture()),
+        None => {
+            let pbr = m.pbr_metallic_roughness();
+            (pbr.base_color_factor(), pbr.base_color_texture())
+        }
+    }
+}
+
 impl Walk<'_> {
     /// The shrad material of a glTF material (converted once per material). A reflectance
     /// of exactly 1 (allowed by glTF, but it does not conserve energy) becomes 0.999 with a
@@ -30,12 +46,10 @@ impl Walk<'_> {
             (Some(i), None) => format!("materials[{i}]"),
             (None, _) => "the default material (a primitive without one)".to_string(),
         };
-        let pbr = m.pbr_metallic_roughness();
-        let f = pbr.base_color_factor();
+        let (f, base_texture) = base_color(m);
         let mut reflectance = Vec3::new(f[0], f[1], f[2]);
-        let base_color_texture = pbr
-            .base_color_texture()
-            .and_then(|info| self.texture(&who, "base colour", &info));
+        let base_color_texture =
+            base_texture.and_then(|info| self.texture(&who, "base colour", &info));
         if reflectance.max_element() >= 1.0 {
             let clamped = reflectance.min(Vec3::splat(0.999));
             self.scene.warnings.push(format!(
@@ -64,8 +78,8 @@ impl Walk<'_> {
     /// that shrad draws opaque though a viewer does not. A material [`cut_away`] entirely
     /// never gets here: its primitives are skipped.
     fn warn_alpha(&mut self, m: &gltf::Material, who: &str) {
-        let alpha = m.pbr_metallic_roughness().base_color_factor()[3];
-        let textured = m.pbr_metallic_roughness().base_color_texture().is_some();
+        let (factor, texture) = base_color(m);
+        let (alpha, textured) = (factor[3], texture.is_some());
         let why = match m.alpha_mode() {
             // A textured MASK is cut by its texture in geometry (`cutout`), which warns.
             gltf::material::AlphaMode::Opaque | gltf::material::AlphaMode::Mask => return,
@@ -145,7 +159,7 @@ impl Walk<'_> {
         self.doc
             .materials()
             .filter(|m| m.alpha_mode() == gltf::material::AlphaMode::Mask)
-            .filter_map(|m| m.pbr_metallic_roughness().base_color_texture())
+            .filter_map(|m| base_color(&m).1)
             .filter_map(|info| self.json["textures"][info.texture().index()]["source"].as_u64())
             .map(|i| self.image_source(i as usize))
             .collect()
@@ -230,7 +244,7 @@ impl Walk<'_> {
 ///   viewer. (Any other BLEND is treated as opaque: a patch cannot let part of the light
 ///   through, and a surface a viewer shows should not vanish.)
 pub(super) fn cut_away(m: &gltf::Material) -> Option<String> {
-    let alpha = m.pbr_metallic_roughness().base_color_factor()[3];
+    let alpha = base_color(m).0[3];
     let who = match (m.index(), m.name()) {
         (Some(i), Some(n)) => format!("materials[{i}] '{n}'"),
         (Some(i), None) => format!("materials[{i}]"),

@@ -35,14 +35,15 @@ const IMPLEMENTED_EXTENSIONS: &[&str] = &[
     "KHR_texture_basisu",
     "KHR_node_visibility",
     "KHR_animation_pointer",
+    "KHR_materials_pbrSpecularGlossiness",
 ];
 
 /// Khronos material extensions that refine how a surface shades beyond its base colour and
 /// emission (which shrad reads): a file that requires one still has the base material they
 /// refine, so shrad loads it (as three.js does) with the warning it gives when one is only
-/// used, rather than refusing it (3ds Max's and other exporters list them as required). Not
-/// `KHR_materials_pbrSpecularGlossiness` (archived), whose diffuse colour is in the
-/// extension itself: a file requiring it is refused.
+/// used, rather than refusing it (3ds Max's and other exporters list them as required).
+/// (`KHR_materials_pbrSpecularGlossiness`, whose diffuse colour is in the extension itself,
+/// shrad implements: `material::base_color`.)
 pub(super) const SHADING_EXTENSIONS: &[&str] = &[
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
