@@ -147,14 +147,22 @@ fn print_rows(title: &str, rows: &BTreeMap<String, Sums>, total_num: f64) {
         "", "area %", "share %", "error %", "bias %", "direct%"
     );
     let area: f64 = rows.values().map(|s| s.area).sum();
+    // Relative to the whole table's mean: a row the reference leaves dark (faces resting on
+    // the floor) has no relative error worth printing ("-"), only its share.
+    let mean_reference = rows.values().map(|s| s.reference).sum::<f64>() / area.max(1e-30);
     for (name, s) in rows {
+        let dark = s.reference <= 1e-6 * mean_reference * s.area;
+        let percent = |x: f64| match dark {
+            true => format!("{:>8}", "-"),
+            false => format!("{:>8.2}", 100.0 * x),
+        };
         println!(
-            "  {:<28} {:>8.1} {:>8.1} {:>8.2} {:>8.2} {:>8.1}",
+            "  {:<28} {:>8.1} {:>8.1} {} {} {:>8.1}",
             name,
             100.0 * s.area / area,
             100.0 * s.num / total_num,
-            100.0 * (s.num / s.den.max(1e-30)).sqrt(),
-            100.0 * s.diff / s.reference.max(1e-30),
+            percent((s.num / s.den.max(1e-30)).sqrt()),
+            percent(s.diff / s.reference.max(1e-30)),
             100.0 * s.direct_num / s.num.max(1e-30),
         );
     }
