@@ -31,9 +31,10 @@ pub(crate) struct Animations {
     pub graph: Option<Arc<NodeGraph>>,
     /// Every animation of the file.
     pub info: Vec<AnimationInfo>,
-    /// `[l]`: the animated properties of the file's light `l` (empty: none).
+    /// `[l]`: the animated properties of the file's light `l` (empty, or past the end:
+    /// none; only as long as the last light animated).
     pub lights: Vec<LightTracks>,
-    /// `[m]`: the animated emission of the file's material `m`.
+    /// `[m]`: the animated emission of the file's material `m` (the same).
     pub materials: Vec<MaterialTracks>,
 }
 
@@ -197,8 +198,9 @@ pub(crate) fn read(
         buffers,
         warnings,
         nodes: rest_nodes(doc),
-        lights: vec![LightTracks::default(); lights],
-        materials: vec![MaterialTracks::default(); doc.materials().count()],
+        counts: (lights, doc.materials().count()),
+        lights: Vec::new(),
+        materials: Vec::new(),
         taken: Default::default(),
     };
     let mut info = Vec::with_capacity(raw.len());
@@ -285,6 +287,8 @@ struct Reader<'a> {
     buffers: &'a [gltf::buffer::Data],
     warnings: &'a mut Vec<String>,
     nodes: Vec<GraphNode>,
+    /// How many lights and materials the file has (what a pointer may name).
+    counts: (usize, usize),
     /// `[l]`: light `l`'s tracks so far.
     lights: Vec<LightTracks>,
     /// `[m]`: material `m`'s emission tracks so far.

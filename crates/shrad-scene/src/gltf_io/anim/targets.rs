@@ -44,6 +44,9 @@ impl Reader<'_> {
 
     /// Light `l`'s `path` from `sampler`'s `values`.
     pub(super) fn light_track(&mut self, l: usize, path: Path, sampler: &Sampler, values: &[f32]) {
+        if self.lights.len() <= l {
+            self.lights.resize_with(l + 1, Default::default);
+        }
         let light = &mut self.lights[l];
         match path {
             Path::LightColor => light.color = Some(sampler.track(vec3s(values))),
@@ -63,6 +66,9 @@ impl Reader<'_> {
         sampler: &Sampler,
         values: &[f32],
     ) {
+        if self.materials.len() <= m {
+            self.materials.resize_with(m + 1, Default::default);
+        }
         let material = &mut self.materials[m];
         match path {
             Path::EmissiveFactor => material.factor = Some(sampler.track(vec3s(values))),
@@ -172,10 +178,8 @@ impl Reader<'_> {
         };
         let (owner, path, count, kind) = match pointer::parse(text) {
             Pointed::Node(n, path) => (Owner::Node(n), path, self.nodes.len(), "nodes"),
-            Pointed::Light(l, path) => (Owner::Light(l), path, self.lights.len(), "lights"),
-            Pointed::Material(m, path) => {
-                (Owner::Material(m), path, self.materials.len(), "materials")
-            }
+            Pointed::Light(l, path) => (Owner::Light(l), path, self.counts.0, "lights"),
+            Pointed::Material(m, path) => (Owner::Material(m), path, self.counts.1, "materials"),
             Pointed::MorphWeights => {
                 self.ignore(
                     entry,
