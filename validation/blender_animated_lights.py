@@ -49,7 +49,8 @@ def main():
         scene.frame_set(frame)
         still = out / f"still_{frame}.glb"
         bpy.ops.export_scene.gltf(filepath=str(still), export_format="GLB",
-                                  export_lights=True, export_animations=False,
+                                  export_lights=True, export_cameras=True,
+                                  export_animations=False,
                                   export_current_frame=True)
         t = frame / scene.render.fps
         for solver in ("reference", "dispersive"):

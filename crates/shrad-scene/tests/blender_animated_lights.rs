@@ -5,7 +5,8 @@
 //! (`animated_lights.json`): shrad's light at each frame's time must shine as Blender's lamp
 //! then does (power P W as P / (4 pi) W/sr, Blender's standard lighting mode), its cone be
 //! Blender's (outer half the spot size, inner the outer less the blend's share), and the
-//! cube emit Blender's colour times strength. With /tmp/bpyenv (Blender as the bpy module)
+//! cube emit Blender's colour times strength, and the camera have the field of view Blender's
+//! still export of that frame writes (its focal length is keyed). With /tmp/bpyenv (Blender as the bpy module)
 //! the fixture is rebuilt by Blender first and checked too.
 //!
 //! Before shrad read the extension every one of these channels was ignored: the lamps and
@@ -66,6 +67,13 @@ fn check(glb: &Path, json: &Path) {
         let strength = f["emission_strength"].as_f64().unwrap() as f32;
         let emits = vec3(&f["emission_color"]) * strength;
         close(glow.material_at(t).emitted_radiance, emits, &at("glow"));
+        let yfov = scene.camera_at(t).unwrap().yfov;
+        let blenders = f["camera_yfov"].as_f64().unwrap() as f32;
+        assert!(
+            (yfov - blenders).abs() < 1e-5,
+            "{}: {yfov} against {blenders}",
+            at("yfov")
+        );
     }
     // Every one of them changes over the frames.
     let (first, last) = (frames[0]["time"].as_f64().unwrap() as f32, 2.0);

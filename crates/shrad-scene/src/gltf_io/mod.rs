@@ -388,6 +388,7 @@ fn read_bytes(
         graph: animations.graph,
         light_tracks: animations.lights,
         material_tracks: animations.materials,
+        camera_yfov: animations.cameras,
         names: Vec::new(),
         textures: std::collections::HashMap::new(),
         texels: crate::texture::TexelBudget::default(),

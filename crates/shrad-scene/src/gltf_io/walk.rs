@@ -23,6 +23,8 @@ pub(super) struct Walk<'a> {
     pub(super) light_tracks: Vec<crate::LightTracks>,
     /// `[m]`: the animated emission of the file's material `m` (`KHR_animation_pointer`).
     pub(super) material_tracks: Vec<super::anim::MaterialTracks>,
+    /// Camera `c`'s keyed `yfov` (`KHR_animation_pointer`), by `c`.
+    pub(super) camera_yfov: HashMap<usize, crate::Track<f32>>,
     pub(super) path: &'a Path,
     pub(super) base: &'a Path,
     pub(super) doc: &'a gltf::Document,
@@ -208,6 +210,7 @@ impl Walk<'_> {
                     yfov: p.yfov().min(179f32.to_radians()),
                     aspect_ratio: p.aspect_ratio(),
                 });
+                self.scene.camera_yfov = self.camera_yfov.get(&cam.index()).cloned();
                 self.animate_camera(node.index());
             }
             gltf::camera::Projection::Orthographic(_) => self

@@ -81,6 +81,10 @@ pub struct Scene {
     /// animated (`None`: the camera stays where [`Scene::camera`] puts it). Use
     /// [`Scene::camera_at`] for the camera at a time.
     pub camera_animation: Option<crate::NodeAnimation>,
+    /// The camera's keyed vertical field of view (radians; glTF `KHR_animation_pointer`
+    /// `/cameras/{c}/perspective/yfov`, as Blender writes a keyed focal length): `None`, the
+    /// camera's own. [`Scene::camera_at`] applies it.
+    pub camera_yfov: Option<crate::Track<f32>>,
     /// Settings from the scene file.
     pub settings: SceneSettings,
     /// Non-fatal problems found while loading (printed by the CLI).
@@ -100,9 +104,14 @@ impl Scene {
 
     /// The scene's camera at time `t` (seconds): [`Scene::camera`] moved by
     /// [`Scene::camera_animation`] when it has one (the node's world transform at `t`,
-    /// scale dropped), else [`Scene::camera`] as it is.
+    /// scale dropped), else [`Scene::camera`] as it is; its field of view
+    /// [`Scene::camera_yfov`]'s at `t` when keyed.
     pub fn camera_at(&self, t: f32) -> Option<Camera> {
-        let camera = self.camera?;
+        let mut camera = self.camera?;
+        if let Some(yfov) = &self.camera_yfov {
+            // Kept a perspective one can draw, as the reader keeps the camera's own.
+            camera.yfov = yfov.sample(t).clamp(1e-3, 179f32.to_radians());
+        }
         let Some(anim) = &self.camera_animation else {
             return Some(camera);
         };
@@ -176,6 +185,7 @@ impl Scene {
             .camera_animation
             .as_ref()
             .map_or(0.0, crate::NodeAnimation::duration);
+        let camera = camera.max(self.camera_yfov.as_ref().map_or(0.0, crate::Track::end));
         let camera = self
             .lights
             .iter()

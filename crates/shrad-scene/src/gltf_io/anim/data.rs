@@ -78,7 +78,8 @@ pub(super) fn output_type_fits(out: &gltf::Accessor, path: Path) -> bool {
         | Path::LightRange
         | Path::SpotInner
         | Path::SpotOuter
-        | Path::EmissiveStrength => out.dimensions() == Dimensions::Scalar && float,
+        | Path::EmissiveStrength
+        | Path::CameraYfov => out.dimensions() == Dimensions::Scalar && float,
         Path::Rotation => {
             out.dimensions() == Dimensions::Vec4
                 && (out.data_type() == DataType::F32

@@ -36,6 +36,8 @@ pub(crate) struct Animations {
     pub lights: Vec<LightTracks>,
     /// `[m]`: the animated emission of the file's material `m` (the same).
     pub materials: Vec<MaterialTracks>,
+    /// Camera `c`'s keyed `yfov`, by `c`.
+    pub cameras: std::collections::HashMap<usize, Track<f32>>,
 }
 
 /// A material's animated emission factor and strength, as the file has them (the object
@@ -75,6 +77,7 @@ pub(super) enum Path {
     SpotOuter,
     EmissiveFactor,
     EmissiveStrength,
+    CameraYfov,
 }
 
 impl Path {
@@ -90,6 +93,7 @@ impl Path {
             Path::SpotOuter => "spot outerConeAngle",
             Path::EmissiveFactor => "emissiveFactor",
             Path::EmissiveStrength => "emissiveStrength",
+            Path::CameraYfov => "yfov",
         }
     }
 
@@ -111,6 +115,7 @@ enum Owner {
     Node(usize),
     Light(usize),
     Material(usize),
+    Camera(usize),
 }
 
 impl Owner {
@@ -119,6 +124,7 @@ impl Owner {
             Owner::Node(n) => format!("node {n}"),
             Owner::Light(l) => format!("light {l}"),
             Owner::Material(m) => format!("material {m}"),
+            Owner::Camera(c) => format!("camera {c}"),
         }
     }
 }
@@ -198,16 +204,22 @@ pub(crate) fn read(
         buffers,
         warnings,
         nodes: rest_nodes(doc),
-        counts: (lights, doc.materials().count()),
+        counts: (lights, doc.materials().count(), doc.cameras().count()),
         lights: Vec::new(),
         materials: Vec::new(),
+        cameras: Default::default(),
         taken: Default::default(),
     };
     let mut info = Vec::with_capacity(raw.len());
     for (ai, a) in raw.iter().enumerate() {
         info.push(reader.animation(ai, a, only.is_none_or(|o| o == ai))?);
     }
-    let (nodes, lights, materials) = (reader.nodes, reader.lights, reader.materials);
+    let (nodes, lights, materials, cameras) = (
+        reader.nodes,
+        reader.lights,
+        reader.materials,
+        reader.cameras,
+    );
     let graph = nodes
         .iter()
         .any(GraphNode::is_animated)
@@ -217,6 +229,7 @@ pub(crate) fn read(
         info,
         lights,
         materials,
+        cameras,
     })
 }
 
@@ -287,12 +300,14 @@ struct Reader<'a> {
     buffers: &'a [gltf::buffer::Data],
     warnings: &'a mut Vec<String>,
     nodes: Vec<GraphNode>,
-    /// How many lights and materials the file has (what a pointer may name).
-    counts: (usize, usize),
+    /// How many lights, materials and cameras the file has (what a pointer may name).
+    counts: (usize, usize, usize),
     /// `[l]`: light `l`'s tracks so far.
     lights: Vec<LightTracks>,
     /// `[m]`: material `m`'s emission tracks so far.
     materials: Vec<MaterialTracks>,
+    /// Camera `c`'s `yfov` track.
+    cameras: std::collections::HashMap<usize, Track<f32>>,
     /// (owner, path) -> the animation that animates it first.
     taken: std::collections::HashMap<(Owner, Path), String>,
 }
@@ -448,6 +463,9 @@ impl Reader<'_> {
             Owner::Node(node) => self.node_track(node, path, sampler, &values, (anim, ci, &sh))?,
             Owner::Light(l) => self.light_track(l, path, sampler, &values),
             Owner::Material(m) => self.material_track(m, path, sampler, &values),
+            Owner::Camera(c) => {
+                self.cameras.insert(c, sampler.track(values));
+            }
         }
         entry.channels += 1;
         entry.start = entry.start.min(sampler.times[0]);

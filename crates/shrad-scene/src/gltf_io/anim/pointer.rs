@@ -1,8 +1,9 @@
 //! The JSON pointers of `KHR_animation_pointer` channels that shrad plays: a node's
 //! translation, rotation and scale (as the core channels), a punctual light's colour,
-//! intensity, range and cone angles, and a material's emission factor and strength. Any
-//! other property (a base colour, a texture transform, a camera) changes nothing shrad
-//! computes or shows, and its channel is ignored with a warning.
+//! intensity, range and cone angles, a material's emission factor and strength, and a
+//! perspective camera's field of view. Any other property (a base colour, a texture
+//! transform, a camera's clipping planes) changes nothing shrad computes or shows, and its
+//! channel is ignored with a warning.
 
 use super::Path;
 
@@ -15,6 +16,8 @@ pub(super) enum Pointed {
     Light(usize, Path),
     /// `/materials/{m}/emissiveFactor` or its `KHR_materials_emissive_strength`.
     Material(usize, Path),
+    /// `/cameras/{c}/perspective/yfov`.
+    Camera(usize, Path),
     /// `/nodes/{n}/weights`: morph weights, which shrad does not play (as the core channel).
     MorphWeights,
     /// Anything else.
@@ -63,6 +66,11 @@ pub(super) fn parse(pointer: &str) -> Pointed {
             let (l, property) = index_then(rest)?;
             return Some(Pointed::Light(l, light_property(property)?));
         }
+        if let Some(rest) = pointer.strip_prefix("/cameras/") {
+            let (c, property) = index_then(rest)?;
+            return (property == "perspective/yfov")
+                .then_some(Pointed::Camera(c, Path::CameraYfov));
+        }
         let rest = pointer.strip_prefix("/materials/")?;
         let (m, property) = index_then(rest)?;
         Some(match property {
@@ -95,6 +103,10 @@ mod tests {
             );
         }
         assert_eq!(
+            parse("/cameras/1/perspective/yfov"),
+            Pointed::Camera(1, Path::CameraYfov)
+        );
+        assert_eq!(
             parse("/materials/2/extensions/KHR_materials_emissive_strength/emissiveStrength"),
             Pointed::Material(2, Path::EmissiveStrength)
         );
@@ -104,7 +116,7 @@ mod tests {
             "/nodes/-1/translation",
             "/nodes/x/scale",
             "/nodes/99999999999999999999999/scale",
-            "/cameras/0/perspective/yfov",
+            "/cameras/0/perspective/znear",
             "/nodes/0",
             "",
             "nodes/0/translation",

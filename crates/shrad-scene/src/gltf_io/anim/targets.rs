@@ -180,6 +180,7 @@ impl Reader<'_> {
             Pointed::Node(n, path) => (Owner::Node(n), path, self.nodes.len(), "nodes"),
             Pointed::Light(l, path) => (Owner::Light(l), path, self.counts.0, "lights"),
             Pointed::Material(m, path) => (Owner::Material(m), path, self.counts.1, "materials"),
+            Pointed::Camera(c, path) => (Owner::Camera(c), path, self.counts.2, "cameras"),
             Pointed::MorphWeights => {
                 self.ignore(
                     entry,
@@ -196,7 +197,7 @@ impl Reader<'_> {
                 return Ok(None);
             }
         };
-        let (Owner::Node(i) | Owner::Light(i) | Owner::Material(i)) = owner;
+        let (Owner::Node(i) | Owner::Light(i) | Owner::Material(i) | Owner::Camera(i)) = owner;
         if i >= count {
             return Err(format!(
                 "{here}.target.extensions.KHR_animation_pointer.pointer: '{text}': the file has {count} {kind}"

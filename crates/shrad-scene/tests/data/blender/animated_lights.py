@@ -6,20 +6,23 @@ and spot size and a material's emission strength), with what Blender has at some
 
 The scene: a floor; a cube whose material's Emission Strength is keyed 1 -> 5; a point lamp
 whose power is keyed 100 -> 400 W and colour white -> red, and which moves; a spot whose
-power is 300 W and whose spot size is keyed 40 -> 90 degrees and blend 0.1 -> 0.3. Keys at
-frames 1 and 49 (24 frames/s; the exporter puts frame f at f / 24 s), Blender's default Bezier interpolation, so the
-exporter samples every frame.
+power is 300 W and whose spot size is keyed 40 -> 90 degrees and blend 0.1 -> 0.3; a
+camera whose focal length is keyed 35 -> 20 mm (its field of view, the camera's `yfov` in
+glTF). Keys at frames 1 and 49 (24 frames/s; the exporter puts frame f at f / 24 s),
+Blender's default Bezier interpolation, so the exporter samples every frame.
 
     /tmp/bpyenv/bin/python crates/shrad-scene/tests/data/blender/animated_lights.py OUT_DIR
 
 writes OUT_DIR/animated_lights.glb and OUT_DIR/animated_lights.json: for frames 1, 13, 25,
 37 and 49 the time in seconds and, as Blender evaluates them there, each lamp's power (W),
-colour, spot size and blend, and the cube's emission colour and strength.
+colour, spot size and blend, the cube's emission colour and strength, and the camera's
+`yfov` as Blender's exporter writes the still camera at that frame.
 """
 import json
 import math
 import os
 import sys
+import tempfile
 
 import bpy
 
@@ -66,7 +69,28 @@ def build():
     lamp = bpy.data.objects.new("spot", spot)
     scene.collection.objects.link(lamp)
     lamp.location = (0.0, -1.5, 2.5)
+
+    cam = bpy.data.cameras.new("view")
+    keyed(cam, "lens", [(1, 35.0), (49, 20.0)])
+    view = bpy.data.objects.new("view", cam)
+    scene.collection.objects.link(view)
+    view.location = (0.0, -6.0, 4.0)
+    view.rotation_euler = (math.radians(58.0), 0.0, 0.0)
+    scene.camera = view
+    scene.render.resolution_x, scene.render.resolution_y = 640, 480
     return scene, strength, bsdf
+
+
+def still_yfov(frame):
+    """The camera's yfov as Blender's exporter writes it still at `frame`."""
+    bpy.context.scene.frame_set(frame)
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, "still.gltf")
+        bpy.ops.export_scene.gltf(filepath=path, export_format="GLTF_SEPARATE",
+                                  export_cameras=True, export_animations=False,
+                                  export_current_frame=True)
+        with open(path) as f:
+            return json.load(f)["cameras"][0]["perspective"]["yfov"]
 
 
 def record(scene, strength, bsdf):
@@ -88,6 +112,7 @@ def record(scene, strength, bsdf):
             "lamps": lamps,
             "emission_color": list(bsdf.inputs["Emission Color"].default_value)[:3],
             "emission_strength": strength.default_value,
+            "camera_yfov": still_yfov(f),
         })
     return out
 
@@ -101,6 +126,7 @@ def main():
         filepath=glb,
         export_format="GLB",
         export_lights=True,
+        export_cameras=True,
         export_animations=True,
         export_pointer_animation=True,
         export_animation_mode="SCENE",
