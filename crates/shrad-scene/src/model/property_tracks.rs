@@ -1,7 +1,8 @@
 //! Animated properties that are not transforms: a punctual light's colour, intensity, range
 //! and cone angles, and a material's emission, as glTF's `KHR_animation_pointer` animates
 //! them (Blender's exporter writes a lamp's keyed power, colour and spot size, and a
-//! material's keyed emission strength, this way).
+//! material's keyed emission strength, this way). A camera's keyed field of view is one
+//! track of its own (`Scene::camera_yfov`).
 //!
 //! Each property is a [`Track`] of its own (the sampler's interpolation, cubic splines
 //! included); a property without a track keeps its value at rest. The values a track

@@ -4,8 +4,9 @@
 //! where the accessor data is at hand: sampler interpolation, accessor types, key counts,
 //! key times finite and strictly increasing, values finite. `KHR_animation_pointer`
 //! channels play when they point at a node's transform, a punctual light's colour,
-//! intensity, range or cone, or a material's emission (`pointer`), into tracks the lights
-//! and objects take (`LightTracks`, `EmissionTracks`). Morph-target weights and other
+//! intensity, range or cone, a material's emission or a camera's field of view (`pointer`),
+//! into tracks the lights, objects and the scene's camera take (`LightTracks`,
+//! `EmissionTracks`, `Scene::camera_yfov`). Morph-target weights and other
 //! pointers are ignored with a warning (and a skinned mesh is drawn at rest, see `skin`,
 //! with a warning when its joints are animated).
 

@@ -1,7 +1,8 @@
 //! Where a channel's keys go: what it targets (a node's transform, or through
-//! `KHR_animation_pointer` a light's property or a material's emission, `pointer.rs`), and
-//! the tracks it gives the node, light or material; what shrad does not play is ignored
-//! with a warning.
+//! `KHR_animation_pointer` a light's property, a material's emission or a camera's field of
+//! view, `pointer.rs`), and the tracks it gives the node, light or material (a camera's are
+//! put in `Reader::cameras` by the caller); what shrad does not play is ignored with a
+//! warning.
 
 use serde_json::Value;
 
@@ -159,7 +160,7 @@ impl Reader<'_> {
 
     /// What a `KHR_animation_pointer` channel animates (`pointer.rs`); `None` (ignored, with
     /// a warning) for a pointer to something shrad does not play or without a pointer. A
-    /// pointer to a node, light or material the file does not have is an error.
+    /// pointer to a node, light, material or camera the file does not have is an error.
     fn pointer_target(
         &mut self,
         entry: &mut AnimationInfo,
