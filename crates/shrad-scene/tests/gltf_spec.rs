@@ -1483,11 +1483,8 @@ fn texture_limits_and_formats() {
     let grey = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(2, 2, |x, _| {
         image::Luma([if x == 0 { 65535 } else { 0 }])
     });
-    let p = write_json(
-        &dir,
-        "grey16.gltf",
-        &with_image(png(image::DynamicImage::ImageLuma16(grey))),
-    );
+    let grey = png(image::DynamicImage::ImageLuma16(grey));
+    let p = write_json(&dir, "grey16.gltf", &with_image(grey.clone()));
     let s = load_no_panic(&p).unwrap();
     assert!(
         s.objects[0]
@@ -1497,6 +1494,18 @@ fn texture_limits_and_formats() {
         "{}",
         s.objects[0].material.reflectance
     );
+    // The same image as a specular-glossiness material's diffuse texture, times its
+    // diffuse factor; the metallic-roughness base colour (white, untextured) is not read.
+    let mut spec_gloss = with_image(grey);
+    let m = &mut spec_gloss["materials"][0];
+    m["pbrMetallicRoughness"] = json!({"baseColorFactor": [0.9, 0.9, 0.9, 1.0]});
+    m["extensions"] = json!({"KHR_materials_pbrSpecularGlossiness":
+        {"diffuseFactor": [0.5, 0.25, 0.8, 1.0], "diffuseTexture": {"index": 0}}});
+    spec_gloss["extensionsUsed"] = json!(["KHR_materials_pbrSpecularGlossiness"]);
+    let p = write_json(&dir, "spec-gloss-texture.gltf", &spec_gloss);
+    let s = load_no_panic(&p).unwrap();
+    let rho = s.objects[0].material.reflectance;
+    assert!(rho.abs_diff_eq(Vec3::new(0.25, 0.125, 0.4), 1e-6), "{rho}");
 }
 
 /// `EXT_texture_webp` (a texture whose only source is the extension's WebP image) decodes;
