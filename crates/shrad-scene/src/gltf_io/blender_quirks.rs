@@ -15,14 +15,13 @@
 //!   by a key at the static light's blend, `1 - inner / outer`, and none at its inner
 //!   angle; read as the blend (`LightTracks::blend`).
 
-use crate::{Light, LightKind, LightTracks, Track};
+use crate::{Interpolation, Light, LightKind, LightTracks, Track};
 
 /// Whether `track` has a key (a value, not a cubic spline's tangent) within 1e-3 of `target`.
 fn has_key(track: &Track<f32>, target: f32) -> bool {
-    let step = if track.values.len() == 3 * track.times.len() {
-        3
-    } else {
-        1
+    let step = match track.interpolation {
+        Interpolation::CubicSpline => 3,
+        _ => 1,
     };
     (track.values.iter().skip(step / 2).step_by(step))
         .any(|&k| (k - target).abs() <= 1e-3 * target.abs().max(1e-3))
@@ -89,7 +88,6 @@ fn blend(tracks: &mut LightTracks, light: &Light, warnings: &mut Vec<String>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Interpolation;
 
     fn keys(values: &[f32]) -> Track<f32> {
         Track {

@@ -45,10 +45,7 @@ impl Reader<'_> {
 
     /// Light `l`'s `path` from `sampler`'s `values`.
     pub(super) fn light_track(&mut self, l: usize, path: Path, sampler: &Sampler, values: &[f32]) {
-        if self.lights.len() <= l {
-            self.lights.resize_with(l + 1, Default::default);
-        }
-        let light = &mut self.lights[l];
+        let light = entry_at(&mut self.lights, l);
         match path {
             Path::LightColor => light.color = Some(sampler.track(vec3s(values))),
             Path::LightIntensity => light.intensity = Some(sampler.track(values.to_vec())),
@@ -67,10 +64,7 @@ impl Reader<'_> {
         sampler: &Sampler,
         values: &[f32],
     ) {
-        if self.materials.len() <= m {
-            self.materials.resize_with(m + 1, Default::default);
-        }
-        let material = &mut self.materials[m];
+        let material = entry_at(&mut self.materials, m);
         match path {
             Path::EmissiveFactor => material.factor = Some(sampler.track(vec3s(values))),
             Path::EmissiveStrength => material.strength = Some(sampler.track(values.to_vec())),
@@ -206,4 +200,13 @@ impl Reader<'_> {
         }
         Ok(Some(Target { owner, path }))
     }
+}
+
+/// `v[i]`, `v` grown with defaults to hold it (the tracks are only as long as the last
+/// light or material animated).
+fn entry_at<T: Default>(v: &mut Vec<T>, i: usize) -> &mut T {
+    if v.len() <= i {
+        v.resize_with(i + 1, T::default);
+    }
+    &mut v[i]
 }
