@@ -223,6 +223,31 @@ fn main() {
     report("still, first frames after", &first);
     let later: Vec<FrameStats> = (0..frames).map(|_| still_frame()).collect();
     report("still, later", &later);
+    // The "a still frame without rays": the frames after the stop that ran (not
+    // asleep) and traced nothing.
+    let rayless: Vec<FrameStats> = (first.iter().chain(&later))
+        .filter(|s| s.rays_cast == 0 && s.dispersive().is_some_and(|d| !d.asleep))
+        .cloned()
+        .collect();
+    report(
+        &format!("still, {} awake frames without rays", rayless.len()),
+        &rayless,
+    );
+    let asleep_at =
+        (first.iter().chain(&later)).position(|s| s.dispersive().is_some_and(|d| d.asleep));
+    println!(
+        "asleep after {} still frames",
+        asleep_at.map_or("more than these".to_string(), |k| k.to_string())
+    );
+    if with_error {
+        let e = engine.error();
+        println!(
+            "error once still: overall {:.3} %, boundary {:.3} %, interior {:.3} %",
+            100.0 * e.overall,
+            100.0 * e.boundary,
+            100.0 * e.interior
+        );
+    }
     if let Some(ms) = budget {
         // The frames after the rest until the scene sleeps: the mover's full update, its
         // neighbours', the walls catching up, each under the budget.

@@ -62,6 +62,8 @@ mod tests_incremental;
 mod tests_near;
 #[cfg(test)]
 mod tests_prepare;
+#[cfg(test)]
+mod tests_settle;
 mod touched;
 mod wall_rows;
 
@@ -171,6 +173,9 @@ pub struct Dispersive {
     /// walls' sweep changed the boundary by less than the tolerance: the walls sleep once
     /// that covers a whole sweep.
     quiet_frames: usize,
+    /// ... and the boundary's relative change summed since Step 4's last whole window, that
+    /// frame's own included: below the tolerance the walls doze (`sleep.rs`).
+    wall_unswept: f64,
     /// The energy balance of the last frame that ran, for the frames that sleep.
     last_energy: EnergyBalance,
     /// Measured at the last frame, for a budget's deadline: Step 4 and the meter (ms), the
@@ -318,6 +323,7 @@ impl Dispersive {
             object_change: vec![f64::INFINITY; n_objects],
             object_boxes,
             quiet_frames: 0,
+            wall_unswept: f64::INFINITY,
             last_energy: EnergyBalance::default(),
             tail_ms: 0.0,
             meter_ms: 0.0,
@@ -420,7 +426,8 @@ impl Dispersive {
         let at = |share: f64| budget_ms.map(|b| frame_start + secs(b * share));
         // What a frame changed is marked as it is written (`touched.rs`); a frame without a
         // mover, or with a light changed, meters and assembles everything.
-        if changes.moved.is_empty() || changes.light_changed() {
+        let doze = self.walls_doze(changes);
+        if (changes.moved.is_empty() && !doze) || changes.light_changed() {
             self.touched.everything();
         }
         let swept = self.swept_boxes(world, changes);
@@ -465,8 +472,8 @@ impl Dispersive {
         // Step 3 (2.3.4).
         let t = Instant::now();
         let updated = lit.clone();
-        let others_moving = !changes.moved.is_empty() && !changes.light_changed();
-        stats.energy.object_emitters = self.objects_to_boundary(world, lit, others_moving);
+        let amend_within = self.amend_tolerance(changes);
+        stats.energy.object_emitters = self.objects_to_boundary(world, lit, amend_within);
         steps.to_boundary_ms = ms(t);
         tr("step3", t);
 
@@ -485,11 +492,12 @@ impl Dispersive {
         });
         // While something moves, a quarter of the window: the walls' second bounce lags a
         // few frames behind the mover, and the full window returns as soon as it rests.
-        let window = match changes.moved.is_empty() {
+        let window = match changes.moved.is_empty() && !doze {
             true => window,
             false => Some(window.map_or(WALL_ROWS_WHILE_MOVING, |w| w.min(WALL_ROWS_WHILE_MOVING))),
         };
         let change = self.assemble(world, sweeps, window);
+        self.wall_unswept = change + if doze { self.wall_unswept } else { 0.0 };
         steps.assemble_ms = ms(t);
         tr("step4", t);
 

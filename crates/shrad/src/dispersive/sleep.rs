@@ -11,12 +11,16 @@
 //! - The **walls** (Step 4's exchange) sleep after a whole sweep of frames in which nothing
 //!   changed, no object was updated and each sweep changed the boundary by less than the
 //!   tolerance.
+//! - Before that, the walls **doze** while the objects settle: while the light Step 4's rows
+//!   read changed by less than the tolerance since their last whole window, a frame gathers
+//!   only a small window of them and the rows a re-trace rebuilt ([`Dispersive::walls_doze`]).
 //! - When every object and the walls sleep, nothing moved or changed, and the wall rows
 //!   hold no ray waiting to be re-traced, a frame does nothing: no tracing, no sweep, the
 //!   published state is the last one.
 //!
 //! The error stays within the tolerance of never sleeping (`tests.rs` checks it on the
-//! Cornell box with an object moving then stopping).
+//! Cornell box with an object moving then stopping; `tests_settle.rs` that the room's walls
+//! dozed and fell asleep with every row gathered as it is).
 
 use std::time::Instant;
 
@@ -44,6 +48,23 @@ impl Dispersive {
             && self.scheduler.asleep() == self.objects.len()
             && self.quiet_frames >= self.frames_per_wall_sweep()
             && self.wall_rows.as_ref().is_none_or(|rows| rows.settled())
+    }
+
+    /// Whether Step 4 may gather only a small window of wall rows this frame
+    /// ([`super::WALL_ROWS_WHILE_MOVING`], with the rows rebuilt since the last frame): the
+    /// scene settles (nothing moved, no light changed) and the light the rows read has
+    /// changed by less than the tolerance since their last whole window, that window's own
+    /// change included. A whole window now would change the boundary by less than the
+    /// tolerance, which is what the walls sleep at; the small one keeps them converging.
+    /// While the objects settle one at a time after a mover stops, most of their updates
+    /// change the boundary by less than that (the 77k room), and a whole window there cost
+    /// 4 ms a frame.
+    pub(super) fn walls_doze(&self, changes: &Changes) -> bool {
+        let tolerance = self.sleep_tolerance();
+        tolerance > 0.0
+            && changes.moved.is_empty()
+            && !changes.light_changed()
+            && self.wall_unswept < tolerance
     }
 
     /// Frames of Step 4 windows that make one sweep over every wall row.

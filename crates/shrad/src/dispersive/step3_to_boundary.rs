@@ -28,22 +28,19 @@ use crate::World;
 
 impl Dispersive {
     /// Step 3 (paper 2.3.4): each lit object sends its reflected light to the boundary as one
-    /// SH emitter at its centre, replacing its previous contribution; while another object
-    /// moves, a still one may send only the light paths the mover crossed (`resend.rs`).
-    /// Returns the flux sent.
+    /// SH emitter at its centre, replacing its previous contribution; a still one whose
+    /// emitted light is within `amend_within` of what it sent may send only the light paths
+    /// a mover crossed (`resend.rs`; 0: always the whole). Returns the flux sent.
     pub(super) fn objects_to_boundary(
         &mut self,
         world: &World,
         lit: Vec<usize>,
-        others_moving: bool,
+        amend_within: f64,
     ) -> f64 {
         let mut flux_sent = 0.0;
         for k in lit {
             let started = std::time::Instant::now();
-            if let Some(moved) = others_moving
-                .then(|| self.resend_crossed_paths(world, k))
-                .flatten()
-            {
+            if let Some(moved) = self.resend_crossed_paths(world, k, amend_within) {
                 flux_sent += moved;
                 self.scheduler.add_cost(k, super::ms(started), false);
                 super::tr("resend_crossed", started);

@@ -78,13 +78,16 @@ impl Dispersive {
     /// Returns the relative change of the boundary's radiosity over the frame (area
     /// weighted, summed over the channels: `sum A |dB| / sum A B`), which tells the sleep
     /// of the walls and objects (`sleep.rs`).
-    /// Under a budget's deadline the window is at most `window` rows (what fits).
+    /// Under a budget's deadline the window is at most `window` rows (what fits). Rows the
+    /// wall rows rebuilt since the last frame (a mover's re-traced rays) are gathered beside
+    /// a window that misses them.
     pub(super) fn assemble(&mut self, world: &World, sweeps: usize, window: Option<usize>) -> f64 {
         let start = std::time::Instant::now();
         let p = &world.patches;
         let mut rows_gathered = 0;
         let n = self.boundary_patches.len();
         let (mut changed, mut total) = (0f64, 0f64);
+        let rebuilt = (self.wall_rows.as_mut()).map_or(Vec::new(), |r| r.take_rebuilt());
         for _ in 0..sweeps.max(1) {
             if let Some(rows) = &self.wall_rows {
                 let window = if sweeps > 1 {
@@ -92,10 +95,13 @@ impl Dispersive {
                 } else {
                     n.min(WALL_ROWS_PER_FRAME).min(window.unwrap_or(usize::MAX))
                 };
-                rows_gathered += window;
                 let start = self.wall_cursor % n.max(1);
-                let ks: Vec<usize> = (0..window).map(|k| (start + k) % n).collect();
+                let mut ks: Vec<usize> = (0..window).map(|k| (start + k) % n).collect();
                 self.wall_cursor = (start + window) % n.max(1);
+                if window < n {
+                    ks.extend(rebuilt.iter().filter(|&&k| (k + n - start) % n >= window));
+                }
+                rows_gathered += ks.len();
                 // Reflected light of every patch first when the window reads each several
                 // times (one random read per row entry), else as each entry is read (a moving
                 // frame's window of 8k rows reads 0.3M entries: a pass over the 1M room's

@@ -376,17 +376,17 @@ fn amended_contribution_equals_a_fresh_one(to_boundary: ToBoundary, emitter_per_
     let mut d = Dispersive::new(&world, options).unwrap();
     d.converge(&world, 20);
     let k = d.objects.iter().position(|ob| ob.object == still).unwrap();
-    d.objects_to_boundary(&world, vec![k], false);
+    d.objects_to_boundary(&world, vec![k], 0.0);
     let before = d.indirect.clone();
     // The short block moves across the light the tall one sends the walls.
     slide_and_check(&mut world, &mut d, mover, k, Vec3::new(0.1, 0.0, 0.15));
     assert!(
-        d.resend_crossed_paths(&world, k).is_some(),
+        d.resend_crossed_paths(&world, k, 0.5).is_some(),
         "the still block's contribution was not amended"
     );
     let amended = d.indirect.clone();
     d.objects[k].emitter_cache = caches::EmitterCache::default();
-    d.objects_to_boundary(&world, vec![k], false);
+    d.objects_to_boundary(&world, vec![k], 0.0);
     let scale = before.iter().map(|e| e.max_element()).fold(0.0, f32::max);
     let differ = |a: &[Vec3], b: &[Vec3], by: f32| {
         a.iter()

@@ -217,6 +217,8 @@ pub(super) struct WallRows {
     pending: usize,
     /// Rays traced per frame while rows are pending ([`WALL_BUILD_PER_FRAME`]).
     pub(super) build_per_frame: usize,
+    /// Rows rebuilt since Step 4 last took them ([`WallRows::take_rebuilt`]).
+    rebuilt: Vec<usize>,
 }
 
 impl WallRows {
@@ -263,6 +265,7 @@ impl WallRows {
             built: vec![false; n],
             pending: n,
             build_per_frame: WALL_BUILD_PER_FRAME,
+            rebuilt: Vec::new(),
         };
         // Everything is dirty: trace it all now, a chunk of rays at a time, or later.
         for k in 0..n {
@@ -309,6 +312,16 @@ impl WallRows {
             rows.set_all_dirty(k);
         }
         rows
+    }
+
+    /// The rows rebuilt since the last call, each once, ascending (Step 4 gathers them
+    /// beside its window: a row the mover made exact again should not wait for the window
+    /// to come round).
+    pub(super) fn take_rebuilt(&mut self) -> Vec<usize> {
+        let mut ks = std::mem::take(&mut self.rebuilt);
+        ks.sort_unstable();
+        ks.dedup();
+        ks
     }
 
     /// Rows not traced yet (built lazily: [`WALL_EAGER_RAYS`]).
@@ -360,6 +373,14 @@ impl WallRows {
     pub(super) fn settled(&self) -> bool {
         let last = self.moved_at.iter().copied().max().unwrap_or(0);
         last <= self.checked_all && self.dirty_row_count == 0
+    }
+
+    /// Forget what row `k`'s rays hit and mark them to be re-traced: the re-trace then finds
+    /// their hits changed and rebuilds the row, as after a mover's passage.
+    #[cfg(test)]
+    pub(super) fn forget_hits(&mut self, k: usize) {
+        self.hit[k * self.rays..(k + 1) * self.rays].fill(MISS);
+        self.set_all_dirty(k);
     }
 
     fn set_all_dirty(&mut self, k: usize) {

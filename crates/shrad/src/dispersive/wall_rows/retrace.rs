@@ -73,6 +73,7 @@ impl WallRows {
                 (row, b, mask)
             })
             .collect();
+        self.rebuilt.extend_from_slice(ks);
         for (&k, (row, b, mask)) in ks.iter().zip(rebuilt) {
             self.rows.set_row(k, &row);
             self.bounds[k] = b;
