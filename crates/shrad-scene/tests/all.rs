@@ -9,6 +9,7 @@ mod blender_animated_lights;
 mod blender_animation;
 mod blender_camera;
 mod blender_instancing;
+mod blender_skin;
 mod common;
 mod default_camera;
 mod environment;

@@ -4,8 +4,8 @@
 //! `sum_i w_i * (globalTransform(joint_i) * inverseBindMatrix_i) * v`, the joints' rest
 //! transforms (their own TRS, no animation), and the skinned node's own transform is not
 //! applied. The object's mesh is then in world space (`world_from_object` the identity).
-//! Morph targets apply before skinning. When an animation moves a joint the mesh stays at
-//! its rest pose, with a warning saying so. What cannot be skinned is refused, naming the
+//! Morph targets apply before skinning. When an animation moves a joint the mesh moves as
+//! rigid parts, one per joint, each following its joint, with a warning saying so. What cannot be skinned is refused, naming the
 //! file: a joint beyond the skin with a weight, too few inverse bind matrices, a joint that
 //! does not exist. A vertex whose weights are all zero stays with its node, and a singular
 //! blended matrix flattens its vertices, each with a warning.
@@ -325,51 +325,131 @@ fn a_mirroring_skeleton_keeps_the_fronts_where_normals_go() {
     );
 }
 
-/// An animation of a joint does not deform the mesh: it is drawn at the joints' rest
-/// transforms (not the animation at time 0, which here turns "tip" back), with a warning
-/// that says so, and it does not follow the animation.
-#[test]
-fn joint_animation_leaves_the_mesh_at_rest_and_says_so() {
-    let mut file = strip(Strip::default());
-    // "tip" turned back to no rotation at time 0 and 1.
-    let mut b_times = Vec::new();
-    let mut b_rot = Vec::new();
-    for t in [0.0f32, 1.0] {
-        b_times.push(t);
-        b_rot.extend_from_slice(&[0.0f32, 0.0, 0.0, 1.0]);
-    }
-    let bytes: Vec<u8> = (b_times.iter().chain(&b_rot))
+/// `file` with an animation turning "tip" (nodes[2]) through `keys` (time, rotation),
+/// LINEAR.
+fn with_tip_keys(mut file: Value, keys: &[(f32, Quat)]) -> Value {
+    let times: Vec<f32> = keys.iter().map(|k| k.0).collect();
+    let rotations: Vec<f32> = keys.iter().flat_map(|k| k.1.to_array()).collect();
+    let bytes: Vec<u8> = (times.iter().chain(&rotations))
         .flat_map(|x| x.to_le_bytes())
         .collect();
     let uri = format!(
         "data:application/octet-stream;base64,{}",
         base64::encode(&bytes)
     );
+    let n = keys.len();
     let buffers = file["buffers"].as_array_mut().unwrap();
     buffers.push(json!({"byteLength": bytes.len(), "uri": uri}));
+    let b = buffers.len() - 1;
     let views = file["bufferViews"].as_array_mut().unwrap();
-    views.push(json!({"buffer": 1, "byteOffset": 0, "byteLength": 8}));
-    views.push(json!({"buffer": 1, "byteOffset": 8, "byteLength": 32}));
+    views.push(json!({"buffer": b, "byteOffset": 0, "byteLength": 4 * n}));
+    views.push(json!({"buffer": b, "byteOffset": 4 * n, "byteLength": 16 * n}));
     let (v0, v1) = (views.len() - 2, views.len() - 1);
     let accessors = file["accessors"].as_array_mut().unwrap();
-    accessors.push(json!({"bufferView": v0, "componentType": 5126, "count": 2,
-                          "type": "SCALAR", "min": [0.0], "max": [1.0]}));
-    accessors.push(json!({"bufferView": v1, "componentType": 5126, "count": 2, "type": "VEC4"}));
+    accessors.push(json!({"bufferView": v0, "componentType": 5126, "count": n,
+                          "type": "SCALAR", "min": [times[0]], "max": [times[n - 1]]}));
+    accessors.push(json!({"bufferView": v1, "componentType": 5126, "count": n, "type": "VEC4"}));
     let (a0, a1) = (accessors.len() - 2, accessors.len() - 1);
     file["animations"] = json!([{
         "channels": [{"sampler": 0, "target": {"node": 2, "path": "rotation"}}],
         "samplers": [{"input": a0, "output": a1}]
     }]);
+    file
+}
+
+/// The object's vertices in world space at time `t` of its node's animation.
+fn world_positions_at(o: &Object, t: f32) -> Vec<Vec3> {
+    let m = o
+        .node_animation
+        .as_ref()
+        .map_or(o.world_from_object, |a| a.world_from_object_at(t));
+    (o.mesh.positions.iter())
+        .map(|&p| m.transform_point3(p))
+        .collect()
+}
+
+/// An animation of a joint moves the mesh as rigid parts, one per joint, with a warning
+/// that says so. "tip" turns from no rotation (t = 0) to its rest turn, Ry(90), at t = 1,
+/// so at time t it is turned by Ry(90 t). Each triangle goes with the joint that weighs most
+/// on it: the quad x in [0, 1] with "root" (weights 1, 1, 1/2, 1/2), the quad x in [1, 2]
+/// with "tip". A vertex of weight 1 on "tip" goes, in closed form, to
+/// `T(0,0,5) T(1,0,0) Ry(a) T(-1,0,0) (2, y, 0) = (1 + cos a, y, 5 - sin a)`; the x = 1
+/// vertices sit on tip's pivot, (1, y, 5) whatever its turn; "root" does not move. At
+/// t = 1 the parts are where skinning at rest puts the strip.
+#[test]
+fn joint_animation_moves_the_mesh_as_rigid_parts_and_says_so() {
+    let ry = |deg: f32| Quat::from_rotation_y(deg.to_radians());
+    let file = with_tip_keys(strip(Strip::default()), &[(0.0, ry(0.0)), (1.0, ry(90.0))]);
     let s = load_json("animated", &file);
-    let o = object(&s, "Strip");
-    assert!(o.node_animation.is_none());
-    assert_close(&world_positions(o), &skinned_strip(), "animated joint");
-    let w = "nodes[0] 'Strip': skinned mesh drawn at its rest pose; joint animation does not deform it (the joints nodes[2] of skins[0] are animated";
+    assert_eq!(s.objects.len(), 2, "{:?}", s.warnings);
+    let (root, tip) = (object(&s, "Strip.root"), object(&s, "Strip.tip"));
+    assert!(root.node_animation.is_none());
+    assert!(tip.node_animation.is_some());
+    let rest = skinned_strip();
+    let root_at_rest: Vec<Vec3> = [0, 2, 1, 3].map(|k| rest[k]).to_vec();
+    assert_close(&world_positions_at(root, 0.5), &root_at_rest, "root part");
+    for t in [0.0f32, 0.25, 0.5, 1.0] {
+        let a = (90.0 * t).to_radians();
+        // The tip part's vertices in the order its triangles first use them: 2, 4, 3, 5.
+        let want = [
+            Vec3::new(1.0, 0.0, 5.0),
+            Vec3::new(1.0 + a.cos(), 0.0, 5.0 - a.sin()),
+            Vec3::new(1.0, 1.0, 5.0),
+            Vec3::new(1.0 + a.cos(), 1.0, 5.0 - a.sin()),
+        ];
+        assert_close(
+            &world_positions_at(tip, t),
+            &want,
+            &format!("tip part at t = {t}"),
+        );
+    }
+    let tip_at_rest: Vec<Vec3> = [2, 4, 3, 5].map(|k| rest[k]).to_vec();
+    assert_close(
+        &world_positions_at(tip, 1.0),
+        &tip_at_rest,
+        "tip part at rest",
+    );
+    let w = "nodes[0] 'Strip': skinned mesh moved as rigid parts, one per joint (each triangle follows the joint that weighs most on it)";
     assert!(
         s.warnings.iter().any(|x| x.contains(w)),
         "no warning says '{w}': {:#?}",
         s.warnings
     );
+}
+
+/// A part whose joint mirrors at rest ("tip" scaled by -1 along z, animated from its rest
+/// pose) keeps its fronts: its world normals, as shrad computes them (the inverse transpose
+/// of its transform times the local face normals), are those of the same strip skinned at
+/// rest without animation (computed from its world-space triangles).
+#[test]
+fn a_mirroring_joint_part_keeps_its_fronts() {
+    let mut file = strip(Strip::default());
+    file["nodes"][2]["scale"] = json!([1.0, 1.0, -1.0]);
+    let still = load_json("mirror_joint_still", &file);
+    let turn = Quat::from_rotation_y(std::f32::consts::FRAC_PI_2);
+    let moving = load_json(
+        "mirror_joint_moving",
+        &with_tip_keys(file, &[(0.0, turn), (1.0, Quat::IDENTITY)]),
+    );
+    let face = |p: &[Vec3], t: &[u32; 3]| {
+        let [a, b, c] = t.map(|i| p[i as usize]);
+        (b - a).cross(c - a).normalize()
+    };
+    let whole = object(&still, "Strip");
+    let p = world_positions(whole);
+    // The still strip's tip quad (triangles 2 and 3) in world space.
+    let want: Vec<Vec3> = whole.mesh.triangles[2..]
+        .iter()
+        .map(|t| face(&p, t))
+        .collect();
+    let tip = object(&moving, "Strip.tip");
+    let m = tip.world_from_object;
+    assert!(m.matrix3.determinant() < 0.0, "the joint does not mirror");
+    let local = &tip.mesh.positions;
+    let got: Vec<Vec3> = (tip.mesh.triangles.iter())
+        .map(|t| (m.matrix3.inverse().transpose() * face(local, t)).normalize())
+        .collect();
+    assert_close(&got, &want, "the tip part's world normals");
 }
 
 /// Joint 2 of a skin of two joints, with a weight: refused, naming the primitive, the
@@ -510,7 +590,9 @@ fn a_skin_naming_a_missing_node_is_refused() {
 ///   nodes[2]) at (-1, 0.5, 0) and (-1, 1.5, 0), vertex 2 (weights 0.75 / 0.25) at
 ///   (-0.25, 0.5, 0).
 ///
-/// Both load with the warning that the joint animation does not deform the mesh.
+/// As published (its animation turns nodes[2] from no rotation at t = 0) it loads as rigid
+/// parts, one per joint, with the warning, and at t = 0 they span the published bounds; the
+/// turned strip, without the animation, is one object skinned at rest.
 #[test]
 fn khronos_simple_skin_at_rest() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/khronos/SimpleSkin.gltf");
@@ -518,28 +600,34 @@ fn khronos_simple_skin_at_rest() {
     let mut turned = published.clone();
     let h = std::f32::consts::FRAC_1_SQRT_2;
     turned["nodes"][2]["rotation"] = json!([0.0, 0.0, h, h]);
+    turned.as_object_mut().unwrap().remove("animations");
     let cases = [
         ("published", published, [-0.5, 0.0, 0.0], [0.5, 2.0, 0.0]),
         ("turned", turned, [-1.0, 0.0, 0.0], [0.5, 1.5, 0.0]),
     ];
     for (name, file, lo, hi) in cases {
         let s = load_json(&format!("simple_skin_{name}"), &file);
-        assert_eq!(s.objects.len(), 1, "{name}: {:?}", s.warnings);
-        let o = &s.objects[0];
-        assert_eq!(o.world_from_object, glam::Affine3A::IDENTITY, "{name}");
-        let b = o.world_bounds().unwrap();
+        let parts = if name == "published" { 2 } else { 1 };
+        assert_eq!(s.objects.len(), parts, "{name}: {:?}", s.warnings);
+        let b = (s.objects.iter())
+            .map(|o| o.world_bounds().unwrap())
+            .reduce(|a, b| a.union(b))
+            .unwrap();
         let (lo, hi) = (Vec3::from(lo), Vec3::from(hi));
         assert!(
             (b.min - lo).abs().max_element() < 1e-5 && (b.max - hi).abs().max_element() < 1e-5,
             "{name}: bounds {b:?}, expected {lo} .. {hi}"
         );
-        let w = "nodes[0]: skinned mesh drawn at its rest pose; joint animation does not deform it (the joints nodes[2] of skins[0] are animated";
-        assert!(
+        let w = "nodes[0]: skinned mesh moved as rigid parts, one per joint";
+        assert_eq!(
             s.warnings.iter().any(|x| x.contains(w)),
-            "{name}: no warning says '{w}': {:#?}",
+            name == "published",
+            "{name}: the warning '{w}' where it should not be, or missing: {:#?}",
             s.warnings
         );
         if name == "turned" {
+            let o = &s.objects[0];
+            assert_eq!(o.world_from_object, glam::Affine3A::IDENTITY, "{name}");
             let p = world_positions(o);
             let want = [(2, [-0.25, 0.5]), (8, [-1.0, 0.5]), (9, [-1.0, 1.5])];
             for (k, [x, y]) in want {

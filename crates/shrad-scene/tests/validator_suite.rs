@@ -72,7 +72,7 @@ const INCIDENTAL: &[&str] = &[
     "have zero area and were dropped",
     "skipped, its data is not in the file",
     "is used but not implemented by shrad",
-    "skinned mesh drawn at its rest pose",
+    "skinned mesh moved as rigid parts",
     "primitive skipped (only triangles are used)",
     "has no image shrad can read",
 ];

@@ -59,6 +59,18 @@ fn no_data_mark(prim: &gltf::Primitive) -> Option<String> {
     super::unpack::no_data::skipped(&v).map(str::to_string)
 }
 
+/// One primitive's mesh and material, and what its objects take from its node and mesh
+/// ([`Walk::push_objects`]).
+struct Drawn {
+    mesh: Mesh,
+    material: crate::Material,
+    name: String,
+    world_from_object: Affine3A,
+    role: Option<Role>,
+    patch_size: Option<f32>,
+    names: PartNames,
+}
+
 /// Where a mesh is drawn: by a node, or (a file without scenes, a library of meshes) once at
 /// the origin.
 pub(super) struct Instance<'a, 'd> {
@@ -155,28 +167,74 @@ impl Walk<'_> {
             } else {
                 base_name.clone()
             };
-            let mut object = Object::new(name, shape, material);
+            let drawn = Drawn {
+                mesh: shape,
+                material,
+                name,
+                world_from_object,
+                role: node_role.or(mesh_role),
+                patch_size: node_patch.or(mesh_patch),
+                names: PartNames {
+                    node: node_name.map(str::to_string),
+                    mesh: mesh.name().map(str::to_string),
+                },
+            };
+            self.push_objects(inst, &prim, skinned, drawn, &at)
+                .map_err(bad)?;
+        }
+        Ok(())
+    }
+
+    /// The objects of primitive `prim`'s mesh `shape` as `inst` draws it: one, or one per
+    /// joint of a skin the animation moves (`skin::rigid_parts`), each named, placed and
+    /// animated.
+    fn push_objects(
+        &mut self,
+        inst: &Instance,
+        prim: &gltf::Primitive,
+        skinned: Option<&super::skin::Skinning>,
+        drawn: Drawn,
+        at: &Place,
+    ) -> Result<(), String> {
+        let Drawn { mesh, material, .. } = drawn;
+        let parts = match skinned.filter(|s| s.animated) {
+            Some(skin) => self.rigid_parts(prim, skin, &mesh, at)?,
+            None => vec![(None, mesh)],
+        };
+        let several = parts.len() > 1;
+        for (joint, part) in parts {
+            let name = match (several, joint) {
+                (false, _) => drawn.name.clone(),
+                (true, Some(j)) => format!("{}.{}", drawn.name, self.node_name(j)),
+                (true, None) => format!("{}.unskinned", drawn.name),
+            };
+            let mut object = Object::new(name, part, material.clone());
             object.emission_tracks = (prim.material().index())
                 .and_then(|m| self.material_tracks.get(m))
                 .and_then(|k| k.emission(&prim.material()));
-            // A skinned mesh is in world space already, and its node's animation does not
-            // move it (glTF 2.0, "Skins"; its joints' animation does not play: `skin_of`).
-            if skinned.is_none() {
-                object.world_from_object = world_from_object;
-                if let Some(node) = inst.node {
-                    let inner = inst
-                        .instance
-                        .map_or(Affine3A::IDENTITY, |(_, m)| Affine3A::from_mat4(m));
-                    self.animate(&mut object, node.index(), inner);
+            match (joint, skinned, inst.node) {
+                // A part of a skin follows its joint (`skin::rigid_parts`).
+                (Some(j), _, _) => {
+                    object.world_from_object = Affine3A::from_mat4(self.skins.rest_of(j));
+                    self.animate(&mut object, j, Affine3A::IDENTITY);
+                }
+                // Otherwise a skinned mesh is in world space already, and its node's
+                // animation does not move it (glTF 2.0, "Skins").
+                (None, Some(_), _) => {}
+                (None, None, node) => {
+                    object.world_from_object = drawn.world_from_object;
+                    if let Some(node) = node {
+                        let inner = inst
+                            .instance
+                            .map_or(Affine3A::IDENTITY, |(_, m)| Affine3A::from_mat4(m));
+                        self.animate(&mut object, node.index(), inner);
+                    }
                 }
             }
-            object.role = node_role.or(mesh_role);
-            object.patch_size = node_patch.or(mesh_patch);
+            object.role = drawn.role;
+            object.patch_size = drawn.patch_size;
             self.scene.objects.push(object);
-            self.names.push(PartNames {
-                node: node_name.map(str::to_string),
-                mesh: mesh.name().map(str::to_string),
-            });
+            self.names.push(drawn.names.clone());
         }
         Ok(())
     }

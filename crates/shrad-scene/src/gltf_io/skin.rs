@@ -3,9 +3,11 @@
 //! to `sum_i w_i * (globalTransform(joint_i) * inverseBindMatrix_i) * v` over its JOINTS_n /
 //! WEIGHTS_n influences, n = 0, 1, ..., in world space; the skinned node's own transform
 //! (and its animation) is not applied, and `skeleton` is only a hint, not read. "At rest" is
-//! each joint's own TRS or matrix accumulated from its root, without animation: shrad
-//! cannot deform a mesh per frame, so a file whose joints are animated is drawn at that rest
-//! pose, with a warning saying so.
+//! each joint's own TRS or matrix accumulated from its root, without animation. shrad
+//! cannot deform a mesh per frame: when the animation that plays moves the joints, the mesh
+//! is cut into rigid parts, one per joint, each moved by its joint's animated transform
+//! ([`Walk::rigid_parts`]), with a warning saying so. A rig whose vertices each follow one
+//! joint (a robot, a desk lamp) moves exactly; a smooth one's parts may open at the joints.
 //!
 //! The object's `world_from_object` is then the identity: its mesh is in world space.
 //! shrad keeps no normals (it computes face normals from the positions); a vertex whose
@@ -29,13 +31,16 @@
 //! instead left unskinned, placed by the skinned node's own transform, where the file would
 //! draw it without its skin, with a warning naming the primitive, the node and how many.
 
-use glam::{Mat3, Mat4, Vec3};
+use std::collections::BTreeMap;
+
+use glam::{Affine3A, Mat3, Mat4, Vec3};
 use gltf::accessor::{DataType, Dimensions, Iter};
 use serde_json::Value;
 
 use super::mesh::{Instance, Place};
 use super::validate::Floats;
 use super::walk::Walk;
+use crate::Mesh;
 
 /// The skins of a file, read from the raw JSON (the gltf crate never sees them), and the
 /// rest transform of every node.
@@ -47,6 +52,8 @@ pub(super) struct FileSkins {
     /// Each node's world transform at rest (its own and its ancestors' TRS or matrix);
     /// filled by [`FileSkins::place`] when the file has a skin.
     rest: Vec<Mat4>,
+    /// Each node's depth in its tree (a root's is 0); filled with `rest`.
+    depth: Vec<usize>,
 }
 
 /// One skin of the raw JSON (checked by `validate`: every index in range).
@@ -66,6 +73,9 @@ pub(super) struct Skinning {
     pub(super) skin: usize,
     pub(super) joints: Vec<Mat4>,
     pub(super) node: Mat4,
+    /// Whether the animation that plays moves one of its joints (the mesh then moves as
+    /// rigid parts, [`Walk::rigid_parts`]).
+    pub(super) animated: bool,
 }
 
 fn indices(v: &Value) -> Vec<usize> {
@@ -128,19 +138,25 @@ impl FileSkins {
         // A node not reached from a root (in a set of trees, every node is) stays not
         // finite: refused if a skin uses it.
         let mut rest = vec![Mat4::NAN; children.len()];
+        let mut depth = vec![usize::MAX; children.len()];
         let mut seen = vec![false; children.len()];
-        let mut stack: Vec<(usize, Mat4)> = (0..children.len())
+        let mut stack: Vec<(usize, Mat4, usize)> = (0..children.len())
             .filter(|&k| !is_child[k])
-            .map(|k| (k, Mat4::IDENTITY))
+            .map(|k| (k, Mat4::IDENTITY, 0))
             .collect();
-        while let Some((k, above)) = stack.pop() {
+        while let Some((k, above, d)) = stack.pop() {
             if std::mem::replace(&mut seen[k], true) {
                 continue;
             }
-            rest[k] = above * local[k];
-            stack.extend(children[k].iter().map(|&c| (c, rest[k])));
+            (rest[k], depth[k]) = (above * local[k], d);
+            stack.extend(children[k].iter().map(|&c| (c, rest[k], d + 1)));
         }
-        self.rest = rest;
+        (self.rest, self.depth) = (rest, depth);
+    }
+
+    /// Node `n`'s world transform at rest (NaN for a node no skin needed).
+    pub(super) fn rest_of(&self, n: usize) -> Mat4 {
+        self.rest.get(n).copied().unwrap_or(Mat4::NAN)
     }
 
     /// The joints of skin `s`.
@@ -156,7 +172,7 @@ impl Walk<'_> {
         let Some(s) = inst.skin else {
             return Ok(None);
         };
-        let skinning = self.skinning(s, inst.world)?;
+        let mut skinning = self.skinning(s, inst.world)?;
         let moving: Vec<String> = match &self.graph {
             Some(g) => (self.skins.joints(s).iter())
                 .filter(|&&j| g.moves(j))
@@ -165,8 +181,9 @@ impl Walk<'_> {
             None => Vec::new(),
         };
         if !moving.is_empty() {
+            skinning.animated = true;
             self.scene.warnings.push(format!(
-                "{}: skinned mesh drawn at its rest pose; joint animation does not deform it (the joints {} of skins[{s}] are animated; shrad cannot deform a mesh per frame)",
+                "{}: skinned mesh moved as rigid parts, one per joint (each triangle follows the joint that weighs most on it); the blend between joints is not deformed, so parts may open where they meet (the joints {} of skins[{s}] are animated; shrad cannot deform a mesh per frame)",
                 inst.label,
                 moving.join(", ")
             ));
@@ -219,6 +236,7 @@ impl Walk<'_> {
             skin: s,
             joints,
             node,
+            animated: false,
         })
     }
 
@@ -399,6 +417,111 @@ impl Walk<'_> {
             sets.push((joints, weights));
         }
         Ok(sets)
+    }
+}
+
+impl Walk<'_> {
+    /// A skinned primitive whose joints the animation moves, cut into rigid parts: each
+    /// triangle goes with one joint ([`joint_of_triangle`]), and a part is one joint's
+    /// triangles in that joint's frame at rest, with the joint's node, to
+    /// be moved by its animated transform. A vertex weighted wholly to its part's joint then
+    /// lands where skinning puts it at every time (`J(t) J_rest^-1 * (J_rest IBM v) = J(t) IBM
+    /// v`); one blended between joints follows its part's joint only. Triangles without
+    /// weight, or whose joint's rest transform is singular (a joint scaled to zero at rest),
+    /// stay in world space, unmoved (node None). `shape`: the primitive at rest, in world
+    /// space. Parts in the order of their joints.
+    pub(super) fn rigid_parts(
+        &mut self,
+        prim: &gltf::Primitive,
+        skin: &Skinning,
+        shape: &Mesh,
+        at: &Place,
+    ) -> Result<Vec<(Option<usize>, Mesh)>, String> {
+        let sets = self.influences(prim, shape.positions.len(), at)?;
+        let joints = self.skins.joints(skin.skin);
+        let rest = &self.skins.rest;
+        let movable = |n: &usize| {
+            let m = rest.get(*n).copied().unwrap_or(Mat4::NAN);
+            m.is_finite() && !crate::model::is_singular(&Mat3::from_mat4(m))
+        };
+        let depth = |j: usize| {
+            let node = joints.get(j).copied();
+            node.and_then(|n| self.skins.depth.get(n).copied())
+                .unwrap_or(usize::MAX)
+        };
+        let mut by_node: BTreeMap<Option<usize>, Vec<usize>> = BTreeMap::new();
+        for (t, triangle) in shape.triangles.iter().enumerate() {
+            let node = joint_of_triangle(&sets, triangle, depth)
+                .and_then(|j| joints.get(j).copied())
+                .filter(movable);
+            by_node.entry(node).or_default().push(t);
+        }
+        let parts = by_node.into_iter().map(|(node, triangles)| {
+            let part = shape.subset(&triangles);
+            let Some(n) = node else {
+                return (None, part);
+            };
+            let rest = Affine3A::from_mat4(rest[n]);
+            let mut part = part.transformed(rest.inverse());
+            // A mirroring joint frame: the part stays counter-clockwise from the front in its
+            // own frame (see `mesh`), its world normal the inverse transpose of the local one.
+            if rest.matrix3.determinant() < 0.0 {
+                part.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+            }
+            (Some(n), part)
+        });
+        Ok(parts.collect())
+    }
+}
+
+/// The joint (its index in the skin) a triangle's rigid part follows: the one whose weights
+/// on its three vertices in `sets` sum highest (the lowest index of a tie), when each vertex
+/// has some weight on it; else (a triangle spanning a joint whose vertices each belong to
+/// one bone, as Blender's rigid weights make them) the joint nearest the root (by `depth`)
+/// among its vertices' heaviest, so that every triangle of such a band goes with the same
+/// joint and the parts open along one ring instead of in alternate spikes. None when every
+/// weight is zero.
+fn joint_of_triangle(
+    sets: &[Influences],
+    triangle: &[u32; 3],
+    depth: impl Fn(usize) -> usize,
+) -> Option<usize> {
+    let weights = |v: u32| {
+        let mut sums: Vec<(usize, f32)> = Vec::new();
+        for (js, ws) in sets {
+            for (&j, &w) in js[v as usize].iter().zip(&ws[v as usize]) {
+                match sums.iter_mut().find(|(k, _)| *k == usize::from(j)) {
+                    Some((_, sum)) => *sum += w,
+                    None => sums.push((usize::from(j), w)),
+                }
+            }
+        }
+        sums.retain(|&(_, w)| w > 0.0);
+        sums.sort_by_key(|&(j, _)| j);
+        sums
+    };
+    let each = triangle.map(weights);
+    let heaviest = |sums: &[(usize, f32)]| {
+        (sums.iter().copied())
+            .fold(None, |best: Option<(usize, f32)>, (j, w)| match best {
+                Some((_, b)) if b >= w => best,
+                _ => Some((j, w)),
+            })
+            .map(|(j, _)| j)
+    };
+    let mut total: Vec<(usize, f32)> = Vec::new();
+    for &(j, w) in each.iter().flatten() {
+        match total.iter_mut().find(|(k, _)| *k == j) {
+            Some((_, sum)) => *sum += w,
+            None => total.push((j, w)),
+        }
+    }
+    total.sort_by_key(|&(j, _)| j);
+    let j = heaviest(&total)?;
+    let weighs_on_each = each.iter().all(|s| s.iter().any(|&(k, _)| k == j));
+    match weighs_on_each {
+        true => Some(j),
+        false => (each.iter().filter_map(|s| heaviest(s))).min_by_key(|&k| (depth(k), k)),
     }
 }
 

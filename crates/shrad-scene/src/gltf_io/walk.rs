@@ -74,6 +74,12 @@ pub(super) struct Skipped {
 }
 
 impl Walk<'_> {
+    /// Node `n`'s name, or `node{n}`.
+    pub(super) fn node_name(&self, n: usize) -> String {
+        let node = self.doc.nodes().nth(n);
+        (node.and_then(|node| node.name().map(str::to_string))).unwrap_or(format!("node{n}"))
+    }
+
     /// Give `object`, drawn by node `node` (at `inner` in the node's frame: an instance's
     /// own transform, else the identity), its node animation if the node or an ancestor is
     /// animated; its rest transform becomes its pose at time 0.

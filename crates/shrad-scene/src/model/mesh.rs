@@ -99,6 +99,41 @@ impl Mesh {
         self.triangles
             .extend(other.triangles.iter().map(|t| t.map(|i| i + base)));
     }
+    /// The triangles `which` lists and only the vertices they use (renumbered in the order
+    /// the triangles first use them), with their attributes.
+    pub fn subset(&self, which: &[usize]) -> Mesh {
+        let mut new_index = vec![u32::MAX; self.positions.len()];
+        let mut used: Vec<usize> = Vec::new();
+        let triangles = which
+            .iter()
+            .map(|&t| {
+                self.triangles[t].map(|i| {
+                    let slot = &mut new_index[i as usize];
+                    if *slot == u32::MAX {
+                        *slot = used.len() as u32;
+                        used.push(i as usize);
+                    }
+                    *slot
+                })
+            })
+            .collect();
+        let pick = |v: &[Vec2]| used.iter().map(|&i| v[i]).collect::<Vec<_>>();
+        let lightmap_ok = self.lightmap_uvs.len() == self.positions.len();
+        let colors_ok = self.colors.len() == self.positions.len();
+        Mesh {
+            positions: used.iter().map(|&i| self.positions[i]).collect(),
+            triangles,
+            uvs: self.uvs.iter().map(|set| pick(set)).collect(),
+            colors: match colors_ok {
+                true => used.iter().map(|&i| self.colors[i]).collect(),
+                false => Vec::new(),
+            },
+            lightmap_uvs: match lightmap_ok {
+                true => pick(&self.lightmap_uvs),
+                false => Vec::new(),
+            },
+        }
+    }
     /// The same mesh with every vertex transformed.
     pub fn transformed(&self, m: Affine3A) -> Mesh {
         Mesh {
@@ -112,5 +147,28 @@ impl Mesh {
             colors: self.colors.clone(),
             lightmap_uvs: self.lightmap_uvs.clone(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_subset_keeps_its_triangles_vertices_and_their_attributes_only() {
+        let mut m = Mesh::new(
+            (0..5).map(|k| Vec3::splat(k as f32)).collect(),
+            vec![[0, 1, 2], [2, 3, 4], [4, 3, 1]],
+        );
+        m.uvs = vec![(0..5).map(|k| Vec2::new(k as f32, 0.0)).collect()];
+        m.colors = (0..5).map(|k| Vec3::new(0.0, k as f32, 0.0)).collect();
+        let s = m.subset(&[2, 1]);
+        // Vertices in the order the kept triangles first use them: 4, 3, 1, 2.
+        assert_eq!(s.triangles, vec![[0, 1, 2], [3, 1, 0]]);
+        let was = [4.0, 3.0, 1.0, 2.0];
+        assert_eq!(s.positions, was.map(Vec3::splat).to_vec());
+        assert_eq!(s.uvs[0], was.map(|k| Vec2::new(k, 0.0)).to_vec());
+        assert_eq!(s.colors, was.map(|k| Vec3::new(0.0, k, 0.0)).to_vec());
+        assert!(s.lightmap_uvs.is_empty());
     }
 }
