@@ -417,6 +417,35 @@ fn joint_animation_moves_the_mesh_as_rigid_parts_and_says_so() {
     );
 }
 
+/// A joint scaled to zero along y at rest (how a rig flattens a part) whose animation moves
+/// it: its triangles cannot be put in its frame (the rest transform has no inverse), so they
+/// stay where skinning at rest puts them, unmoved, as a part named "unskinned"; nothing is
+/// not finite at any time.
+#[test]
+fn a_flattened_animated_joint_leaves_its_part_unmoved() {
+    let mut tip = Strip::default().tip;
+    tip["scale"] = json!([1.0, 0.0, 1.0]);
+    let ry = |deg: f32| Quat::from_rotation_y(deg.to_radians());
+    let file = with_tip_keys(
+        strip(Strip {
+            tip,
+            ..Strip::default()
+        }),
+        &[(0.0, ry(0.0)), (1.0, ry(90.0))],
+    );
+    let s = load_json("flattened_animated", &file);
+    let still = object(&s, "Strip.unskinned");
+    assert!(still.node_animation.is_none());
+    assert_eq!(still.world_from_object, glam::Affine3A::IDENTITY);
+    assert!(!still.mesh.triangles.is_empty());
+    for o in &s.objects {
+        for t in [0.0, 0.5, 1.0] {
+            let p = world_positions_at(o, t);
+            assert!(p.iter().all(|v| v.is_finite()), "{} at {t}: {p:?}", o.name);
+        }
+    }
+}
+
 /// A part whose joint mirrors at rest ("tip" scaled by -1 along z, animated from its rest
 /// pose) keeps its fronts: its world normals, as shrad computes them (the inverse transpose
 /// of its transform times the local face normals), are those of the same strip skinned at

@@ -425,7 +425,8 @@ impl Dispersive {
         };
         let at = |share: f64| budget_ms.map(|b| frame_start + secs(b * share));
         // What a frame changed is marked as it is written (`touched.rs`); a frame without a
-        // mover, or with a light changed, meters and assembles everything.
+        // mover (unless the walls doze: `sleep.rs`), or with a light changed, meters and
+        // assembles everything.
         let doze = self.walls_doze(changes);
         if (changes.moved.is_empty() && !doze) || changes.light_changed() {
             self.touched.everything();
