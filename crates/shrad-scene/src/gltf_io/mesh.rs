@@ -211,7 +211,7 @@ impl Walk<'_> {
             let mut object = Object::new(name, part, material.clone());
             object.emission_tracks = (prim.material().index())
                 .and_then(|m| self.material_tracks.get(m))
-                .and_then(|k| k.emission(&prim.material()));
+                .and_then(|k| k.with_rest_of(&prim.material()));
             match (joint, skinned, inst.node) {
                 // A part of a skin follows its joint (`skin::rigid_parts`).
                 (Some(j), _, _) => {

@@ -35,31 +35,23 @@ pub(crate) struct Animations {
     /// `[l]`: the animated properties of the file's light `l` (empty, or past the end:
     /// none; only as long as the last light animated).
     pub lights: Vec<LightTracks>,
-    /// `[m]`: the animated emission of the file's material `m` (the same).
-    pub materials: Vec<MaterialTracks>,
+    /// `[m]`: the animated emission of the file's material `m` (the same), its values at
+    /// rest not filled in (`EmissionTracks::with_rest_of`).
+    pub materials: Vec<crate::EmissionTracks>,
     /// Camera `c`'s keyed `yfov`, by `c`.
     pub cameras: std::collections::HashMap<usize, Track<f32>>,
 }
 
-/// A material's animated emission factor and strength, as the file has them (the object
-/// takes them with the material's values at rest: `EmissionTracks`).
-#[derive(Clone, Debug, Default)]
-pub(crate) struct MaterialTracks {
-    /// `emissiveFactor`.
-    pub factor: Option<Track<Vec3>>,
-    /// `KHR_materials_emissive_strength`'s `emissiveStrength`.
-    pub strength: Option<Track<f32>>,
-}
-
-impl MaterialTracks {
-    /// The emission of an object of glTF material `m` over time; `None` when nothing of it
-    /// is animated.
-    pub fn emission(&self, m: &gltf::Material) -> Option<crate::EmissionTracks> {
+/// The emission tracks of a material as the reader collects them (`factor`, `strength`),
+/// with the material's values at rest filled in for the object that takes them.
+impl crate::EmissionTracks {
+    /// These tracks with glTF material `m`'s emission at rest; `None` when nothing of it is
+    /// animated.
+    pub(crate) fn with_rest_of(&self, m: &gltf::Material) -> Option<crate::EmissionTracks> {
         (self.factor.is_some() || self.strength.is_some()).then(|| crate::EmissionTracks {
             rest_factor: Vec3::from(m.emissive_factor()),
             rest_strength: m.emissive_strength().unwrap_or(1.0),
-            factor: self.factor.clone(),
-            strength: self.strength.clone(),
+            ..self.clone()
         })
     }
 }
@@ -306,7 +298,7 @@ struct Reader<'a> {
     /// `[l]`: light `l`'s tracks so far.
     lights: Vec<LightTracks>,
     /// `[m]`: material `m`'s emission tracks so far.
-    materials: Vec<MaterialTracks>,
+    materials: Vec<crate::EmissionTracks>,
     /// Camera `c`'s `yfov` track.
     cameras: std::collections::HashMap<usize, Track<f32>>,
     /// (owner, path) -> the animation that animates it first.
