@@ -104,7 +104,15 @@ fn main() {
     }
     .expect("an interior object");
     println!("mover: object {mover}, {} patches", p.range(mover).len());
-    engine.converge(2);
+    let t = std::time::Instant::now();
+    let converged = engine.converge(2);
+    let pending =
+        (converged.last().and_then(|s| s.dispersive())).map_or(0, |d| d.wall_rows_pending);
+    println!(
+        "converged in {} frames, {:.1} s ({pending} wall rows still to build)",
+        converged.len(),
+        t.elapsed().as_secs_f64()
+    );
     if built {
         let t = std::time::Instant::now();
         let mut frames = 0;
