@@ -39,6 +39,7 @@ mod frame;
 mod gather;
 pub mod inspect;
 mod near_field;
+mod near_rays;
 mod object_state;
 mod options;
 mod prepare;
@@ -160,6 +161,9 @@ pub struct Dispersive {
     /// default, so without this a probe buried in the floor sees the floor's dark underside
     /// as valid).
     outer_side: Vec<bool>,
+    /// Whether the scene is open to the void: near-field rays that leave it see nothing
+    /// (`near_rays::open_to_void`).
+    open_to_void: bool,
     /// Keep Steps 2 and 3's rays between updates (`caches.rs`); off only to test that they
     /// change nothing.
     caching: bool,
@@ -318,6 +322,7 @@ impl Dispersive {
             ),
             step_warnings: Vec::new(),
             outer_side: outer_sides(world),
+            open_to_void: options.near_rays > 0 && near_rays::open_to_void(world),
             caching: true,
             drift: 0.0,
             object_change: vec![f64::INFINITY; n_objects],

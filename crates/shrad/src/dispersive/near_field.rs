@@ -22,6 +22,18 @@
 //! under it, which is what contact openness approximated with black; the near field then
 //! stands in for it. Like contact openness it is geometry: measured again when the object or
 //! something within its reach moves (`stale.rs`).
+//!
+//! In a scene open to the void (no sky, and some boundary rays meet nothing:
+//! [`super::near_rays::open_to_void`]) a ray that meets nothing within the reach is traced on: if it meets
+//! nothing at all it leaves the scene and sees exactly nothing, and a patch with such a ray
+//! takes its whole view from its rays, their hits beyond the reach included
+//! (`near_rays::beyond_the_reach`). Taking only the leaving rays out was not enough: the probes'
+//! band-limited radiance blurs the lit floor beside an opening into the opening's
+//! directions and darkens the floor's own, and the two errors cancel in a patch's lobe only
+//! while both are read from the probes (the Cornell short block's front, facing the open
+//! side, went from +27 % to -22 % with the leaving rays alone, to +1.6 % with its whole view;
+//! `interior_errors`, docs/results.md §14). The ends of those rays are kept: a mover that
+//! crosses one makes its patch stale, as one within the reach does.
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -30,13 +42,14 @@ use shrad_sh::{eval_basis, num_coeffs};
 use shrad_vis::Hit;
 
 use super::caches::{SEES_BACK, SEES_NOTHING};
+use super::near_rays::near_hits;
 use super::setup::transfer_direction;
 use super::{Dispersive, DispersiveOptions};
 use crate::sparse::SparseRows;
 use crate::World;
 
-/// One patch's near field while it is measured: its lobe and its row.
-type PatchNear = (Vec<f32>, Vec<(u32, f32)>);
+/// One patch's near field while it is measured: its lobe, its row and its far rays' ends.
+type PatchNear = (Vec<f32>, Vec<(u32, f32)>, Vec<Vec3>);
 
 /// One object's near field (empty when `near_rays` is 0).
 #[derive(Default)]
@@ -51,6 +64,10 @@ pub(super) struct NearField {
     seen: Vec<u32>,
     /// `seen` as bits over every patch of the scene.
     seen_bits: Vec<u64>,
+    /// Per patch: where its rays taken beyond the reach end (the whole view of a patch that
+    /// sees the void, and the rays that leave the scene), for the stale test
+    /// ([`NearField::far_stale`]).
+    far: SparseRows<Vec3>,
 }
 
 impl NearField {
@@ -73,13 +90,35 @@ impl NearField {
         let mut rows: Vec<Vec<(u32, f32)>> = (self.view.rows())
             .map(|row| row.iter().map(|&(q, f)| (seen[q as usize], f)).collect())
             .collect();
+        let mut far: Vec<Vec<Vec3>> = self.far.rows().map(<[Vec3]>::to_vec).collect();
         for (n, &k) in offsets.iter().enumerate() {
             let k = k as usize;
             rows[k] = fresh.view.row(n).to_vec();
+            far[k] = fresh.far.row(n).to_vec();
             self.lobe[k * nc..(k + 1) * nc].copy_from_slice(&fresh.lobe[n * nc..(n + 1) * nc]);
         }
         self.view = SparseRows::from_rows(rows);
+        self.far = SparseRows::from_rows(far);
         self.index_seen(scene_patches);
+    }
+
+    /// The patches (offsets in the object's range `range`) one of whose rays beyond the
+    /// reach `meets` (a segment from the patch's centre to the ray's end) a mover's box.
+    pub(super) fn far_stale(
+        &self,
+        world: &World,
+        range: std::ops::Range<usize>,
+        meets: impl Fn(Vec3, Vec3) -> bool + Sync,
+    ) -> Vec<u32> {
+        let p = &world.patches;
+        (0..self.far.len().min(range.len()))
+            .into_par_iter()
+            .filter(|&k| {
+                let c = p.centre[range.start + k];
+                self.far.row(k).iter().any(|&end| meets(c, end - c))
+            })
+            .map(|k| k as u32)
+            .collect()
     }
 
     /// Renumber the view's patches (scene indices as measured) to indices into `seen`, and
@@ -139,129 +178,6 @@ const NEAR_CHUNK: usize = 4096;
 /// time left takes at the last measured cost a patch, within these (512 patches of the 77k
 /// room's sphere take 6-8 ms on two cores, too much of a 10 ms budget).
 const NEAR_CHUNK_WITHIN: std::ops::RangeInclusive<usize> = 64..=512;
-
-/// Stratified points over patch `i`, one per near-field ray, paired with the ray directions
-/// by a permutation of the patch's own (a fixed pairing correlates them), as the reference's
-/// form-factor rays are (`form_factors::some_patch_rays`).
-fn spread_over_patch(p: &crate::Patches, i: usize, out: &mut [Vec3]) {
-    use crate::sampling::{hammersley, hash, shuffled, unit};
-    let rays = out.len();
-    let seed = hash(i as u32 ^ 0x6e65_6172);
-    let shift = (unit(seed), unit(hash(seed)));
-    let perm = shuffled(rays, seed);
-    for (o, &j) in out.iter_mut().zip(&perm) {
-        let (u, v) = hammersley(j, rays as u32, shift);
-        *o = p.sample_point(i, u, v);
-    }
-}
-
-/// The near-field rays' hits, with whether each is in contact (met at once under the object).
-struct NearHits {
-    hit: Vec<Hit>,
-    contact: Vec<bool>,
-}
-
-/// The hits of the near-field rays `dirs` of `patches` (object `o`'s, `near_rays` each).
-///
-/// Each ray is traced twice: from the patch centre and from a point spread over the patch
-/// (`spread_over_patch`). Where either meets a surface in contact, the spread ray's hit is
-/// taken, else the centre's. A patch partly covered by another object (a small box riding
-/// on a larger one covers part of the patches under it) then sees its cover from the
-/// covered part and the rest from the open part, as its mean over the area does (the
-/// reference's form-factor rays start over the patch): from its centre alone it was all
-/// dark or all open (the animated room's patches under the rider: 0 against the reference's
-/// 0.34, or 0.71 against 0.50). Elsewhere the centre's view stands: spread over the patch,
-/// every ray's view moved to the floor right beside a box's lowest side patches, which are
-/// darker in the dispersive solution than in the reference there (the 128-object room's
-/// interior error 2.95 -> 3.58 %).
-fn near_hits(
-    world: &World,
-    o: usize,
-    patches: std::ops::Range<usize>,
-    dirs: &[Vec3],
-    (reach, contact): (f32, f32),
-    shape: &Aabb,
-) -> NearHits {
-    let p = &world.patches;
-    let rays = dirs.len() / patches.len().max(1);
-    let mut spread = vec![Vec3::ZERO; dirs.len()];
-    let mut centre = vec![Vec3::ZERO; dirs.len()];
-    spread
-        .par_chunks_mut(rays)
-        .zip(centre.par_chunks_mut(rays))
-        .zip(patches.clone())
-        .for_each(|((s, c), i)| {
-            spread_over_patch(p, i, s);
-            // Just inside the surface, the object transparent: a face resting on a floor
-            // meets the floor (contact openness's start).
-            let inward = p.normal[i] * world.eps;
-            s.iter_mut().for_each(|x| *x -= inward);
-            c.fill(p.centre[i] - inward);
-        });
-    let mut from_spread = vec![Hit::MISS; dirs.len()];
-    let mut from_centre = vec![Hit::MISS; dirs.len()];
-    let exclude = [o as u32];
-    // Only hits within the reach count, so the rays stop there; and a spread ray's hit is
-    // kept only where it or its centre ray meets a contact, so it stops at contact's reach
-    // and goes on to the reach only where the centre ray met one and it did not. The same
-    // hits as whole rays give, so the same light to the last digit. The near field of the
-    // 77k room's 4,512-patch sphere, measured in the frame after it stops moving, took 149
-    // ms with whole rays, 47-58 with both stopped at the reach, and 41-46 so
-    // (`moving_frame 77000 8 16`, `SHRAD_TRACE`'s `openness`).
-    let to_reach = (0.0, reach + 3.0 * world.eps);
-    let to_contact = (0.0, contact + 3.0 * world.eps);
-    world
-        .vis
-        .closest_within(&spread, dirs, to_contact, &exclude, &mut from_spread);
-    world
-        .vis
-        .closest_within(&centre, dirs, to_reach, &exclude, &mut from_centre);
-    // Contact is a surface met at once *under the object*: the floor a box stands on, the
-    // box a rider stands on; not the floor met at once beside a side face's lowest points.
-    // The object's box, padded by float noise (a hit on the surface it rests on lies on that
-    // box's face).
-    let shape = shape.padded(Vec3::splat(1e-5 * shape.diagonal()));
-    let local_from_world = p.world_from_local[o].inverse();
-    let in_contact = |from: Vec3, d: Vec3, h: &Hit| {
-        h.is_hit()
-            && h.t <= contact + 2.0 * world.eps
-            && shape.contains(local_from_world.transform_point3(from + d * h.t))
-    };
-    let at_spread: Vec<bool> = (0..dirs.len())
-        .map(|j| in_contact(spread[j], dirs[j], &from_spread[j]))
-        .collect();
-    let at_centre: Vec<bool> = (0..dirs.len())
-        .map(|j| in_contact(centre[j], dirs[j], &from_centre[j]))
-        .collect();
-    let further: Vec<usize> = (0..dirs.len())
-        .filter(|&j| at_centre[j] && !at_spread[j])
-        .collect();
-    if !further.is_empty() {
-        let from: Vec<Vec3> = further.iter().map(|&j| spread[j]).collect();
-        let towards: Vec<Vec3> = further.iter().map(|&j| dirs[j]).collect();
-        let mut hits = vec![Hit::MISS; further.len()];
-        world
-            .vis
-            .closest_within(&from, &towards, to_reach, &exclude, &mut hits);
-        for (&j, h) in further.iter().zip(hits) {
-            from_spread[j] = h;
-        }
-    }
-    let mut out = NearHits {
-        hit: Vec::with_capacity(dirs.len()),
-        contact: Vec::with_capacity(dirs.len()),
-    };
-    for j in 0..dirs.len() {
-        let take_spread = at_spread[j] || at_centre[j];
-        out.hit.push(if take_spread {
-            from_spread[j]
-        } else {
-            from_centre[j]
-        });
-        out.contact.push(at_spread[j]);
-    }
-    out
-}
 
 impl Dispersive {
     /// The near field of object `k` (see the module docs), measured on from `progress`
@@ -363,7 +279,15 @@ impl Dispersive {
         let start = p.range(o).start + patches.start;
         let absolute = start..start + patches.len();
         let (dirs, local) = self.near_directions(world, o, absolute.clone());
-        let hits = near_hits(world, o, absolute, &dirs, (reach, contact), &ob.shape_box);
+        let hits = near_hits(
+            world,
+            o,
+            absolute,
+            &dirs,
+            (reach, contact),
+            &ob.shape_box,
+            self.open_to_void,
+        );
         let blocked = self.self_blocked(world, k, patches.clone(), &dirs);
         let with_transfer = !ob.transfer.is_empty();
         let bands = self.options.bands;
@@ -373,10 +297,19 @@ impl Dispersive {
             .map(|k| {
                 let mut lobe = vec![0f32; nc];
                 let mut row: Vec<(u32, f32)> = Vec::new();
+                let mut far: Vec<Vec3> = Vec::new();
                 let mut basis = [0f32; 64];
                 for j in k * rays..(k + 1) * rays {
                     let h = &hits.hit[j];
-                    if !h.is_hit() || h.t > reach + 2.0 * world.eps || blocked[j] {
+                    // A ray beyond the reach, kept for the stale test (`beyond_the_reach`).
+                    if let Some(end) = hits.end[j].filter(|_| !blocked[j]) {
+                        far.push(end);
+                    }
+                    // One that leaves the scene sees nothing: the probes' radiance is taken
+                    // out of the lobe there, and nothing put in.
+                    let escapes = hits.escapes[j] && !blocked[j];
+                    let within = h.t <= reach + 2.0 * world.eps || hits.whole[j];
+                    if !escapes && (!h.is_hit() || !within || blocked[j]) {
                         continue;
                     }
                     let d = if with_transfer { local[j] } else { dirs[j] };
@@ -389,6 +322,9 @@ impl Dispersive {
                     // resting on a floor sees the floor patch it stands on, lit where it
                     // reaches beyond the face. A back face (the outside of the enclosure, the
                     // inside of a closed object) neither.
+                    if escapes {
+                        continue;
+                    }
                     let q = self.seen_code(world, h, o as u32);
                     if q == SEES_NOTHING || q == SEES_BACK || hits.contact[j] {
                         continue;
@@ -398,12 +334,13 @@ impl Dispersive {
                         None => row.push((q, 1.0 / rays as f32)),
                     }
                 }
-                (lobe, row)
+                (lobe, row, far)
             })
             .collect();
-        for (lobe, row) in per_patch {
+        for (lobe, row, far) in per_patch {
             near.lobe.extend(lobe);
             near.view.push_row(row);
+            near.far.push_row(far);
         }
     }
 

@@ -207,10 +207,17 @@ impl StaleTest<'_> {
     /// A measured near field is forgotten only at the patches a box comes within reach of
     /// (each patch's near field is its own rays within that reach), unless that is most of
     /// them.
+    /// A patch that sees the void looks beyond the reach too: it is forgotten where a box
+    /// meets one of those rays ([`super::near_field::NearField::far_stale`]).
     fn forget_openness(&self, world: &World, ob: &mut ObjectProbes) {
         let reach = super::near_field::near_reach(self.options, world, ob.object, &ob.probe_box);
         let near = self.object_boxes[ob.object].padded(Vec3::splat(reach + 2.0 * world.eps));
-        if !self.swept.boxes().any(|b| b.meets_box(&near)) {
+        let p = &world.patches;
+        let range = p.range(ob.object);
+        let far = ob
+            .near
+            .far_stale(world, range.clone(), |o, d| self.meets(o, d, 1.0));
+        if far.is_empty() && !self.swept.boxes().any(|b| b.meets_box(&near)) {
             return;
         }
         let measured = !ob.near.lobe.is_empty() && ob.near_pending.is_none();
@@ -218,8 +225,6 @@ impl StaleTest<'_> {
             ob.forget_openness();
             return;
         }
-        let p = &world.patches;
-        let range = p.range(ob.object);
         let within = |i: usize| {
             let (c, r) = (p.centre[i], p.radius(i) + reach + 4.0 * world.eps);
             (self.swept.boxes()).any(|b| (c.clamp(b.min, b.max) - c).length_squared() <= r * r)
@@ -227,7 +232,7 @@ impl StaleTest<'_> {
         let stale = (range.clone())
             .filter(|&i| within(i))
             .map(|i| (i - range.start) as u32);
-        ob.near_stale.extend(stale);
+        ob.near_stale.extend(stale.chain(far));
         ob.near_stale.sort_unstable();
         ob.near_stale.dedup();
         if ob.near_stale.len() * 2 > range.len() {

@@ -45,9 +45,13 @@ fn a_block_sunk_into_the_floor_is_not_lit_below_it() {
         &crate::NoProgress,
     )
     .0;
+    // Without the near field: under the floor of the open box the near field's rays leave
+    // the scene, and a patch that sees the void takes its whole view from them
+    // (`near_rays::beyond_the_reach`), which makes the buried part dark by itself.
     let converged = |probe_visibility: bool| {
         let options = DispersiveOptions {
             probe_visibility,
+            near_rays: 0,
             ..DispersiveOptions::improved()
         };
         let mut d = Dispersive::new(&world, options).unwrap();
@@ -194,5 +198,40 @@ fn a_sphere_on_the_floor_gets_the_light_it_sends_the_floor_back() {
     assert!(
         (0.9..1.1).contains(&ratio),
         "underside: {ratio:.3} of the reference"
+    );
+}
+
+/// The Cornell box's short block faces the open side with its front: the darkest face of
+/// the box, and the one the camera sees. The probes at its box's corners carry the lit floor
+/// beside the opening into the opening's directions (their radiance is band-limited), so the
+/// front read 27 % more than the reference. A patch whose near-field rays leave the scene
+/// takes its whole view from its rays (`near_rays::beyond_the_reach`): within 10 %.
+#[test]
+fn a_face_towards_the_open_side_sees_the_void() {
+    let world = cornell(4000);
+    let block = object_named(&world, "short_block");
+    let reference = crate::reference::solve(
+        &world,
+        &crate::reference::ReferenceOptions::standard(),
+        &crate::NoProgress,
+    )
+    .0;
+    let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
+    assert!(d.open_to_void, "the Cornell box is open on one side");
+    d.converge(&world, 8);
+    let p = &world.patches;
+    let front: Vec<usize> = (p.range(block)).filter(|&i| p.normal[i].z < -0.9).collect();
+    assert!(!front.is_empty());
+    let mean = |b: &[Vec3]| {
+        let area: f64 = front.iter().map(|&i| p.area[i] as f64).sum();
+        let sum: f64 = (front.iter())
+            .map(|&i| (p.area[i] * b[i].element_sum()) as f64)
+            .sum();
+        sum / area
+    };
+    let (ours, theirs) = (mean(d.radiosity()), mean(&reference));
+    assert!(
+        (ours / theirs - 1.0).abs() < 0.1,
+        "the front: {ours} against the reference's {theirs}"
     );
 }
