@@ -1,5 +1,6 @@
-//! A skinned arm posed by an animated armature in Blender, exported by Blender's own glTF
-//! exporter (`tests/data/blender/skinned_arm.py`): each vertex belongs wholly to one of two
+//! A skinned arm posed by an animated armature in Blender (the armature's object mirrored,
+//! stretched and turned), exported by Blender's own glTF exporter
+//! (`tests/data/blender/skinned_arm.py`): each vertex belongs wholly to one of two
 //! bones, so the skinning is rigid, and shrad's rigid parts of the skinned mesh (one per
 //! joint, each moved by its joint's animation) must put every vertex where Blender's
 //! armature puts it at five frames (`skinned_arm.json`, Blender's evaluated mesh), but for
@@ -31,6 +32,7 @@ fn check(glb: &Path, json: &Path) {
         parts.iter().all(|o| o.node_animation.is_some()),
         "{names:?}"
     );
+    outward_at_rest(&parts);
     let frames = blender["frames"].as_array().unwrap();
     assert_eq!(frames.len(), 5);
     for f in frames {
@@ -72,8 +74,9 @@ fn check(glb: &Path, json: &Path) {
         // nearer the root, so the parts open along that ring (the rigid parts' one
         // approximation). Such a vertex is off by at most what turning "fore" against
         // "upper" (at most 80 degrees) moves a point of the band about the elbow, at most
-        // r = |(0.15, 0.25, 0.15)| from it: 2 r sin(40 degrees) = 0.42 m.
-        let gap = 2.0 * Vec3::new(0.15, 0.25, 0.15).length() * 40f32.to_radians().sin();
+        // r = |(1.5 * 0.15, 0.25, 0.15)| from it (the rig stretches x by 1.5):
+        // 2 r sin(40 degrees) = 0.47 m.
+        let gap = 2.0 * Vec3::new(0.225, 0.25, 0.15).length() * 40f32.to_radians().sin();
         for &(p, rest) in &ours {
             let d = nearest(p, &mut theirs.iter().copied());
             let at_elbow = (rest.y - 1.25).abs() < 1e-4;
@@ -81,6 +84,39 @@ fn check(glb: &Path, json: &Path) {
                 d < 1e-4 || (at_elbow && d <= gap),
                 "frame {}: our vertex at {p} (at rest {rest}) is {d} m from Blender's",
                 f["frame"]
+            );
+        }
+    }
+}
+
+/// At rest (frame 1) the arm is a convex box: every triangle's front, as shrad computes it
+/// (the inverse transpose of its part's transform times the local face normal), faces away
+/// from the box's centre. Under Blender's mirrored armature every one faced inwards before
+/// the skinned node's own mirroring was counted (`skin::skin_positions`).
+fn outward_at_rest(parts: &[&shrad_scene::Object]) {
+    let t = 1.0 / 24.0;
+    let placed: Vec<(glam::Affine3A, &shrad_scene::Object)> = (parts.iter())
+        .map(|o| {
+            (
+                o.node_animation.as_ref().unwrap().world_from_object_at(t),
+                *o,
+            )
+        })
+        .collect();
+    let all: Vec<Vec3> = (placed.iter())
+        .flat_map(|(m, o)| o.mesh.positions.iter().map(|&p| m.transform_point3(p)))
+        .collect();
+    let centre = all.iter().copied().sum::<Vec3>() / all.len() as f32;
+    for (m, o) in &placed {
+        let to_world = m.matrix3.inverse().transpose();
+        for tri in &o.mesh.triangles {
+            let [a, b, c] = tri.map(|i| o.mesh.positions[i as usize]);
+            let normal = to_world * (b - a).cross(c - a);
+            let middle = m.transform_point3((a + b + c) / 3.0);
+            assert!(
+                normal.dot(middle - centre) > 0.0,
+                "{}: a triangle at {middle} faces inwards",
+                o.name
             );
         }
     }

@@ -417,6 +417,36 @@ fn joint_animation_moves_the_mesh_as_rigid_parts_and_says_so() {
     );
 }
 
+/// The skinned node's own transform places nothing, but its determinant tells which way its
+/// mesh's triangles face (glTF 2.0, "Transformations"): under a node mirrored by -1 along x
+/// the strip's vertices are where the joints put them, as without, and every face normal
+/// shrad computes is the unmirrored one reversed (Blender's exporter writes a mesh under a
+/// mirrored armature so; before, every one of its faces faced inwards).
+#[test]
+fn a_mirrored_skinned_node_turns_its_fronts() {
+    let plain = load_json("unmirrored_node", &strip(Strip::default()));
+    let mirrored = load_json(
+        "mirrored_node",
+        &strip(Strip {
+            node: json!({"scale": [-1.0, 1.0, 1.0]}),
+            ..Strip::default()
+        }),
+    );
+    let (a, b) = (object(&plain, "Strip"), object(&mirrored, "Strip"));
+    let (pa, pb) = (world_positions(a), world_positions(b));
+    assert_close(&pb, &pa, "positions");
+    let normals = |o: &Object, p: &[Vec3]| -> Vec<Vec3> {
+        (o.mesh.triangles.iter())
+            .map(|t| {
+                let [x, y, z] = t.map(|i| p[i as usize]);
+                (y - x).cross(z - x).normalize()
+            })
+            .collect()
+    };
+    let reversed: Vec<Vec3> = normals(a, &pa).iter().map(|&n| -n).collect();
+    assert_close(&normals(b, &pb), &reversed, "normals");
+}
+
 /// A joint scaled to zero along y at rest (how a rig flattens a part) whose animation moves
 /// it: its triangles cannot be put in its frame (the rest transform has no inverse), so they
 /// stay where skinning at rest puts them, unmoved, as a part named "unskinned"; nothing is

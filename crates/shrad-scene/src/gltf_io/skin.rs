@@ -13,7 +13,10 @@
 //! shrad keeps no normals (it computes face normals from the positions); a vertex whose
 //! blended matrix mirrors (negative determinant) turns its triangles' winding as that
 //! matrix's inverse transpose turns a normal, so a triangle most of whose vertices mirror is
-//! reversed, and its front stays the front.
+//! reversed, and its front stays the front. Which way the mesh's own triangles face is told
+//! by the skinned node's transform (glTF 2.0, "Transformations": its determinant defines the
+//! winding), although it places nothing: under a mirroring node, a vertex mirrors where its
+//! blended matrix does not (Blender writes a mesh under a mirrored armature so).
 //!
 //! Refused, naming the file, the primitive and the node: a joint index beyond the skin's
 //! joints with a non-zero weight (one with a zero weight contributes nothing; `validate`
@@ -293,7 +296,8 @@ impl Walk<'_> {
     }
 
     /// Move `positions`, the vertices of `prim` (`at` names it in messages), to where
-    /// `skin` puts them. Returns, for each vertex, whether its blended matrix mirrors.
+    /// `skin` puts them. Returns, for each vertex, whether its blended matrix mirrors where
+    /// the skinned node's transform does not, or the other way round.
     pub(super) fn skin_positions(
         &mut self,
         prim: &gltf::Primitive,
@@ -303,6 +307,12 @@ impl Walk<'_> {
     ) -> Result<Vec<bool>, String> {
         let (who, inst) = (&at.who, &at.inst);
         let sets = self.influences(prim, positions.len(), at)?;
+        // The skinned node's own transform, although it places nothing, tells which way its
+        // mesh's triangles face (glTF 2.0, "Transformations": its determinant defines the
+        // winding; three.js reads a skinned mesh's so), as Blender's exporter writes a mesh
+        // under a mirrored armature: a triangle turns only where its vertices' blended
+        // matrices mirror otherwise than that node.
+        let node_mirrors = Mat3::from_mat4(skin.node).determinant() < 0.0;
         let mut mirrored = Vec::with_capacity(positions.len());
         let mut unweighted = (0, None);
         let mut flattened = (0, None);
@@ -333,7 +343,7 @@ impl Walk<'_> {
                 flattened.1.get_or_insert(k);
             }
             *p = m.transform_point3(*p);
-            mirrored.push(m3.determinant() < 0.0);
+            mirrored.push((m3.determinant() < 0.0) != node_mirrors);
         }
         if let (n, Some(k)) = unweighted {
             let sets = (0..sets.len()).map(|s| format!("WEIGHTS_{s}"));

@@ -5,7 +5,8 @@ Blender's armature deforms them at some frames (JSON), to check that shrad's rig
 of a skinned mesh follow Blender's skinning.
 
 The scene: a floor (a plane); an upright box arm, 2 m tall, cut into 8 rings along its
-height; an armature of two bones, "upper" from z = 0 to 1 and "fore" from z = 1 to 2 (a
+height; an armature (its object mirrored: scaled by (-1.5, 1, 1), and turned 30 degrees
+about z) of two bones, "upper" from z = 0 to 1 and "fore" from z = 1 to 2 (a
 child of "upper"). Every vertex below z = 1 belongs to "upper" alone and every vertex above
 to "fore" alone (the ring at z = 1 to "upper"), so the skinning is rigid and shrad's parts
 must be exactly where Blender puts the vertices. Keys at frames 1 and 49 (24 frames/s: the
@@ -62,6 +63,9 @@ def build():
     arm_data = bpy.data.armatures.new("Rig")
     rig = bpy.data.objects.new("Rig", arm_data)
     scene.collection.objects.link(rig)
+    # The rig mirrored, stretched and turned, as a scene may place one.
+    rig.scale = (-1.5, 1.0, 1.0)
+    rig.rotation_euler = (0.0, 0.0, math.radians(30.0))
     bpy.context.view_layer.objects.active = rig
     bpy.ops.object.mode_set(mode="EDIT")
     upper = arm_data.edit_bones.new("upper")
