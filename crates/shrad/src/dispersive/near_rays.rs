@@ -86,6 +86,24 @@ fn beyond_the_reach(
     }
 }
 
+impl super::Dispersive {
+    /// A sky came or went (`Engine::set_sky`): whether the scene is open to the void is
+    /// measured again, and where that changed, every near field is forgotten (one measured
+    /// open took the rays that leave the scene as dark, which a sky lights).
+    pub(super) fn follow_the_sky(&mut self, world: &World) {
+        let sky = world.sky.is_some();
+        if sky == self.void_under_sky {
+            return;
+        }
+        self.void_under_sky = sky;
+        let open = self.options.near_rays > 0 && open_to_void(world);
+        if open != self.open_to_void {
+            self.open_to_void = open;
+            self.objects.iter_mut().for_each(|ob| ob.forget_openness());
+        }
+    }
+}
+
 /// Whether `world` is open to the void: no sky, and some of 4,096 rays from its boundary
 /// patches (cosine-distributed over their fronts, the samples hashes of their indices) meet
 /// nothing. A near-field ray that leaves such a scene sees exactly nothing, where the probes'

@@ -235,3 +235,35 @@ fn a_face_towards_the_open_side_sees_the_void() {
         "the front: {ours} against the reference's {theirs}"
     );
 }
+
+/// A sky that comes after the near fields were measured in the open Cornell box (the rays
+/// that leave it taken as dark) lights what they see: the solver then converges where one
+/// made under that sky does (`near_rays::Dispersive::follow_the_sky`).
+#[test]
+fn a_sky_that_comes_lights_what_the_near_field_took_for_the_void() {
+    let sky = shrad_scene::Environment::uniform(Vec3::splat(2.0));
+    let mut world = cornell(3000);
+    let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
+    assert!(d.open_to_void);
+    d.converge(&world, 4);
+    assert!(world.set_sky(Some(sky.clone())).unwrap());
+    let lit = Changes {
+        lights: vec![world.lights.len()],
+        ..Default::default()
+    };
+    d.step(&world, &lit);
+    d.converge(&world, 12);
+    assert!(
+        !d.open_to_void,
+        "under a sky nothing leaves the scene unlit"
+    );
+    let mut fresh = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
+    fresh.converge(&world, 16);
+    let p = &world.patches;
+    let (mut diff, mut total) = (0f64, 0f64);
+    for (i, (a, b)) in d.radiosity().iter().zip(fresh.radiosity()).enumerate() {
+        diff += (p.area[i] * (*a - *b).abs().element_sum()) as f64;
+        total += (p.area[i] * b.element_sum()) as f64;
+    }
+    assert!(diff < 2e-3 * total, "differs by {:e}", diff / total);
+}
