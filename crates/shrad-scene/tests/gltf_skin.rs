@@ -177,6 +177,16 @@ fn world_positions(o: &Object) -> Vec<Vec3> {
         .collect()
 }
 
+/// The unit normal of each of `o`'s triangles from its vertices at `p` (their winding).
+fn face_normals(o: &Object, p: &[Vec3]) -> Vec<Vec3> {
+    (o.mesh.triangles.iter())
+        .map(|t| {
+            let [a, b, c] = t.map(|i| p[i as usize]);
+            (b - a).cross(c - a).normalize()
+        })
+        .collect()
+}
+
 fn assert_close(got: &[Vec3], want: &[Vec3], what: &str) {
     assert_eq!(got.len(), want.len(), "{what}");
     for (k, (g, w)) in got.iter().zip(want).enumerate() {
@@ -307,16 +317,8 @@ fn a_mirroring_skeleton_keeps_the_fronts_where_normals_go() {
         &p0.iter().map(|&v| s(v)).collect::<Vec<_>>(),
         "mirrored",
     );
-    let normals = |o: &Object, p: &[Vec3]| -> Vec<Vec3> {
-        (o.mesh.triangles.iter())
-            .map(|t| {
-                let [a, b, c] = t.map(|i| p[i as usize]);
-                (b - a).cross(c - a).normalize()
-            })
-            .collect()
-    };
-    let n0 = normals(object(&plain, "Strip"), &p0);
-    let n1 = normals(object(&mirrored, "Strip"), &p1);
+    let n0 = face_normals(object(&plain, "Strip"), &p0);
+    let n1 = face_normals(object(&mirrored, "Strip"), &p1);
     assert_eq!(n0.len(), 4);
     assert_close(
         &n1,
@@ -435,16 +437,8 @@ fn a_mirrored_skinned_node_turns_its_fronts() {
     let (a, b) = (object(&plain, "Strip"), object(&mirrored, "Strip"));
     let (pa, pb) = (world_positions(a), world_positions(b));
     assert_close(&pb, &pa, "positions");
-    let normals = |o: &Object, p: &[Vec3]| -> Vec<Vec3> {
-        (o.mesh.triangles.iter())
-            .map(|t| {
-                let [x, y, z] = t.map(|i| p[i as usize]);
-                (y - x).cross(z - x).normalize()
-            })
-            .collect()
-    };
-    let reversed: Vec<Vec3> = normals(a, &pa).iter().map(|&n| -n).collect();
-    assert_close(&normals(b, &pb), &reversed, "normals");
+    let reversed: Vec<Vec3> = face_normals(a, &pa).iter().map(|&n| -n).collect();
+    assert_close(&face_normals(b, &pb), &reversed, "normals");
 }
 
 /// A joint scaled to zero along y at rest (how a rig flattens a part) whose animation moves

@@ -496,20 +496,26 @@ fn joint_of_triangle(
     triangle: &[u32; 3],
     depth: impl Fn(usize) -> usize,
 ) -> Option<usize> {
-    let weights = |v: u32| {
+    // Weights summed per joint (a joint may appear in several sets), ascending by joint.
+    let summed = |pairs: &mut dyn Iterator<Item = (usize, f32)>| {
         let mut sums: Vec<(usize, f32)> = Vec::new();
-        for (js, ws) in sets {
-            for (&j, &w) in js[v as usize].iter().zip(&ws[v as usize]) {
-                match sums.iter_mut().find(|(k, _)| *k == usize::from(j)) {
-                    Some((_, sum)) => *sum += w,
-                    None => sums.push((usize::from(j), w)),
-                }
+        for (j, w) in pairs {
+            match sums.iter_mut().find(|(k, _)| *k == j) {
+                Some((_, sum)) => *sum += w,
+                None => sums.push((j, w)),
             }
         }
         sums.retain(|&(_, w)| w > 0.0);
         sums.sort_by_key(|&(j, _)| j);
         sums
     };
+    let weights =
+        |v: u32| {
+            let v = v as usize;
+            summed(&mut sets.iter().flat_map(|(js, ws)| {
+                (js[v].iter().zip(&ws[v])).map(|(&j, &w)| (usize::from(j), w))
+            }))
+        };
     let each = triangle.map(weights);
     let heaviest = |sums: &[(usize, f32)]| {
         (sums.iter().copied())
@@ -519,14 +525,7 @@ fn joint_of_triangle(
             })
             .map(|(j, _)| j)
     };
-    let mut total: Vec<(usize, f32)> = Vec::new();
-    for &(j, w) in each.iter().flatten() {
-        match total.iter_mut().find(|(k, _)| *k == j) {
-            Some((_, sum)) => *sum += w,
-            None => total.push((j, w)),
-        }
-    }
-    total.sort_by_key(|&(j, _)| j);
+    let total = summed(&mut each.iter().flatten().copied());
     let j = heaviest(&total)?;
     let weighs_on_each = each.iter().all(|s| s.iter().any(|&(k, _)| k == j));
     match weighs_on_each {

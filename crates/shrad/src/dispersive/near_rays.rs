@@ -111,7 +111,7 @@ impl super::Dispersive {
 /// box's short block, whose front faces the open side, was 27 % too bright). In a closed
 /// scene, or under a sky (whose radiance the probes see), the test is skipped.
 pub(super) fn open_to_void(world: &World) -> bool {
-    use crate::sampling::{hash2, unit};
+    use crate::sampling::{hash2, square_to_cosine_hemisphere, unit};
     let p = &world.patches;
     let boundary: Vec<usize> = (0..p.len())
         .filter(|&i| p.role(i) == Role::Boundary)
@@ -124,11 +124,8 @@ pub(super) fn open_to_void(world: &World) -> bool {
     for k in 0..n {
         let i = boundary[hash2(k, 0x766f_6964) as usize % boundary.len()];
         let (u, v) = (unit(hash2(k, 1)), unit(hash2(k, 2)));
-        let (r, phi) = (u.sqrt(), std::f32::consts::TAU * v);
-        let (a, b) = p.normal[i].any_orthonormal_pair();
-        let d = a * (r * phi.cos()) + b * (r * phi.sin()) + p.normal[i] * (1.0 - u).sqrt();
         from.push(p.centre[i] + p.normal[i] * world.eps);
-        dirs.push(d);
+        dirs.push(square_to_cosine_hemisphere(u, v, p.normal[i]));
     }
     let mut hits = vec![Hit::MISS; from.len()];
     world.vis.closest(&from, &dirs, 0.0, &[], &mut hits);
