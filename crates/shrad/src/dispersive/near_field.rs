@@ -21,7 +21,8 @@
 //! A face resting on another surface meets it at once: its near field is the (dark) surface
 //! under it, which is what contact openness approximated with black; the near field then
 //! stands in for it. Like contact openness it is geometry: measured again when the object or
-//! something within its reach moves (`stale.rs`).
+//! something within its reach moves (`stale.rs`); while the object moves with coarse
+//! updates, a slice of its patches at each update (`Dispersive::near_field_follows`).
 //!
 //! In a scene open to the void (no sky, and some boundary rays meet nothing:
 //! [`super::near_rays::open_to_void`]) a ray that meets nothing within the reach is traced on: if it meets

@@ -66,6 +66,9 @@ pub(super) struct ObjectProbes {
     /// may have changed, while the rest of `near` is current (`stale.rs`): only they are
     /// measured again.
     pub(super) near_stale: Vec<u32>,
+    /// Where the next slice of a moving object's near field is measured again
+    /// (`Dispersive::near_field_follows`): an offset in its range.
+    pub(super) near_cursor: usize,
     /// Which probes each patch sees (`probe_visibility.rs`; empty when off or unmeasured).
     pub(super) probe_vis: ProbeVisibility,
     /// Step 2's cached probe hits (`caches.rs`).
@@ -140,6 +143,7 @@ impl ObjectProbes {
             near: NearField::default(),
             near_pending: None,
             near_stale: Vec::new(),
+            near_cursor: 0,
             probe_vis: ProbeVisibility::default(),
             probe_cache: ProbeCache::default(),
             emitter_cache: EmitterCache::default(),
