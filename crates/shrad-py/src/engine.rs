@@ -247,6 +247,14 @@ impl PyEngine {
             .map_err(to_py_err)
     }
 
+    /// Set object ``obj``'s reflectance factor (linear RGB, each in [0, 1]; its base-colour
+    /// texture and vertex colours multiply it): a surface painted another colour.
+    fn set_reflectance(&self, py: Python<'_>, obj: ObjRef, rgb: [f32; 3]) -> PyResult<()> {
+        let o = self.object(py, &obj)?;
+        self.with(py, |e| e.set_reflectance(o, Vec3::from(rgb)))
+            .map_err(to_py_err)
+    }
+
     /// Set the sky: ``radiance`` a uniform linear RGB radiance, or ``file`` an equirectangular
     /// map (linear ``.exr`` or ``.hdr``, top row +Y) turned ``rotate_deg`` about +Y and scaled
     /// by ``scale``; neither removes the sky. A light change: every object wakes.

@@ -102,6 +102,27 @@ def test_emission_switches_the_light_off(cornell):
     assert e.radiosity.sum() < 1e-6 * lit
 
 
+def test_a_wall_painted_another_colour_reflects_it(cornell):
+    # The red wall painted a grey of 0.5: its radiosity is 0.5 times what it receives, so
+    # each channel's ratio to the old one is 0.5 / rho_old (the light it receives from the
+    # rest of the box changes only slightly: the reference is converged each step).
+    e = shrad.Engine(cornell, solver="reference", preset="fast")
+    wall = next(o.index for o in cornell.objects if o.name == "left_red")
+    on_wall = e.object_ids == wall
+    e.step()
+    before = e.radiosity[on_wall].sum(axis=0)
+    e.set_reflectance("left_red", [0.5, 0.5, 0.5])
+    e.step()
+    after = e.radiosity[on_wall].sum(axis=0)
+    # Red was 0.63: a grey of 0.5 reflects less red; green and blue were 0.065 and 0.05.
+    assert after[0] < 0.85 * before[0]
+    assert after[1] > 5 * before[1] and after[2] > 5 * before[2]
+    with pytest.raises(ValueError, match="reflectance"):
+        e.set_reflectance(wall, [0.5, 1.5, 0.5])
+    with pytest.raises(ValueError, match="reflectance"):
+        e.set_reflectance(wall, [math.nan, 0.5, 0.5])
+
+
 def test_settings_are_the_engines_keys(cornell):
     e = shrad.Engine(cornell, "dispersive", "paper", cube_res=16, schedule="full")
     assert e.option("cube_res") == "16"

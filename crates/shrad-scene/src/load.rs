@@ -80,7 +80,7 @@ pub(crate) fn clamp_reflectance(scene: &mut Scene) {
     for (i, o) in scene.objects.iter_mut().enumerate() {
         let r = o.material.reflectance;
         if r.is_finite() && r.max_element() >= 1.0 {
-            o.material.reflectance = r.min(glam::Vec3::splat(0.999));
+            o.material.reflectance = r.min(glam::Vec3::splat(crate::MAX_REFLECTANCE));
             scene.warnings.push(format!(
                 "object {i} '{}': reflectance {r} clamped to {} (must be < 1)",
                 o.name, o.material.reflectance

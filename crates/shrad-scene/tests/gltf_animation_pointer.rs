@@ -1,6 +1,6 @@
 //! `KHR_animation_pointer` channels: a node's transform through a pointer moves it as the
 //! core channel does; a punctual light's intensity, colour and cone and a material's
-//! emission strength follow their keys (LINEAR, STEP, CUBICSPLINE; the cone in the
+//! emission strength and base colour follow their keys (LINEAR, STEP, CUBICSPLINE; the cone in the
 //! extension's spelling and in Blender's); pointers to what shrad does not light are
 //! ignored with a warning; a pointer to a light the file does not have, or keys of the wrong
 //! type, are refused naming the channel.
@@ -24,7 +24,8 @@ fn pointer(sampler: usize, to: &str) -> Value {
 /// "Pointers" with `channels` over these samplers:
 /// 0: LINEAR t 0, 2 of SCALAR 100, 300; 1: STEP t 0, 1 of VEC3 white, red;
 /// 2: LINEAR t 0, 2 of VEC3 (0,0,0), (4,0,0); 3: LINEAR t 0, 2 of SCALAR 0.5, 1.0;
-/// 4: CUBICSPLINE t 0, 2 of SCALAR 2 -> 6 with zero tangents.
+/// 4: CUBICSPLINE t 0, 2 of SCALAR 2 -> 6 with zero tangents; 5: LINEAR t 0, 2 of VEC4
+/// (0.2, 0.4, 0.8, 1) -> (1, 0, 0.6, 0.5).
 fn file(channels: Vec<Value>) -> Value {
     let mut b = Bin::default();
     let (pos, idx) = b.unit_square();
@@ -35,6 +36,7 @@ fn file(channels: Vec<Value>) -> Value {
     let moves = b.floats_of("VEC3", &[0.0, 0.0, 0.0, 4.0, 0.0, 0.0]);
     let cone = b.floats_of("SCALAR", &[0.5, 1.0]);
     let strength = b.floats_of("SCALAR", &[0.0, 2.0, 0.0, 0.0, 6.0, 0.0]);
+    let base = b.floats_of("VEC4", &[0.2, 0.4, 0.8, 1.0, 1.0, 0.0, 0.6, 0.5]);
     b.finish(json!({
         "scene": 0,
         "scenes": [{"nodes": [0, 1, 2]}],
@@ -60,7 +62,8 @@ fn file(channels: Vec<Value>) -> Value {
             {"input": t01, "output": color, "interpolation": "STEP"},
             {"input": t2, "output": moves},
             {"input": t2, "output": cone},
-            {"input": t2, "output": strength, "interpolation": "CUBICSPLINE"}
+            {"input": t2, "output": strength, "interpolation": "CUBICSPLINE"},
+            {"input": t2, "output": base}
         ]}]
     }))
 }
@@ -77,6 +80,7 @@ fn every_channel() -> Vec<Value> {
             4,
             "/materials/0/extensions/KHR_materials_emissive_strength/emissiveStrength",
         ),
+        pointer(5, "/materials/0/pbrMetallicRoughness/baseColorFactor"),
     ]
 }
 
@@ -118,6 +122,21 @@ fn lights_emission_and_nodes_follow_their_pointer_channels() {
     // A cubic spline with zero tangents is halfway at half time.
     assert!((glow(1.0) - Vec3::new(1.0, 0.5, 0.25) * 4.0).length() < 1e-5);
     assert_eq!(glow(2.0), Vec3::new(1.0, 0.5, 0.25) * 6.0);
+    // The base colour's RGB is the reflectance; a key of 1 is read as the largest that
+    // conserves energy.
+    let rho = |t: f32| panel.material_at(t).reflectance;
+    assert!((rho(0.0) - Vec3::new(0.2, 0.4, 0.8)).length() < 1e-6);
+    assert!(
+        (rho(1.0) - Vec3::new(0.6, 0.2, 0.7)).length() < 1e-6,
+        "{}",
+        rho(1.0)
+    );
+    let top = shrad_scene::MAX_REFLECTANCE;
+    assert!(
+        (rho(2.0) - Vec3::new(top, 0.0, 0.6)).length() < 1e-6,
+        "{}",
+        rho(2.0)
+    );
 
     // The keys replace the node's translation at rest, (0, 0, 1).
     let mover = object(&s, "Mover").world_from_object_at(1.0);
@@ -168,13 +187,13 @@ fn pointers_to_what_shrad_does_not_light_are_ignored_with_a_warning() {
         SUITE,
         "ignored",
         &file(vec![
-            pointer(1, "/materials/0/pbrMetallicRoughness/baseColorFactor"),
+            pointer(0, "/materials/0/pbrMetallicRoughness/metallicFactor"),
             pointer(0, "/nodes/0/weights"),
         ]),
     );
     let said = |x: &str| s.warnings.iter().any(|w| w.contains(x));
     assert!(
-        said("channel 0 animates /materials/0/pbrMetallicRoughness/baseColorFactor"),
+        said("channel 0 animates /materials/0/pbrMetallicRoughness/metallicFactor"),
         "{:?}",
         s.warnings
     );
@@ -206,6 +225,15 @@ fn a_pointer_to_nothing_or_keys_of_the_wrong_type_are_refused_naming_the_channel
     );
     assert!(
         e.contains("samplers[1].output") && e.contains("needs SCALAR FLOAT"),
+        "{e}"
+    );
+    // Colour keys of three components on a base colour (RGBA).
+    let e = refused(
+        "rgb-base-colour",
+        pointer(1, "/materials/0/pbrMetallicRoughness/baseColorFactor"),
+    );
+    assert!(
+        e.contains("samplers[1].output") && e.contains("needs VEC4 FLOAT"),
         "{e}"
     );
 }

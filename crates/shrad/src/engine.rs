@@ -176,6 +176,16 @@ impl Engine {
         Ok(())
     }
 
+    /// Set object `o`'s reflectance factor (linear RGB, each in [0, 1]; its base-colour
+    /// texture and vertex colours multiply it): a wall painted another colour. Every
+    /// solver sees it as a surface whose light changed.
+    pub fn set_reflectance(&mut self, o: usize, reflectance: Vec3) -> Result<(), Error> {
+        if self.world.set_reflectance(o, reflectance)? && !self.pending.relit.contains(&o) {
+            self.pending.relit.push(o);
+        }
+        Ok(())
+    }
+
     /// The punctual light called `name`, or with index `name` ("0"); an error lists the names.
     pub fn light(&self, name: &str) -> Result<usize, Error> {
         let lights = &self.world.scene.lights;

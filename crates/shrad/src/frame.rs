@@ -1,5 +1,5 @@
 //! The one frame interface of the three solvers: what a frame takes ([`Changes`]: what moved
-//! or changed emission since the last frame, which the [`Engine`](crate::engine::Engine)
+//! or changed emission or reflectance since the last frame, which the [`Engine`](crate::engine::Engine)
 //! collects itself) and what it gives ([`FrameStats`]: statistics every solver has, plus a
 //! [`SolverStats`] part of its own). `render`, `animate`, `bench`, the viewer and Python read
 //! the same value whichever solver runs.
@@ -11,7 +11,7 @@ pub use crate::energy::{Divergence, EnergyBalance};
 pub struct Changes {
     /// Objects whose transform changed.
     pub moved: Vec<usize>,
-    /// Objects whose emission changed.
+    /// Objects whose emission or reflectance changed (either changes the light they send).
     pub relit: Vec<usize>,
     /// Punctual lights that moved or changed colour or intensity (the solvers also compare
     /// the light states they traced with the world's, so a light changed by

@@ -19,8 +19,7 @@ use crate::patches::{CornerAttr, Patches};
 /// Largest supersampling grid side per patch.
 pub const MAX_K: usize = 32;
 
-/// Reflectance never reaches 1 (energy conservation, spec section 2).
-pub const MAX_REFLECTANCE: f32 = 0.999;
+pub use shrad_scene::MAX_REFLECTANCE;
 
 /// The attributes at patch parameters `(s, t)`: a parallelogram's bilinear coordinates, or
 /// a triangle's barycentric ones (weights of corners 1 and 2).
@@ -118,9 +117,7 @@ fn grid_side(texels: f32, cap: usize) -> usize {
 /// textures and vertex colours), and of the emissive texture (empty when no material of the
 /// scene has one; else 1 on patches without).
 pub fn patch_fields(scene: &Scene, patches: &Patches) -> (Vec<Vec3>, Vec<Vec3>) {
-    let with_attrs = patches.corner_attr.len().max(1);
-    let cap = (((1usize << 24) / with_attrs) as f64).sqrt() as usize;
-    let cap = cap.clamp(2, MAX_K);
+    let cap = sample_cap(patches);
     let emissive = scene
         .objects
         .iter()
@@ -129,23 +126,14 @@ pub fn patch_fields(scene: &Scene, patches: &Patches) -> (Vec<Vec3>, Vec<Vec3>) 
         .into_par_iter()
         .map(|p| {
             let m = &scene.objects[patches.object[p] as usize].material;
-            let Some(c) = patches.corner_attrs(p) else {
-                return (m.reflectance, Vec3::ONE);
+            let glow = match (patches.corner_attrs(p), &m.emissive_texture) {
+                (Some(c), Some(t)) => {
+                    let k = grid_side(footprint(t, c, patches.is_quad[p], 1), cap);
+                    patch_mean(c, patches.is_quad[p], k, |a| emission_scale(m, a))
+                }
+                _ => Vec3::ONE,
             };
-            let quad = patches.is_quad[p];
-            let k_of = |t: &Option<Texture>, slot| {
-                t.as_ref()
-                    .map_or(1, |t| grid_side(footprint(t, c, quad, slot), cap))
-            };
-            let rho = patch_mean(c, quad, k_of(&m.base_color_texture, 0), |a| albedo(m, a));
-            let glow = if m.emissive_texture.is_some() {
-                patch_mean(c, quad, k_of(&m.emissive_texture, 1), |a| {
-                    emission_scale(m, a)
-                })
-            } else {
-                Vec3::ONE
-            };
-            (rho.min(Vec3::splat(MAX_REFLECTANCE)), glow)
+            (patch_reflectance(m, patches, p, cap), glow)
         })
         .collect();
     let rho = fields.iter().map(|f| f.0).collect();
@@ -155,4 +143,33 @@ pub fn patch_fields(scene: &Scene, patches: &Patches) -> (Vec<Vec3>, Vec<Vec3>) 
         Vec::new()
     };
     (rho, glow)
+}
+
+/// The area average of `rho(x)` over each patch of object `o` with material `m` (its base
+/// colour changed: [`crate::World::set_reflectance`]), as [`patch_fields`] gives it.
+pub fn object_reflectance(m: &Material, patches: &Patches, o: usize) -> Vec<Vec3> {
+    let cap = sample_cap(patches);
+    (patches.range(o).into_par_iter())
+        .map(|p| patch_reflectance(m, patches, p, cap))
+        .collect()
+}
+
+/// The largest supersampling grid side: [`MAX_K`], less when the scene has very many
+/// textured patches, so that setting up stays around 2^24 texture samples.
+fn sample_cap(patches: &Patches) -> usize {
+    let with_attrs = patches.corner_attr.len().max(1);
+    let cap = (((1usize << 24) / with_attrs) as f64).sqrt() as usize;
+    cap.clamp(2, MAX_K)
+}
+
+/// Patch `p`'s `rho_i` with material `m`: the area average of `rho(x)`.
+fn patch_reflectance(m: &Material, patches: &Patches, p: usize, cap: usize) -> Vec3 {
+    let Some(c) = patches.corner_attrs(p) else {
+        return m.reflectance;
+    };
+    let k = m.base_color_texture.as_ref().map_or(1, |t| {
+        grid_side(footprint(t, c, patches.is_quad[p], 0), cap)
+    });
+    let rho = patch_mean(c, patches.is_quad[p], k, |a| albedo(m, a));
+    rho.min(Vec3::splat(MAX_REFLECTANCE))
 }

@@ -177,16 +177,17 @@ impl World {
         self.rays_cast.load(Ordering::Relaxed)
     }
 
-    /// Move animated objects and update emission to time `t`. Returns the objects whose
-    /// transform changed (lights whose emission changed are in the second list).
+    /// Move animated objects and update emission and base colour to time `t`. Returns the
+    /// objects whose transform changed, and those whose emission or reflectance changed.
     pub fn set_time(&mut self, t: f32) -> (Vec<usize>, Vec<usize>) {
         let first = self.time.is_nan();
         let mut moved = Vec::new();
         let mut relit = Vec::new();
+        let mut recoloured = Vec::new();
         for (o, object) in self.scene.objects.iter().enumerate() {
             let still = object.animation.is_none()
                 && object.node_animation.is_none()
-                && object.emission_tracks.is_none();
+                && object.material_tracks.is_none();
             if !first && still {
                 continue;
             }
@@ -202,7 +203,8 @@ impl World {
                 self.vis.set_transform(o, xf);
                 moved.push(o);
             }
-            let m = object.material_at(t).exitance();
+            let material = object.material_at(t);
+            let m = material.exitance();
             let r = self.patches.range(o);
             // Per patch: an emissive texture scales the material's exitance.
             let tex = |p: usize| self.emission_texture.get(p).copied().unwrap_or(Vec3::ONE);
@@ -210,6 +212,15 @@ impl World {
                 for p in r {
                     self.exitance[p] = m * tex(p);
                 }
+                relit.push(o);
+            }
+            if material.reflectance != object.material.reflectance {
+                recoloured.push((o, material.reflectance));
+            }
+        }
+        for (o, rho) in recoloured {
+            self.recolour(o, rho);
+            if !relit.contains(&o) {
                 relit.push(o);
             }
         }
@@ -343,6 +354,37 @@ impl World {
         }
         self.exitance[r].fill(m);
         Ok(true)
+    }
+
+    /// Set object `o`'s reflectance factor (linear RGB, each in [0, 1]; 1 is read as
+    /// [`crate::surface::MAX_REFLECTANCE`]): its material's `reflectance`, which its
+    /// base-colour texture and vertex colours multiply, until the next [`World::set_time`]
+    /// of an object whose base colour is keyed. Returns whether it changed.
+    pub fn set_reflectance(&mut self, o: usize, reflectance: Vec3) -> Result<bool, Error> {
+        let name = self.object_label(o)?;
+        if !reflectance.is_finite()
+            || reflectance.min_element() < 0.0
+            || reflectance.max_element() > 1.0
+        {
+            return Err(Error::Invalid(format!(
+                "{name}: reflectance {reflectance} must be finite and within [0, 1]"
+            )));
+        }
+        let rho = reflectance.min(Vec3::splat(crate::surface::MAX_REFLECTANCE));
+        if self.scene.objects[o].material.reflectance == rho {
+            return Ok(false);
+        }
+        self.recolour(o, rho);
+        Ok(true)
+    }
+
+    /// Give object `o`'s material the reflectance factor `rho` and its patches their
+    /// reflectance again (textures and vertex colours included, [`crate::surface`]).
+    fn recolour(&mut self, o: usize, rho: Vec3) {
+        let material = &mut self.scene.objects[o].material;
+        material.reflectance = rho;
+        let fresh = crate::surface::object_reflectance(material, &self.patches, o);
+        self.reflectance[self.patches.range(o)].copy_from_slice(&fresh);
     }
 
     /// "object 3 'name'", or an error naming the valid range.

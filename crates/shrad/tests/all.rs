@@ -18,6 +18,7 @@ mod lightmap_rgbm;
 mod lightmap_uv1;
 mod punctual_lights;
 mod reference;
+mod reflectance;
 mod scenes;
 mod sky;
 mod spellings;

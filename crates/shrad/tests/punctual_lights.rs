@@ -3,7 +3,7 @@
 //! meter counts what reaches the patches as input; a light moved through the engine gives
 //! what the same scene loaded with the light there gives; a picture's shadow edge is sharp.
 
-use crate::common;
+use crate::common::{self, largest_difference};
 
 use glam::{Affine3A, Vec3};
 use shrad::engine::Engine;
@@ -96,16 +96,6 @@ fn every_solver_lights_a_floor_by_the_closed_form() {
 
 /// A light moved (and re-coloured) through the engine equals the scene loaded with the light
 /// there, for the reference exactly and for the dispersive solver once converged.
-/// The largest difference of any channel of any patch between `a` and `b`, and the largest
-/// channel of `b` (what it is measured against).
-fn largest_difference(a: &[Vec3], b: &[Vec3]) -> (f32, f32) {
-    let worst = (a.iter().zip(b))
-        .map(|(x, y)| (*x - *y).abs().max_element())
-        .fold(0.0, f32::max);
-    let top = b.iter().map(|v| v.max_element()).fold(0.0, f32::max);
-    (worst, top)
-}
-
 #[test]
 fn a_light_moved_through_the_engine_equals_the_scene_loaded_with_it_there() {
     let box_at = Vec3::new(0.3, 0.25, -0.2);
@@ -172,11 +162,12 @@ fn an_animated_light_and_glow_give_at_a_time_what_the_scene_with_their_values_th
         color: Some(ramp([Vec3::ONE, Vec3::new(1.0, 0.6, 0.2)])),
         ..Default::default()
     });
-    animated.objects[1].emission_tracks = Some(shrad_scene::EmissionTracks {
+    animated.objects[1].material_tracks = Some(shrad_scene::MaterialTracks {
         rest_factor: Vec3::new(0.2, 0.1, 0.05),
         rest_strength: 1.0,
         factor: None,
         strength: Some(ramp([0.0, 4.0])),
+        base_color: None,
     });
     let mut then = scene(light_at, box_at);
     then.lights[0].intensity = 683.0 * 1.75;

@@ -512,3 +512,43 @@ fn normalized_byte_rgba_colours_multiply_the_factor() {
     let e = shrad::scene::load(&path, &LoadOptions::default()).unwrap_err();
     assert!(e.to_string().contains("TEXCOORD_0"), "{e}");
 }
+
+#[test]
+fn a_new_base_colour_multiplies_the_texture_as_one_loaded_with_it() {
+    // The checker floor's factor set to another colour through the world equals, patch by
+    // patch, the floor loaded with that factor in the file: the texture's footprint
+    // averages times the new factor.
+    let dir = temp_dir("recolour");
+    checker_png(&dir.join("tex.png"), 4, 255, 64);
+    let painted = [0.3, 0.6, 0.9];
+    let file = |name: &str, factor: Option<[f32; 3]>| {
+        floor_gltf(&dir, name, 1.0, None, |r| {
+            textured(r, json!({"magFilter": NEAREST}), json!({"index": 0}));
+            if let Some([a, b, c]) = factor {
+                r["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] =
+                    json!([a, b, c, 1.0]);
+            }
+        })
+    };
+    let mut world = load_world(&file("before", None), 0.2);
+    let before = world.reflectance.clone();
+    let factor = world.scene.objects[0].material.reflectance;
+    assert!(world.set_reflectance(0, Vec3::from(painted)).unwrap());
+    assert!(
+        !world.set_reflectance(0, Vec3::from(painted)).unwrap(),
+        "no change"
+    );
+    let loaded = load_world(&file("after", Some(painted)), 0.2);
+    for p in world.patches.range(0) {
+        let (got, want) = (world.reflectance[p], loaded.reflectance[p]);
+        assert!(got.abs_diff_eq(want, 1e-4), "patch {p}: {got} vs {want}");
+        let scaled = before[p] * Vec3::from(painted) / factor;
+        assert!(
+            got.abs_diff_eq(scaled, 1e-4),
+            "patch {p}: {got} vs {scaled}"
+        );
+    }
+    // The light quad (object 1) is not touched.
+    let light = world.patches.range(1);
+    assert_eq!(world.reflectance[light.clone()], before[light]);
+}

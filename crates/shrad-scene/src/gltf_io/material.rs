@@ -51,7 +51,7 @@ impl Walk<'_> {
         let base_color_texture =
             base_texture.and_then(|info| self.texture(&who, "base colour", &info));
         if reflectance.max_element() >= 1.0 {
-            let clamped = reflectance.min(Vec3::splat(0.999));
+            let clamped = reflectance.min(Vec3::splat(crate::MAX_REFLECTANCE));
             self.scene.warnings.push(format!(
                 "{who}: reflectance {reflectance} clamped to {clamped} (a reflectance of 1 does not conserve energy; it must be < 1)"
             ));

@@ -209,7 +209,7 @@ impl Walk<'_> {
                 (true, None) => format!("{}.unskinned", drawn.name),
             };
             let mut object = Object::new(name, part, material.clone());
-            object.emission_tracks = (prim.material().index())
+            object.material_tracks = (prim.material().index())
                 .and_then(|m| self.material_tracks.get(m))
                 .and_then(|k| k.with_rest_of(&prim.material()));
             match (joint, skinned, inst.node) {

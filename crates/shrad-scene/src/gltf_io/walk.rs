@@ -22,7 +22,7 @@ pub(super) struct Walk<'a> {
     /// `[l]`: the animated properties of the file's light `l` (`KHR_animation_pointer`).
     pub(super) light_tracks: Vec<crate::LightTracks>,
     /// `[m]`: the animated emission of the file's material `m` (`KHR_animation_pointer`).
-    pub(super) material_tracks: Vec<crate::EmissionTracks>,
+    pub(super) material_tracks: Vec<crate::MaterialTracks>,
     /// Camera `c`'s keyed `yfov` (`KHR_animation_pointer`), by `c`.
     pub(super) camera_yfov: HashMap<usize, crate::Track<f32>>,
     pub(super) path: &'a Path,

@@ -5,6 +5,10 @@ use std::f32::consts::PI;
 
 use crate::Texture;
 
+/// Reflectance never reaches 1 (energy conservation, spec section 2): a factor of 1, or
+/// more, is read as this.
+pub const MAX_REFLECTANCE: f32 = 0.999;
+
 /// A Lambertian material. With textures (and vertex colours) the reflectance is a field
 /// `rho(x) = reflectance * base_color_texture(uv(x)) * colour(x)` and the emitted radiance
 /// `L_e(x) = emitted_radiance * emissive_texture(uv(x))` (spec section 2, "Textures").

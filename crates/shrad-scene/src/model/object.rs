@@ -50,9 +50,9 @@ pub struct Object {
     pub animation: Option<Animation>,
     /// Motion imported from an animated glTF node (the scene file's keys go on top).
     pub node_animation: Option<crate::NodeAnimation>,
-    /// Emission animated in the file (`KHR_animation_pointer` on its glTF material; the
-    /// scene file's emission keys go on top).
-    pub emission_tracks: Option<crate::EmissionTracks>,
+    /// Emission and base colour animated in the file (`KHR_animation_pointer` on its glTF
+    /// material; the scene file's emission keys go on top).
+    pub material_tracks: Option<crate::MaterialTracks>,
     /// Patch size for this object only (overrides the scene's), in scene units.
     pub patch_size: Option<f32>,
 }
@@ -68,7 +68,7 @@ impl Object {
             world_from_object: Affine3A::IDENTITY,
             animation: None,
             node_animation: None,
-            emission_tracks: None,
+            material_tracks: None,
             patch_size: None,
         }
     }
@@ -102,12 +102,15 @@ impl Object {
             * base
     }
 
-    /// The material at time `t`: the file's emission tracks, then the scene file's emission
-    /// keys applied.
+    /// The material at time `t`: the file's emission and base colour tracks, then the
+    /// scene file's emission keys applied.
     pub fn material_at(&self, t: f32) -> Material {
         let mut m = self.material.clone();
-        if let Some(tracks) = &self.emission_tracks {
+        if let Some(tracks) = &self.material_tracks {
             m.emitted_radiance = tracks.emitted_radiance_at(t);
+            if let Some(rho) = tracks.reflectance_at(t) {
+                m.reflectance = rho;
+            }
         }
         if let Some(e) = self.animation.as_ref().and_then(|a| a.emission_at(t)) {
             m.emitted_radiance = e;
@@ -118,7 +121,7 @@ impl Object {
     /// Does anything about this object change over time?
     pub fn is_animated(&self) -> bool {
         self.node_animation.is_some()
-            || self.emission_tracks.is_some()
+            || self.material_tracks.is_some()
             || self
                 .animation
                 .as_ref()
@@ -133,9 +136,9 @@ impl Object {
             .as_ref()
             .map_or(0.0, crate::NodeAnimation::duration);
         let e = self
-            .emission_tracks
+            .material_tracks
             .as_ref()
-            .map_or(0.0, crate::EmissionTracks::end);
+            .map_or(0.0, crate::MaterialTracks::end);
         a.max(n).max(e)
     }
 }

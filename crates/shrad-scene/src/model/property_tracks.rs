@@ -98,11 +98,12 @@ impl LightTracks {
     }
 }
 
-/// A material's animated emission: emitted radiance is `factor * strength` (glTF's
-/// `emissiveFactor` times `KHR_materials_emissive_strength`), each the track's value at a
-/// time or, without a track, its value at rest.
+/// A material's animated properties: its emission, emitted radiance `factor * strength`
+/// (glTF's `emissiveFactor` times `KHR_materials_emissive_strength`), each the track's value
+/// at a time or, without a track, its value at rest; and its base colour (the reflectance
+/// factor, `baseColorFactor`'s RGB).
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct EmissionTracks {
+pub struct MaterialTracks {
     /// `emissiveFactor` at rest.
     pub rest_factor: Vec3,
     /// `emissiveStrength` at rest (1 without the extension).
@@ -111,9 +112,12 @@ pub struct EmissionTracks {
     pub factor: Option<Track<Vec3>>,
     /// `/materials/{}/extensions/KHR_materials_emissive_strength/emissiveStrength`.
     pub strength: Option<Track<f32>>,
+    /// `/materials/{}/pbrMetallicRoughness/baseColorFactor` (its RGB; alpha changes nothing
+    /// diffuse).
+    pub base_color: Option<Track<Vec3>>,
 }
 
-impl EmissionTracks {
+impl MaterialTracks {
     /// Emitted radiance at time `t` (at least 0).
     pub fn emitted_radiance_at(&self, t: f32) -> Vec3 {
         let factor = self
@@ -127,11 +131,20 @@ impl EmissionTracks {
         (factor * strength).max(Vec3::ZERO)
     }
 
-    /// Time of the last key of either track.
+    /// The reflectance factor at time `t`, within `[0, MAX_REFLECTANCE]` (a cubic's
+    /// overshoot, or a key of 1, kept a reflectance that conserves energy); `None` without a
+    /// track.
+    pub fn reflectance_at(&self, t: f32) -> Option<Vec3> {
+        let f = self.base_color.as_ref()?.sample(t);
+        Some(f.clamp(Vec3::ZERO, Vec3::splat(super::material::MAX_REFLECTANCE)))
+    }
+
+    /// Time of the last key of any track.
     pub fn end(&self) -> f32 {
         let f = self.factor.as_ref().map_or(0.0, Track::end);
         let s = self.strength.as_ref().map_or(0.0, Track::end);
-        f.max(s)
+        let b = self.base_color.as_ref().map_or(0.0, Track::end);
+        f.max(s).max(b)
     }
 }
 
@@ -201,25 +214,45 @@ mod tests {
 
     #[test]
     fn emission_is_factor_times_strength_each_from_its_track_or_rest() {
-        let e = EmissionTracks {
+        let e = MaterialTracks {
             rest_factor: Vec3::new(1.0, 0.5, 0.0),
             rest_strength: 2.0,
             factor: None,
             strength: Some(linear(&[1.0, 3.0], vec![1.0, 5.0])),
+            base_color: None,
         };
         assert_eq!(e.emitted_radiance_at(0.0), Vec3::new(1.0, 0.5, 0.0));
         assert_eq!(e.emitted_radiance_at(2.0), Vec3::new(3.0, 1.5, 0.0));
         assert_eq!(e.end(), 3.0);
         // Before its first key a track holds that key's value, not the value at rest.
-        let f = EmissionTracks {
+        let f = MaterialTracks {
             factor: Some(linear(&[0.0, 1.0], vec![Vec3::ONE, Vec3::ZERO])),
             ..e
         };
         assert_eq!(f.emitted_radiance_at(0.5), Vec3::splat(0.5));
-        let g = EmissionTracks {
+        let g = MaterialTracks {
             strength: None,
             ..f
         };
         assert_eq!(g.emitted_radiance_at(0.5), Vec3::splat(0.5) * 2.0);
+    }
+
+    #[test]
+    fn the_base_colour_is_kept_a_reflectance_and_its_keys_count_in_the_end() {
+        let none = MaterialTracks::default();
+        assert_eq!(none.reflectance_at(1.0), None);
+        // Keys of -0.5 and 2 (a cubic's overshoot would give such values too).
+        let keyed = MaterialTracks {
+            base_color: Some(linear(
+                &[0.0, 4.0],
+                vec![Vec3::splat(-0.5), Vec3::splat(2.0)],
+            )),
+            ..none
+        };
+        assert_eq!(keyed.reflectance_at(0.0), Some(Vec3::ZERO));
+        assert_eq!(keyed.reflectance_at(1.0), Some(Vec3::splat(0.125)));
+        let top = crate::MAX_REFLECTANCE;
+        assert_eq!(keyed.reflectance_at(4.0), Some(Vec3::splat(top)));
+        assert_eq!(keyed.end(), 4.0);
     }
 }

@@ -41,14 +41,13 @@ const NEIGHBOUR_OF_STOPPED: f32 = 8.0;
 
 impl Dispersive {
     /// Mark objects near what moved (or every object, when a light changed) as disturbed.
+    /// A surface whose emission or reflectance changed (`relit`) changed the light every
+    /// object sees, whatever its role: a box painted white under a lamp must wake.
     pub(super) fn note_changes(&mut self, world: &World, changes: &Changes) {
         let p = &world.patches;
         let lights_changed = !changes.lights.is_empty()
-            || changes
-                .relit
-                .iter()
-                .chain(&changes.moved)
-                .any(|&o| p.object_role[o] == Role::Light);
+            || !changes.relit.is_empty()
+            || (changes.moved.iter()).any(|&o| p.object_role[o] == Role::Light);
         let boxes: Vec<(Vec3, f32)> = changes
             .moved
             .iter()
@@ -217,7 +216,8 @@ impl Dispersive {
                 .for_each(|k| parts.area[receivers[k] as usize] = e[k]),
             None => (receivers.iter().zip(e)).for_each(|(&i, &e)| parts.area[i as usize] = e),
         }
-        changed.extend(parts.update(world, everything, samples, &old, &new, whole));
+        let rebuild = everything || parts.receivers_changed(world, &changes.relit);
+        changed.extend(parts.update(world, rebuild, samples, &old, &new, whole));
         changed.par_sort_unstable();
         changed.dedup();
         for i in changed {
@@ -301,6 +301,18 @@ impl PunctualDirect {
             out.lights.push(sky);
         }
         out
+    }
+
+    /// Whether a patch of the `relit` objects began or ceased to reflect (a reflectance set
+    /// to or from 0): the cache's receivers are the patches that reflect.
+    fn receivers_changed(&self, world: &World, relit: &[usize]) -> bool {
+        let receivers = self.cache.receivers();
+        relit.iter().any(|&o| {
+            world.patches.range(o).any(|i| {
+                let reflects = world.reflectance[i].max_element() > 0.0;
+                reflects != receivers.binary_search(&(i as u32)).is_ok()
+            })
+        })
     }
 
     /// Bring the punctual part up to date (whole when `everything`, or the sample count or

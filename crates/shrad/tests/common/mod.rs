@@ -28,3 +28,13 @@ pub fn ceiling_light() -> Mesh {
         Vec3::new(-0.5, 0.0, 0.5),
     ])
 }
+
+/// The largest difference of any patch's radiosity between `a` and `b`, and `b`'s largest
+/// value.
+pub fn largest_difference(a: &[Vec3], b: &[Vec3]) -> (f32, f32) {
+    let worst = (a.iter().zip(b))
+        .map(|(x, y)| (*x - *y).abs().max_element())
+        .fold(0.0, f32::max);
+    let top = b.iter().map(|v| v.max_element()).fold(0.0, f32::max);
+    (worst, top)
+}

@@ -80,6 +80,7 @@ pub(super) fn output_type_fits(out: &gltf::Accessor, path: Path) -> bool {
         | Path::SpotOuter
         | Path::EmissiveStrength
         | Path::CameraYfov => out.dimensions() == Dimensions::Scalar && float,
+        Path::BaseColorFactor => out.dimensions() == Dimensions::Vec4 && float,
         Path::Rotation => {
             out.dimensions() == Dimensions::Vec4
                 && (out.data_type() == DataType::F32

@@ -6,7 +6,7 @@
 //! channels play when they point at a node's transform, a punctual light's colour,
 //! intensity, range or cone, a material's emission or a camera's field of view (`pointer`),
 //! into tracks the lights, objects and the scene's camera take (`LightTracks`,
-//! `EmissionTracks`, `Scene::camera_yfov`). Morph-target weights and other
+//! `MaterialTracks`, `Scene::camera_yfov`). Morph-target weights and other
 //! pointers are ignored with a warning (and a skinned mesh is drawn at rest, see `skin`,
 //! with a warning when its joints are animated).
 
@@ -35,22 +35,31 @@ pub(crate) struct Animations {
     /// `[l]`: the animated properties of the file's light `l` (empty, or past the end:
     /// none; only as long as the last light animated).
     pub lights: Vec<LightTracks>,
-    /// `[m]`: the animated emission of the file's material `m` (the same), its values at
-    /// rest not filled in (`EmissionTracks::with_rest_of`).
-    pub materials: Vec<crate::EmissionTracks>,
+    /// `[m]`: the animated emission and base colour of the file's material `m` (the same),
+    /// its values at rest not filled in (`MaterialTracks::with_rest_of`).
+    pub materials: Vec<crate::MaterialTracks>,
     /// Camera `c`'s keyed `yfov`, by `c`.
     pub cameras: std::collections::HashMap<usize, Track<f32>>,
 }
 
-/// The emission tracks of a material as the reader collects them (`factor`, `strength`),
-/// with the material's values at rest filled in for the object that takes them.
-impl crate::EmissionTracks {
+/// The tracks of a material as the reader collects them (`factor`, `strength`,
+/// `base_color`), with the material's values at rest filled in for the object that takes
+/// them.
+impl crate::MaterialTracks {
     /// These tracks with glTF material `m`'s emission at rest; `None` when nothing of it is
-    /// animated.
-    pub(crate) fn with_rest_of(&self, m: &gltf::Material) -> Option<crate::EmissionTracks> {
-        (self.factor.is_some() || self.strength.is_some()).then(|| crate::EmissionTracks {
+    /// animated. A material with `KHR_materials_pbrSpecularGlossiness` takes its reflectance
+    /// from its `diffuseFactor` (`material::base_color`), so its `baseColorFactor`'s keys
+    /// change nothing and are left out.
+    pub(crate) fn with_rest_of(&self, m: &gltf::Material) -> Option<crate::MaterialTracks> {
+        let base_color = match m.pbr_specular_glossiness() {
+            Some(_) => None,
+            None => self.base_color.clone(),
+        };
+        let animated = self.factor.is_some() || self.strength.is_some() || base_color.is_some();
+        animated.then(|| crate::MaterialTracks {
             rest_factor: Vec3::from(m.emissive_factor()),
             rest_strength: m.emissive_strength().unwrap_or(1.0),
+            base_color,
             ..self.clone()
         })
     }
@@ -70,6 +79,7 @@ pub(super) enum Path {
     SpotOuter,
     EmissiveFactor,
     EmissiveStrength,
+    BaseColorFactor,
     CameraYfov,
 }
 
@@ -86,6 +96,7 @@ impl Path {
             Path::SpotOuter => "spot outerConeAngle",
             Path::EmissiveFactor => "emissiveFactor",
             Path::EmissiveStrength => "emissiveStrength",
+            Path::BaseColorFactor => "baseColorFactor",
             Path::CameraYfov => "yfov",
         }
     }
@@ -94,6 +105,7 @@ impl Path {
     fn wants(self) -> &'static str {
         match self {
             Path::Rotation => "VEC4 FLOAT (or normalized BYTE / SHORT)",
+            Path::BaseColorFactor => "VEC4 FLOAT",
             Path::Translation | Path::Scale | Path::LightColor | Path::EmissiveFactor => {
                 "VEC3 FLOAT"
             }
@@ -298,7 +310,7 @@ struct Reader<'a> {
     /// `[l]`: light `l`'s tracks so far.
     lights: Vec<LightTracks>,
     /// `[m]`: material `m`'s emission tracks so far.
-    materials: Vec<crate::EmissionTracks>,
+    materials: Vec<crate::MaterialTracks>,
     /// Camera `c`'s `yfov` track.
     cameras: std::collections::HashMap<usize, Track<f32>>,
     /// (owner, path) -> the animation that animates it first.

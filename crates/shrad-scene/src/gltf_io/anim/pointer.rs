@@ -1,9 +1,9 @@
 //! The JSON pointers of `KHR_animation_pointer` channels that shrad plays: a node's
 //! translation, rotation and scale (as the core channels), a punctual light's colour,
-//! intensity, range and cone angles, a material's emission factor and strength, and a
-//! perspective camera's field of view. Any other property (a base colour, a texture
-//! transform, a camera's clipping planes) changes nothing shrad computes or shows, and its
-//! channel is ignored with a warning.
+//! intensity, range and cone angles, a material's emission factor and strength and its base
+//! colour factor (the reflectance), and a perspective camera's field of view. Any other
+//! property (a texture transform, a metallic factor, a camera's clipping planes) changes
+//! nothing shrad computes or shows, and its channel is ignored with a warning.
 
 use super::Path;
 
@@ -14,7 +14,8 @@ pub(super) enum Pointed {
     Node(usize, Path),
     /// `/extensions/KHR_lights_punctual/lights/{l}/...`.
     Light(usize, Path),
-    /// `/materials/{m}/emissiveFactor` or its `KHR_materials_emissive_strength`.
+    /// `/materials/{m}/emissiveFactor`, its `KHR_materials_emissive_strength`, or
+    /// `/materials/{m}/pbrMetallicRoughness/baseColorFactor`.
     Material(usize, Path),
     /// `/cameras/{c}/perspective/yfov`.
     Camera(usize, Path),
@@ -75,6 +76,7 @@ pub(super) fn parse(pointer: &str) -> Pointed {
         let (m, property) = index_then(rest)?;
         Some(match property {
             "emissiveFactor" => Pointed::Material(m, Path::EmissiveFactor),
+            "pbrMetallicRoughness/baseColorFactor" => Pointed::Material(m, Path::BaseColorFactor),
             "extensions/KHR_materials_emissive_strength/emissiveStrength" => {
                 Pointed::Material(m, Path::EmissiveStrength)
             }
@@ -110,8 +112,12 @@ mod tests {
             parse("/materials/2/extensions/KHR_materials_emissive_strength/emissiveStrength"),
             Pointed::Material(2, Path::EmissiveStrength)
         );
+        assert_eq!(
+            parse("/materials/0/pbrMetallicRoughness/baseColorFactor"),
+            Pointed::Material(0, Path::BaseColorFactor)
+        );
         for other in [
-            "/materials/0/pbrMetallicRoughness/baseColorFactor",
+            "/materials/0/pbrMetallicRoughness/metallicFactor",
             "/nodes/01/translation",
             "/nodes/-1/translation",
             "/nodes/x/scale",

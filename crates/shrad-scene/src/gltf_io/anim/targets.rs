@@ -7,7 +7,7 @@
 use serde_json::Value;
 
 use super::pointer::{self, Pointed};
-use super::values::{keys_per_value, raise_collapsed_scales, rotations, vec3s};
+use super::values::{keys_per_value, raise_collapsed_scales, rgbs, rotations, vec3s};
 use super::{Current, Owner, Path, Reader, Sampler, Target};
 use crate::AnimationInfo;
 
@@ -56,7 +56,7 @@ impl Reader<'_> {
         }
     }
 
-    /// Material `m`'s emission `path` from `sampler`'s `values`.
+    /// Material `m`'s emission or base colour `path` from `sampler`'s `values`.
     pub(super) fn material_track(
         &mut self,
         m: usize,
@@ -68,7 +68,10 @@ impl Reader<'_> {
         match path {
             Path::EmissiveFactor => material.factor = Some(sampler.track(vec3s(values))),
             Path::EmissiveStrength => material.strength = Some(sampler.track(values.to_vec())),
-            _ => unreachable!("a material's path is its emission's (`pointer::parse`)"),
+            Path::BaseColorFactor => material.base_color = Some(sampler.track(rgbs(values))),
+            _ => unreachable!(
+                "a material's path is its emission's or base colour's (`pointer::parse`)"
+            ),
         }
     }
 

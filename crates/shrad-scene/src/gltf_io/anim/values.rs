@@ -19,6 +19,11 @@ pub(super) fn vec3s(values: &[f32]) -> Vec<Vec3> {
     values.chunks_exact(3).map(Vec3::from_slice).collect()
 }
 
+/// RGBA values (or tangents) as their RGB.
+pub(super) fn rgbs(values: &[f32]) -> Vec<Vec3> {
+    values.chunks_exact(4).map(Vec3::from_slice).collect()
+}
+
 /// Scale values with a component under 1e-4 raised to it (keeping the sign); whether any
 /// was. Tangents may be zero; only values must not collapse a surface.
 pub(super) fn raise_collapsed_scales(v: &mut [Vec3], per_key: usize) -> bool {
