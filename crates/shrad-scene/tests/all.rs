@@ -7,6 +7,7 @@
 
 mod blender_animated_lights;
 mod blender_animation;
+mod blender_base_color;
 mod blender_camera;
 mod blender_instancing;
 mod blender_skin;
