@@ -172,3 +172,79 @@ fn an_absurd_colour_is_refused_naming_the_object() {
     let rho = engine.world().reflectance[engine.world().patches.range(0)][0];
     assert_eq!(rho, Vec3::splat(shrad::surface::MAX_REFLECTANCE));
 }
+
+/// The Cornell box as a scene file whose red wall is keyed from red to blue over 2 s
+/// (`reflectance_keys`: the `[[object.reflectance_key]]` tables).
+fn keyed_wall_toml(reflectance_keys: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("shrad-reflectance-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(format!("wall-{}.toml", reflectance_keys.len()));
+    let text = format!(
+        r#"
+[[object]]
+name = "floor"
+role = "boundary"
+shape = "quad"
+corners = [[0, 0, 0], [0, 0, 2], [2, 0, 2], [2, 0, 0]]
+reflectance = [0.7, 0.7, 0.7]
+
+[[object]]
+name = "lamp"
+role = "light"
+shape = "quad"
+corners = [[0.8, 1.9, 0.8], [1.2, 1.9, 0.8], [1.2, 1.9, 1.2], [0.8, 1.9, 1.2]]
+reflectance = [0, 0, 0]
+emission = [10, 10, 10]
+
+[[object]]
+name = "wall"
+role = "boundary"
+shape = "quad"
+corners = [[0, 0, 0], [0, 2, 0], [0, 2, 2], [0, 0, 2]]
+reflectance = [0.6, 0.1, 0.1]
+{reflectance_keys}
+"#
+    );
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn a_scene_files_reflectance_keys_play_and_bad_ones_are_refused() {
+    let keys = "[[object.reflectance_key]]\ntime = 0\nreflectance = [0.6, 0.1, 0.1]\n\
+                [[object.reflectance_key]]\ntime = 2\nreflectance = [0.1, 0.2, 1.0]\n";
+    let scene = shrad_scene::load(&keyed_wall_toml(keys), &Default::default()).unwrap();
+    let wall = named(&scene, "wall");
+    assert!(scene.objects[wall].is_animated());
+    assert_eq!(scene.objects[wall].duration(), 2.0);
+    let mut engine = Engine::new(
+        scene,
+        PatchSizing::Count(300),
+        Backend::Auto,
+        SolverChoice::preset("dispersive", "default").unwrap(),
+    )
+    .unwrap();
+    // Linear between the keys; a key of 1 is read as the largest reflectance.
+    let top = shrad::surface::MAX_REFLECTANCE;
+    for (t, want) in [
+        (0.5, Vec3::new(0.475, 0.125, 0.325)),
+        (2.5, Vec3::new(0.1, 0.2, top)),
+    ] {
+        engine.set_time(t).unwrap();
+        let w = engine.world();
+        for i in w.patches.range(wall) {
+            assert!(
+                w.reflectance[i].abs_diff_eq(want, 1e-6),
+                "t {t}: {}",
+                w.reflectance[i]
+            );
+        }
+    }
+    for bad in ["[1.5, 0, 0]", "[-0.1, 0, 0]", "[nan, 0, 0]"] {
+        let keys = format!("[[object.reflectance_key]]\ntime = 1\nreflectance = {bad}\n");
+        let e = shrad_scene::load(&keyed_wall_toml(&keys), &Default::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("reflectance_key 0"), "{bad}: {e}");
+    }
+}

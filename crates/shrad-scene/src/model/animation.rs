@@ -1,4 +1,5 @@
-//! Keyframed rigid motion and emission changes (the scene file's `[[object.keys]]`).
+//! Keyframed rigid motion, emission and reflectance changes (the scene file's
+//! `[[object.key]]`, `[[object.emission_key]]` and `[[object.reflectance_key]]`).
 
 use glam::{Quat, Vec3};
 
@@ -22,6 +23,16 @@ pub struct EmissionKey {
     pub emitted_radiance: Vec3,
 }
 
+/// A key of a reflectance change (a surface painted another colour).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReflectanceKey {
+    /// Time in seconds.
+    pub time: f32,
+    /// Reflectance factor from this time on (interpolated linearly to the next key; the
+    /// base-colour texture and vertex colours multiply it).
+    pub reflectance: Vec3,
+}
+
 /// Keyframed rigid animation: translation interpolated linearly, rotation by slerp; before
 /// the first key and after the last the end keys hold.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -30,6 +41,8 @@ pub struct Animation {
     pub keys: Vec<Keyframe>,
     /// Emission keys sorted by time (empty: the material's emission holds).
     pub emission: Vec<EmissionKey>,
+    /// Reflectance keys sorted by time (empty: the material's reflectance holds).
+    pub reflectance: Vec<ReflectanceKey>,
     /// Step (hold each key until the next) instead of linear / slerp interpolation.
     pub step: bool,
 }
@@ -60,27 +73,46 @@ impl Animation {
 
     /// Emitted radiance at time `t`, or `None` when the animation does not change it.
     pub fn emission_at(&self, t: f32) -> Option<Vec3> {
-        let first = self.emission.first()?;
-        let last = self.emission.last()?;
-        if t <= first.time {
-            return Some(first.emitted_radiance);
-        }
-        if t >= last.time {
-            return Some(last.emitted_radiance);
-        }
-        let i = self.emission.partition_point(|k| k.time <= t);
-        let (a, b) = (self.emission[i - 1], self.emission[i]);
-        if self.step {
-            return Some(a.emitted_radiance);
-        }
-        let s = (t - a.time) / (b.time - a.time).max(f32::MIN_POSITIVE);
-        Some(a.emitted_radiance.lerp(b.emitted_radiance, s))
+        let keys = self.emission.iter().map(|k| (k.time, k.emitted_radiance));
+        colour_at(keys, self.step, t)
+    }
+
+    /// Reflectance factor at time `t`, or `None` when the animation does not change it.
+    pub fn reflectance_at(&self, t: f32) -> Option<Vec3> {
+        let keys = self.reflectance.iter().map(|k| (k.time, k.reflectance));
+        colour_at(keys, self.step, t)
     }
 
     /// Time of the last key (0 for a static object).
     pub fn duration(&self) -> f32 {
         let k = self.keys.last().map_or(0.0, |k| k.time);
         let e = self.emission.last().map_or(0.0, |k| k.time);
-        k.max(e)
+        let r = self.reflectance.last().map_or(0.0, |k| k.time);
+        k.max(e).max(r)
     }
+}
+
+/// The value at time `t` of colour keys `(time, value)` sorted by time: the end keys hold
+/// before the first and after the last, each key holds until the next when `step`, else
+/// linear in between; `None` without keys.
+fn colour_at(
+    keys: impl ExactSizeIterator<Item = (f32, Vec3)> + Clone,
+    step: bool,
+    t: f32,
+) -> Option<Vec3> {
+    let n = keys.len();
+    let (first, last) = (keys.clone().next()?, keys.clone().nth(n - 1)?);
+    if t <= first.0 {
+        return Some(first.1);
+    }
+    if t >= last.0 {
+        return Some(last.1);
+    }
+    let i = keys.clone().take_while(|k| k.0 <= t).count();
+    let (a, b) = (keys.clone().nth(i - 1)?, keys.clone().nth(i)?);
+    if step {
+        return Some(a.1);
+    }
+    let s = (t - a.0) / (b.0 - a.0).max(f32::MIN_POSITIVE);
+    Some(a.1.lerp(b.1, s))
 }

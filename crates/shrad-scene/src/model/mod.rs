@@ -17,7 +17,7 @@ mod property_tracks;
 mod scene;
 mod validate;
 
-pub use animation::{Animation, EmissionKey, Keyframe};
+pub use animation::{Animation, EmissionKey, Keyframe, ReflectanceKey};
 pub use environment::{EnvMap, Environment, MAX_ENV_SIDE};
 pub use light::{Light, LightKind, LUMENS_PER_WATT};
 pub use material::{Material, MAX_REFLECTANCE};

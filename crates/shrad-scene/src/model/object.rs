@@ -103,7 +103,7 @@ impl Object {
     }
 
     /// The material at time `t`: the file's emission and base colour tracks, then the
-    /// scene file's emission keys applied.
+    /// scene file's emission and reflectance keys applied.
     pub fn material_at(&self, t: f32) -> Material {
         let mut m = self.material.clone();
         if let Some(tracks) = &self.material_tracks {
@@ -115,6 +115,9 @@ impl Object {
         if let Some(e) = self.animation.as_ref().and_then(|a| a.emission_at(t)) {
             m.emitted_radiance = e;
         }
+        if let Some(r) = self.animation.as_ref().and_then(|a| a.reflectance_at(t)) {
+            m.reflectance = r.clamp(Vec3::ZERO, Vec3::splat(crate::MAX_REFLECTANCE));
+        }
         m
     }
 
@@ -122,10 +125,9 @@ impl Object {
     pub fn is_animated(&self) -> bool {
         self.node_animation.is_some()
             || self.material_tracks.is_some()
-            || self
-                .animation
-                .as_ref()
-                .is_some_and(|a| a.keys.len() > 1 || a.emission.len() > 1)
+            || self.animation.as_ref().is_some_and(|a| {
+                a.keys.len() > 1 || a.emission.len() > 1 || a.reflectance.len() > 1
+            })
     }
 
     /// Time of the last key of either animation (0 for a static object).

@@ -152,6 +152,9 @@ pub struct ObjectDef {
     /// `[[object.emission_key]]`: keyframes of its emission.
     #[serde(default)]
     pub emission_key: Vec<EmissionKeyDef>,
+    /// `[[object.reflectance_key]]`: keyframes of its reflectance (a surface painted).
+    #[serde(default)]
+    pub reflectance_key: Vec<ReflectanceKeyDef>,
     /// A mesh given as data by a front end instead of a `file` (Python's numpy
     /// `positions`, `triangles` and `colors`); no key of the TOML file.
     #[serde(skip)]
@@ -180,6 +183,16 @@ pub struct EmissionKeyDef {
     pub time: f32,
     /// Emitted radiance at this time.
     pub emission: [f32; 3],
+}
+
+/// One keyframe of an object's reflectance.
+#[derive(Deserialize, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+pub struct ReflectanceKeyDef {
+    /// Seconds.
+    pub time: f32,
+    /// Reflectance factor at this time, each channel in [0, 1] (1 is read as 0.999).
+    pub reflectance: [f32; 3],
 }
 
 /// A definition read from a value tree; a wrong key or type is an error that names its

@@ -3,7 +3,7 @@
 use glam::{Affine3A, Mat4, Quat, Vec3};
 
 use super::{KeyInterpolation, ObjectDef, Scale};
-use crate::{Animation, EmissionKey, Keyframe};
+use crate::{Animation, EmissionKey, Keyframe, ReflectanceKey};
 
 /// Rotation from `rotation_deg` (about X, then Y, then Z, world axes: R = Rz Ry Rx) or
 /// `rotation_quat` (`[x, y, z, w]`, normalised).
@@ -86,12 +86,13 @@ fn affine_from_rows(rows: [[f32; 4]; 4]) -> Result<Affine3A, String> {
     ))
 }
 
-/// The object's keyframed motion and emission, sorted by time; `None` without keys.
+/// The object's keyframed motion, emission and reflectance, sorted by time; `None`
+/// without keys.
 pub(super) fn animation(o: &ObjectDef) -> Result<Option<Animation>, String> {
-    if o.key.is_empty() && o.emission_key.is_empty() {
+    if o.key.is_empty() && o.emission_key.is_empty() && o.reflectance_key.is_empty() {
         if o.interpolation.is_some() {
             return Err(
-                "'interpolation' given without any [[object.key]] or [[object.emission_key]]"
+                "'interpolation' given without any [[object.key]], [[object.emission_key]] or [[object.reflectance_key]]"
                     .into(),
             );
         }
@@ -121,11 +122,27 @@ pub(super) fn animation(o: &ObjectDef) -> Result<Option<Animation>, String> {
             emitted_radiance: e,
         });
     }
+    let mut reflectance = Vec::with_capacity(o.reflectance_key.len());
+    for (k, key) in o.reflectance_key.iter().enumerate() {
+        let at = |m: String| format!("reflectance_key {k}: {m}");
+        let r = finite3(key.reflectance, "reflectance").map_err(at)?;
+        if !key.time.is_finite() || r.min_element() < 0.0 || r.max_element() > 1.0 {
+            return Err(at(
+                "time must be finite and reflectance within [0, 1]".into()
+            ));
+        }
+        reflectance.push(ReflectanceKey {
+            time: key.time,
+            reflectance: r,
+        });
+    }
     keys.sort_by(|a, b| a.time.total_cmp(&b.time));
     emission.sort_by(|a, b| a.time.total_cmp(&b.time));
+    reflectance.sort_by(|a, b| a.time.total_cmp(&b.time));
     Ok(Some(Animation {
         keys,
         emission,
+        reflectance,
         step: o.interpolation == Some(KeyInterpolation::Step),
     }))
 }
