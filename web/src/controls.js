@@ -1,6 +1,6 @@
 // Steering by mouse and keys: select an interior object, drag it over the surface it rests
-// on, rotate it (shift-drag, Q / E, the buttons); drag a point or spot light's ball
-// (gizmos.js). The page shows a move at once and the engine's frames take over once they
+// on, rotate it (shift-drag, Q / E, the buttons), paint it (`set_reflectance`); drag a point
+// or spot light's ball (gizmos.js). The page shows a move at once and the engine's frames take over once they
 // have it.
 
 import * as THREE from 'three';
@@ -58,7 +58,12 @@ function select(o) {
   state.selected = o;
   const name = o >= 0 ? state.objects[o].meta.name : null;
   $('selection').textContent = name ? `selected: ${name}` : 'click an interior object, then drag it; Q / E or shift-drag rotates it';
-  $('rot-left').disabled = $('rot-right').disabled = o < 0;
+  $('rot-left').disabled = $('rot-right').disabled = $('paint').disabled = o < 0;
+  if (o >= 0) {
+    const rho = state.objects[o].meta.reflectance;
+    const c = new THREE.Color().setRGB(rho[0], rho[1], rho[2], THREE.LinearSRGBColorSpace);
+    $('paint').value = '#' + c.getHexString(THREE.SRGBColorSpace);
+  }
   for (const [i, ob] of state.objects.entries()) {
     ob.overlay.visible = $('roles').checked || i === o;
     ob.overlay.material.opacity = i === o ? 0.25 : 0.35;
@@ -152,6 +157,13 @@ function rotateSelected(angle) {
   if (o < 0) return;
   steer(o, rotated(o, worldFromObject(o), angle, supportNormal(o)), performance.now());
 }
+$('paint').oninput = () => {
+  const o = state.selected;
+  if (o < 0) return;
+  const c = new THREE.Color().setStyle($('paint').value, THREE.SRGBColorSpace);
+  state.objects[o].meta.reflectance = [c.r, c.g, c.b];
+  send('set_reflectance', { object: o, reflectance: [c.r, c.g, c.b] });
+};
 $('rot-left').onclick = () => rotateSelected(Math.PI / 12);
 $('rot-right').onclick = () => rotateSelected(-Math.PI / 12);
 window.addEventListener('keydown', (e) => {

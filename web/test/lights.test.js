@@ -27,7 +27,7 @@ async function lampAt(page, cd, rects) {
   return { sum: await shrad(page, () => window.__shrad.radianceSum()), pixels: await shrad(page, (r) => window.__shrad.sample(r), rects) };
 }
 
-test('lights and sky in the page: listed, drawn, steered', { timeout: 600_000 }, async () => {
+test('lights and sky in the page: listed, drawn, steered, a block painted', { timeout: 600_000 }, async () => {
   const server = await startServer([path.join(repo, 'scenes/courtyard.toml'), '--patches', '3000']);
   const browser = await launch();
   try {
@@ -77,6 +77,23 @@ test('lights and sky in the page: listed, drawn, steered', { timeout: 600_000 },
     await page.waitForFunction((x) => window.__shrad.state.lastFrame.lights[0].position[0] > x + 0.2, before[0], { timeout: 30_000 });
     const after = await shrad(page, () => window.__shrad.state.lastFrame.lights[0].position);
     assert.ok(Math.abs(after[1] - before[1]) < 1e-4, `the lamp left its height: ${before} -> ${after}`);
+
+    // Paint the grey block blue (select it, pick a colour: `set_reflectance`): the page draws
+    // it blue once the engine's frames have it.
+    const at = await shrad(page, () => window.__shrad.screenOf('block'));
+    const blockPixel = async () => (await shrad(page, (r) => window.__shrad.sample(r), [[at.x - 3, at.y - 3, 6, 6]]))[0];
+    const grey = await blockPixel();
+    await page.mouse.click(at.x, at.y);
+    await page.waitForFunction(() => !document.getElementById('paint').disabled, null, { timeout: 10_000 });
+    await page.$eval('#paint', (el) => { el.value = '#2040ff'; el.dispatchEvent(new Event('input')); });
+    const deadline = Date.now() + 60_000;
+    let blue = await blockPixel();
+    while (!(blue[2] > 1.5 * blue[0]) && Date.now() < deadline) {
+      await page.waitForTimeout(250);
+      blue = await blockPixel();
+    }
+    assert.ok(blue[2] > 1.5 * blue[0], `the painted block is drawn ${blue} (it was ${grey})`);
+    assert.ok(Math.abs(grey[2] - grey[0]) < 0.2 * grey[2], `the block was not grey before: ${grey}`);
     assert.deepEqual(errors, [], `the page reported errors: ${errors.join('; ')}`);
   } finally {
     await browser.close();

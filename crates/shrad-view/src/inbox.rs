@@ -31,6 +31,8 @@ pub enum Key {
     Transform(usize),
     /// A light surface's emission (by scene index).
     Emission(usize),
+    /// An object's reflectance (by scene index).
+    Reflectance(usize),
     /// A punctual light's transform (by index in the scene's lights).
     LightTransform(usize),
     /// A punctual light's colour and intensity (by index).
@@ -75,6 +77,7 @@ impl Key {
         match request {
             Request::SetTransform { object: o, .. } => object(o).map(Key::Transform),
             Request::SetEmission { object: o, .. } => object(o).map(Key::Emission),
+            Request::SetReflectance { object: o, .. } => object(o).map(Key::Reflectance),
             Request::SetLightTransform { light: l, .. } => light(l).map(Key::LightTransform),
             Request::SetLightIntensity { light: l, .. } => light(l).map(Key::LightIntensity),
             Request::SetOption { key, .. } => Some(Key::Setting(key.clone())),

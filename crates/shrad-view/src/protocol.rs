@@ -72,6 +72,14 @@ pub enum Request {
         /// `L_e`, linear RGB.
         radiance: [f64; 3],
     },
+    /// Set an object's reflectance factor (linear RGB, each in [0, 1]; its texture and
+    /// vertex colours multiply it): a surface painted another colour.
+    SetReflectance {
+        /// The object.
+        object: ObjectRef,
+        /// The factor, linear RGB.
+        reflectance: [f64; 3],
+    },
     /// Put punctual light `light` at `matrix` (world from light, as `set_transform`'s; it
     /// shines along that frame's -Z), keeping its colour and intensity.
     SetLightTransform {
@@ -156,6 +164,7 @@ impl Request {
         match self {
             Request::SetTransform { .. } => "set_transform",
             Request::SetEmission { .. } => "set_emission",
+            Request::SetReflectance { .. } => "set_reflectance",
             Request::SetLightTransform { .. } => "set_light_transform",
             Request::SetLightIntensity { .. } => "set_light_intensity",
             Request::SetTime { .. } => "set_time",
@@ -181,6 +190,7 @@ impl Request {
             self,
             Request::SetTransform { .. }
                 | Request::SetEmission { .. }
+                | Request::SetReflectance { .. }
                 | Request::SetLightTransform { .. }
                 | Request::SetLightIntensity { .. }
                 | Request::SetTime { .. }

@@ -112,6 +112,7 @@ fn malformed(r: &mut Rng) -> Message {
     let templates = [
         r#"{"v":1,"type":"set_transform","object":"short_block","matrix":[1,0,0,0,0,1,0,0,0,0,1,0,0.1,0,0,1]}"#,
         r#"{"v":1,"type":"set_emission","object":"light","radiance":[1,2,3]}"#,
+        r#"{"v":1,"type":"set_reflectance","object":"short_block","reflectance":[0.2,0.4,0.8]}"#,
         r#"{"v":1,"type":"set_time","t":0.5}"#,
         r#"{"v":1,"type":"set_option","key":"per_frame","value":"2"}"#,
         r#"{"v":1,"type":"set_channel","channel":"direct"}"#,
@@ -126,6 +127,8 @@ fn malformed(r: &mut Rng) -> Message {
         "{\"v\":1,\"type\":\"set_transform\",\"object\":\"short_block\",\"matrix\":[0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,1]}",
         "{\"v\":1,\"type\":\"set_transform\",\"object\":\"short_block\",\"matrix\":[1e300,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1]}",
         "{\"v\":1,\"type\":\"set_emission\",\"object\":0,\"radiance\":[-1,0,0]}",
+        "{\"v\":1,\"type\":\"set_reflectance\",\"object\":0,\"reflectance\":[0.5,1.5,0]}",
+        "{\"v\":1,\"type\":\"set_reflectance\",\"object\":0,\"reflectance\":[0.5]}",
         "{\"v\":1,\"type\":\"set_solver\",\"solver\":\"magic\"}",
         "{\"v\":1,\"type\":\"set_solver\",\"solver\":\"grid\",\"preset\":\"nope\"}",
         "{\"v\":1,\"type\":\"set_option\",\"key\":\"per_frame\",\"value\":\"-3\"}",
@@ -417,6 +420,16 @@ fn steering_requests_do_what_they_say() {
         ws.send(Message::Text(light.into())).await.unwrap();
         let r = reply(&mut ws).await;
         assert_eq!(r["type"], "ok", "{r}");
+        // A wall painted blue, then a colour that is not a reflectance.
+        let paint = |rgb: [f64; 3]| {
+            json!({"v": 1, "type": "set_reflectance", "object": "floor", "reflectance": rgb})
+        };
+        let r = ask(&mut ws, paint([0.1, 0.2, 0.7])).await;
+        assert_eq!(r["type"], "ok", "{r}");
+        let r = ask(&mut ws, paint([0.5, 1.5, 0.0])).await;
+        assert_eq!(r["type"], "error", "{r}");
+        let said = r["message"].as_str().unwrap();
+        assert!(said.contains("'floor'") && said.contains("within [0, 1]"), "{r}");
         // A live setting, then a solver switch, then a setting the new solver lacks.
         let r = ask(
             &mut ws,

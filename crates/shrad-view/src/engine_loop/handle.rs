@@ -119,6 +119,18 @@ impl EngineLoop {
                 self.changed();
                 Ok(json!({}))
             }
+            Request::SetReflectance {
+                object,
+                reflectance,
+            } => {
+                let o = self.object(&object)?;
+                let rho = Vec3::from_array(reflectance.map(|c| c as f32));
+                self.engine
+                    .set_reflectance(o, rho)
+                    .map_err(|e| e.to_string())?;
+                self.changed();
+                Ok(json!({}))
+            }
             Request::SetLightTransform { .. } | Request::SetLightIntensity { .. } => {
                 self.steer_light(request)
             }

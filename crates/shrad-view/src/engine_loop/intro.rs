@@ -43,6 +43,7 @@ impl EngineLoop {
                     "role": p.object_role[o].name(),
                     "local_from_object": protocol::columns(lfo),
                     "emission": object.material.emitted_radiance.to_array(),
+                    "reflectance": object.material.reflectance.to_array(),
                     "patches": p.range(o).len(),
                     "first_vertex": self.mesh.objects[o].first_vertex,
                 })
