@@ -73,14 +73,17 @@ impl Animation {
 
     /// Emitted radiance at time `t`, or `None` when the animation does not change it.
     pub fn emission_at(&self, t: f32) -> Option<Vec3> {
-        let keys = self.emission.iter().map(|k| (k.time, k.emitted_radiance));
-        colour_at(keys, self.step, t)
+        colour_at(
+            &self.emission,
+            |k| (k.time, k.emitted_radiance),
+            self.step,
+            t,
+        )
     }
 
     /// Reflectance factor at time `t`, or `None` when the animation does not change it.
     pub fn reflectance_at(&self, t: f32) -> Option<Vec3> {
-        let keys = self.reflectance.iter().map(|k| (k.time, k.reflectance));
-        colour_at(keys, self.step, t)
+        colour_at(&self.reflectance, |k| (k.time, k.reflectance), self.step, t)
     }
 
     /// Time of the last key (0 for a static object).
@@ -92,24 +95,19 @@ impl Animation {
     }
 }
 
-/// The value at time `t` of colour keys `(time, value)` sorted by time: the end keys hold
-/// before the first and after the last, each key holds until the next when `step`, else
-/// linear in between; `None` without keys.
-fn colour_at(
-    keys: impl ExactSizeIterator<Item = (f32, Vec3)> + Clone,
-    step: bool,
-    t: f32,
-) -> Option<Vec3> {
-    let n = keys.len();
-    let (first, last) = (keys.clone().next()?, keys.clone().nth(n - 1)?);
+/// The value at time `t` of colour keys sorted by time (`key`: a key's time and value): the
+/// end keys hold before the first and after the last, each key holds until the next when
+/// `step`, else linear in between; `None` without keys.
+fn colour_at<K>(keys: &[K], key: impl Fn(&K) -> (f32, Vec3), step: bool, t: f32) -> Option<Vec3> {
+    let (first, last) = (key(keys.first()?), key(keys.last()?));
     if t <= first.0 {
         return Some(first.1);
     }
     if t >= last.0 {
         return Some(last.1);
     }
-    let i = keys.clone().take_while(|k| k.0 <= t).count();
-    let (a, b) = (keys.clone().nth(i - 1)?, keys.clone().nth(i)?);
+    let i = keys.partition_point(|k| key(k).0 <= t);
+    let (a, b) = (key(&keys[i - 1]), key(&keys[i]));
     if step {
         return Some(a.1);
     }

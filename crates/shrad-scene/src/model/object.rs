@@ -51,7 +51,7 @@ pub struct Object {
     /// Motion imported from an animated glTF node (the scene file's keys go on top).
     pub node_animation: Option<crate::NodeAnimation>,
     /// Emission and base colour animated in the file (`KHR_animation_pointer` on its glTF
-    /// material; the scene file's emission keys go on top).
+    /// material; the scene file's emission and reflectance keys go on top).
     pub material_tracks: Option<crate::MaterialTracks>,
     /// Patch size for this object only (overrides the scene's), in scene units.
     pub patch_size: Option<f32>,
