@@ -251,6 +251,9 @@ rotation_deg = [0, 90, 0]
 [[object.emission_key]]
 time = 0.5
 emission = [0.1, 0, 0]
+[[object.reflectance_key]]
+time = 1
+reflectance = [0.1, 0.2, 0.7]
 
 [[object]]
 name = "block"
@@ -280,6 +283,7 @@ def test_a_toml_file_and_a_dict_make_the_same_scene(tmp_path):
         "interpolation": "step",
         "key": [{"time": 0}, {"time": 1, "translation": [-0.5, 0, 0], "rotation_deg": [0, 90, 0]}],
         "emission_key": [{"time": 0.5, "emission": [0.1, 0, 0]}],
+        "reflectance_key": [{"time": 1, "reflectance": [0.1, 0.2, 0.7]}],
     }
     block = {
         "name": "block",
@@ -303,6 +307,8 @@ def test_a_toml_file_and_a_dict_make_the_same_scene(tmp_path):
     a, b = engines
     np.testing.assert_array_equal(a.centres, b.centres)
     np.testing.assert_array_equal(a.reflectance, b.reflectance)
+    # The ball's one reflectance key paints it from the start.
+    np.testing.assert_allclose(a.reflectance[a.object_ids == 2], [[0.1, 0.2, 0.7]] * int((a.object_ids == 2).sum()), rtol=1e-6)
     np.testing.assert_array_equal(a.transform("ball"), b.transform("ball"))
     np.testing.assert_array_equal(a.radiosity, b.radiosity)
     # The same camera too: the scene's camera renders the same picture.
