@@ -29,7 +29,8 @@ struct Sums {
     den: f64,
     diff: f64,
     reference: f64,
-    /// `sum A |rho (E_direct - E_direct,ref)|^2`: the part of `num` the direct light alone
+    /// `sum A |rho (E_direct - E_direct,ref)|^2` (the light surfaces' direct light; NaN when
+    /// the solver keeps none per interior patch): the part of `num` the direct light alone
     /// would give.
     direct_num: f64,
 }
@@ -156,14 +157,18 @@ fn print_rows(title: &str, rows: &BTreeMap<String, Sums>, total_num: f64) {
             true => format!("{:>8}", "-"),
             false => format!("{:>8.2}", 100.0 * x),
         };
+        let direct = match s.direct_num.is_nan() {
+            true => format!("{:>8}", "-"),
+            false => format!("{:>8.1}", 100.0 * s.direct_num / s.num.max(1e-30)),
+        };
         println!(
-            "  {:<28} {:>8.1} {:>8.1} {} {} {:>8.1}",
+            "  {:<28} {:>8.1} {:>8.1} {} {} {}",
             name,
             100.0 * s.area / area,
             100.0 * s.num / total_num,
             percent((s.num / s.den.max(1e-30)).sqrt()),
             percent(s.diff / s.reference.max(1e-30)),
-            100.0 * s.direct_num / s.num.max(1e-30),
+            direct,
         );
     }
 }
@@ -280,8 +285,12 @@ fn breakdown(world: &World, d: &Dispersive, reference: &[Vec3]) {
     let b = d.radiosity();
     let all: Vec<u32> = (0..p.len() as u32).collect();
     let ref_direct = shrad::direct::direct_irradiance(world, &all, 64);
-    let zero = vec![Vec3::ZERO; p.len()];
-    let direct = d.direct_irradiance().unwrap_or(&zero);
+    // The light surfaces' direct light, the solver's against a 64-sample one: the solver's
+    // `direct` holds the punctual lights' too, which `ref_direct` leaves out (a courtyard's
+    // sun made the column read millions of per cent); without `direct_on_interior` there is
+    // no per-patch direct light to compare ("-").
+    let direct = d.direct_irradiance();
+    let punctual = d.punctual_irradiance();
     let diagonal = |o: usize| {
         let b = world.scene.objects[o].world_bounds().unwrap();
         (b.max - b.min).length()
@@ -297,7 +306,13 @@ fn breakdown(world: &World, d: &Dispersive, reference: &[Vec3]) {
         }
         let o = p.object[i] as usize;
         let a = p.area[i] as f64;
-        let dd = world.reflectance[i] * (direct[i] - ref_direct[i]);
+        let dd = match direct {
+            Some(e) => {
+                let area_lights = e[i] - punctual.get(i).copied().unwrap_or(Vec3::ZERO);
+                world.reflectance[i] * (area_lights - ref_direct[i])
+            }
+            None => Vec3::NAN,
+        };
         let n = p.normal[i];
         let face = if n.y > 0.7 {
             "up"
