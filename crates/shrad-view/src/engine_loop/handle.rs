@@ -109,27 +109,8 @@ impl EngineLoop {
                 self.changed();
                 Ok(json!({}))
             }
-            Request::SetEmission { object, radiance } => {
-                let o = self.object(&object)?;
-                let l = Vec3::new(radiance[0] as f32, radiance[1] as f32, radiance[2] as f32);
-                if !l.is_finite() {
-                    return Err(format!("radiance {radiance:?} is not finite"));
-                }
-                self.engine.set_emission(o, l).map_err(|e| e.to_string())?;
-                self.changed();
-                Ok(json!({}))
-            }
-            Request::SetReflectance {
-                object,
-                reflectance,
-            } => {
-                let o = self.object(&object)?;
-                let rho = Vec3::from_array(reflectance.map(|c| c as f32));
-                self.engine
-                    .set_reflectance(o, rho)
-                    .map_err(|e| e.to_string())?;
-                self.changed();
-                Ok(json!({}))
+            Request::SetEmission { .. } | Request::SetReflectance { .. } => {
+                self.set_surface(request)
             }
             Request::SetLightTransform { .. } | Request::SetLightIntensity { .. } => {
                 self.steer_light(request)
@@ -193,6 +174,35 @@ impl EngineLoop {
             | Request::TakeSteering {}
             | Request::ReleaseSteering {} => Ok(json!({})),
         }
+    }
+
+    /// A surface's emission or reflectance (the engine checks the values and names the
+    /// object in its error).
+    fn set_surface(&mut self, request: Request) -> Result<Value, String> {
+        let rgb = |c: [f64; 3]| Vec3::from_array(c.map(|x| x as f32));
+        match request {
+            Request::SetEmission { object, radiance } => {
+                let o = self.object(&object)?;
+                let l = rgb(radiance);
+                if !l.is_finite() {
+                    return Err(format!("radiance {radiance:?} is not finite"));
+                }
+                self.engine.set_emission(o, l).map_err(|e| e.to_string())?;
+            }
+            Request::SetReflectance {
+                object,
+                reflectance,
+            } => {
+                let o = self.object(&object)?;
+                let rho = rgb(reflectance);
+                self.engine
+                    .set_reflectance(o, rho)
+                    .map_err(|e| e.to_string())?;
+            }
+            _ => unreachable!("`handle` sends only emission and reflectance here"),
+        }
+        self.changed();
+        Ok(json!({}))
     }
 
     /// A punctual light's move or its colour and intensity, through [`Engine::set_light`]
