@@ -33,12 +33,6 @@ impl Stage {
     };
 }
 
-/// The near-field rays a coarse update of a moving object measures again
-/// ([`Dispersive::near_field_follows`]): a fifth of the 77k room's moving frame's other rays.
-/// `scenes/moving_box.toml` lifted: the same error as 8192 (interior 1.3-1.4 % at the end),
-/// 1.8-1.9 % with 2048.
-const NEAR_RAYS_WHILE_MOVING: usize = 4096;
-
 impl Dispersive {
     /// Whether object `k` can be updated now. Its near field and contact openness are
     /// measured where it is now, if they are not yet (it moved, or something moved within
@@ -120,13 +114,7 @@ impl Dispersive {
         let p = &world.patches;
         let patches = p.range(self.objects[k].object).len();
         if self.objects[k].openness_current {
-            return match self.near_field_follows(world, k) {
-                true => Stage {
-                    whole: true,
-                    worked: true,
-                },
-                false => Stage::NOTHING_TO_DO,
-            };
+            return Stage::NOTHING_TO_DO;
         }
         if !self.objects[k].near_stale.is_empty() {
             // Only the patches a neighbour's move came within reach of (`stale.rs`).
@@ -165,34 +153,6 @@ impl Dispersive {
             whole: true,
             worked: true,
         }
-    }
-
-    /// While object `k` moves under coarse updates (`coarse_while_moving`), the near field
-    /// measured where it last rested stands in for one measured where it is (measuring it
-    /// whole at every update would cost the 77k room's largest object 289k rays a frame).
-    /// Measured where it rested, a box lifted off the floor went on reading the floor under
-    /// it at distance 0, and a box slid across it the floor where it stood, lit once it
-    /// left (`scenes/moving_box.toml`: interior error 20 % lifted, 9-10 % slid, while it
-    /// moved). So at each of its updates a slice of its patches is measured again, in turn
-    /// ([`NEAR_RAYS_WHILE_MOVING`] rays), and the stand-in follows it: 1.3 % and 2.3 %
-    /// (docs/results.md §14).
-    /// Returns whether it measured.
-    fn near_field_follows(&mut self, world: &World, k: usize) -> bool {
-        let rays = self.options.near_rays as usize;
-        let ob = &mut self.objects[k];
-        let coarse_mover = ob.moving && self.options.coarse_while_moving;
-        if !coarse_mover || rays == 0 || ob.near.lobe.is_empty() {
-            return false;
-        }
-        let n = world.patches.range(ob.object).len();
-        let slice = (NEAR_RAYS_WHILE_MOVING / rays).clamp(1, n);
-        let start = ob.near_cursor % n;
-        ob.near_cursor = (start + slice) % n;
-        (ob.near_stale).extend((start..start + slice).map(|i| (i % n) as u32));
-        ob.near_stale.sort_unstable();
-        ob.near_stale.dedup();
-        self.near_field_again(world, k);
-        true
     }
 
     /// The probes of object `k` not in its cache, captured [`PROBES_AT_ONCE`] at a time until

@@ -61,6 +61,7 @@ impl Dispersive {
             }
             // Its cost for the scheduler is the update's, without what was prepared.
             let t = Instant::now();
+            self.near_field_follows(world, k);
             let tt = Instant::now();
             let (probes, scale) = self.capture_corner_probes(world, k, m, steps);
             super::tr("capture_corner_probes", tt);
