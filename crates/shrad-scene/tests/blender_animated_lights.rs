@@ -19,7 +19,7 @@ use glam::Vec3;
 use serde_json::Value;
 use shrad_scene::{load, LightKind, LoadOptions};
 
-use crate::common::blender::{data, run_script};
+use crate::common::blender::{check_fresh_export, data};
 
 fn vec3(v: &Value) -> Vec3 {
     Vec3::new(
@@ -92,13 +92,5 @@ fn shrads_lamps_and_glow_follow_blenders_keys() {
 
 #[test]
 fn fresh_blender_animated_lights_export_when_blender_is_installed() {
-    let out = std::env::temp_dir().join(format!("shrad-blender-lights-{}", std::process::id()));
-    if !run_script(&data().join("animated_lights.py"), &out, &[]) {
-        return;
-    }
-    check(
-        &out.join("animated_lights.glb"),
-        &out.join("animated_lights.json"),
-    );
-    let _ = std::fs::remove_dir_all(&out);
+    check_fresh_export("animated_lights", check);
 }

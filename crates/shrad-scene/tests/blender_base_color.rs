@@ -14,7 +14,7 @@ use glam::Vec3;
 use serde_json::Value;
 use shrad_scene::{load, LoadOptions};
 
-use crate::common::blender::{data, run_script};
+use crate::common::blender::{check_fresh_export, data};
 
 fn check(glb: &Path, json: &Path) {
     let scene = load(glb, &LoadOptions::default()).unwrap();
@@ -54,13 +54,5 @@ fn shrads_reflectance_follows_blenders_keyed_base_color() {
 
 #[test]
 fn fresh_blender_keyed_base_color_export_when_blender_is_installed() {
-    let out = std::env::temp_dir().join(format!("shrad-blender-paint-{}", std::process::id()));
-    if !run_script(&data().join("keyed_base_color.py"), &out, &[]) {
-        return;
-    }
-    check(
-        &out.join("keyed_base_color.glb"),
-        &out.join("keyed_base_color.json"),
-    );
-    let _ = std::fs::remove_dir_all(&out);
+    check_fresh_export("keyed_base_color", check);
 }

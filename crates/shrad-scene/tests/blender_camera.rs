@@ -11,7 +11,7 @@ use glam::Vec3;
 use serde_json::Value;
 use shrad_scene::{load, LoadOptions};
 
-use crate::common::blender::{data, matrix, run_script};
+use crate::common::blender::{check_fresh_export, data, matrix};
 
 /// Largest (eye distance, angle between view directions, angle between up vectors in
 /// radians) over the recorded frames; frames between the exporter's per-frame samples
@@ -80,13 +80,5 @@ fn gltfpacks_compressed_keys_put_the_camera_where_blender_has_it() {
 
 #[test]
 fn fresh_blender_camera_export_when_blender_is_installed() {
-    let out = std::env::temp_dir().join(format!("shrad-blender-cam-{}", std::process::id()));
-    if !run_script(&data().join("animated_camera.py"), &out, &[]) {
-        return;
-    }
-    check(
-        &out.join("animated_camera.glb"),
-        &out.join("animated_camera.json"),
-    );
-    let _ = std::fs::remove_dir_all(&out);
+    check_fresh_export("animated_camera", check);
 }

@@ -21,7 +21,7 @@ use glam::Vec3;
 use serde_json::Value;
 use shrad_scene::{load, LoadOptions};
 
-use crate::common::blender::{data, run_script};
+use crate::common::blender::{check_fresh_export, data};
 
 /// How far (m) a vertex of Blender's float export may be from Blender's: rounding.
 const FLOATS: f32 = 1e-4;
@@ -124,14 +124,7 @@ fn gltfpacks_compressed_instances_land_where_blender_has_them() {
 
 #[test]
 fn fresh_blender_instancing_export_when_blender_is_installed() {
-    let out = std::env::temp_dir().join(format!("shrad-blender-inst-{}", std::process::id()));
-    if !run_script(&data().join("gpu_instances.py"), &out, &[]) {
-        return;
-    }
-    check(
-        &out.join("gpu_instances.glb"),
-        &out.join("gpu_instances.json"),
-        FLOATS,
-    );
-    let _ = std::fs::remove_dir_all(&out);
+    check_fresh_export("gpu_instances", |glb: &Path, json: &Path| {
+        check(glb, json, FLOATS)
+    });
 }

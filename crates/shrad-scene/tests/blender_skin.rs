@@ -18,7 +18,7 @@ use glam::Vec3;
 use serde_json::Value;
 use shrad_scene::{load, LoadOptions};
 
-use crate::common::blender::{data, run_script};
+use crate::common::blender::{check_fresh_export, data};
 
 fn check(glb: &Path, json: &Path) {
     let scene = load(glb, &LoadOptions::default()).unwrap();
@@ -132,10 +132,5 @@ fn shrads_skinned_arm_follows_blenders_armature() {
 
 #[test]
 fn fresh_blender_skinned_arm_export_when_blender_is_installed() {
-    let out = std::env::temp_dir().join(format!("shrad-blender-skin-{}", std::process::id()));
-    if !run_script(&data().join("skinned_arm.py"), &out, &[]) {
-        return;
-    }
-    check(&out.join("skinned_arm.glb"), &out.join("skinned_arm.json"));
-    let _ = std::fs::remove_dir_all(&out);
+    check_fresh_export("skinned_arm", check);
 }

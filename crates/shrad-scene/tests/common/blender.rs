@@ -48,3 +48,17 @@ pub fn run_script(script: &Path, out: &Path, args: &[&str]) -> bool {
     assert!(status.success(), "{} failed", script.display());
     true
 }
+
+/// Blender's fixture script `name.py` run again into a fresh folder, and `check` given the
+/// `name.glb` and `name.json` it wrote; nothing (it says it skipped) without Blender.
+pub fn check_fresh_export(name: &str, check: impl FnOnce(&Path, &Path)) {
+    let out = std::env::temp_dir().join(format!("shrad-blender-{name}-{}", std::process::id()));
+    if !run_script(&data().join(format!("{name}.py")), &out, &[]) {
+        return;
+    }
+    check(
+        &out.join(format!("{name}.glb")),
+        &out.join(format!("{name}.json")),
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
