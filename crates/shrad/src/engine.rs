@@ -178,7 +178,10 @@ impl Engine {
 
     /// Set object `o`'s reflectance factor (linear RGB, each in [0, 1]; its base-colour
     /// texture and vertex colours multiply it): a wall painted another colour. Every
-    /// solver sees it as a surface whose light changed.
+    /// solver sees it as a surface whose light changed. A light surface painted from black
+    /// (or to black) begins (or ceases) to reflect, which the dispersive solver's set-up
+    /// decides: it runs again at the next frame, and the light starts from the lights'
+    /// emission (as after [`Engine::set_solver`]).
     pub fn set_reflectance(&mut self, o: usize, reflectance: Vec3) -> Result<(), Error> {
         if self.world.set_reflectance(o, reflectance)? && !self.pending.relit.contains(&o) {
             self.pending.relit.push(o);

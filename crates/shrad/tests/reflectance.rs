@@ -1,7 +1,8 @@
 //! A surface painted another colour while the engine runs: every solver ends where a fresh
 //! one on the scene loaded with that colour ends (Cornell's red wall painted blue; a black
-//! box under a lamp painted white, whose patches only then receive the lamp's light), and
-//! an absurd colour is refused naming the object.
+//! box under a lamp painted white, whose patches only then receive the lamp's light; the
+//! Cornell box's black light painted white, which only then reflects), and an absurd colour
+//! is refused naming the object.
 
 use glam::{Affine3A, Vec3};
 use shrad::engine::Engine;
@@ -58,14 +59,25 @@ fn painted_equals_loaded(scene: &Scene, painted: &Scene, o: usize, paint: Paint,
         }
         engine.converge(4);
         let mut fresh = make(painted);
-        fresh.converge(4);
+        fresh.converge(6);
         let (worst, top) = largest_difference(engine.radiosity(), fresh.radiosity());
         let tolerance = if name == "reference" { 1e-5 } else { tolerance };
         assert!(worst <= tolerance * top, "{name}: {worst} of {top}");
-        // And the painted object's light did change.
+        // The light the painted object reflects (its emission aside, which can hide it: a
+        // light's) is the fresh engine's too, and it did change where that one says it should.
         let r = engine.world().patches.range(o);
-        let (changed, was) = largest_difference(&engine.radiosity()[r.clone()], &before[r]);
-        assert!(changed > 0.2 * was, "{name}: changed by {changed} of {was}");
+        let reflected = |b: &[Vec3]| -> Vec<Vec3> {
+            let e = &engine.world().exitance;
+            r.clone().map(|i| b[i] - e[i]).collect()
+        };
+        let (now, was) = (reflected(engine.radiosity()), reflected(&before));
+        let (worst, top) = largest_difference(&now, &reflected(fresh.radiosity()));
+        assert!(
+            worst <= tolerance * top,
+            "{name}: painted object {worst} of {top}"
+        );
+        let (changed, _) = largest_difference(&now, &was);
+        assert!(changed > 0.2 * top, "{name}: changed by {changed} of {top}");
     }
 }
 
@@ -247,4 +259,16 @@ fn a_scene_files_reflectance_keys_play_and_bad_ones_are_refused() {
             .to_string();
         assert!(e.contains("reflectance_key 0"), "{bad}: {e}");
     }
+}
+
+#[test]
+fn cornells_black_light_painted_white_equals_the_box_loaded_with_a_white_light() {
+    // The light reflects nothing when loaded; painted, it reflects what reaches it as the
+    // walls do (each solver's exchange among the boundary's patches takes it in).
+    let scene = cornell_box();
+    let light = named(&scene, "light");
+    let white = Vec3::splat(0.8);
+    let mut painted = scene.clone();
+    painted.objects[light].material.reflectance = white;
+    painted_equals_loaded(&scene, &painted, light, Paint::Set(white), 0.02);
 }

@@ -411,6 +411,7 @@ impl Dispersive {
     /// took it from 0.03 to 0.10 ms at 77k).
     pub fn step(&mut self, world: &World, changes: &Changes) -> FrameStats {
         let frame_start = Instant::now();
+        self.set_up_again_if_receivers_changed(world, &changes.relit);
         let changes = &self.punctual.with_light_changes(world, changes);
         self.follow_the_sky(world);
         self.note_changes(world, changes);
@@ -418,6 +419,29 @@ impl Dispersive {
             return self.sleeping_frame(frame_start);
         }
         crate::warm_pool::warm(|| self.frame(world, changes, frame_start))
+    }
+
+    /// A light surface painted from black begins to receive light as the boundary does
+    /// (`receives_as_boundary`), and one painted black ceases to. The boundary's receivers,
+    /// on which the wall exchange, Step 3's emitters and the light meter are built, are
+    /// chosen at set-up, so the set-up runs again and the light starts from the lights'
+    /// emission, as after `Engine::set_solver` (else the painted light reflected nothing:
+    /// `tests/reflectance.rs`). Any other change of colour keeps the set-up.
+    fn set_up_again_if_receivers_changed(&mut self, world: &World, relit: &[usize]) {
+        let p = &world.patches;
+        let changed = relit.iter().any(|&o| {
+            p.range(o).any(|i| {
+                let listed = self.boundary_patches.binary_search(&(i as u32)).is_ok();
+                receives_as_boundary(world, i) != listed
+            })
+        });
+        if !changed {
+            return;
+        }
+        match Dispersive::new(world, self.options) {
+            Ok(fresh) => *self = fresh,
+            Err(e) => (self.step_warnings).push(format!("set-up after a light was painted: {e}")),
+        }
     }
 
     /// [`Dispersive::step`]'s frame once it has work.
