@@ -161,11 +161,9 @@ pub struct Dispersive {
     /// default, so without this a probe buried in the floor sees the floor's dark underside
     /// as valid).
     outer_side: Vec<bool>,
-    /// Whether the scene is open to the void: near-field rays that leave it see nothing
-    /// (`near_rays::open_to_void`), as measured when the scene had a sky or not
-    /// (`void_under_sky`): a sky that comes or goes measures it again.
-    open_to_void: bool,
-    void_under_sky: bool,
+    /// Whether the scene is open to the outside: near-field rays that leave it see nothing,
+    /// under a sky too (whose light Step 1 gives: `near_rays::is_open`).
+    open: bool,
     /// Keep Steps 2 and 3's rays between updates (`caches.rs`); off only to test that they
     /// change nothing.
     caching: bool,
@@ -324,8 +322,7 @@ impl Dispersive {
             ),
             step_warnings: Vec::new(),
             outer_side: outer_sides(world),
-            open_to_void: options.near_rays > 0 && near_rays::open_to_void(world),
-            void_under_sky: world.sky.is_some(),
+            open: options.near_rays > 0 && near_rays::is_open(world),
             caching: true,
             drift: 0.0,
             object_change: vec![f64::INFINITY; n_objects],
@@ -413,7 +410,6 @@ impl Dispersive {
         let frame_start = Instant::now();
         self.set_up_again_if_receivers_changed(world, &changes.relit);
         let changes = &self.punctual.with_light_changes(world, changes);
-        self.follow_the_sky(world);
         self.note_changes(world, changes);
         if self.everything_sleeps(changes) {
             return self.sleeping_frame(frame_start);

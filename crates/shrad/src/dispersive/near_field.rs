@@ -24,9 +24,10 @@
 //! something within its reach moves (`stale.rs`); while the object moves with coarse
 //! updates, a slice of its patches at each update (`Dispersive::near_field_follows`).
 //!
-//! In a scene open to the void (no sky, and some boundary rays meet nothing:
-//! [`super::near_rays::open_to_void`]) a ray that meets nothing within the reach is traced on: if it meets
-//! nothing at all it leaves the scene and sees exactly nothing, and a patch with such a ray
+//! In a scene open to the outside (some boundary rays meet nothing:
+//! [`super::near_rays::is_open`]) a ray that meets nothing within the reach is traced on: if
+//! it meets nothing at all it leaves the scene and sees exactly nothing (under a sky too,
+//! whose light Step 1 gives every patch), and a patch with such a ray
 //! takes its whole view from its rays, their hits beyond the reach included
 //! (`near_rays::beyond_the_reach`). Taking only the leaving rays out was not enough: the probes'
 //! band-limited radiance blurs the lit floor beside an opening into the opening's
@@ -321,7 +322,7 @@ impl Dispersive {
             &dirs,
             (reach, contact),
             &ob.shape_box,
-            self.open_to_void,
+            self.open,
         );
         let blocked = self.self_blocked(world, k, patches.clone(), &dirs);
         let with_transfer = !ob.transfer.is_empty();

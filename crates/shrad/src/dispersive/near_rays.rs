@@ -1,5 +1,5 @@
 //! The near field's rays (`near_field.rs`): where each patch's rays meet something within
-//! the reach, from its centre or a point spread over it, and, in a scene open to the void,
+//! the reach, from its centre or a point spread over it, and, in a scene open to the outside,
 //! where they meet something beyond it or leave the scene.
 
 use glam::Vec3;
@@ -29,14 +29,14 @@ pub(super) struct NearHits {
     pub(super) hit: Vec<Hit>,
     pub(super) contact: Vec<bool>,
     /// Met nothing within the reach, nor beyond: the ray leaves the scene (only looked for
-    /// in a scene open to the void, [`open_to_void`]).
+    /// in a scene open to the outside, [`is_open`]).
     pub(super) escapes: Vec<bool>,
     /// Traced to whatever it meets, beyond the reach: a ray of a patch that sees the void.
     pub(super) whole: Vec<bool>,
     /// Where each ray starts (the patch's centre or a point spread over it, as taken).
     pub(super) origin: Vec<Vec3>,
     /// Where a ray that met nothing within the reach ends (its hit beyond, or far outside
-    /// the scene), in a scene open to the void.
+    /// the scene), in a scene open to the outside.
     pub(super) end: Vec<Option<Vec3>>,
 }
 
@@ -49,7 +49,7 @@ fn escape_length(world: &World) -> f32 {
         .max(world.eps)
 }
 
-/// In a scene open to the void, the rays of `out` that met nothing within the reach traced
+/// In a scene open to the outside, the rays of `out` that met nothing within the reach traced
 /// on to whatever they meet (`exclude`d objects transparent): those that meet nothing leave
 /// the scene. A patch one of whose rays leaves the scene takes its whole view from its rays
 /// (their hits beyond the reach count, `whole`); every such ray's end is kept (`end`), so
@@ -86,37 +86,24 @@ fn beyond_the_reach(
     }
 }
 
-impl super::Dispersive {
-    /// A sky came or went (`Engine::set_sky`): whether the scene is open to the void is
-    /// measured again, and where that changed, every near field is forgotten (one measured
-    /// open took the rays that leave the scene as dark, which a sky lights).
-    pub(super) fn follow_the_sky(&mut self, world: &World) {
-        let sky = world.sky.is_some();
-        if sky == self.void_under_sky {
-            return;
-        }
-        self.void_under_sky = sky;
-        let open = self.options.near_rays > 0 && open_to_void(world);
-        if open != self.open_to_void {
-            self.open_to_void = open;
-            self.objects.iter_mut().for_each(|ob| ob.forget_openness());
-        }
-    }
-}
-
-/// Whether `world` is open to the void: no sky, and some of 4,096 rays from its boundary
-/// patches (cosine-distributed over their fronts, the samples hashes of their indices) meet
-/// nothing. A near-field ray that leaves such a scene sees exactly nothing, where the probes'
+/// Whether `world` is open to the outside: some of 4,096 rays from its boundary patches
+/// (cosine-distributed over their fronts, the samples hashes of their indices) meet nothing.
+/// A near-field ray that leaves such a scene sees exactly nothing, where the probes'
 /// band-limited radiance in its direction carries the light beside the opening (the Cornell
-/// box's short block, whose front faces the open side, was 27 % too bright). In a closed
-/// scene, or under a sky (whose radiance the probes see), the test is skipped.
-pub(super) fn open_to_void(world: &World) -> bool {
+/// box's short block, whose front faces the open side, was 27 % too bright). Under a sky
+/// too: its light reaches every patch through Step 1 (`lights/cache.rs`, with its shadow
+/// rays), and a probe texel that sees it reads nothing (`Dispersive::shade_probe_texel`), so
+/// what a ray that leaves sees is nothing there as well (taken from the probes, the
+/// courtyard's interior faces were 1-5 % too dark and the Cornell box's front under a sky
+/// 2.8 % too bright; `tests_near.rs`). The test is geometry alone: a sky that comes or goes
+/// changes no near field.
+pub(super) fn is_open(world: &World) -> bool {
     use crate::sampling::{hash2, square_to_cosine_hemisphere, unit};
     let p = &world.patches;
     let boundary: Vec<usize> = (0..p.len())
         .filter(|&i| p.role(i) == Role::Boundary)
         .collect();
-    if world.sky.is_some() || boundary.is_empty() {
+    if boundary.is_empty() {
         return false;
     }
     let n = 4096u32;
@@ -152,7 +139,7 @@ pub(super) fn near_hits(
     dirs: &[Vec3],
     (reach, contact): (f32, f32),
     shape: &Aabb,
-    open_to_void: bool,
+    open: bool,
 ) -> NearHits {
     let p = &world.patches;
     let rays = dirs.len() / patches.len().max(1);
@@ -238,7 +225,7 @@ pub(super) fn near_hits(
             .push(if take_spread { spread[j] } else { centre[j] });
         out.contact.push(at_spread[j]);
     }
-    if open_to_void {
+    if open {
         beyond_the_reach(world, dirs, rays, &exclude, &mut out);
     }
     out

@@ -215,7 +215,33 @@ fn a_sphere_on_the_floor_gets_the_light_it_sends_the_floor_back() {
 /// takes its whole view from its rays (`near_rays::beyond_the_reach`): within 10 %.
 #[test]
 fn a_face_towards_the_open_side_sees_the_void() {
-    let world = cornell(4000);
+    let (ours, theirs) = the_short_blocks_front(cornell(4000));
+    assert!(
+        (ours / theirs - 1.0).abs() < 0.1,
+        "the front: {ours} against the reference's {theirs}"
+    );
+}
+
+/// The same under a sky. Its light reaches every patch through Step 1 (`lights/cache.rs`,
+/// with shadow rays) and the probes see nothing where they see the sky, so a near-field ray
+/// that leaves the scene sees nothing there as in the void; read from the probes' band-limited
+/// radiance, the front was 2.8 % too bright (within 0.6 % so; the courtyard's faces were
+/// 1-5 % too dark).
+#[test]
+fn a_face_towards_the_open_side_under_a_sky_takes_the_sky_from_step_1() {
+    let mut world = cornell(4000);
+    let sky = shrad_scene::Environment::uniform(Vec3::new(0.4, 0.6, 1.0));
+    assert!(world.set_sky(Some(sky)).unwrap());
+    let (ours, theirs) = the_short_blocks_front(world);
+    assert!(
+        (ours / theirs - 1.0).abs() < 0.015,
+        "the front: {ours} against the reference's {theirs}"
+    );
+}
+
+/// The mean radiosity (channels summed) of the Cornell box's short block's front, the face
+/// towards the open side, with the dispersive default converged and with the reference.
+fn the_short_blocks_front(world: World) -> (f64, f64) {
     let block = object_named(&world, "short_block");
     let reference = crate::reference::solve(
         &world,
@@ -224,7 +250,7 @@ fn a_face_towards_the_open_side_sees_the_void() {
     )
     .0;
     let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
-    assert!(d.open_to_void, "the Cornell box is open on one side");
+    assert!(d.open, "the Cornell box is open on one side");
     d.converge(&world, 8);
     let p = &world.patches;
     let front: Vec<usize> = (p.range(block)).filter(|&i| p.normal[i].z < -0.9).collect();
@@ -236,22 +262,18 @@ fn a_face_towards_the_open_side_sees_the_void() {
             .sum();
         sum / area
     };
-    let (ours, theirs) = (mean(d.radiosity()), mean(&reference));
-    assert!(
-        (ours / theirs - 1.0).abs() < 0.1,
-        "the front: {ours} against the reference's {theirs}"
-    );
+    (mean(d.radiosity()), mean(&reference))
 }
 
-/// A sky that comes after the near fields were measured in the open Cornell box (the rays
-/// that leave it taken as dark) lights what they see: the solver then converges where one
-/// made under that sky does (`near_rays::Dispersive::follow_the_sky`).
+/// A sky that comes after the near fields were measured in the open Cornell box changes no
+/// near field (what a ray that leaves sees is nothing either way: its light comes through
+/// Step 1), and the solver converges where one made under that sky does.
 #[test]
-fn a_sky_that_comes_lights_what_the_near_field_took_for_the_void() {
+fn a_sky_that_comes_after_the_near_fields_leaves_them_as_they_are() {
     let sky = shrad_scene::Environment::uniform(Vec3::splat(2.0));
     let mut world = cornell(3000);
     let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
-    assert!(d.open_to_void);
+    assert!(d.open);
     d.converge(&world, 4);
     assert!(world.set_sky(Some(sky.clone())).unwrap());
     let lit = Changes {
@@ -260,10 +282,7 @@ fn a_sky_that_comes_lights_what_the_near_field_took_for_the_void() {
     };
     d.step(&world, &lit);
     d.converge(&world, 12);
-    assert!(
-        !d.open_to_void,
-        "under a sky nothing leaves the scene unlit"
-    );
+    assert!(d.open, "the box is as open under a sky");
     let mut fresh = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
     fresh.converge(&world, 16);
     let p = &world.patches;
