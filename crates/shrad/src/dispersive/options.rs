@@ -250,6 +250,7 @@ impl DispersiveOptions {
             one_emitter_while_moving: true,
             resend_tolerance: 0.02,
             near_rays: 64,
+            near_reach: 0.35,
             probe_visibility: true,
             ..Self::paper()
         }
