@@ -159,11 +159,20 @@ fn scene_without_emitter_warns() {
         "-q",
         "--patches",
         "10",
+        "--solver",
+        "dispersive",
+        "--compare",
         "-o",
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("no emitter"));
+    // A black reference has no relative error: said so, not "NaN %".
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        said.contains("overall -") && !said.contains("NaN"),
+        "{said}"
+    );
 }
 
 #[test]

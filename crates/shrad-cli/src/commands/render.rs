@@ -256,11 +256,16 @@ pub fn run(args: RenderArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     solve(&mut engine, args.frames, quiet);
     if args.compare && !matches!(choice, SolverChoice::Reference(_)) {
         let e = engine.error();
+        let parts = [e.overall, e.boundary, e.interior];
+        let why = match parts.iter().all(|e| e.is_finite()) {
+            true => "",
+            false => " (-: no patch of that part, or a black reference there)",
+        };
         println!(
-            "error vs reference (spec 8): overall {:.2} %, boundary {:.2} %, interior {:.2} %",
-            100.0 * e.overall,
-            100.0 * e.boundary,
-            100.0 * e.interior
+            "error vs reference (spec 8): overall {}, boundary {}, interior {}{why}",
+            percent(e.overall),
+            percent(e.boundary),
+            percent(e.interior)
         );
     }
     let solve_seconds = t.elapsed().as_secs_f64();
@@ -321,4 +326,13 @@ fn export_patches(world: &World, radiosity: &[glam::Vec3], path: &Path) -> Resul
     }
     w.flush()?;
     Ok(())
+}
+
+/// A relative error as a percentage, or "-" where there is none (`relative_error`'s NaN: no
+/// patch of that part, or a reference that is black there, as in a scene without light).
+fn percent(e: f64) -> String {
+    match e.is_finite() {
+        true => format!("{:.2} %", 100.0 * e),
+        false => "-".to_string(),
+    }
 }
