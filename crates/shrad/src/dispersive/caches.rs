@@ -562,4 +562,16 @@ mod tests {
         };
         same_with_and_without_caches(options, &moves());
     }
+
+    /// Probes that see through the objects within the near reach (the Cornell box's blocks
+    /// are within each other's): a block's moves change what is near, and the cached
+    /// probes and near fields follow.
+    #[test]
+    fn cached_equals_uncached_seeing_through_near_objects() {
+        let options = DispersiveOptions {
+            see_through_near: true,
+            ..DispersiveOptions::improved()
+        };
+        same_with_and_without_caches(options, &moves());
+    }
 }

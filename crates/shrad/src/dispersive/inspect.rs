@@ -48,14 +48,10 @@ impl Dispersive {
         let p = &world.patches;
         let limit = self.options.invalid_back_fraction;
         let mut out = Vec::with_capacity(8 * self.objects.len());
-        for ob in &self.objects {
+        for (k, ob) in self.objects.iter().enumerate() {
             let o = ob.object;
             let m = p.world_from_local[o];
-            let exclude: Vec<u32> = if self.options.see_through_self {
-                vec![o as u32]
-            } else {
-                vec![]
-            };
+            let exclude = self.probes_see_through(world, k);
             let points: Vec<Vec3> = (0..8)
                 .map(|c| m.transform_point3(ob.probe_local(c)))
                 .collect();

@@ -44,7 +44,7 @@ use shrad_sh::{eval_basis, num_coeffs};
 use shrad_vis::Hit;
 
 use super::caches::{SEES_BACK, SEES_NOTHING};
-use super::near_rays::near_hits;
+use super::near_rays::{near_hits, near_objects_beyond_the_reach};
 use super::setup::transfer_direction;
 use super::{Dispersive, DispersiveOptions};
 use crate::sparse::SparseRows;
@@ -298,6 +298,26 @@ impl Dispersive {
         self.near_field_again(world, k);
     }
 
+    /// The interior objects whose boxes come within object `k`'s near reach of its box, where
+    /// they are now (`see_through_near`; none without a near field): its probes see through
+    /// them, and its near field's rays take them at any distance
+    /// ([`near_objects_beyond_the_reach`]), so that they come from the near field alone, not
+    /// also, shifted by parallax, from the probes at its box's corners (a ball beside a
+    /// block: the block's face towards it was 8 % too dark, docs/results.md §14).
+    pub(super) fn near_objects(&self, world: &World, k: usize) -> Vec<u32> {
+        if !self.options.see_through_near || self.options.near_rays == 0 {
+            return Vec::new();
+        }
+        let ob = &self.objects[k];
+        let reach = near_reach(&self.options, world, ob.object, &ob.probe_box);
+        let within = self.object_boxes[ob.object].padded(Vec3::splat(reach));
+        (self.objects.iter())
+            .map(|other| other.object)
+            .filter(|&q| q != ob.object && self.object_boxes[q].meets_box(&within))
+            .map(|q| q as u32)
+            .collect()
+    }
+
     /// [`Dispersive::near_field_within`] of object `k`'s `patches` (offsets in its range),
     /// appended to `near`.
     fn near_field_of(
@@ -324,6 +344,9 @@ impl Dispersive {
             &ob.shape_box,
             self.open,
         );
+        let mut hits = hits;
+        let near_objects = self.near_objects(world, k);
+        near_objects_beyond_the_reach(world, o, &dirs, reach, &near_objects, &mut hits);
         let blocked = self.self_blocked(world, k, patches.clone(), &dirs);
         let with_transfer = !ob.transfer.is_empty();
         let bands = self.options.bands;

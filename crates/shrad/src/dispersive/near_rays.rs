@@ -86,6 +86,43 @@ fn beyond_the_reach(
     }
 }
 
+/// The rays of `out` (object `o`'s, directions `dirs`) that met nothing within the reach
+/// traced on to what they meet first (`o` transparent): where that is one of the `near`
+/// objects (`Dispersive::near_objects`, which its probes see through), the hit counts as if
+/// within the reach (`whole`). Every such ray's end is kept (its hit, or far outside the
+/// scene), so that a mover crossing it makes its patch stale, as a void's rays are
+/// (`NearField::far_stale`).
+pub(super) fn near_objects_beyond_the_reach(
+    world: &World,
+    o: usize,
+    dirs: &[Vec3],
+    reach: f32,
+    near: &[u32],
+    out: &mut NearHits,
+) {
+    if near.is_empty() {
+        return;
+    }
+    let within = |h: &Hit| h.is_hit() && h.t <= reach + 2.0 * world.eps;
+    let open: Vec<usize> = (0..dirs.len())
+        .filter(|&j| !within(&out.hit[j]) && !out.whole[j] && !out.escapes[j])
+        .collect();
+    let from: Vec<Vec3> = open.iter().map(|&j| out.origin[j]).collect();
+    let towards: Vec<Vec3> = open.iter().map(|&j| dirs[j]).collect();
+    let mut first = vec![Hit::MISS; open.len()];
+    (world.vis).closest(&from, &towards, 0.0, &[o as u32], &mut first);
+    let escape = escape_length(world);
+    for (&j, h) in open.iter().zip(first) {
+        let t = if h.is_hit() { h.t } else { escape };
+        out.end[j] = Some(out.origin[j] + dirs[j] * t);
+        let object = world.seen_patch(&h).map(|q| world.patches.object[q]);
+        if object.is_some_and(|q| near.contains(&q)) {
+            out.hit[j] = h;
+            out.whole[j] = true;
+        }
+    }
+}
+
 /// Whether `world` is open to the outside: some of 4,096 rays from its boundary patches
 /// (cosine-distributed over their fronts, the samples hashes of their indices) meet nothing.
 /// A near-field ray that leaves such a scene sees exactly nothing, where the probes'

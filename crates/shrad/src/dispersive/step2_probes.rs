@@ -323,11 +323,7 @@ impl Dispersive {
         if cache.key != Some((m, ob.probe_scale)) {
             cache = ProbeCache::default();
         }
-        let exclude: Vec<u32> = if self.options.see_through_self {
-            vec![o]
-        } else {
-            vec![]
-        };
+        let exclude = self.probes_see_through(world, k);
         let limit = self.options.invalid_back_fraction;
         let repair = self.options.repair;
         for slot in &mut cache.probes {
@@ -397,11 +393,7 @@ impl Dispersive {
     ) {
         let ob = &self.objects[k];
         let o = ob.object as u32;
-        let exclude: Vec<u32> = if self.options.see_through_self {
-            vec![o]
-        } else {
-            vec![]
-        };
+        let exclude = self.probes_see_through(world, k);
         let (limit, repair) = (self.options.invalid_back_fraction, self.options.repair);
         let points: Vec<Vec3> = which
             .iter()
@@ -541,6 +533,18 @@ impl Dispersive {
             self.radiosity[j]
         };
         b * std::f32::consts::FRAC_1_PI
+    }
+
+    /// The objects interior object `k`'s probes see through: its own (`see_through_self`)
+    /// and those within its near reach (`see_through_near`, `Dispersive::near_objects`).
+    pub(super) fn probes_see_through(&self, world: &World, k: usize) -> Vec<u32> {
+        let own = self.objects[k].object as u32;
+        let mut exclude = Vec::new();
+        if self.options.see_through_self {
+            exclude.push(own);
+        }
+        exclude.extend(self.near_objects(world, k));
+        exclude
     }
 
     /// Radiance a probe texel of object `o` sees (paper 2.3.3: its own texels are 0).

@@ -106,6 +106,7 @@ impl Keyed for DispersiveOptions {
             "near_rays" => Value::Int(self.near_rays.into()),
             "near_reach" => Value::Float(self.near_reach.into()),
             "probe_visibility" => Value::Bool(self.probe_visibility),
+            "see_through_near" => Value::Bool(self.see_through_near),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
     }
@@ -196,6 +197,7 @@ impl Keyed for DispersiveOptions {
             "near_rays" => self.near_rays = as_u32(value),
             "near_reach" => self.near_reach = as_f32(value),
             "probe_visibility" => self.probe_visibility = as_bool(value),
+            "see_through_near" => self.see_through_near = as_bool(value),
             _ => unreachable!("key {key} is in DISPERSIVE_KEYS"),
         }
         Ok(())

@@ -242,6 +242,10 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
         "probe_visibility",
         "leave out of a patch's interpolation the probes another object hides from it (a crate sunk into the floor is not lit below it from the probes above; off: all 8, the paper)",
     ),
+    flag(
+        "see_through_near",
+        "an object's probes see through the interior objects within its near reach, which its near field takes at any distance instead (no parallax of a ball beside a block; off: the probes see them, the paper)",
+    ),
 ];
 
 /// The grid baseline's keys (fields of [`GridOptions`]).
