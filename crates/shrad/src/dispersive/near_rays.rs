@@ -31,12 +31,13 @@ pub(super) struct NearHits {
     /// Met nothing within the reach, nor beyond: the ray leaves the scene (only looked for
     /// in a scene open to the outside, [`is_open`]).
     pub(super) escapes: Vec<bool>,
-    /// Traced to whatever it meets, beyond the reach: a ray of a patch that sees the void.
+    /// Its hit counts although beyond the reach: a ray of a patch that sees the void, or one
+    /// that met a near object first (`see_through_near`).
     pub(super) whole: Vec<bool>,
     /// Where each ray starts (the patch's centre or a point spread over it, as taken).
     pub(super) origin: Vec<Vec3>,
     /// Where a ray that met nothing within the reach ends (its hit beyond, or far outside
-    /// the scene), in a scene open to the outside.
+    /// the scene), in a scene open to the outside or with near objects seen through.
     pub(super) end: Vec<Option<Vec3>>,
 }
 
