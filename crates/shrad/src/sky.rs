@@ -407,28 +407,26 @@ const POINTS_AT_ONCE: usize = 16_384;
 /// rays each: what a picture shows per pixel. Zero without a sky.
 pub fn point_irradiance(world: &World, xs: &[Vec3], ns: &[Vec3]) -> Vec<Vec3> {
     let mut out = vec![Vec3::ZERO; xs.len()];
-    if lit(world).is_none() {
+    let Some(sky) = lit(world) else {
         return out;
-    }
+    };
     for (c, chunk) in out.chunks_mut(POINTS_AT_ONCE).enumerate() {
         let first = c * POINTS_AT_ONCE;
         let points = first..first + chunk.len();
-        point_irradiance_into(world, (&xs[points.clone()], &ns[points]), first, chunk);
+        point_irradiance_into(world, sky, (&xs[points.clone()], &ns[points]), first, chunk);
     }
     out
 }
 
-/// [`point_irradiance`] of the points `xs` (normals `ns`), the first of which is point
-/// `first` of the whole (its samples' seed), added to `out`.
+/// [`point_irradiance`] of the points `xs` (normals `ns`) under `sky`, the first of which is
+/// point `first` of the whole (its samples' seed), added to `out`.
 fn point_irradiance_into(
     world: &World,
+    sky: &Sky,
     (xs, ns): (&[Vec3], &[Vec3]),
     first: usize,
     out: &mut [Vec3],
 ) {
-    let Some(sky) = lit(world) else {
-        return;
-    };
     let (eps, far, s) = (world.eps, world.far(), PIXEL_SAMPLES);
     let rays: Vec<(Vec3, Vec3, Vec3)> = (0..xs.len())
         .into_par_iter()

@@ -26,6 +26,12 @@ fn mean_radiosity(world: &World, b: &[Vec3], o: usize, below: bool) -> f64 {
     sum / area
 }
 
+/// The reference solve of `world` (standard options).
+fn reference(world: &World) -> Vec<Vec3> {
+    let options = crate::reference::ReferenceOptions::standard();
+    crate::reference::solve(world, &options, &crate::NoProgress).0
+}
+
 /// The Cornell box's short block: its object, its transform at rest (object to world) and
 /// its height (the highest patch centre).
 fn short_block(world: &World) -> (usize, Affine3A, f32) {
@@ -46,12 +52,7 @@ fn a_block_sunk_into_the_floor_is_not_lit_below_it() {
     let (block, rest, height) = short_block(&world);
     let sunk = Affine3A::from_translation(Vec3::Y * -0.4 * height) * rest;
     assert!(world.move_object(block, sunk).unwrap());
-    let reference = crate::reference::solve(
-        &world,
-        &crate::reference::ReferenceOptions::standard(),
-        &crate::NoProgress,
-    )
-    .0;
+    let reference = reference(&world);
     // Without the near field: under the floor of the open box the near field's rays leave
     // the scene, and a patch that sees the void takes its whole view from them
     // (`near_rays::beyond_the_reach`), which makes the buried part dark by itself.
@@ -188,12 +189,7 @@ fn a_sphere_on_the_floor_gets_the_light_it_sends_the_floor_back() {
     assert!(world.move_object(ball, resting).unwrap());
     let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
     d.converge(&world, 8);
-    let reference = crate::reference::solve(
-        &world,
-        &crate::reference::ReferenceOptions::standard(),
-        &crate::NoProgress,
-    )
-    .0;
+    let reference = reference(&world);
     let p = &world.patches;
     let under = |b: &[Vec3]| -> f64 {
         p.range(ball)
@@ -243,12 +239,7 @@ fn a_face_towards_the_open_side_under_a_sky_takes_the_sky_from_step_1() {
 /// towards the open side, with the dispersive default converged and with the reference.
 fn the_short_blocks_front(world: World) -> (f64, f64) {
     let block = object_named(&world, "short_block");
-    let reference = crate::reference::solve(
-        &world,
-        &crate::reference::ReferenceOptions::standard(),
-        &crate::NoProgress,
-    )
-    .0;
+    let reference = reference(&world);
     let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
     assert!(d.open, "the Cornell box is open on one side");
     d.converge(&world, 8);
@@ -328,12 +319,7 @@ fn a_block_lifted_off_the_floor_reads_what_is_near_it_now() {
         };
         d.step(&world, &moved);
     }
-    let reference = crate::reference::solve(
-        &world,
-        &crate::reference::ReferenceOptions::standard(),
-        &crate::NoProgress,
-    )
-    .0;
+    let reference = reference(&world);
     let error = object_error(&world, d.radiosity(), &reference, block);
     assert!(error < 0.06, "the lifted block's error {error}");
 }
@@ -361,12 +347,7 @@ fn a_ball_beside_a_block_comes_from_the_near_field_alone() {
         .filter(|&i| local.transform_vector3(p.normal[i]).normalize().x > 0.9)
         .collect();
     assert!(!face.is_empty());
-    let reference = crate::reference::solve(
-        &world,
-        &crate::reference::ReferenceOptions::standard(),
-        &crate::NoProgress,
-    )
-    .0;
+    let reference = reference(&world);
     let bias = |see_through_near: bool| {
         let options = DispersiveOptions {
             see_through_near,
