@@ -392,10 +392,15 @@ impl DirectCache {
                 // Shadow rays to stratified points on the emitter.
                 let mut from = vec![Vec3::ZERO; ks.len() * s];
                 let mut to = vec![Vec3::ZERO; ks.len() * s];
+                // The samples' weights, for a coarse receiver's visible fraction below (found
+                // again per sample after the trace, one receiver after another, they were a
+                // third of a large mover's own patches).
+                let mut weight = vec![0.0f32; ks.len() * s];
                 from.par_chunks_mut(s)
                     .zip(to.par_chunks_mut(s))
+                    .zip(weight.par_chunks_mut(s))
                     .enumerate()
-                    .for_each(|(c, (f, t))| {
+                    .for_each(|(c, ((f, t), w))| {
                         if unoccluded[c] <= 0.0 {
                             return;
                         }
@@ -403,7 +408,7 @@ impl DirectCache {
                         let (x, n) = (p.centre[i], p.normal[i]);
                         let shift = sample_shift(i, em);
                         for j in 0..s {
-                            (f[j], t[j], _) =
+                            (f[j], t[j], w[j]) =
                                 shadow_sample(em, x, n, shift, j as u32, samples, eps);
                         }
                     });
@@ -413,14 +418,9 @@ impl DirectCache {
                     for (c, &k) in ks.iter().enumerate() {
                         self.unoccluded[k * ne + e] = unoccluded[c];
                         self.coarse[k] = true;
-                        let i = self.receivers[k] as usize;
-                        let fraction = visible_fraction(
-                            em,
-                            (p.centre[i], p.normal[i]),
-                            sample_shift(i, em),
-                            samples,
-                            eps,
-                            |j| blocked[c * s + j as usize],
+                        let fraction = weighted_fraction(
+                            &weight[c * s..(c + 1) * s],
+                            &blocked[c * s..(c + 1) * s],
                         );
                         self.held[k * ne + e] = fraction;
                         coarse_value[c] += em.radiance * (unoccluded[c] * fraction);
@@ -475,5 +475,22 @@ impl DirectCache {
             out += em.radiance * (u * fraction);
         }
         out
+    }
+}
+
+/// The weighted fraction of samples not `blocked` (`weight` per sample, summed in order as
+/// [`visible_fraction`] does); 1 when the weights sum to nothing.
+fn weighted_fraction(weight: &[f32], blocked: &[bool]) -> f32 {
+    let (mut total, mut seen) = (0.0, 0.0);
+    for (&w, &b) in weight.iter().zip(blocked) {
+        total += w;
+        if !b {
+            seen += w;
+        }
+    }
+    if total > 0.0 {
+        seen / total
+    } else {
+        1.0
     }
 }

@@ -326,18 +326,23 @@ impl Dispersive {
         let exclude = self.probes_see_through(world, k);
         let limit = self.options.invalid_back_fraction;
         let repair = self.options.repair;
-        for slot in &mut cache.probes {
+        // The eight probes side by side: each one's stale texels are a few hundred rays, and
+        // its back fraction a pass over its texels (one after the other, the second worker
+        // mostly waited).
+        steps.probe_texels_retraced += (cache.probes.iter().flatten())
+            .map(|h| h.stale.len())
+            .sum::<usize>();
+        cache.probes.par_iter_mut().for_each(|slot| {
             let Some(h) = slot.as_mut().filter(|h| !h.stale.is_empty()) else {
-                continue;
+                return;
             };
-            steps.probe_texels_retraced += h.stale.len();
             self.retrace_stale_texels(world, h, &exclude, o);
             // A probe that turned invalid is captured afresh below, to be moved inward from
             // where it stands, as an uncached update would.
             if h.back_fraction > limit && repair.moves() {
                 *slot = None;
             }
-        }
+        });
         // Capture the probes not cached, all in one batch.
         let missing: Vec<usize> = (0..8).filter(|&c| cache.probes[c].is_none()).collect();
         let mut scale = ob.probe_scale;
