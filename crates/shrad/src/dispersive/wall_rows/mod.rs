@@ -35,7 +35,7 @@ use std::time::Instant;
 use glam::Vec3;
 use shrad_scene::Aabb;
 
-use super::{Changes, Dispersive};
+use super::Changes;
 use crate::sparse::SparseRows;
 use crate::World;
 
@@ -92,24 +92,25 @@ pub fn wall_rays_for(patches: usize, asked: u32) -> u32 {
     rays
 }
 
-impl Dispersive {
-    /// Check an eighth of the wall rows against the objects that moved since each was last
-    /// checked ([`WALL_CHECK_SHARE`]), marking the rays a move may have changed (those that
-    /// hit a mover, those with a mover's box now in front of their hit, every ray of a moved
-    /// boundary object's rows: the module's docs), and re-trace dirty rays, at most a 128th of
-    /// the boundary's rays per frame ([`WALL_RETRACE_SHARE`]), from cursors that go round:
-    /// the dispersive idea applied to the walls, the cost of a frame stays bounded and what
-    /// is left waits for the next frames.
-    pub(super) fn refresh_wall_rows(
+impl WallRows {
+    /// Check an eighth of these rows (among the `boundary` patches) against the objects
+    /// that moved since each was last checked ([`WALL_CHECK_SHARE`]; every object's box now
+    /// in `object_boxes`), marking the rays a move may have changed (those that hit a mover,
+    /// those with a mover's box now in front of their hit, every ray of a moved boundary
+    /// object's rows: the module's docs), and re-trace dirty rays, at most a 128th of the
+    /// boundary's rays per frame ([`WALL_RETRACE_SHARE`]), from cursors that go round: the
+    /// dispersive idea applied to the walls, the cost of a frame stays bounded and what is
+    /// left waits for the next frames. It reads nothing else of the solver, so that the frame
+    /// runs it beside Step 1.
+    pub(super) fn refresh(
         &mut self,
         world: &World,
+        (boundary, object_boxes): (&[u32], &[Aabb]),
         changes: &Changes,
         deadline: Option<Instant>,
     ) {
-        let Some(rows) = &mut self.wall_rows else {
-            return;
-        };
-        let n = self.boundary_patches.len();
+        let rows = self;
+        let n = boundary.len();
         let past = || deadline.is_some_and(|d| Instant::now() >= d);
         let tt = Instant::now();
         rows.note_moves(&changes.moved);
@@ -126,12 +127,7 @@ impl Dispersive {
         let step = if deadline.is_some() { 256 / late } else { left };
         while left > 0 {
             // `object_boxes`: every object's box now.
-            let done = rows.check(
-                world,
-                &self.boundary_patches,
-                &self.object_boxes,
-                step.min(left),
-            );
+            let done = rows.check(world, boundary, object_boxes, step.min(left));
             left = left.saturating_sub(done);
             if done == 0 || past() {
                 break;
@@ -156,7 +152,7 @@ impl Dispersive {
             left
         };
         while left > 0 {
-            let done = rows.retrace(world, &self.boundary_patches, step.min(left));
+            let done = rows.retrace(world, boundary, step.min(left));
             left = left.saturating_sub(done);
             if done == 0 || past() {
                 break;
