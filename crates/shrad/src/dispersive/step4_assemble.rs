@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use shrad_scene::Role;
 
 use super::setup::receives_as_boundary;
-use super::{Changes, Dispersive, Divergence, EnergyBalance, FrameStats};
+use super::{Dispersive, Divergence, EnergyBalance, FrameStats};
 use crate::energy::CHUNK;
 use crate::World;
 
@@ -35,18 +35,9 @@ pub const WALL_ROWS_WHILE_MOVING: usize = 1 << 12;
 impl Dispersive {
     /// The energy meter, and the guard that never publishes a diverged state: fills
     /// `stats.energy` (keeping the Step 3 flux already in it) and `stats.diverged`.
-    pub(super) fn meter_and_guard(
-        &mut self,
-        world: &World,
-        changes: &Changes,
-        stats: &mut FrameStats,
-    ) {
-        // The meter's rays a mover may have changed (`object_boxes` holds every object's box
-        // now).
-        let t = std::time::Instant::now();
-        self.light_meter
-            .update(world, &changes.moved, &self.object_boxes);
-        super::tr("  light_meter", t);
+    pub(super) fn meter_and_guard(&mut self, world: &World, stats: &mut FrameStats) {
+        // The meter's rays a mover may have changed were traced again beside Step 1
+        // (`direct_and_wall_rows`).
         let t = std::time::Instant::now();
         stats.energy = EnergyBalance {
             object_emitters: stats.energy.object_emitters,
