@@ -51,6 +51,7 @@ mod sleep;
 mod spread;
 mod stale;
 mod step1_direct;
+mod step2_batch;
 mod step2_probes;
 mod step3_to_boundary;
 mod step4_assemble;
@@ -74,6 +75,7 @@ pub use step3_to_boundary::splat_to_boundary;
 pub use step4_assemble::{WALL_ROWS_PER_FRAME, WALL_ROWS_WHILE_MOVING};
 pub use wall_rows::WALL_RETRACE_SHARE;
 
+use object_state::ObjectLight;
 use object_state::ObjectProbes;
 use scheduler::{Must, Scheduler};
 use setup::{outer_sides, receives_as_boundary, world_box, Neighbours, LIGHT_METER_RAYS};
@@ -126,7 +128,7 @@ pub struct Dispersive {
     /// Form-factor rows among boundary patches (aligned with `boundary_patches`), if the
     /// wall exchange is on.
     wall_rows: Option<WallRows>,
-    boundary_patches: Vec<u32>,
+    boundary_patches: std::sync::Arc<[u32]>,
     /// Boundary patches next to each patch (itself included), for `splat_smoothing` and
     /// `wall_smoothing`.
     neighbours: Neighbours,
@@ -299,7 +301,7 @@ impl Dispersive {
             },
             wall_rows,
             wall_cursor: 0,
-            boundary_patches,
+            boundary_patches: boundary_patches.into(),
             direct_valid: false,
             direct_cache: Default::default(),
             punctual: Default::default(),
@@ -473,19 +475,28 @@ impl Dispersive {
 
         tr("what_changed_and_schedule", frame_start);
 
-        // Step 1 (2.3.2), unless carried to the next frame, and the wall rows a mover passed
-        // through.
-        let t = Instant::now();
-        self.direct_and_wall_rows(world, changes, carry, walls_until);
-        steps.direct_ms = ms(t);
+        // Step 1 (2.3.2), unless carried to the next frame, with the wall rows a mover passed
+        // through; beside them Step 2 (2.3.3) lights the first object the scheduler picked.
+        let (direct_ms, first, first_ms) = self.direct_beside_first_object(
+            world,
+            changes,
+            (carry, walls_until),
+            &batch,
+            &mut steps,
+            at(0.8),
+        );
+        steps.direct_ms = direct_ms;
 
-        // Step 2 (2.3.3) for the objects the scheduler picked.
+        // Step 2 (2.3.3): the objects the scheduler picked (the first one stored).
         let t = Instant::now();
-        let tt = Instant::now();
-        self.forget_stale_caches(world, &batch.0);
-        tr("forget_stale", tt);
-        let lit = self.light_selected_objects(world, batch, &mut stats, &mut steps, at(0.8));
-        steps.objects_ms = ms(t);
+        let lit = self.light_selected_objects(
+            world,
+            (batch, Some(first)),
+            &mut stats,
+            &mut steps,
+            at(0.8),
+        );
+        steps.objects_ms = first_ms + ms(t);
         tr("step2", t);
 
         // Step 3 (2.3.4).
@@ -540,49 +551,71 @@ impl Dispersive {
         stats
     }
 
-    /// Step 1, unless `carry` (carried to the next frame), and beside it the wall rows a
-    /// mover passed through, until `walls_until` ([`WallRows::refresh`]), and the light
-    /// meter's rays it may have changed ([`IncidentMeter::update`]): they share nothing,
-    /// so each one's short serial stretches leave the other's work to the second core (the
-    /// 77k room's moving frame 6.47 -> 6.02 ms on two, five runs each).
-    fn direct_and_wall_rows(
+    /// Step 1, unless `carry` (carried to the next frame); beside it the wall rows a mover
+    /// passed through, until `walls_until` ([`WallRows::refresh`]), and the light meter's
+    /// rays it may have changed ([`IncidentMeter::update`]); and beside those Step 2's first
+    /// object of `batch` prepared and lit until `deadline`, not yet stored
+    /// ([`Dispersive::light_first_object`]: what it reads of Step 1, the direct light of
+    /// its patches, is read when it is stored). They share nothing, so each one's short
+    /// serial stretches leave the others' work to the second core (the 77k room's moving
+    /// frame 6.47 -> 5.53 ms on two, with Step 1 beside the wall rows and the meter).
+    /// Returns Step 1's time, the first object's light and the time it took (ms).
+    fn direct_beside_first_object(
         &mut self,
         world: &World,
         changes: &Changes,
-        carry: bool,
-        walls_until: Option<Instant>,
-    ) {
-        let t = Instant::now();
-        self.direct_sync.carried = carry;
+        (carry, walls_until): (bool, Option<Instant>),
+        batch: &Batch,
+        steps: &mut DispersiveStats,
+        deadline: Option<Instant>,
+    ) -> (f64, Option<ObjectLight>, f64) {
+        let mut step1 = self.take_step1();
+        step1.direct_sync.carried = carry;
         let mut rows = self.wall_rows.take();
         let mut meter = std::mem::take(&mut self.light_meter);
-        let boundary = std::mem::take(&mut self.boundary_patches);
-        let boxes = self.object_boxes.clone();
-        rayon::join(
-            || {
-                if !carry {
-                    let moving = !self.direct_sync.moved.is_empty();
-                    self.direct_to_boundary(world, changes);
-                    if moving {
-                        self.direct_sync.cost_ms = ms(t);
+        // The wall rows and the meter read nothing else of the solver (Step 2 reads the
+        // boundary's list too: it prepares Step 3's gather).
+        let boundary = self.boundary_patches.clone();
+        let (options, boxes) = (self.options, self.object_boxes.clone());
+        let direct_and_walls = || {
+            rayon::join(
+                || {
+                    let t = Instant::now();
+                    if !carry {
+                        let moving = !step1.direct_sync.moved.is_empty();
+                        step1.direct_to_boundary(world, changes, (&options, &boxes));
+                        if moving {
+                            step1.direct_sync.cost_ms = ms(t);
+                        }
                     }
-                }
-                tr("direct_to_boundary", t);
-            },
-            || {
-                let tt = Instant::now();
-                if let Some(rows) = &mut rows {
-                    rows.refresh(world, (&boundary, &boxes), changes, walls_until);
-                }
-                tr("refresh_wall_rows", tt);
-                // The light meter's rays a mover may have changed (`meter_and_guard`).
-                let tt = Instant::now();
-                meter.update(world, &changes.moved, &boxes);
-                tr("light_meter", tt);
-            },
-        );
-        (self.wall_rows, self.boundary_patches) = (rows, boundary);
-        self.light_meter = meter;
+                    tr("direct_to_boundary", t);
+                    ms(t)
+                },
+                || {
+                    let tt = Instant::now();
+                    if let Some(rows) = &mut rows {
+                        rows.refresh(world, (&boundary, &boxes), changes, walls_until);
+                    }
+                    tr("refresh_wall_rows", tt);
+                    // The light meter's rays a mover may have changed (`meter_and_guard`).
+                    let tt = Instant::now();
+                    meter.update(world, &changes.moved, &boxes);
+                    tr("light_meter", tt);
+                },
+            )
+        };
+        let first_object = || {
+            let t = Instant::now();
+            let tt = Instant::now();
+            self.forget_stale_caches(world, &batch.0);
+            tr("forget_stale", tt);
+            let first = self.light_first_object(world, batch, steps, deadline);
+            (first, ms(t))
+        };
+        let ((direct_ms, ()), (first, first_ms)) = rayon::join(direct_and_walls, first_object);
+        (self.wall_rows, self.light_meter) = (rows, meter);
+        self.put_step1(step1);
+        (direct_ms, first, first_ms)
     }
 
     /// The objects this frame updates, and whether they go over what the budget leaves them

@@ -190,3 +190,9 @@ impl ObjectProbes {
         self.self_view.row(k)
     }
 }
+
+/// An object's light from its probes, per patch, not yet stored, and what it cost (ms).
+pub(super) struct ObjectLight {
+    pub(super) e: Vec<Vec3>,
+    pub(super) ms: f64,
+}

@@ -20,7 +20,7 @@ use shrad_scene::{Aabb, Role};
 
 use super::object_state::ObjectProbes;
 use super::setup::world_box;
-use super::{Changes, Dispersive};
+use super::{Changes, Dispersive, DispersiveOptions};
 use crate::direct::DirectCache;
 use crate::lights::PunctualCache;
 use crate::World;
@@ -136,6 +136,66 @@ impl Dispersive {
         swept
     }
 
+    /// Step 1's state taken out of the solver ([`Step1::direct_to_boundary`] runs on it
+    /// beside Step 2's first object); [`Dispersive::put_step1`] puts it back.
+    pub(super) fn take_step1(&mut self) -> Step1 {
+        Step1 {
+            direct_valid: self.direct_valid,
+            direct_cache: std::mem::take(&mut self.direct_cache),
+            punctual: std::mem::take(&mut self.punctual),
+            direct_sync: std::mem::take(&mut self.direct_sync),
+            direct: std::mem::take(&mut self.direct),
+            touched: std::mem::take(&mut self.touched),
+        }
+    }
+
+    /// Put back what [`Dispersive::take_step1`] took.
+    pub(super) fn put_step1(&mut self, s: Step1) {
+        self.direct_valid = s.direct_valid;
+        self.direct_cache = s.direct_cache;
+        self.punctual = s.punctual;
+        self.direct_sync = s.direct_sync;
+        self.direct = s.direct;
+        self.touched = s.touched;
+    }
+
+    /// Whether a budget's deadline may carry Step 1 over to the next frame: never two
+    /// frames running, never when a light or an emitting surface changed (every later step
+    /// reads that light), never before it first ran.
+    pub(super) fn may_carry_direct(&self, world: &World, changes: &Changes) -> bool {
+        self.direct_valid
+            && !self.direct_sync.carried
+            && !changes.light_changed()
+            && changes.relit.is_empty()
+            && !self.direct_sync.moved.iter().any(|&o| emits(world, o))
+    }
+
+    /// The punctual lights' direct irradiance of every patch (empty without punctual lights).
+    pub fn punctual_irradiance(&self) -> &[Vec3] {
+        &self.punctual.by_patch
+    }
+}
+
+/// Whether object `o` is a light or emits (Step 1 then recomputes the light surfaces' part).
+fn emits(world: &World, o: usize) -> bool {
+    let p = &world.patches;
+    p.object_role[o] == Role::Light || world.exitance[p.range(o).start].max_element() > 0.0
+}
+
+/// Step 1's part of the solver's state: what [`Step1::direct_to_boundary`] reads and writes
+/// besides the options and the objects' boxes, so that it can run beside Step 2's first
+/// object (which reads none of it until it stores its light).
+#[derive(Debug, Default)]
+pub(super) struct Step1 {
+    direct_valid: bool,
+    direct_cache: DirectCache,
+    punctual: PunctualDirect,
+    pub(super) direct_sync: DirectSync,
+    direct: Vec<Vec3>,
+    touched: super::touched::Touched,
+}
+
+impl Step1 {
     /// Step 1 (paper 2.3.2): direct light on the boundary (and interior patches when
     /// `direct_on_interior`), and the punctual lights' on every patch. The paper recomputes
     /// it every frame; here it is cached with its shadow rays ([`DirectCache`],
@@ -147,7 +207,12 @@ impl Dispersive {
     /// What moved is taken from [`DirectSync`]: every object that moved since Step 1 last
     /// ran, from where it was then to where it is now, so a Step 1 carried over frames by a
     /// budget's deadline catches up exactly.
-    pub(super) fn direct_to_boundary(&mut self, world: &World, changes: &Changes) {
+    pub(super) fn direct_to_boundary(
+        &mut self,
+        world: &World,
+        changes: &Changes,
+        (options, object_boxes): (&DispersiveOptions, &[Aabb]),
+    ) {
         // A frame without changes still traces, with every sample, the receivers a mover
         // left with fewer (`coarse_while_moving`).
         if self.direct_valid
@@ -160,10 +225,10 @@ impl Dispersive {
         let p = &world.patches;
         let moved = std::mem::take(&mut self.direct_sync.moved);
         let surface_changed = !changes.relit.is_empty() || moved.iter().any(|&o| emits(world, o));
-        let samples = self.options.direct_samples.max(1);
+        let samples = options.direct_samples.max(1);
         let everything = !self.direct_valid;
         let old: Vec<Aabb> = moved.iter().map(|&o| self.direct_sync.boxes[o]).collect();
-        let new: Vec<Aabb> = moved.iter().map(|&o| self.object_boxes[o]).collect();
+        let new: Vec<Aabb> = moved.iter().map(|&o| object_boxes[o]).collect();
         // Patches of a moved object moved themselves: recomputed whole.
         let whole = |i: u32| moved.contains(&(p.object[i as usize] as usize));
         let parts = &mut self.punctual;
@@ -180,7 +245,7 @@ impl Dispersive {
                 .into_par_iter()
                 .filter(|&i| match p.role(i as usize) {
                     Role::Boundary | Role::Light => true,
-                    Role::Interior => self.options.direct_on_interior,
+                    Role::Interior => options.direct_on_interior,
                 })
                 .filter(|&i| world.reflectance[i as usize].max_element() > 0.0)
                 .collect();
@@ -189,7 +254,7 @@ impl Dispersive {
         } else if !moved.is_empty() || self.direct_cache.catching_up() {
             let movers: Vec<u32> = moved.iter().map(|&o| o as u32).collect();
             // A moving receiver with a quarter of the samples (`coarse_while_moving`).
-            let moving_samples = if self.options.coarse_while_moving {
+            let moving_samples = if options.coarse_while_moving {
                 samples.div_ceil(4)
             } else {
                 samples
@@ -228,34 +293,15 @@ impl Dispersive {
         self.direct_valid = true;
         // In sync: every object is where Step 1 now has it.
         match everything {
-            true => self.direct_sync.boxes.clone_from(&self.object_boxes),
+            true => {
+                self.direct_sync.boxes.clear();
+                self.direct_sync.boxes.extend_from_slice(object_boxes);
+            }
             false => moved
                 .iter()
-                .for_each(|&o| self.direct_sync.boxes[o] = self.object_boxes[o]),
+                .for_each(|&o| self.direct_sync.boxes[o] = object_boxes[o]),
         }
     }
-
-    /// Whether a budget's deadline may carry Step 1 over to the next frame: never two
-    /// frames running, never when a light or an emitting surface changed (every later step
-    /// reads that light), never before it first ran.
-    pub(super) fn may_carry_direct(&self, world: &World, changes: &Changes) -> bool {
-        self.direct_valid
-            && !self.direct_sync.carried
-            && !changes.light_changed()
-            && changes.relit.is_empty()
-            && !self.direct_sync.moved.iter().any(|&o| emits(world, o))
-    }
-
-    /// The punctual lights' direct irradiance of every patch (empty without punctual lights).
-    pub fn punctual_irradiance(&self) -> &[Vec3] {
-        &self.punctual.by_patch
-    }
-}
-
-/// Whether object `o` is a light or emits (Step 1 then recomputes the light surfaces' part).
-fn emits(world: &World, o: usize) -> bool {
-    let p = &world.patches;
-    p.object_role[o] == Role::Light || world.exitance[p.range(o).start].max_element() > 0.0
 }
 
 /// What Step 1 last saw, so that it can be carried to a later frame (a budget's deadline)

@@ -19,66 +19,33 @@ use shrad_sh::{cosine_lobe_sh, num_coeffs, ShRgb, MAX_COEFFS};
 use shrad_vis::Hit;
 
 use super::caches::{ProbeCache, ProbeHits, MAX_PROBE_BYTES, SEES_BACK, SEES_NOTHING, SEES_STALE};
-use super::{ms, Batch, Dispersive, DispersiveStats, FrameStats, ProbeRepair};
+use super::object_state::ObjectLight;
+use super::{ms, Dispersive, DispersiveStats, ProbeRepair};
 use crate::probes::{ProbeCamera, Seen};
 use crate::World;
 
 impl Dispersive {
-    /// Step 2 (paper 2.3.3): light each object of the batch from its 8 corner probes.
-    /// Returns the objects lit. Under a budget (`deadline`: when the objects' share of the
-    /// frame ends) an object whose geometry is measured again may wait: see
-    /// [`Dispersive::prepare_update`].
-    pub(super) fn light_selected_objects(
+    /// Object `k`'s light from its 8 corner probes (2.3.3 Steps 2-4), per patch, before its
+    /// contact openness.
+    pub(super) fn object_light(
         &mut self,
         world: &World,
-        batch: Batch,
-        stats: &mut FrameStats,
+        k: usize,
         steps: &mut DispersiveStats,
-        deadline: Option<Instant>,
-    ) -> Vec<usize> {
-        let p = &world.patches;
-        let mut lit = Vec::with_capacity(batch.0.len());
-        // The expected Step 3 of the objects lit so far (ms), still to come in this frame.
-        let mut step3_owed = 0.0;
-        for &k in &batch.0 {
-            let o = self.objects[k].object;
-            let m = p.world_from_local[o];
-            // Once what is left of the objects' share of the frame is less than an object's
-            // expected cost, the rest of the batch waits (if it may): the scheduler picked it
-            // before the first ones prepared their updates (`prepare.rs`), which it does not
-            // count.
-            let expected = self.scheduler.expected_cost(k);
-            let until = |d: Instant| Instant::now() + super::secs(step3_owed + expected) >= d;
-            let late = deadline.is_some_and(until);
-            if late && !lit.is_empty() && self.scheduler.may_wait(k, self.frame) {
-                continue;
-            }
-            let tt = Instant::now();
-            let ready = self.prepare_update(world, k, deadline, steps);
-            super::tr("prepare", tt);
-            if !ready {
-                continue;
-            }
-            // Its cost for the scheduler is the update's, without what was prepared.
-            let t = Instant::now();
-            self.near_field_follows(world, k);
-            let tt = Instant::now();
-            let (probes, scale) = self.capture_corner_probes(world, k, m, steps);
-            super::tr("capture_corner_probes", tt);
-            let tt = Instant::now();
-            self.objects[k].probe_scale = scale;
-            self.refresh_probe_visibility(world, k, m, || true);
-            let probes = self.probes_in_object_frame(k, m, probes);
-            let e = self.interpolate_probes(world, k, &probes);
-            super::tr("interpolate", tt);
-            self.objects[k].coarse_light = self.cameras_for(k).2;
-            self.object_change[k] = self.store_object_light(world, k, e);
-            self.scheduler.updated(k, self.frame, ms(t));
-            step3_owed += (expected - ms(t)).max(0.0);
-            stats.objects_updated.push(o);
-            lit.push(k);
-        }
-        lit
+    ) -> ObjectLight {
+        let t = Instant::now();
+        let m = world.patches.world_from_local[self.objects[k].object];
+        self.near_field_follows(world, k);
+        let tt = Instant::now();
+        let (probes, scale) = self.capture_corner_probes(world, k, m, steps);
+        super::tr("capture_corner_probes", tt);
+        let tt = Instant::now();
+        self.objects[k].probe_scale = scale;
+        self.refresh_probe_visibility(world, k, m, || true);
+        let probes = self.probes_in_object_frame(k, m, probes);
+        let e = self.interpolate_probes(world, k, &probes);
+        super::tr("interpolate", tt);
+        ObjectLight { e, ms: ms(t) }
     }
 
     /// Measure which probes object `k`'s patches see where it is not current
@@ -215,36 +182,6 @@ impl Dispersive {
                 dot.max(Vec3::ZERO) + own + near
             })
             .collect()
-    }
-
-    /// Store object `k`'s new light `e` (probe irradiance, before contact openness) and its
-    /// radiosity; returns how much the update changed its light (`sleep.rs`: area weighted,
-    /// relative).
-    fn store_object_light(&mut self, world: &World, k: usize, e: Vec<Vec3>) -> f64 {
-        let p = &world.patches;
-        let range = p.range(self.objects[k].object);
-        self.touched.range(range.clone());
-        let openness = &self.objects[k].openness;
-        let (mut changed, mut total) = (0f64, 0f64);
-        for ((i, e), &v) in range.zip(e).zip(openness) {
-            let e = e * v;
-            self.probe_irradiance[i] = e;
-            // The light surfaces' direct light when `direct_on_interior`, the punctual
-            // lights' always (a probe cannot see them): Step 1 leaves 0 otherwise.
-            let direct = self.direct[i];
-            let b = world.exitance[i] + world.reflectance[i] * (e + direct);
-            let a = p.area[i] as f64;
-            changed += a * (b - self.radiosity[i]).abs().element_sum() as f64;
-            total += a * b.element_sum() as f64;
-            self.radiosity[i] = b;
-        }
-        if total > 0.0 {
-            changed / total
-        } else if changed > 0.0 {
-            f64::INFINITY
-        } else {
-            0.0
-        }
     }
 
     /// Per patch of object `k`, the (cosine-weighted) fraction of its hemisphere that is not

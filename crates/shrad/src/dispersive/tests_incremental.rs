@@ -310,7 +310,7 @@ fn a_moving_frame_assembles_and_meters_only_what_it_touched_and_misses_nothing()
         };
         let stats = d.step(&world, &moved);
         let p = &world.patches;
-        for &j in &d.boundary_patches {
+        for &j in d.boundary_patches.iter() {
             let j = j as usize;
             let full = world.exitance[j]
                 + world.reflectance[j] * (d.direct[j] + d.indirect[j] + d.wall[j]);

@@ -42,7 +42,13 @@ fn update(world: &World, d: &mut Dispersive, k: usize, deadline: Option<Instant>
     let mut stats = FrameStats::new(d.frame, SolverStats::Dispersive(Default::default()));
     let mut steps = DispersiveStats::default();
     let rays = world.rays_cast();
-    let lit = d.light_selected_objects(world, Batch(vec![k]), &mut stats, &mut steps, deadline);
+    let lit = d.light_selected_objects(
+        world,
+        (Batch(vec![k]), None),
+        &mut stats,
+        &mut steps,
+        deadline,
+    );
     let updated = !lit.is_empty();
     d.objects_to_boundary(world, lit, 0.0);
     (updated, world.rays_cast() - rays)

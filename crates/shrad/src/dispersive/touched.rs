@@ -10,7 +10,7 @@ use std::ops::Range;
 use crate::energy::CHUNK;
 
 /// Per chunk of patches: whether its light changed since the last meter.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub(super) struct Touched(Vec<bool>);
 
 impl Touched {
