@@ -109,7 +109,9 @@ pub enum SolverStats {
 pub struct DispersiveStats {
     /// Step 1, direct light on the boundary, and the wall rows a mover passed (ms).
     pub direct_ms: f64,
-    /// Step 2, lighting the selected objects from their probes (ms).
+    /// Step 2, lighting the selected objects from their probes (ms). The first object is
+    /// lit beside Step 1, so this and `direct_ms` overlap: they may add up to more than the
+    /// frame.
     pub objects_ms: f64,
     /// Step 3, the selected objects to the boundary (ms).
     pub to_boundary_ms: f64,
