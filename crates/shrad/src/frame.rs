@@ -107,7 +107,8 @@ pub enum SolverStats {
 /// A dispersive frame, step by step (paper 2.2).
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct DispersiveStats {
-    /// Step 1, direct light on the boundary, and the wall rows a mover passed (ms).
+    /// Step 1, direct light on the boundary, and the wall rows a mover passed, with what
+    /// runs beside them (the first object's Step 2, Step 4's gather) (ms).
     pub direct_ms: f64,
     /// Step 2, lighting the selected objects from their probes (ms). The first object is
     /// lit beside Step 1, so this and `direct_ms` overlap: they may add up to more than the

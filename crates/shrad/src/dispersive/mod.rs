@@ -79,6 +79,7 @@ use object_state::ObjectLight;
 use object_state::ObjectProbes;
 use scheduler::{Must, Scheduler};
 use setup::{outer_sides, receives_as_boundary, world_box, Neighbours, LIGHT_METER_RAYS};
+use step4_assemble::WallGather;
 use wall_rows::WallRows;
 
 /// The dispersive solver's state.
@@ -473,17 +474,26 @@ impl Dispersive {
         let carry = over && may_carry;
         let walls_until = if over { Some(frame_start) } else { at(0.2) };
 
+        // Full wall sweeps when the light changed; without a budget Step 4's gather is
+        // known now and runs beside Step 1 (`Dispersive::gather_walls`).
+        let sweeps = match changes.light_changed() && budget_ms.is_none() {
+            true => 8,
+            false => 1,
+        };
+        let moving_walls = !changes.moved.is_empty() || doze;
+        let gather_early =
+            (budget_ms.is_none() && sweeps == 1).then(|| self.wall_window(moving_walls, None));
+
         tr("what_changed_and_schedule", frame_start);
 
         // Step 1 (2.3.2), unless carried to the next frame, with the wall rows a mover passed
         // through; beside them Step 2 (2.3.3) lights the first object the scheduler picked.
-        let (direct_ms, first, first_ms) = self.direct_beside_first_object(
+        let (direct_ms, (first, first_ms), gathered) = self.direct_beside_first_object(
             world,
             changes,
             (carry, walls_until),
-            &batch,
-            &mut steps,
-            at(0.8),
+            (&batch, &mut steps, at(0.8)),
+            gather_early,
         );
         steps.direct_ms = direct_ms;
 
@@ -509,24 +519,8 @@ impl Dispersive {
 
         // Step 4 (2.3.5): full wall sweeps when the light changed.
         let t = Instant::now();
-        let sweeps = if !changes.light_changed() || budget_ms.is_some() {
-            1
-        } else {
-            8
-        };
-        let window = budget_ms.map(|b| {
-            // The rows that fit what is left, from the measured cost of a row (and the
-            // meter's share), at least a few.
-            let left = (b - ms(frame_start) - self.meter_ms).max(0.0);
-            ((left / self.row_ms.max(1e-6)) as usize).max(1024)
-        });
-        // While something moves, a quarter of the window: the walls' second bounce lags a
-        // few frames behind the mover, and the full window returns as soon as it rests.
-        let window = match changes.moved.is_empty() && !doze {
-            true => window,
-            false => Some(window.map_or(WALL_ROWS_WHILE_MOVING, |w| w.min(WALL_ROWS_WHILE_MOVING))),
-        };
-        let change = self.assemble(world, sweeps, window);
+        let window = self.wall_window(moving_walls, budget_ms.map(|b| b - ms(frame_start)));
+        let change = self.assemble(world, (sweeps, window), gathered);
         self.wall_unswept = change + if doze { self.wall_unswept } else { 0.0 };
         steps.assemble_ms = ms(t);
         tr("step4", t);
@@ -551,36 +545,47 @@ impl Dispersive {
         stats
     }
 
-    /// Step 1, unless `carry` (carried to the next frame); beside it the wall rows a mover
-    /// passed through, until `walls_until` ([`WallRows::refresh`]), and the light meter's
-    /// rays it may have changed ([`IncidentMeter::update`]); and beside those Step 2's first
-    /// object of `batch` prepared and lit until `deadline`, not yet stored
+    /// Step 1, unless `carry` (carried to the next frame), and the light meter's rays a
+    /// mover may have changed ([`IncidentMeter::update`]); beside them Step 2's first object
+    /// of `batch` prepared and lit until `deadline`, not yet stored
     /// ([`Dispersive::light_first_object`]: what it reads of Step 1, the direct light of
-    /// its patches, is read when it is stored). They share nothing, so each one's short
-    /// serial stretches leave the others' work to the second core (the 77k room's moving
-    /// frame 6.47 -> 5.53 ms on two with Step 1 beside the wall rows and the meter, 5.41 -> 4.78
-    /// with Step 2's first object beside them too).
-    /// Returns the time Step 1 and the wall rows took, the first object's light and the time
-    /// it took (ms; the two overlap).
+    /// its patches, is read when it is stored); and the wall rows a mover passed through,
+    /// until `walls_until` ([`WallRows::refresh`]), on the side expected to end first: beside
+    /// Step 1 when the first object is expected to cost more than Step 1 did at its last
+    /// mover (a small box dragged), else after the first object, followed there by Step 4's
+    /// gather of `gather`'s window ([`Dispersive::gather_walls`]; the 77k room's largest
+    /// object). They share nothing, so each one's short serial stretches leave the others'
+    /// work to the second core (the 77k room's moving frame 6.47 -> 5.53 ms on two with
+    /// Step 1 beside the wall rows and the meter, 5.41 -> 4.78 with Step 2's first object
+    /// beside them too, 4.80 -> 4.66 with the gather).
+    /// Returns the time all of it took, the first object's light with the time its Step 2
+    /// took (ms; the two overlap), and the gather.
     fn direct_beside_first_object(
         &mut self,
         world: &World,
         changes: &Changes,
         (carry, walls_until): (bool, Option<Instant>),
-        batch: &Batch,
-        steps: &mut DispersiveStats,
-        deadline: Option<Instant>,
-    ) -> (f64, Option<ObjectLight>, f64) {
+        (batch, steps, deadline): (&Batch, &mut DispersiveStats, Option<Instant>),
+        gather: Option<Option<usize>>,
+    ) -> (f64, (Option<ObjectLight>, f64), Option<WallGather>) {
+        let direct_ms = match carry || self.direct_sync.moved.is_empty() {
+            true => 0.0,
+            false => self.direct_sync.cost_ms,
+        };
+        let object_ms = batch
+            .0
+            .first()
+            .map_or(0.0, |&k| self.scheduler.expected_cost(k));
+        let walls_beside_direct = object_ms > direct_ms;
         let mut step1 = self.take_step1();
         step1.direct_sync.carried = carry;
-        let mut rows = self.wall_rows.take();
         let mut meter = std::mem::take(&mut self.light_meter);
-        // The wall rows and the meter read nothing else of the solver (Step 2 reads the
-        // boundary's list too: it prepares Step 3's gather).
-        let boundary = self.boundary_patches.clone();
+        let mut rows = walls_beside_direct.then(|| self.wall_rows.take()).flatten();
         let (options, boxes) = (self.options, self.object_boxes.clone());
-        let direct_and_walls = || {
-            let started = Instant::now();
+        // The wall rows read nothing else of the solver (Step 2 reads the boundary's list
+        // too: it prepares Step 3's gather).
+        let boundary = self.boundary_patches.clone();
+        let direct_and_meter = || {
             rayon::join(
                 || {
                     let t = Instant::now();
@@ -594,31 +599,67 @@ impl Dispersive {
                     tr("direct_to_boundary", t);
                 },
                 || {
-                    let tt = Instant::now();
-                    if let Some(rows) = &mut rows {
-                        rows.refresh(world, (&boundary, &boxes), changes, walls_until);
-                    }
-                    tr("refresh_wall_rows", tt);
-                    // The light meter's rays a mover may have changed (`meter_and_guard`).
+                    refresh_wall_rows(
+                        rows.as_mut(),
+                        world,
+                        (&boundary, &boxes),
+                        changes,
+                        walls_until,
+                    );
                     let tt = Instant::now();
                     meter.update(world, &changes.moved, &boxes);
                     tr("light_meter", tt);
                 },
-            );
-            ms(started)
+            )
         };
-        let first_object = || {
+        let the_rest = || {
             let t = Instant::now();
             let tt = Instant::now();
             self.forget_stale_caches(world, &batch.0);
             tr("forget_stale", tt);
             let first = self.light_first_object(world, batch, steps, deadline);
-            (first, ms(t))
+            let first_ms = ms(t);
+            if walls_beside_direct {
+                return ((first, first_ms), None);
+            }
+            let boundary = (&self.boundary_patches[..], &self.object_boxes[..]);
+            refresh_wall_rows(
+                self.wall_rows.as_mut(),
+                world,
+                boundary,
+                changes,
+                walls_until,
+            );
+            let tt = Instant::now();
+            let gathered = gather.map(|window| self.gather_walls(world, 1, window));
+            tr("gather_walls", tt);
+            ((first, first_ms), gathered)
         };
-        let (direct_ms, (first, first_ms)) = rayon::join(direct_and_walls, first_object);
-        (self.wall_rows, self.light_meter) = (rows, meter);
+        let started = Instant::now();
+        let (_, (first, gathered)) = rayon::join(direct_and_meter, the_rest);
+        let direct_ms = ms(started);
+        if walls_beside_direct {
+            self.wall_rows = rows;
+        }
+        self.light_meter = meter;
         self.put_step1(step1);
-        (direct_ms, first, first_ms)
+        (direct_ms, first, gathered)
+    }
+
+    /// The most wall rows Step 4 gathers this frame (`None`: [`WALL_ROWS_PER_FRAME`]): under
+    /// a budget what fits the `left` ms, from the measured cost of a row (and the meter's
+    /// share), at least a few; while something moves (or the walls doze), a quarter of the
+    /// window: the walls' second bounce lags a few frames behind the mover, and the full
+    /// window returns as soon as it rests.
+    fn wall_window(&self, moving: bool, left: Option<f64>) -> Option<usize> {
+        let window = left.map(|left| {
+            let left = (left - self.meter_ms).max(0.0);
+            ((left / self.row_ms.max(1e-6)) as usize).max(1024)
+        });
+        match moving {
+            false => window,
+            true => Some(window.map_or(WALL_ROWS_WHILE_MOVING, |w| w.min(WALL_ROWS_WHILE_MOVING))),
+        }
     }
 
     /// The objects this frame updates, and whether they go over what the budget leaves them
@@ -680,4 +721,19 @@ fn secs(ms: f64) -> std::time::Duration {
 /// Milliseconds since `t`.
 fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
+}
+
+/// [`WallRows::refresh`] of `rows` (if the wall exchange is on), traced as a part of the frame.
+fn refresh_wall_rows(
+    rows: Option<&mut WallRows>,
+    world: &World,
+    (boundary, object_boxes): (&[u32], &[shrad_scene::Aabb]),
+    changes: &Changes,
+    until: Option<Instant>,
+) {
+    let t = Instant::now();
+    if let Some(rows) = rows {
+        rows.refresh(world, (boundary, object_boxes), changes, until);
+    }
+    tr("refresh_wall_rows", t);
 }

@@ -71,51 +71,32 @@ impl Dispersive {
     /// of the walls and objects (`sleep.rs`).
     /// Under a budget's deadline the window is at most `window` rows (what fits). Rows the
     /// wall rows rebuilt since the last frame (a mover's re-traced rays) are gathered beside
-    /// a window that misses them.
-    pub(super) fn assemble(&mut self, world: &World, sweeps: usize, window: Option<usize>) -> f64 {
+    /// a window that misses them. The first sweep's gather may come `gathered` already
+    /// ([`Dispersive::gather_walls`], beside Step 1).
+    pub(super) fn assemble(
+        &mut self,
+        world: &World,
+        (sweeps, window): (usize, Option<usize>),
+        gathered: Option<WallGather>,
+    ) -> f64 {
         let start = std::time::Instant::now();
         let p = &world.patches;
         let mut rows_gathered = 0;
-        let n = self.boundary_patches.len();
         let (mut changed, mut total) = (0f64, 0f64);
-        let rebuilt = (self.wall_rows.as_mut()).map_or(Vec::new(), |r| r.take_rebuilt());
+        let mut gathered = gathered;
         for _ in 0..sweeps.max(1) {
-            if let Some(rows) = &self.wall_rows {
-                let window = if sweeps > 1 {
-                    n
-                } else {
-                    n.min(WALL_ROWS_PER_FRAME).min(window.unwrap_or(usize::MAX))
+            if self.wall_rows.is_some() {
+                // A row's cost (`row_ms`, a budget's window) is measured only where Step 4
+                // gathers itself (a frame without a budget may gather beside Step 1).
+                let g = match gathered.take() {
+                    Some(g) => g,
+                    None => {
+                        let g = self.gather_walls(world, sweeps, window);
+                        rows_gathered += g.ks.len();
+                        g
+                    }
                 };
-                let start = self.wall_cursor % n.max(1);
-                let mut ks: Vec<usize> = (0..window).map(|k| (start + k) % n).collect();
-                self.wall_cursor = (start + window) % n.max(1);
-                if window < n {
-                    ks.extend(rebuilt.iter().filter(|&&k| (k + n - start) % n >= window));
-                }
-                rows_gathered += ks.len();
-                // Reflected light of every patch first when the window reads each several
-                // times (one random read per row entry), else as each entry is read (a moving
-                // frame's window of 8k rows reads 0.3M entries: a pass over the 1M room's
-                // patches would cost more than it).
-                let (b, m) = (&self.radiosity, &world.exitance);
-                let reflected: Vec<Vec3> = match window * rows.rays() >= p.len() {
-                    true => b.par_iter().zip(m).map(|(b, e)| *b - *e).collect(),
-                    false => Vec::new(),
-                };
-                let reflected_at = |j: usize| match reflected.is_empty() {
-                    true => b[j] - m[j],
-                    false => reflected[j],
-                };
-                let wall: Vec<Vec3> = ks
-                    .par_iter()
-                    .map(|&k| {
-                        rows.row(k)
-                            .iter()
-                            .map(|&(j, f)| reflected_at(j as usize) * f)
-                            .sum()
-                    })
-                    .collect();
-                self.store_wall(&ks, wall, p);
+                self.store_wall(&g.ks, g.wall, p);
             }
             (changed, total) = self.boundary_radiosity(world);
             if self.wall_rows.is_none() {
@@ -138,6 +119,60 @@ impl Dispersive {
         } else {
             0.0
         }
+    }
+
+    /// Step 4's gather of one sweep: the wall light of the rows in this frame's window (all
+    /// of them with several `sweeps`, else at most [`WALL_ROWS_PER_FRAME`] and `window`) and of
+    /// the rows rebuilt since the last frame that it misses, from the boundary's reflected
+    /// light. It reads only boundary patches' radiosity, which nothing before Step 4's store
+    /// writes, so a frame may gather before Steps 2 and 3 (`Dispersive::frame`).
+    pub(super) fn gather_walls(
+        &mut self,
+        world: &World,
+        sweeps: usize,
+        window: Option<usize>,
+    ) -> WallGather {
+        let p = &world.patches;
+        let n = self.boundary_patches.len();
+        let Some(rows) = self.wall_rows.as_mut() else {
+            return WallGather::default();
+        };
+        let rebuilt = rows.take_rebuilt();
+        let rows = &*rows;
+        let window = if sweeps > 1 {
+            n
+        } else {
+            n.min(WALL_ROWS_PER_FRAME).min(window.unwrap_or(usize::MAX))
+        };
+        let start = self.wall_cursor % n.max(1);
+        let mut ks: Vec<usize> = (0..window).map(|k| (start + k) % n).collect();
+        self.wall_cursor = (start + window) % n.max(1);
+        if window < n {
+            ks.extend(rebuilt.iter().filter(|&&k| (k + n - start) % n >= window));
+        }
+        // Reflected light of every patch first when the window reads each several times
+        // (one random read per row entry), else as each entry is read (a moving frame's
+        // window of 8k rows reads 0.3M entries: a pass over the 1M room's patches would cost
+        // more than it).
+        let (b, m) = (&self.radiosity, &world.exitance);
+        let reflected: Vec<Vec3> = match window * rows.rays() >= p.len() {
+            true => b.par_iter().zip(m).map(|(b, e)| *b - *e).collect(),
+            false => Vec::new(),
+        };
+        let reflected_at = |j: usize| match reflected.is_empty() {
+            true => b[j] - m[j],
+            false => reflected[j],
+        };
+        let wall: Vec<Vec3> = ks
+            .par_iter()
+            .map(|&k| {
+                rows.row(k)
+                    .iter()
+                    .map(|&(j, f)| reflected_at(j as usize) * f)
+                    .sum()
+            })
+            .collect();
+        WallGather { ks, wall }
     }
 
     /// Each boundary patch's radiosity from its irradiance, `B = M + ρ (E_direct + Σ E_o +
@@ -366,4 +401,12 @@ impl Dispersive {
         }
         non_finite
     }
+}
+
+/// The wall rows Step 4 gathered ([`Dispersive::gather_walls`]): their indices among the
+/// boundary's rows and the wall light of each, still to be stored.
+#[derive(Default)]
+pub(super) struct WallGather {
+    ks: Vec<usize>,
+    wall: Vec<Vec3>,
 }

@@ -583,7 +583,7 @@ fn a_rounding_residue_below_zero_in_the_incremental_sums_gives_no_negative_radio
     // than rounding, so that the wall exchange the assembly redoes cannot lift it).
     let j = d.boundary_patches[0] as usize;
     d.indirect[j] = -(d.direct[j] + d.wall[j]) - Vec3::splat(1e-3);
-    d.assemble(&world, 1, None);
+    d.assemble(&world, (1, None), None);
     let b = d.radiosity[j];
     assert!(b.min_element() >= 0.0, "patch {j}: {b}");
 }
