@@ -10,7 +10,7 @@ use super::recent_moves::RecentMoves;
 use super::sample_ends::SampleEnds;
 use super::{
     emitters, emitting_objects, padded_swept, sample_shift, shadow_sample, unoccluded_irradiance,
-    visible_fraction, Emitter,
+    visible_fraction, weighted_fraction, Emitter,
 };
 use crate::shadow_rays::ShadowRays;
 use crate::World;
@@ -418,9 +418,10 @@ impl DirectCache {
                     for (c, &k) in ks.iter().enumerate() {
                         self.unoccluded[k * ne + e] = unoccluded[c];
                         self.coarse[k] = true;
+                        let samples = c * s..(c + 1) * s;
                         let fraction = weighted_fraction(
-                            &weight[c * s..(c + 1) * s],
-                            &blocked[c * s..(c + 1) * s],
+                            (weight[samples.clone()].iter().copied())
+                                .zip(blocked[samples].iter().copied()),
                         );
                         self.held[k * ne + e] = fraction;
                         coarse_value[c] += em.radiance * (unoccluded[c] * fraction);
@@ -475,22 +476,5 @@ impl DirectCache {
             out += em.radiance * (u * fraction);
         }
         out
-    }
-}
-
-/// The weighted fraction of samples not `blocked` (`weight` per sample, summed in order as
-/// [`visible_fraction`] does); 1 when the weights sum to nothing.
-fn weighted_fraction(weight: &[f32], blocked: &[bool]) -> f32 {
-    let (mut total, mut seen) = (0.0, 0.0);
-    for (&w, &b) in weight.iter().zip(blocked) {
-        total += w;
-        if !b {
-            seen += w;
-        }
-    }
-    if total > 0.0 {
-        seen / total
-    } else {
-        1.0
     }
 }

@@ -168,11 +168,19 @@ fn visible_fraction(
     eps: f32,
     blocked: impl Fn(u32) -> bool,
 ) -> f32 {
-    let (mut total, mut seen) = (0.0, 0.0);
-    for j in 0..samples {
+    weighted_fraction((0..samples).map(|j| {
         let (_, _, w) = shadow_sample(em, at.0, at.1, shift, j, samples, eps);
+        (w, blocked(j))
+    }))
+}
+
+/// The weighted fraction of samples `(weight, blocked)` not blocked, summed in order; 1 when
+/// the weights sum to nothing.
+fn weighted_fraction(samples: impl Iterator<Item = (f32, bool)>) -> f32 {
+    let (mut total, mut seen) = (0.0, 0.0);
+    for (w, blocked) in samples {
         total += w;
-        if !blocked(j) {
+        if !blocked {
             seen += w;
         }
     }

@@ -568,15 +568,14 @@ impl Dispersive {
         (batch, steps, deadline): (&Batch, &mut DispersiveStats, Option<Instant>),
         gather: Option<Option<usize>>,
     ) -> (f64, (Option<ObjectLight>, f64), Option<WallGather>) {
-        let direct_ms = match carry || self.direct_sync.moved.is_empty() {
+        // What each side is expected to cost: Step 1 at its last run with a mover, the first
+        // object at its last update.
+        let direct_expected = match carry || self.direct_sync.moved.is_empty() {
             true => 0.0,
             false => self.direct_sync.cost_ms,
         };
-        let object_ms = batch
-            .0
-            .first()
-            .map_or(0.0, |&k| self.scheduler.expected_cost(k));
-        let walls_beside_direct = object_ms > direct_ms;
+        let object_expected = (batch.0.first()).map_or(0.0, |&k| self.scheduler.expected_cost(k));
+        let walls_beside_direct = object_expected > direct_expected;
         let mut step1 = self.take_step1();
         step1.direct_sync.carried = carry;
         let mut meter = std::mem::take(&mut self.light_meter);

@@ -37,7 +37,7 @@ impl Dispersive {
     /// `stats.energy` (keeping the Step 3 flux already in it) and `stats.diverged`.
     pub(super) fn meter_and_guard(&mut self, world: &World, stats: &mut FrameStats) {
         // The meter's rays a mover may have changed were traced again beside Step 1
-        // (`direct_and_wall_rows`).
+        // (`Dispersive::direct_beside_first_object`).
         let t = std::time::Instant::now();
         stats.energy = EnergyBalance {
             object_emitters: stats.energy.object_emitters,
