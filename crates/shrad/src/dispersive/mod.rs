@@ -75,8 +75,8 @@ pub use step3_to_boundary::splat_to_boundary;
 pub use step4_assemble::{WALL_ROWS_PER_FRAME, WALL_ROWS_WHILE_MOVING};
 pub use wall_rows::WALL_RETRACE_SHARE;
 
-use object_state::ObjectLight;
 use object_state::ObjectProbes;
+use object_state::{FirstObject, ObjectLight};
 use scheduler::{Must, Scheduler};
 use setup::{outer_sides, receives_as_boundary, world_box, Neighbours, LIGHT_METER_RAYS};
 use step4_assemble::WallGather;
@@ -501,7 +501,7 @@ impl Dispersive {
         let t = Instant::now();
         let lit = self.light_selected_objects(
             world,
-            (batch, Some(first)),
+            (batch, FirstObject::Lit(first)),
             &mut stats,
             &mut steps,
             at(0.8),

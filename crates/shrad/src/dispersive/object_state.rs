@@ -196,3 +196,15 @@ pub(super) struct ObjectLight {
     pub(super) e: Vec<Vec3>,
     pub(super) ms: f64,
 }
+
+/// A batch's first object as the frame hands it to Step 2's store
+/// (`Dispersive::light_selected_objects`).
+pub(super) enum FirstObject {
+    /// Not lit yet: it is lit there, as the others are (tests that update one object; a
+    /// frame always lights its first object beside Step 1).
+    #[cfg(test)]
+    NotLit,
+    /// Lit beside Step 1 (`Dispersive::light_first_object`): its light, or `None` when its
+    /// update was not ready (it waits, as a late object does).
+    Lit(Option<ObjectLight>),
+}

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use glam::Vec3;
 
-use super::object_state::ObjectLight;
+use super::object_state::{FirstObject, ObjectLight};
 use super::{ms, Batch, Dispersive, DispersiveStats, FrameStats};
 use crate::World;
 
@@ -16,12 +16,11 @@ impl Dispersive {
     /// Returns the objects lit. Under a budget (`deadline`: when the objects' share of the
     /// frame ends) an object whose geometry is measured again may wait: see
     /// [`Dispersive::prepare_update`]. When the frame prepared and lit the batch's first
-    /// object beside Step 1 (`first`: what [`Dispersive::light_first_object`] gave, `None`
-    /// inside when it was not ready), it is stored here.
+    /// object beside Step 1 (`first`), it is stored here.
     pub(super) fn light_selected_objects(
         &mut self,
         world: &World,
-        (batch, first): (Batch, Option<Option<ObjectLight>>),
+        (batch, first): (Batch, FirstObject),
         stats: &mut FrameStats,
         steps: &mut DispersiveStats,
         deadline: Option<Instant>,
@@ -29,12 +28,12 @@ impl Dispersive {
         let mut lit = Vec::with_capacity(batch.0.len());
         // The expected Step 3 of the objects lit so far (ms), still to come in this frame.
         let mut step3_owed = 0.0;
-        let mut first = first;
+        let mut first = Some(first);
         for (n, &k) in batch.0.iter().enumerate() {
             let o = self.objects[k].object;
             let expected = self.scheduler.expected_cost(k);
             let light = match first.take() {
-                Some(light) if n == 0 => light,
+                Some(FirstObject::Lit(light)) if n == 0 => light,
                 _ => {
                     // Once what is left of the objects' share of the frame is less than an
                     // object's expected cost, the rest of the batch waits (if it may): the

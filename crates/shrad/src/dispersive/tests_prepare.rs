@@ -44,7 +44,7 @@ fn update(world: &World, d: &mut Dispersive, k: usize, deadline: Option<Instant>
     let rays = world.rays_cast();
     let lit = d.light_selected_objects(
         world,
-        (Batch(vec![k]), None),
+        (Batch(vec![k]), FirstObject::NotLit),
         &mut stats,
         &mut steps,
         deadline,
