@@ -554,25 +554,28 @@ impl Dispersive {
         echo
     }
 
-    /// The light object `k`'s patch `k_patch` (offset in its range) gathers from its near
-    /// field: the radiosity the probes would carry (`texel_radiance`, times pi), less the
-    /// object's own echo (`near_echo`, one value per patch seen).
-    pub(super) fn near_light(
-        &self,
-        world: &World,
-        k: usize,
-        k_patch: usize,
-        echo: &[Vec3],
-    ) -> Vec3 {
-        let near = &self.objects[k].near;
-        near.view
-            .row(k_patch)
-            .iter()
-            .map(|&(h, f)| {
-                let q = near.seen[h as usize] as usize;
-                let b = self.texel_radiance(world, q) * std::f32::consts::PI;
-                (b - echo[h as usize]).max(Vec3::ZERO) * f
+    /// The light each patch object `k`'s near field sees sends it (one value per patch
+    /// seen, by its index in `seen`): the radiosity the probes would carry
+    /// (`texel_radiance`, times pi), less the object's own echo (`near_echo`), at least 0.
+    /// Found once per patch seen, not once per near-field entry that sees it (a floor patch
+    /// under a ball is seen by many of its patches).
+    pub(super) fn near_seen_light(&self, world: &World, k: usize) -> Vec<Vec3> {
+        let echo = self.near_echo(world, k);
+        let seen = &self.objects[k].near.seen;
+        (seen.par_iter().zip(echo))
+            .map(|(&q, echo)| {
+                let b = self.texel_radiance(world, q as usize) * std::f32::consts::PI;
+                (b - echo).max(Vec3::ZERO)
             })
+            .collect()
+    }
+
+    /// The light object `k`'s patch `k_patch` (offset in its range) gathers from its near
+    /// field, from what each patch seen sends (`near_seen_light`).
+    pub(super) fn near_light(&self, k: usize, k_patch: usize, seen_light: &[Vec3]) -> Vec3 {
+        let near = &self.objects[k].near;
+        (near.view.row(k_patch).iter())
+            .map(|&(h, f)| seen_light[h as usize] * f)
             .sum()
     }
 }

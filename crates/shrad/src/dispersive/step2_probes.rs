@@ -110,7 +110,7 @@ impl Dispersive {
         let nc = num_coeffs(self.options.bands);
         let ob = &self.objects[k];
         let kk = k;
-        let echo = self.near_echo(world, k);
+        let seen_light = self.near_seen_light(world, k);
         let range = p.range(ob.object);
         let with_transfer = !ob.transfer.is_empty();
         let use_visibility = self.reads_probe_visibility(kk);
@@ -151,7 +151,7 @@ impl Dispersive {
                     true => (&[][..], Vec3::ZERO),
                     false => (
                         &ob.near.lobe[k * nc..(k + 1) * nc],
-                        self.near_light(world, kk, k, &echo),
+                        self.near_light(kk, k, &seen_light),
                     ),
                 };
                 for (a, b) in lobe.iter_mut().zip(near_lobe) {
