@@ -25,9 +25,9 @@
 //! and off (`Dispersive::set_caching`) and compare the radiosity frame by frame.
 
 use glam::{Affine3A, Vec3};
-use rayon::prelude::*;
 use shrad_sh::ShRgb;
 
+pub(super) use super::chunk_cones::{ChunkCones, SeenSphere};
 use super::Dispersive;
 
 /// A probe texel that sees nothing to shade: a miss, or the object's own black texel.
@@ -59,123 +59,6 @@ pub(super) const MAX_STEP3_BYTES: usize = 24 << 20;
 /// 32^2 faces, 6.3 MB at the paper's 128^2, 25 MB at 256^2, which is not kept).
 pub(super) const MAX_PROBE_BYTES: usize = 8 << 20;
 
-/// Cached rays are grouped in chunks of this many (consecutive texels of a cube map, or
-/// consecutive boundary patches of a gather), each with the box of its segments, so a
-/// mover's box rejects a whole chunk with one box test before any ray is tested.
-pub(super) const CHUNK: usize = 64;
-
-/// The cone of directions of each chunk of [`CHUNK`] rays that share an apex (a probe's
-/// texels from its centre, an emitter's texels or gather entries from the emitter): a
-/// mover's bounding sphere outside every chunk's cone meets none of its rays, one test for
-/// 64 rays. Rays that converge to or leave one point are far better bounded by a cone than
-/// by a box (a row of texels spans the room, so its box meets almost every mover).
-#[derive(Default)]
-pub(super) struct ChunkCones {
-    /// Per chunk: the cone's axis and half-angle (radians; `PI` when it covers everything).
-    axis: Vec<Vec3>,
-    half_angle: Vec<f32>,
-    /// For cube-map cones ([`ChunkCones::tiles`]): the texels of chunk `c` are
-    /// `members[starts[c]..starts[c + 1]]`; empty when chunk `c` is the range
-    /// `c * CHUNK..(c + 1) * CHUNK`.
-    members: Vec<u32>,
-    starts: Vec<u32>,
-}
-
-/// A mover's bounding sphere seen from an apex: direction and angular radius, or `None`
-/// when the apex is inside it (every chunk may meet it).
-pub(super) type SeenSphere = Option<(Vec3, f32)>;
-
-impl ChunkCones {
-    /// The cones of `n` directions in chunks of [`CHUNK`] consecutive ones, `dir(i)` giving
-    /// direction `i` (any length).
-    pub(super) fn new(n: usize, dir: impl Fn(usize) -> Vec3 + Sync) -> Self {
-        let (axis, half_angle) = (0..n.div_ceil(CHUNK))
-            .into_par_iter()
-            .map(|c| cone_of((c * CHUNK..((c + 1) * CHUNK).min(n)).map(&dir)))
-            .unzip();
-        ChunkCones {
-            axis,
-            half_angle,
-            members: Vec::new(),
-            starts: Vec::new(),
-        }
-    }
-
-    /// The cones of a cube map's texels in square tiles of 8 x 8 per face: a tile's cone is
-    /// about an eighth of a face wide, where 64 consecutive texels (two rows) span the
-    /// face, so a small mover meets far fewer chunks.
-    pub(super) fn tiles(cube: &shrad_sh::CubeMap) -> Self {
-        const SIDE: usize = 8;
-        let res = cube.res();
-        let (mut members, mut starts) = (Vec::new(), vec![0u32]);
-        for face in shrad_sh::CubeFace::ALL {
-            for row0 in (0..res).step_by(SIDE) {
-                for col0 in (0..res).step_by(SIDE) {
-                    for row in row0..(row0 + SIDE).min(res) {
-                        for col in col0..(col0 + SIDE).min(res) {
-                            members.push(cube.texel_index(face, row, col) as u32);
-                        }
-                    }
-                    starts.push(members.len() as u32);
-                }
-            }
-        }
-        let (axis, half_angle) = (0..starts.len() - 1)
-            .into_par_iter()
-            .map(|c| {
-                let texels = &members[starts[c] as usize..starts[c + 1] as usize];
-                cone_of(texels.iter().map(|&t| cube.directions[t as usize]))
-            })
-            .unzip();
-        ChunkCones {
-            axis,
-            half_angle,
-            members,
-            starts,
-        }
-    }
-
-    /// Number of chunks.
-    pub(super) fn len(&self) -> usize {
-        self.axis.len()
-    }
-
-    /// The ray indices of chunk `c` (of `n` rays in all).
-    pub(super) fn chunk(&self, c: usize, n: usize) -> impl Iterator<Item = usize> + '_ {
-        let (tiled, ranged) = if self.members.is_empty() {
-            (&[][..], c * CHUNK..((c + 1) * CHUNK).min(n))
-        } else {
-            let texels = &self.members[self.starts[c] as usize..self.starts[c + 1] as usize];
-            (texels, 0..0)
-        };
-        tiled.iter().map(|&t| t as usize).chain(ranged)
-    }
-
-    /// `spheres` (centre, radius) as seen from `apex`.
-    pub(super) fn seen_from(apex: Vec3, spheres: &[(Vec3, f32)]) -> Vec<SeenSphere> {
-        spheres
-            .iter()
-            .map(|&(c, r)| {
-                let v = c - apex;
-                let d = v.length();
-                (d > r).then(|| (v / d, (r / d).clamp(0.0, 1.0).asin()))
-            })
-            .collect()
-    }
-
-    /// Whether a ray of chunk `c` may meet one of the `seen` spheres.
-    pub(super) fn may_meet(&self, c: usize, seen: &[SeenSphere]) -> bool {
-        let (axis, half) = (self.axis[c], self.half_angle[c]);
-        seen.iter().any(|s| match *s {
-            None => true,
-            Some((u, alpha)) => {
-                let reach = half + alpha;
-                reach >= std::f32::consts::PI || u.dot(axis) >= reach.cos()
-            }
-        })
-    }
-}
-
 /// Mark `stale` every ray of `marks` in a chunk of `cones` that may meet a `seen` sphere
 /// and that `meets` says a mover's box meets (skipping those already marked); returns the
 /// rays marked.
@@ -186,10 +69,9 @@ pub(super) fn mark_stale(
     stale: u32,
     meets: impl Fn(usize) -> bool,
 ) -> Vec<usize> {
-    let n = marks.len();
     let mut out = Vec::new();
     for c in (0..cones.len()).filter(|&c| cones.may_meet(c, seen)) {
-        for k in cones.chunk(c, n) {
+        for k in cones.chunk(c) {
             if marks[k] != stale && meets(k) {
                 marks[k] = stale;
                 out.push(k);
@@ -197,23 +79,6 @@ pub(super) fn mark_stale(
         }
     }
     out
-}
-
-/// The cone (axis, half-angle) of some directions (any length).
-fn cone_of(dirs: impl Iterator<Item = Vec3> + Clone) -> (Vec3, f32) {
-    let axis = dirs
-        .clone()
-        .map(|d| d.normalize_or_zero())
-        .sum::<Vec3>()
-        .normalize_or_zero();
-    if axis == Vec3::ZERO {
-        return (Vec3::Z, std::f32::consts::PI);
-    }
-    let min_cos = dirs
-        .map(|d| axis.dot(d.normalize_or_zero()))
-        .fold(1f32, f32::min);
-    // A little slack against rounding.
-    (axis, min_cos.clamp(-1.0, 1.0).acos() + 1e-4)
 }
 
 /// What a probe's capture at its current place saw.
@@ -251,7 +116,7 @@ pub(super) struct GatherEntries {
     pub(super) dir: [Vec<f32>; 3],
     /// [`RAY_UNKNOWN`], [`RAY_CLEAR`] or [`RAY_BLOCKED`].
     pub(super) ray: Vec<u8>,
-    /// The cone of each chunk of entries' directions from the centre.
+    /// The cone of each tile of entries' directions from the centre (`ChunkCones::by_direction`).
     pub(super) cones: ChunkCones,
     /// The entries the stale test forgot since the boundary's contribution was sent, with
     /// their ray as it was then (`resend.rs`: the light paths a mover crossed).
@@ -333,7 +198,9 @@ impl EmitterCache {
             .rays
             .iter()
             .map(|r| match r {
-                EmitterRays::Gather(g) => g.patch.len() * 25 + g.forgotten.len() * 8,
+                EmitterRays::Gather(g) => {
+                    g.patch.len() * 25 + g.cones.bytes() + g.forgotten.len() * 8
+                }
                 EmitterRays::Splat(s) => s.seen.len() * 12 + s.forgotten.len() * 4,
             })
             .sum();
@@ -364,60 +231,8 @@ mod tests {
     use super::*;
     use crate::patches::PatchSizing;
     use crate::World;
-    use shrad_scene::{Aabb, Role};
+    use shrad_scene::Role;
     use shrad_vis::Backend;
-
-    /// A chunk's cone never rejects a sphere that one of its rays meets (random directions
-    /// and spheres), and it does reject spheres well away from every ray.
-    #[test]
-    fn chunk_cones_reject_only_what_no_ray_meets() {
-        let mut h = 0x2545f491u32;
-        let mut rnd = || {
-            h ^= h << 13;
-            h ^= h >> 17;
-            h ^= h << 5;
-            h as f32 / u32::MAX as f32
-        };
-        // Consecutive chunks and square tiles (12^2 faces: tiles of 8 and of 4 texels).
-        let camera = crate::probes::ProbeCamera::new(12, 2);
-        let dirs = &camera.cube.directions;
-        let n = dirs.len();
-        let kinds = [
-            ChunkCones::new(n, |t| dirs[t]),
-            ChunkCones::tiles(&camera.cube),
-        ];
-        let mut every: Vec<usize> = (0..kinds[1].len())
-            .flat_map(|c| kinds[1].chunk(c, n))
-            .collect();
-        every.sort_unstable();
-        assert_eq!(
-            every,
-            (0..n).collect::<Vec<_>>(),
-            "the tiles are not a partition"
-        );
-        let apex = Vec3::new(0.3, -0.2, 0.1);
-        let mut rejected = [0; 2];
-        for _ in 0..2000 {
-            let c = Vec3::new(rnd(), rnd(), rnd()) * 8.0 - 4.0;
-            let r = 0.05 + 0.5 * rnd();
-            let b = Aabb::new(c - Vec3::splat(r), c + Vec3::splat(r));
-            let seen = ChunkCones::seen_from(apex, &[b.bounding_sphere()]);
-            for (cones, rejected) in kinds.iter().zip(&mut rejected) {
-                for chunk in 0..cones.len() {
-                    let any_ray = cones
-                        .chunk(chunk, n)
-                        .any(|t| b.meets_ray_within(apex, dirs[t], f32::INFINITY));
-                    let may = cones.may_meet(chunk, &seen);
-                    assert!(may || !any_ray, "a cone rejected a box its rays meet");
-                    *rejected += usize::from(!may);
-                }
-            }
-        }
-        assert!(
-            rejected.iter().all(|&r| r > 2000),
-            "the cones reject almost nothing: {rejected:?}"
-        );
-    }
 
     /// One frame's change to the Cornell box.
     enum Event {

@@ -34,8 +34,8 @@ impl Dispersive {
                 (cos > 0.0).then_some((j, cos, r2, -towards_object))
             })
             .collect();
-        // The entries' shadow rays all end at the centre: one cone of directions a chunk.
-        let cones = ChunkCones::new(facing.len(), |n| {
+        // The entries' shadow rays all end at the centre: one cone of directions a tile.
+        let cones = ChunkCones::by_direction(facing.len(), |n| {
             let j = facing[n].0 as usize;
             p.centre[j] + p.normal[j] * world.eps - centre
         });

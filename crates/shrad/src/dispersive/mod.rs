@@ -35,6 +35,7 @@ use crate::probes::ProbeCamera;
 use crate::World;
 
 mod caches;
+mod chunk_cones;
 mod frame;
 mod gather;
 pub mod inspect;

@@ -18,8 +18,7 @@ use rayon::prelude::*;
 use shrad_scene::{Aabb, Role};
 
 use super::caches::{
-    mark_stale, ChunkCones, EmitterCache, EmitterRays, ProbeCache, CHUNK, RAY_UNKNOWN, SEES_STALE,
-    UNKNOWN,
+    mark_stale, ChunkCones, EmitterCache, EmitterRays, ProbeCache, RAY_UNKNOWN, SEES_STALE, UNKNOWN,
 };
 use super::object_state::ObjectProbes;
 use super::swept_boxes::SweptBoxes;
@@ -280,23 +279,19 @@ impl StaleTest<'_> {
             .for_each(|rays| match rays {
                 EmitterRays::Gather(g) => {
                     let c = g.centre;
-                    let (cones, seen) = (&g.cones, ChunkCones::seen_from(c, &self.spheres));
-                    let forgotten = &mut g.forgotten;
-                    g.ray
-                        .chunks_mut(CHUNK)
-                        .zip(g.patch.chunks(CHUNK))
-                        .enumerate()
-                        .filter(|(k, _)| cones.may_meet(*k, &seen))
-                        .for_each(|(k, (rs, js))| {
-                            for (n, (r, &j)) in rs.iter_mut().zip(js).enumerate() {
-                                let j = j as usize;
-                                let from = p.centre[j] + p.normal[j] * world.eps;
-                                if *r != RAY_UNKNOWN && self.meets(from, c - from, 1.0) {
-                                    forgotten.push(((k * CHUNK + n) as u32, *r));
-                                    *r = RAY_UNKNOWN;
-                                }
-                            }
-                        })
+                    let seen = ChunkCones::seen_from(c, &self.spheres);
+                    let from_before = g.forgotten.len();
+                    let chunks = (0..g.cones.len()).filter(|&k| g.cones.may_meet(k, &seen));
+                    for e in chunks.flat_map(|k| g.cones.chunk(k)) {
+                        let j = g.patch[e] as usize;
+                        let from = p.centre[j] + p.normal[j] * world.eps;
+                        if g.ray[e] != RAY_UNKNOWN && self.meets(from, c - from, 1.0) {
+                            g.forgotten.push((e as u32, g.ray[e]));
+                            g.ray[e] = RAY_UNKNOWN;
+                        }
+                    }
+                    // In the entries' order, as `resend.rs` sends them (a tile's are not).
+                    g.forgotten[from_before..].sort_unstable_by_key(|&(e, _)| e);
                 }
                 EmitterRays::Splat(s) => {
                     let c = s.centre;
