@@ -73,7 +73,7 @@ mod wall_rows;
 pub use frame::Batch;
 pub use options::{DispersiveOptions, ProbeRepair, Schedule, ToBoundary};
 pub use step3_to_boundary::splat_to_boundary;
-pub use step4_assemble::{WALL_ROWS_PER_FRAME, WALL_ROWS_WHILE_MOVING};
+pub use step4_assemble::{WALL_ROWS_DOZING, WALL_ROWS_PER_FRAME, WALL_ROWS_WHILE_MOVING};
 pub use wall_rows::WALL_RETRACE_SHARE;
 
 use object_state::ObjectProbes;
@@ -481,9 +481,13 @@ impl Dispersive {
             true => 8,
             false => 1,
         };
-        let moving_walls = !changes.moved.is_empty() || doze;
+        let small_window = match (changes.moved.is_empty(), doze) {
+            (false, _) => Some(WALL_ROWS_WHILE_MOVING),
+            (true, true) => Some(WALL_ROWS_DOZING),
+            (true, false) => None,
+        };
         let gather_early =
-            (budget_ms.is_none() && sweeps == 1).then(|| self.wall_window(moving_walls, None));
+            (budget_ms.is_none() && sweeps == 1).then(|| self.wall_window(small_window, None));
 
         tr("what_changed_and_schedule", frame_start);
 
@@ -520,7 +524,7 @@ impl Dispersive {
 
         // Step 4 (2.3.5): full wall sweeps when the light changed.
         let t = Instant::now();
-        let window = self.wall_window(moving_walls, budget_ms.map(|b| b - ms(frame_start)));
+        let window = self.wall_window(small_window, budget_ms.map(|b| b - ms(frame_start)));
         let change = self.assemble(world, (sweeps, window), gathered);
         self.wall_unswept = change + if doze { self.wall_unswept } else { 0.0 };
         steps.assemble_ms = ms(t);
@@ -648,17 +652,18 @@ impl Dispersive {
 
     /// The most wall rows Step 4 gathers this frame (`None`: [`WALL_ROWS_PER_FRAME`]): under
     /// a budget what fits the `left` ms, from the measured cost of a row (and the meter's
-    /// share), at least a few; while something moves (or the walls doze), a quarter of the
-    /// window: the walls' second bounce lags a few frames behind the mover, and the full
-    /// window returns as soon as it rests.
-    fn wall_window(&self, moving: bool, left: Option<f64>) -> Option<usize> {
+    /// share), at least a few; at most `small` while something moves
+    /// ([`WALL_ROWS_WHILE_MOVING`]) or the walls doze ([`WALL_ROWS_DOZING`]): the walls'
+    /// second bounce lags a few frames behind the mover, and the full window returns as soon
+    /// as it rests.
+    fn wall_window(&self, small: Option<usize>, left: Option<f64>) -> Option<usize> {
         let window = left.map(|left| {
             let left = (left - self.meter_ms).max(0.0);
             ((left / self.row_ms.max(1e-6)) as usize).max(1024)
         });
-        match moving {
-            false => window,
-            true => Some(window.map_or(WALL_ROWS_WHILE_MOVING, |w| w.min(WALL_ROWS_WHILE_MOVING))),
+        match small {
+            None => window,
+            Some(small) => Some(window.map_or(small, |w| w.min(small))),
         }
     }
 

@@ -51,7 +51,7 @@ impl Dispersive {
     }
 
     /// Whether Step 4 may gather only a small window of wall rows this frame
-    /// ([`super::WALL_ROWS_WHILE_MOVING`], with the rows rebuilt since the last frame): the
+    /// ([`super::WALL_ROWS_DOZING`], with the rows rebuilt since the last frame): the
     /// scene settles (nothing moved, no light changed) and the light the rows read has
     /// changed by less than the tolerance since their last whole window, that window's own
     /// change included. A whole window now would change the boundary by less than the

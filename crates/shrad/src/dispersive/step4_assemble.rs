@@ -26,11 +26,18 @@ pub const WALL_ROWS_PER_FRAME: usize = 1 << 16;
 /// Wall-exchange rows gathered in a frame where an object moved: a moving frame must cost
 /// what moved, and the walls' exchange among themselves changes little between two frames
 /// of a drag (the mover's own light on the walls is Step 3's, every frame). The 77k room's
-/// 64k rows are then swept in 16 frames while it moves, and whole again once it rests
-/// (error of the last moving frame 4.33 % with 16k rows a frame, 4.34 % with 8k, 0.9 ms
-/// less; 4k took another 0.75 ms of one thread off the frame, the error while moving the
-/// same to the printed digit: docs/results.md §5).
-pub const WALL_ROWS_WHILE_MOVING: usize = 1 << 12;
+/// 64k rows are then swept in 64 frames while it moves, and whole again once it rests.
+/// The error of the last moving frame hardly depends on it: 4.33 % with 16k rows a frame,
+/// 4.34 % with 8k (0.9 ms less); then, at 20 frames of the bench's motion, 3.603 / 3.554 /
+/// 3.599 % with 4k / 1k / 256 rows, and after a steady drag of a fifth of the room's width
+/// over 32 frames 4.484 / 4.444 / 4.477 % (objects-8 and -128 rooms: the same to 0.006):
+/// docs/results.md §5.
+pub const WALL_ROWS_WHILE_MOVING: usize = 1 << 10;
+
+/// Wall-exchange rows gathered in a frame where the walls doze (`sleep.rs`: the objects
+/// settle after a mover stopped, and the light the rows read changed by less than the sleep
+/// tolerance since their last whole window).
+pub const WALL_ROWS_DOZING: usize = 1 << 12;
 
 impl Dispersive {
     /// The energy meter, and the guard that never publishes a diverged state: fills

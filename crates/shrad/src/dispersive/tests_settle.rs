@@ -25,7 +25,7 @@ fn room_settled_after_a_slide() -> (World, Dispersive, usize) {
         .max_by_key(|&o| p.range(o).len())
         .unwrap();
     let mut d = Dispersive::new(&world, DispersiveOptions::improved()).unwrap();
-    assert!(d.boundary_patches.len() > 2 * WALL_ROWS_WHILE_MOVING);
+    assert!(d.boundary_patches.len() > 2 * WALL_ROWS_DOZING);
     d.converge(&world, 3);
     let rest = world.patches.world_from_local[mover]
         * Affine3A::from_mat3(world.patches.local_from_object[mover]);
