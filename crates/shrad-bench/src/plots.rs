@@ -267,8 +267,18 @@ pub fn write_png(plot: &Plot, path: &Path, text: bool) -> Result<(), String> {
             ($chart:expr) => {{
                 let mut chart = $chart;
                 let mut mesh = chart.configure_mesh();
+                // Numbers as short as they can be ("100", not "100.0"): a log axis puts its
+                // labels close together near a decade's end, where the long ones ran into
+                // each other.
+                let short = |v: &f64| match *v >= 1.0 && v.fract() == 0.0 {
+                    true => format!("{v:.0}"),
+                    false => format!("{v}"),
+                };
                 if text {
-                    mesh.x_desc(&plot.x_label).y_desc(&plot.y_label);
+                    mesh.x_desc(&plot.x_label)
+                        .y_desc(&plot.y_label)
+                        .x_label_formatter(&short)
+                        .y_label_formatter(&short);
                 } else {
                     mesh.disable_x_axis().disable_y_axis();
                 }
