@@ -233,6 +233,24 @@ pub fn load_font() -> bool {
     false
 }
 
+/// The smallest and largest x and y of `plot`'s points; `None` without a point.
+fn data_range(plot: &Plot) -> Option<(f64, f64, f64, f64)> {
+    let points = plot.series.iter().flat_map(|s| s.points.iter());
+    let range = points.fold((f64::MAX, f64::MIN, f64::MAX, f64::MIN), |r, &(x, y)| {
+        (r.0.min(x), r.1.max(x), r.2.min(y), r.3.max(y))
+    });
+    (range.0 <= range.1).then_some(range)
+}
+
+/// An axis number as short as it can be ("100", not "100.0"): a log axis puts its labels
+/// close together near a decade's end, where the long ones ran into each other.
+fn short_number(v: &f64) -> String {
+    match *v >= 1.0 && v.fract() == 0.0 {
+        true => format!("{v:.0}"),
+        false => format!("{v}"),
+    }
+}
+
 /// Draw `plot` as a 900 x 600 PNG at `path` (atomically); `text`: a font is registered.
 pub fn write_png(plot: &Plot, path: &Path, text: bool) -> Result<(), String> {
     use plotters::prelude::*;
@@ -242,16 +260,7 @@ pub fn write_png(plot: &Plot, path: &Path, text: bool) -> Result<(), String> {
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| fail(&e))?;
-        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for &(x, y) in plot.series.iter().flat_map(|s| s.points.iter()) {
-            x0 = x0.min(x);
-            x1 = x1.max(x);
-            y0 = y0.min(y);
-            y1 = y1.max(y);
-        }
-        if x0 > x1 {
-            return Err("no data".into());
-        }
+        let (x0, x1, y0, y1) = data_range(plot).ok_or("no data")?;
         let y0 = (y0 * 0.8).max(1e-3);
         let y1 = (y1 * 1.25).max(y0 * 2.0);
         let mut builder = ChartBuilder::on(&root);
@@ -267,18 +276,11 @@ pub fn write_png(plot: &Plot, path: &Path, text: bool) -> Result<(), String> {
             ($chart:expr) => {{
                 let mut chart = $chart;
                 let mut mesh = chart.configure_mesh();
-                // Numbers as short as they can be ("100", not "100.0"): a log axis puts its
-                // labels close together near a decade's end, where the long ones ran into
-                // each other.
-                let short = |v: &f64| match *v >= 1.0 && v.fract() == 0.0 {
-                    true => format!("{v:.0}"),
-                    false => format!("{v}"),
-                };
                 if text {
                     mesh.x_desc(&plot.x_label)
                         .y_desc(&plot.y_label)
-                        .x_label_formatter(&short)
-                        .y_label_formatter(&short);
+                        .x_label_formatter(&short_number)
+                        .y_label_formatter(&short_number);
                 } else {
                     mesh.disable_x_axis().disable_y_axis();
                 }

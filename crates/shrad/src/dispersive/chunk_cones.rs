@@ -11,9 +11,10 @@ use rayon::prelude::*;
 
 /// The cone of directions of each chunk of rays that share an apex (a probe's
 /// texels from its centre, an emitter's texels or gather entries from the emitter): a
-/// mover's bounding sphere outside every chunk's cone meets none of its rays, one test for
-/// 64 rays. Rays that converge to or leave one point are far better bounded by a cone than
-/// by a box (a row of texels spans the room, so its box meets almost every mover).
+/// mover's bounding sphere outside a chunk's cone meets none of its rays, one test for
+/// the chunk's 32-64 rays. Rays that converge to or leave one point are far better bounded
+/// by a cone than by a box (a row of texels spans the room, so its box meets almost every
+/// mover).
 #[derive(Default)]
 pub(super) struct ChunkCones {
     /// Per chunk: the cone's axis and half-angle (radians; `PI` when it covers everything).
