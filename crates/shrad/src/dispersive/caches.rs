@@ -70,7 +70,7 @@ pub(super) fn mark_stale(
     meets: impl Fn(usize) -> bool,
 ) -> Vec<usize> {
     let mut out = Vec::new();
-    for c in (0..cones.len()).filter(|&c| cones.may_meet(c, seen)) {
+    for c in cones.meeting(seen) {
         for k in cones.chunk(c) {
             if marks[k] != stale && meets(k) {
                 marks[k] = stale;

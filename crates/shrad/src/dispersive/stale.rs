@@ -281,8 +281,7 @@ impl StaleTest<'_> {
                     let c = g.centre;
                     let seen = ChunkCones::seen_from(c, &self.spheres);
                     let from_before = g.forgotten.len();
-                    let chunks = (0..g.cones.len()).filter(|&k| g.cones.may_meet(k, &seen));
-                    for e in chunks.flat_map(|k| g.cones.chunk(k)) {
+                    for e in g.cones.meeting(&seen).flat_map(|k| g.cones.chunk(k)) {
                         let j = g.patch[e] as usize;
                         let from = p.centre[j] + p.normal[j] * world.eps;
                         if g.ray[e] != RAY_UNKNOWN && self.meets(from, c - from, 1.0) {
