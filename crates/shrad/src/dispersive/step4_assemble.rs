@@ -157,13 +157,15 @@ impl Dispersive {
         if window < n {
             ks.extend(rebuilt.iter().filter(|&&k| (k + n - start) % n >= window));
         }
-        // Reflected light of every patch first when the window reads each several times
+        // Reflected light of every patch first when the window reads each twice or more
         // (one random read per row entry), else as each entry is read: a moving frame's
         // window of 1k rows reads 65k entries, and a pass over every patch (a fresh array
         // each frame) cost more than it, in the 40k rooms (objects-128: Step 4 0.22 ->
-        // 0.18 ms on one thread) as in the 1M room.
+        // 0.18 ms on one thread) as in the 1M room. A dozing window of 4k rows reads 262k:
+        // in the 77k room a pass first is cheaper (its frames without rays 0.15 ms longer
+        // when each entry read two arrays).
         let (b, m) = (&self.radiosity, &world.exitance);
-        let reflected: Vec<Vec3> = match window * rows.rays() >= 4 * p.len() {
+        let reflected: Vec<Vec3> = match window * rows.rays() >= 2 * p.len() {
             true => b.par_iter().zip(m).map(|(b, e)| *b - *e).collect(),
             false => Vec::new(),
         };
