@@ -111,7 +111,11 @@ impl Dispersive {
             return;
         }
         let p = &world.patches;
-        let diag = world.scene.bounds().map_or(1.0, |b| b.diagonal());
+        // The scene's size from the objects' boxes (kept current as they move): the scene's
+        // own bounds transform every mesh of the scene again, a pass over every vertex in
+        // each moving frame.
+        let all = (self.object_boxes.iter()).fold(Aabb::EMPTY, |u, b| u.union(*b));
+        let diag = if all.is_empty() { 1.0 } else { all.diagonal() };
         // A hit on a mover's surface lies on its box up to rounding.
         let pad = Vec3::splat(4.0 * world.eps + 1e-5 * diag);
         self.swept_log.push(Swept {
