@@ -54,19 +54,20 @@ impl ChunkCones {
         // a group is the tiles of one block.
         let mut count = vec![0u32; 6 * side * side];
         tile.iter().for_each(|&t| count[t as usize] += 1);
-        let (mut starts, mut group_starts, mut next) = (vec![0u32], Vec::new(), Vec::new());
+        let (mut starts, mut group_starts) = (vec![0u32], Vec::new());
+        // Where tile `t`'s next member goes in `members`.
+        let mut at = vec![0u32; count.len()];
         let mut block = usize::MAX;
         for (t, &c) in count.iter().enumerate().filter(|(_, &c)| c > 0) {
             if t / (BLOCK * BLOCK) != block {
                 block = t / (BLOCK * BLOCK);
                 group_starts.push(starts.len() as u32 - 1);
             }
-            next.push((t, *starts.last().unwrap_or(&0)));
-            starts.push(starts.last().unwrap_or(&0) + c);
+            let start = *starts.last().unwrap_or(&0);
+            at[t] = start;
+            starts.push(start + c);
         }
         group_starts.push(starts.len() as u32 - 1);
-        let mut at = vec![0u32; count.len()];
-        next.iter().for_each(|&(t, start)| at[t] = start);
         let mut members = vec![0u32; n];
         for (i, &t) in tile.iter().enumerate() {
             members[at[t as usize] as usize] = i as u32;
