@@ -5,7 +5,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::Aabb;
 
-use super::blocks::{block_sphere, BLOCK};
+use super::blocks::{block_sphere, group_sphere, BLOCK, GROUP};
 use super::recent_moves::RecentMoves;
 use super::sample_ends::SampleEnds;
 use super::{
@@ -64,6 +64,8 @@ pub struct DirectCache {
     /// `[b]`: a sphere holding the shadow rays' origins of receivers `b * BLOCK ..` (their
     /// patches' centres), so that a mover far from a block's rays rejects the whole block.
     blocks: Vec<(Vec3, f32)>,
+    /// `[g]`: a sphere holding the spheres of blocks `g * GROUP ..`.
+    groups: Vec<(Vec3, f32)>,
 }
 
 /// Above this many shadow rays a mover may have changed in one update (the last update's,
@@ -110,8 +112,10 @@ impl DirectCache {
                 .chunks(BLOCK)
                 .map(|b| block_sphere(world, b))
                 .collect(),
+            groups: Vec::new(),
             receivers,
         };
+        cache.groups = cache.blocks.chunks(GROUP).map(group_sphere).collect();
         if ne > 0 {
             let all: Vec<usize> = (0..cache.receivers.len()).collect();
             cache.recompute(world, &ems, &all, samples);
@@ -169,7 +173,7 @@ impl DirectCache {
             + self.coarse.len()
             + self.held.len() * 4
             + self.ends.end.len() * 6
-            + self.blocks.len() * 16
+            + (self.blocks.len() + self.groups.len()) * 16
     }
 
     /// After the objects `movers` moved from the boxes `old` to the boxes `new`: re-trace the
@@ -313,9 +317,15 @@ impl DirectCache {
     fn refresh_blocks(&mut self, world: &World, ks: &[usize]) {
         let mut blocks: Vec<usize> = ks.iter().map(|&k| k / BLOCK).collect();
         blocks.dedup();
-        for b in blocks {
+        for &b in &blocks {
             let ks = &self.receivers[b * BLOCK..((b + 1) * BLOCK).min(self.receivers.len())];
             self.blocks[b] = block_sphere(world, ks);
+        }
+        let mut groups: Vec<usize> = blocks.iter().map(|&b| b / GROUP).collect();
+        groups.dedup();
+        for g in groups {
+            let bs = &self.blocks[g * GROUP..((g + 1) * GROUP).min(self.blocks.len())];
+            self.groups[g] = group_sphere(bs);
         }
     }
 

@@ -13,7 +13,7 @@
 
 use std::time::Instant;
 
-use glam::{Affine3A, Vec3};
+use glam::{Affine3A, Vec3, Vec3A};
 use rayon::prelude::*;
 use shrad_sh::{cosine_lobe_sh, num_coeffs, ShRgb, MAX_COEFFS};
 use shrad_vis::Hit;
@@ -114,6 +114,11 @@ impl Dispersive {
         let range = p.range(ob.object);
         let with_transfer = !ob.transfer.is_empty();
         let use_visibility = self.reads_probe_visibility(kk);
+        // The probes' coefficients as SIMD vectors once, not per patch: the sum below is
+        // 8 probes x `nc` coefficients a patch (the same products and sums, lane by lane).
+        let probes: Vec<Option<[Vec3A; MAX_COEFFS]>> = (probes.iter())
+            .map(|sh| sh.as_ref().map(|sh| simd_coeffs(sh, nc)))
+            .collect();
         range
             .clone()
             .into_par_iter()
@@ -125,11 +130,11 @@ impl Dispersive {
                     true => ob.probe_vis.hidden(k),
                     false => 0,
                 };
-                let mut l = [Vec3::ZERO; MAX_COEFFS];
+                let mut l = [Vec3A::ZERO; MAX_COEFFS];
                 let mut sum_w = 0.0;
                 for (c, (sh, &wc)) in probes.iter().zip(&ob.weights[k]).enumerate() {
                     if let Some(sh) = sh.as_ref().filter(|_| hidden >> c & 1 == 0) {
-                        for (a, &b) in l[..nc].iter_mut().zip(sh.coeffs()) {
+                        for (a, &b) in l[..nc].iter_mut().zip(&sh[..nc]) {
                             *a += b * wc;
                         }
                         sum_w += wc;
@@ -159,12 +164,8 @@ impl Dispersive {
                 }
                 let dot: Vec3 = match sum_w > 0.0 {
                     true => {
-                        l[..nc]
-                            .iter()
-                            .zip(&lobe[..nc])
-                            .map(|(a, &b)| *a * b)
-                            .sum::<Vec3>()
-                            / sum_w
+                        let dot = (l[..nc].iter().zip(&lobe[..nc])).map(|(a, &b)| *a * b);
+                        Vec3::from(dot.sum::<Vec3A>()) / sum_w
                     }
                     false => Vec3::ZERO,
                 };
@@ -508,4 +509,13 @@ fn back_fraction(seen: &[u32], solid_angles: &[f32]) -> f32 {
         .map(|(_, &sa)| sa)
         .sum();
     back / (4.0 * std::f32::consts::PI)
+}
+
+/// An SH's first `nc` coefficients as SIMD vectors (the rest zero).
+fn simd_coeffs(sh: &ShRgb, nc: usize) -> [Vec3A; MAX_COEFFS] {
+    let mut out = [Vec3A::ZERO; MAX_COEFFS];
+    for (a, &b) in out[..nc].iter_mut().zip(sh.coeffs()) {
+        *a = b.into();
+    }
+    out
 }

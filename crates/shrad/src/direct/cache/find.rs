@@ -5,7 +5,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::Aabb;
 
-use super::{DirectCache, Retrace, BLOCK};
+use super::{DirectCache, Retrace, BLOCK, GROUP};
 use crate::direct::blocks::capsule_meets_sphere;
 use crate::direct::{cone_meets_sphere, sample_shift, shadow_sample, Emitter};
 use crate::World;
@@ -42,33 +42,27 @@ impl DirectCache {
             spheres,
         };
         let n = self.receivers.len();
-        // Whole blocks of receivers first: those whose rays to every emitter pass far from
-        // every swept box. One vector of rays a block (not one a receiver: 2.5k small
-        // vectors a frame at 77k).
-        (0..self.blocks.len())
+        // Whole groups and blocks of receivers first: those whose rays to every emitter pass
+        // far from every swept box. One vector of rays a group (not one a receiver: 2.5k
+        // small vectors a frame at 77k).
+        let nb = self.blocks.len();
+        (0..self.groups.len())
             .into_par_iter()
-            .filter(|&b| self.block_may_meet(b, ems, spheres))
-            .flat_map_iter(|b| {
+            .filter(|&g| may_meet(self.groups[g], ems, spheres))
+            .flat_map_iter(|g| {
                 let mut out = Vec::new();
-                for k in (b * BLOCK..((b + 1) * BLOCK).min(n)).filter(|&k| find(k)) {
-                    for e in 0..ems.len() {
-                        self.receiver_rays_to_retrace(world, ems, (k, e), &swept, &mut out);
+                let blocks = (g * GROUP..((g + 1) * GROUP).min(nb))
+                    .filter(|&b| may_meet(self.blocks[b], ems, spheres));
+                for b in blocks {
+                    for k in (b * BLOCK..((b + 1) * BLOCK).min(n)).filter(|&k| find(k)) {
+                        for e in 0..ems.len() {
+                            self.receiver_rays_to_retrace(world, ems, (k, e), &swept, &mut out);
+                        }
                     }
                 }
                 out.into_iter()
             })
             .collect()
-    }
-
-    /// Whether a ray of block `b`'s receivers to one of `ems` may meet one of `spheres`.
-    fn block_may_meet(&self, b: usize, ems: &[Emitter], spheres: &[(Vec3, f32)]) -> bool {
-        let (oc, or) = self.blocks[b];
-        ems.iter().any(|em| {
-            let (lc, lr) = em.sphere;
-            spheres
-                .iter()
-                .any(|&(bc, br)| capsule_meets_sphere(oc, or, lc, lr, bc, br))
-        })
     }
 
     /// Push to `out` receiver `k`'s shadow rays to emitter `e` that a swept box may have
@@ -180,4 +174,13 @@ impl DirectCache {
         }
         blocked
     }
+}
+
+/// Whether a ray from the sphere `(oc, or)` (a block's or group's receivers) to one of
+/// `ems` may meet one of `spheres`.
+fn may_meet((oc, or): (Vec3, f32), ems: &[Emitter], spheres: &[(Vec3, f32)]) -> bool {
+    ems.iter().any(|em| {
+        let (lc, lr) = em.sphere;
+        (spheres.iter()).any(|&(bc, br)| capsule_meets_sphere(oc, or, lc, lr, bc, br))
+    })
 }
