@@ -407,11 +407,22 @@ mod tests {
             .object(3, def(&format!("{parts}transform = {not_affine}")).unwrap())
             .unwrap_err();
         assert!(e.contains("must be affine"), "{e}");
+        // A negative scale mirrors, as the same matrix spelled out does; zero is refused.
+        let mirror = "[[-2, 0, 0, 1], [0, 1, 0, 2], [0, 0, 1, 3], [0, 0, 0, 1]]";
+        let at = "position = [1, 2, 3]\nscale = ";
+        b.object(4, def(&format!("{parts}{at}[-2, 1, 1]")).unwrap())
+            .unwrap();
+        b.object(5, def(&format!("{parts}transform = {mirror}")).unwrap())
+            .unwrap();
+        let e = b
+            .object(6, def(&format!("{parts}{at}[2, 0, 1]")).unwrap())
+            .unwrap_err();
+        assert!(e.contains("non-zero on every axis"), "{e}");
         let scene = b.finish();
-        assert_eq!(
-            scene.objects[0].world_from_object,
-            scene.objects[1].world_from_object
-        );
+        let of = |k: usize| scene.objects[k].world_from_object;
+        assert_eq!(of(0), of(1));
+        assert_eq!(of(2), of(3));
+        assert!(of(2).matrix3.determinant() < 0.0);
     }
 
     #[test]

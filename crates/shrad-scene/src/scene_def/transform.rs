@@ -62,8 +62,12 @@ pub(super) fn rest_transform(o: &ObjectDef) -> Result<Affine3A, String> {
         Some(Scale::Uniform(s)) => Vec3::splat(s),
         Some(Scale::Axes(s)) => Vec3::from(s),
     };
-    if !(scale.is_finite() && scale.min_element() > 0.0) {
-        return Err(format!("scale {scale} must be positive"));
+    // A negative factor mirrors, as a glTF node's or a `transform`'s may (the patches keep
+    // their front faces: `shrad::patches`); zero would flatten the object.
+    if !(scale.is_finite() && scale.abs().min_element() > 0.0) {
+        return Err(format!(
+            "scale {scale} must be finite and non-zero on every axis (a negative factor mirrors)"
+        ));
     }
     Ok(Affine3A::from_scale_rotation_translation(
         scale, rot, position,
