@@ -163,18 +163,24 @@ impl WallRows {
             })
             .collect();
         // Most re-traced rays hit what they hit before (a mover's box is a loose bound of
-        // what it blocks): only a row whose hits changed is rebuilt, and a row whose ends
+        // what it blocks): only a row whose entries changed is rebuilt, and a row whose ends
         // moved only has its box grown (a box is a superset; rebuilding 900 rows of one
-        // changed ray each took 2-3 ms of the 77k room's frame after a drag).
+        // changed ray each took 2-3 ms of the 77k room's frame after a drag). A ray that
+        // hits another patch of a mover (an interior object, which no row holds) changes no
+        // entry: its row only has the object's bit added to its mask.
         let mut hits_changed = vec![false; picked.len()];
+        let mut objects_hit = vec![0u64; picked.len()];
+        let entry = |h: u32| seen(world, h).filter(|&s| receives_as_boundary(world, s));
         for ((&(c, j), h), &(e, _)) in which.iter().zip(&hits).zip(&ends) {
             let k = picked[c];
             let hit = if h.is_hit() {
+                objects_hit[c] |= 1 << (world.patches.object[h.id as usize] % 64);
                 h.id | if h.front { FRONT } else { 0 }
             } else {
                 MISS
             };
-            hits_changed[c] |= self.hit[k * rays + j] != hit;
+            let old = self.hit[k * rays + j];
+            hits_changed[c] |= old != hit && entry(old) != entry(hit);
             self.hit[k * rays + j] = hit;
             if self.end[k * rays + j] != e {
                 self.end[k * rays + j] = e;
@@ -193,6 +199,8 @@ impl WallRows {
             .collect();
         self.rebuild(world, boundary, &changed);
         for (c, &k) in picked.iter().enumerate() {
+            // A superset of the objects its rays hit (a rebuilt row's mask is exact).
+            self.objects_hit[k] |= objects_hit[c];
             let (centre, _) = patch_sphere(world, boundary[k] as usize);
             // A segment once outside stays outside until the row is traced again whole.
             let all_traced = rows[c].1.len() == rays;
