@@ -225,16 +225,7 @@ fn shadow_sample(
     samples: u32,
     eps: f32,
 ) -> (Vec3, Vec3, f32) {
-    let (u, v) = hammersley(j, samples, shift);
-    let ti = em
-        .cdf
-        .partition_point(|&c| c < u)
-        .min(em.triangles.len() - 1);
-    let lo = if ti == 0 { 0.0 } else { em.cdf[ti - 1] };
-    let u2 = ((u - lo) / (em.cdf[ti] - lo).max(1e-12)).clamp(0.0, 1.0);
-    let [a, b, c] = em.triangles[ti];
-    let su = u2.sqrt();
-    let y = a * (1.0 - su) + b * (su * (1.0 - v)) + c * (su * v);
+    let (ti, y) = sample_point(em, shift, j, samples);
     let d = y - x;
     let r2 = d.length_squared().max(1e-30);
     let dir = d / r2.sqrt();
@@ -245,6 +236,33 @@ fn shadow_sample(
         cos_e.max(0.0)
     };
     (x + n * eps, y, n.dot(dir).max(0.0) * cos_e / r2)
+}
+
+/// [`shadow_sample`]'s segment alone (the same floats), for finding the rays a mover may
+/// have changed, which need no weight.
+fn shadow_segment(
+    em: &Emitter,
+    (x, n): (Vec3, Vec3),
+    shift: (f32, f32),
+    j: u32,
+    samples: u32,
+    eps: f32,
+) -> (Vec3, Vec3) {
+    (x + n * eps, sample_point(em, shift, j, samples).1)
+}
+
+/// Sample `j` of `samples` on `em`, stratified: its triangle and the point.
+fn sample_point(em: &Emitter, shift: (f32, f32), j: u32, samples: u32) -> (usize, Vec3) {
+    let (u, v) = hammersley(j, samples, shift);
+    let ti = em
+        .cdf
+        .partition_point(|&c| c < u)
+        .min(em.triangles.len() - 1);
+    let lo = if ti == 0 { 0.0 } else { em.cdf[ti - 1] };
+    let u2 = ((u - lo) / (em.cdf[ti] - lo).max(1e-12)).clamp(0.0, 1.0);
+    let [a, b, c] = em.triangles[ti];
+    let su = u2.sqrt();
+    (ti, a * (1.0 - su) + b * (su * (1.0 - v)) + c * (su * v))
 }
 
 /// The boxes movers swept, with a little slack on every side (empty ones left out): a hit

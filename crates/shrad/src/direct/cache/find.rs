@@ -7,7 +7,7 @@ use shrad_scene::Aabb;
 
 use super::{DirectCache, Retrace, BLOCK, GROUP};
 use crate::direct::blocks::capsule_meets_sphere;
-use crate::direct::{cone_meets_sphere, sample_shift, shadow_sample, Emitter};
+use crate::direct::{cone_meets_sphere, sample_shift, shadow_segment, Emitter};
 use crate::World;
 
 /// The boxes movers swept, as [`DirectCache::rays_to_retrace`] tests shadow rays against
@@ -97,7 +97,7 @@ impl DirectCache {
             let m = (samples - j0).min(64);
             let blocked = self.shadows.blocked_word(set, j0 as usize / 64);
             let all = u64::MAX >> (64 - m);
-            let sample = |j: u32| shadow_sample(em, x, n, shift, j, samples, eps);
+            let sample = |j: u32| shadow_segment(em, (x, n), shift, j, samples, eps);
             let at = (set * samples as usize + j0 as usize, x + n * eps);
             let meeting = |boxes: &[Aabb], padded: &[Aabb], want: u64| {
                 self.samples_meeting(at, (j0, m), (boxes, padded), want, &sample)
@@ -107,7 +107,7 @@ impl DirectCache {
             while found != 0 {
                 let j = j0 + found.trailing_zeros();
                 found &= found - 1;
-                let (from, to, _) = sample(j);
+                let (from, to) = sample(j);
                 out.push((k as u32, e as u32, j, from, to));
             }
         }
@@ -122,7 +122,7 @@ impl DirectCache {
         (j0, m): (u32, u32),
         (boxes, padded): (&[Aabb], &[Aabb]),
         want: u64,
-        sample: &impl Fn(u32) -> (Vec3, Vec3, f32),
+        sample: &impl Fn(u32) -> (Vec3, Vec3),
     ) -> u64 {
         if boxes.is_empty() || want == 0 {
             return 0;
@@ -133,7 +133,7 @@ impl DirectCache {
         (0..m)
             .filter(|&j| want >> j & 1 != 0)
             .filter(|&j| {
-                let (f, t, _) = sample(j0 + j);
+                let (f, t) = sample(j0 + j);
                 boxes.iter().any(|b| b.meets_segment(f, t))
             })
             .fold(0, |mask, j| mask | 1 << j)
