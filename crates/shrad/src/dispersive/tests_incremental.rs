@@ -91,7 +91,17 @@ fn moving_an_occluder_keeps_direct_light_and_wall_rows_exact() {
             fresh.wall_rows.as_ref().unwrap().rows(),
         );
         assert_eq!(a.len(), b.len());
-        let differ = (0..a.len()).filter(|&k| a.row(k) != b.row(k)).count();
+        // Rows that differ only where a ray meets two surfaces at the same distance are the
+        // same rows: the teleport puts the block partly into a side wall, and a ray from the
+        // wall inside it meets its bottom face and the floor under it at one point; which of
+        // the two a trace reports is arbitrary.
+        let (ra, rb) = (
+            d.wall_rows.as_ref().unwrap(),
+            fresh.wall_rows.as_ref().unwrap(),
+        );
+        let differ = (0..a.len())
+            .filter(|&k| a.row(k) != b.row(k) && !ra.differ_only_in_ties(rb, k))
+            .count();
         assert_eq!(differ, 0, "move {step}: {differ} wall rows differ");
         rows_changed += (0..a.len())
             .filter(|&k| a.row(k) != start_rows.row(k))

@@ -18,6 +18,9 @@
 //! rows' tests per frame instead of all of them; the rows are exact again once every row
 //! has been checked and every marked ray re-traced after the motion stops.
 //!
+//! A marked ray is re-traced against the objects that moved first (`movers_first.rs`): its
+//! stored hit stands unless it was on one of them or one of them is now in front of it.
+//!
 //! What a ray keeps (10 bytes; the ray itself is [`patch_rays`], regenerated when traced):
 //! the triangle it hit (its patch, and the side in the top bit) and where its segment ends,
 //! clipped to a box `W` around the scene and quantised to 16 bits an axis. The segment test
@@ -40,6 +43,7 @@ use crate::sparse::SparseRows;
 use crate::World;
 
 mod check;
+mod movers_first;
 mod retrace;
 
 /// At most `1 / WALL_RETRACE_SHARE` of the wall exchange's rays (boundary patches x
@@ -197,6 +201,10 @@ pub(super) struct WallRows {
     dirty_row_count: usize,
     /// The row the next re-trace starts from (so every dirty ray gets its turn).
     cursor: usize,
+    /// Per dirty row: the frame since which its dirty rays' stored hits were right (its
+    /// check before they were marked), or `movers_first::UNKNOWN`: only the objects that
+    /// moved after it can have changed them (`movers_first.rs`).
+    valid_at: Vec<u64>,
     /// Frames seen by [`WallRows::note_moves`].
     frame: u64,
     /// Per object: the last frame it moved in (0: never).
@@ -253,6 +261,7 @@ impl WallRows {
             dirty_rows: vec![0; n.div_ceil(64)],
             dirty_row_count: 0,
             cursor: 0,
+            valid_at: vec![movers_first::UNKNOWN; n],
             frame: 0,
             moved_at: vec![0; world.scene.objects.len()],
             checked_at: vec![0; n],
@@ -302,6 +311,7 @@ impl WallRows {
         rows.dirty_rows = vec![0; n.div_ceil(64)];
         rows.dirty_row_count = 0;
         rows.checked_at = vec![0; n];
+        rows.valid_at = vec![movers_first::UNKNOWN; n];
         rows.built = vec![false; n];
         rows.pending = n;
         for k in 0..n {
@@ -351,6 +361,18 @@ impl WallRows {
             + self.dirty.len() * 8
     }
 
+    /// Whether rows `k` of `self` and `other` differ only in rays that report different
+    /// surfaces at the same distance (their stored ends equal): a box's bottom face on the floor,
+    /// seen from inside the box, where which one a trace reports depends on the order it
+    /// visits them in (with Embree, on the other rays of its packet).
+    #[cfg(test)]
+    pub(super) fn differ_only_in_ties(&self, other: &WallRows, k: usize) -> bool {
+        let r = k * self.rays..(k + 1) * self.rays;
+        (self.hit[r.clone()].iter().zip(&other.hit[r.clone()]))
+            .zip(self.end[r.clone()].iter().zip(&other.end[r]))
+            .all(|((a, b), (ea, eb))| a == b || ea == eb)
+    }
+
     /// Rays waiting to be re-traced.
     #[cfg(test)]
     pub(super) fn dirty_rays(&self) -> usize {
@@ -380,6 +402,7 @@ impl WallRows {
     }
 
     fn set_all_dirty(&mut self, k: usize) {
+        self.valid_at[k] = movers_first::UNKNOWN;
         let w = &mut self.dirty[k * self.words..(k + 1) * self.words];
         w.fill(u64::MAX);
         if self.rays % 64 != 0 {

@@ -151,12 +151,15 @@ impl WallRows {
             .enumerate()
             .flat_map(|(c, (_, js))| js.iter().map(move |&j| (c, j)))
             .collect();
-        let mut hits = vec![shrad_vis::Hit::MISS; o.len()];
-        world.vis.closest(&o, &d, 0.0, &[], &mut hits);
+        // `None`: the stored hit stands (`movers_first.rs`).
+        let hits = self.trace_movers_first(world, (boundary, &picked), &which, (&o, &d));
         let ends: Vec<([u16; 3], bool)> = (0..which.len())
             .into_par_iter()
             .map(|r| {
-                let (o, d, h) = (o[r], d[r], &hits[r]);
+                let Some(h) = &hits[r] else {
+                    return ([0; 3], false);
+                };
+                let (o, d) = (o[r], d[r]);
                 let exit = exit_distance(&self.space, o, d);
                 let t = if h.is_hit() { h.t } else { f32::INFINITY };
                 (self.encode(o + d * t.min(exit)), t > exit)
@@ -171,7 +174,13 @@ impl WallRows {
         let mut hits_changed = vec![false; picked.len()];
         let mut objects_hit = vec![0u64; picked.len()];
         let entry = |h: u32| seen(world, h).filter(|&s| receives_as_boundary(world, s));
+        // Rows some of whose rays kept their stored hits (their `leaves` is kept too).
+        let mut kept = vec![false; picked.len()];
         for ((&(c, j), h), &(e, _)) in which.iter().zip(&hits).zip(&ends) {
+            let Some(h) = h else {
+                kept[c] = true;
+                continue;
+            };
             let k = picked[c];
             let hit = if h.is_hit() {
                 objects_hit[c] |= 1 << (world.patches.object[h.id as usize] % 64);
@@ -203,7 +212,7 @@ impl WallRows {
             self.objects_hit[k] |= objects_hit[c];
             let (centre, _) = patch_sphere(world, boundary[k] as usize);
             // A segment once outside stays outside until the row is traced again whole.
-            let all_traced = rows[c].1.len() == rays;
+            let all_traced = rows[c].1.len() == rays && !kept[c];
             self.leaves[k] =
                 leaving[c] || !self.space.contains(centre) || (!all_traced && self.leaves[k]);
             self.clean_row(k);
@@ -228,7 +237,7 @@ fn seen(world: &World, h: u32) -> Option<usize> {
 }
 
 /// Distance along `o + t d` to where it leaves `b` (0 when `o` is outside).
-fn exit_distance(b: &Aabb, o: Vec3, d: Vec3) -> f32 {
+pub(super) fn exit_distance(b: &Aabb, o: Vec3, d: Vec3) -> f32 {
     if !b.contains(o) {
         return 0.0;
     }
