@@ -117,3 +117,76 @@ impl WallRows {
         (t - err, hi)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use glam::{Affine3A, Vec3};
+
+    use crate::dispersive::tests::{cornell, object_named};
+    use crate::dispersive::{Changes, Dispersive, DispersiveOptions};
+
+    /// Two blocks moving in turn, each move one frame, so that rows marked by one are still
+    /// dirty when the other moves (a row's movers are those since it was known clean, and
+    /// one call's are the earliest such row's): once everything is traced the rows are what
+    /// a fresh trace gives (up to rays that meet two surfaces at one distance).
+    #[test]
+    fn rows_stay_a_fresh_traces_when_movers_take_turns() {
+        let mut world = cornell(3000);
+        let blocks = [
+            object_named(&world, "short_block"),
+            object_named(&world, "tall_block"),
+        ];
+        let rest = blocks.map(|o| {
+            let p = &world.patches;
+            p.world_from_local[o] * Affine3A::from_mat3(p.local_from_object[o])
+        });
+        let options = DispersiveOptions::improved();
+        let mut d = Dispersive::new(&world, options).unwrap();
+        d.step(&world, &Changes::default());
+        let start = d.wall_rows.as_ref().unwrap().rows().clone();
+        let size = world.scene.bounds().unwrap().size().x;
+        let plan = [
+            (0, Vec3::new(0.06, 0.0, 0.0)),
+            (1, Vec3::new(0.0, 0.0, -0.05)),
+            (0, Vec3::new(0.08, 0.0, 0.04)),
+            (1, Vec3::new(-0.04, 0.0, -0.08)),
+            (0, Vec3::ZERO),
+        ];
+        for (b, offset) in plan {
+            let m = Affine3A::from_translation(offset * size) * rest[b];
+            assert!(world.move_object(blocks[b], m).unwrap());
+            let moved = Changes {
+                moved: vec![blocks[b]],
+                ..Default::default()
+            };
+            d.step(&world, &moved);
+        }
+        let waiting = |d: &Dispersive| {
+            let rows = d.wall_rows.as_ref().unwrap();
+            rows.dirty_rays() > 0 || rows.unchecked_rows() > 0
+        };
+        let mut frames = 0;
+        while waiting(&d) {
+            d.step(&world, &Changes::default());
+            frames += 1;
+            assert!(frames < 200, "the rows never settled");
+        }
+        let mut fresh = Dispersive::new(&world, options).unwrap();
+        fresh.step(&world, &Changes::default());
+        let (a, b) = (
+            d.wall_rows.as_ref().unwrap(),
+            fresh.wall_rows.as_ref().unwrap(),
+        );
+        let n = a.rows().len();
+        let differ = (0..n)
+            .filter(|&k| a.row(k) != b.row(k) && !a.differ_only_in_ties(b, k))
+            .count();
+        assert_eq!(
+            differ, 0,
+            "{differ} of {n} wall rows differ from a fresh trace"
+        );
+        // The moves changed what the walls see: the test exercised the re-trace.
+        let changed = (0..n).filter(|&k| a.row(k) != start.row(k)).count();
+        assert!(changed > 100, "only {changed} rows changed");
+    }
+}
