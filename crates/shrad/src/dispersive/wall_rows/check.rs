@@ -77,13 +77,10 @@ impl WallRows {
             .collect();
         let words = self.words;
         for (k, bits) in marks {
-            // A row clean until now: its rays' hits were right at its last check.
-            if self.dirty_rows[k / 64] >> (k % 64) & 1 == 0 {
-                self.valid_at[k] = self.checked_at[k];
-            }
             let w = &mut self.dirty[k * words..(k + 1) * words];
             w.iter_mut().zip(&bits).for_each(|(w, b)| *w |= b);
-            self.note_dirty_row(k);
+            // Its rays' hits were right at its last check.
+            self.note_dirty_row(k, self.checked_at[k]);
         }
         for &k in &rows {
             self.checked_at[k] = self.frame;

@@ -402,21 +402,25 @@ impl WallRows {
     }
 
     fn set_all_dirty(&mut self, k: usize) {
-        self.valid_at[k] = movers_first::UNKNOWN;
         let w = &mut self.dirty[k * self.words..(k + 1) * self.words];
         w.fill(u64::MAX);
         if self.rays % 64 != 0 {
             w[self.words - 1] = u64::MAX >> (self.words * 64 - self.rays);
         }
-        self.note_dirty_row(k);
+        self.note_dirty_row(k, movers_first::UNKNOWN);
     }
 
-    /// Row `k` has a dirty ray now.
-    fn note_dirty_row(&mut self, k: usize) {
+    /// Row `k` has a dirty ray now, whose stored hit was right at frame `since`
+    /// (`movers_first::UNKNOWN`: not known). A row already dirty keeps the earlier frame
+    /// (frames only grow), unless the new one is unknown.
+    fn note_dirty_row(&mut self, k: usize, since: u64) {
         let (w, bit) = (k / 64, 1u64 << (k % 64));
         if self.dirty_rows[w] & bit == 0 {
             self.dirty_rows[w] |= bit;
             self.dirty_row_count += 1;
+            self.valid_at[k] = since;
+        } else if since == movers_first::UNKNOWN {
+            self.valid_at[k] = since;
         }
     }
 
