@@ -586,6 +586,9 @@ impl Dispersive {
         let mut meter = std::mem::take(&mut self.light_meter);
         let mut rows = walls_beside_direct.then(|| self.wall_rows.take()).flatten();
         let (options, boxes) = (self.options, self.object_boxes.clone());
+        let lit: Vec<u32> = (batch.0.iter())
+            .map(|&k| self.objects[k].object as u32)
+            .collect();
         // The wall rows read nothing else of the solver (Step 2 reads the boundary's list
         // too: it prepares Step 3's gather).
         let boundary = self.boundary_patches.clone();
@@ -595,7 +598,7 @@ impl Dispersive {
                     let t = Instant::now();
                     if !carry {
                         let moving = !step1.direct_sync.moved.is_empty();
-                        step1.direct_to_boundary(world, changes, (&options, &boxes));
+                        step1.direct_to_boundary(world, (changes, &lit), (&options, &boxes));
                         if moving {
                             step1.direct_sync.cost_ms = ms(t);
                         }

@@ -27,7 +27,8 @@ use crate::World;
 
 /// While an object moves with `coarse_while_moving`, Step 1 traces one in this many of its
 /// own patches each frame (in turn); the others keep their last visible fraction under their
-/// exact unoccluded light where they are now (its light lags at most 3 frames behind it).
+/// exact unoccluded light where they are when Step 2 reads it, the frames that light the
+/// object (its light lags at most 3 frames behind it).
 /// When a mover changes more shadow rays than `SHADOW_RAYS_AT_ONCE` (`direct/cache.rs`; the 1M
 /// room's largest object, not the 77k or 129k room's), one in this many of the other
 /// receivers has them found in turn too, against every move since its last turn: finding
@@ -206,11 +207,12 @@ impl Step1 {
     ///
     /// What moved is taken from [`DirectSync`]: every object that moved since Step 1 last
     /// ran, from where it was then to where it is now, so a Step 1 carried over frames by a
-    /// budget's deadline catches up exactly.
+    /// budget's deadline catches up exactly. `lit`: the objects Step 2 lights this frame,
+    /// the only movers whose own patches' held light is read ([`DirectCache::update`]).
     pub(super) fn direct_to_boundary(
         &mut self,
         world: &World,
-        changes: &Changes,
+        (changes, lit): (&Changes, &[u32]),
         (options, object_boxes): (&DispersiveOptions, &[Aabb]),
     ) {
         // A frame without changes still traces, with every sample, the receivers a mover
@@ -261,7 +263,7 @@ impl Step1 {
             };
             let ks = self.direct_cache.update(
                 world,
-                &movers,
+                (&movers, lit),
                 (&old, &new),
                 moving_samples,
                 MOVING_STRIDE,

@@ -162,7 +162,13 @@ fn cornell_boundary_cache() -> (World, usize, Vec<u32>, crate::direct::DirectCac
 fn direct_cache_update_equals_a_full_recomputation() {
     let (mut world, block, boundary, mut cache) = cornell_boundary_cache();
     let (old, new) = move_far(&mut world, block);
-    let changed = cache.update(&world, &[block as u32], (&[old], &[new]), 16, 1);
+    let changed = cache.update(
+        &world,
+        (&[block as u32], &[block as u32]),
+        (&[old], &[new]),
+        16,
+        1,
+    );
     assert!(
         !changed.is_empty(),
         "moving the tall block changed no shadow"
@@ -196,7 +202,13 @@ fn coarse_moving_receivers_are_exact_again_once_they_rest() {
     let mut every_sample = cache.clone();
     let rays = |cache: &mut crate::direct::DirectCache, samples: u32| {
         let before = world.rays_cast();
-        cache.update(&world, &[block as u32], (&[old], &[new]), samples, 4);
+        cache.update(
+            &world,
+            (&[block as u32], &[block as u32]),
+            (&[old], &[new]),
+            samples,
+            4,
+        );
         world.rays_cast() - before
     };
     let (coarse, fine) = (rays(&mut cache, 4), rays(&mut every_sample, 16));
@@ -207,9 +219,58 @@ fn coarse_moving_receivers_are_exact_again_once_they_rest() {
     assert!(coarse < fine, "coarse {coarse} rays, every sample {fine}");
     let full = crate::direct::DirectCache::new(&world, receivers.clone(), 16);
     // At rest: nothing moves, and the coarse receivers are traced whole again.
-    let changed = cache.update(&world, &[], (&[], &[]), 16, 1);
+    let changed = cache.update(&world, (&[], &[]), (&[], &[]), 16, 1);
     assert!(!changed.is_empty() && !cache.has_coarse());
     assert_eq!(cache.irradiance(), full.irradiance());
+}
+
+/// A moving block's receivers not traced in an update are held (their exact unoccluded
+/// light where they are now, under their last trace's visible fraction) only when the update
+/// reads them (Step 2 lights the block that frame); unread, they keep what they had, and the
+/// update that reads them gives what holding them at every update gives. Fails if an unread
+/// receiver is held anyway, or if a read update misses receivers skipped before.
+#[test]
+fn a_movers_held_light_is_held_only_when_read_and_then_equals_holding_every_update() {
+    let mut world = cornell(2000);
+    let block = object_named(&world, "tall_block");
+    let receivers = boundary_and(&world, block);
+    let own: Vec<usize> = (0..receivers.len())
+        .filter(|&k| world.patches.object[receivers[k] as usize] as usize == block)
+        .collect();
+    let mut every = crate::direct::DirectCache::new(&world, receivers, 16);
+    let mut when_read = every.clone();
+    let start = world.patches.world_from_local[block]
+        * Affine3A::from_mat3(world.patches.local_from_object[block]);
+    let b = [block as u32];
+    for step in 1..=4 {
+        let old = setup::world_box(&world, block);
+        let at = Affine3A::from_translation(Vec3::new(0.3 * step as f32, 0.0, 0.0)) * start;
+        world.move_object(block, at).unwrap();
+        let new = setup::world_box(&world, block);
+        let before = when_read.irradiance().to_vec();
+        let read: &[u32] = if step == 4 { &b } else { &[] };
+        every.update(&world, (&b, &b), (&[old], &[new]), 4, 4);
+        let changed = when_read.update(&world, (&b, read), (&[old], &[new]), 4, 4);
+        if step == 1 || step == 4 {
+            // The first update holds whatever is read (its receivers were exact until
+            // then), the fourth reads them all.
+            assert_eq!(when_read.irradiance(), every.irradiance(), "update {step}");
+            continue;
+        }
+        // One in 4 is traced each update; the others were coarse already and are not read.
+        let kept: Vec<usize> = (own.iter().copied())
+            .filter(|&k| changed.binary_search(&k).is_err())
+            .collect();
+        let untraced: Vec<usize> = (own.iter().copied())
+            .filter(|&k| k % 4 != (step - 1) % 4)
+            .collect();
+        assert_eq!(kept, untraced, "update {step}");
+        assert!(kept.iter().all(|&k| when_read.irradiance()[k] == before[k]));
+        assert!(
+            (kept.iter()).any(|&k| when_read.irradiance()[k] != every.irradiance()[k]),
+            "update {step}: holding changed nothing, the test exercises nothing"
+        );
+    }
 }
 
 /// A large mover's coarse receivers are traced again with every sample
@@ -224,12 +285,18 @@ fn a_large_movers_coarse_receivers_settle_over_several_updates_to_the_exact_ligh
     assert!(own > crate::direct::SETTLED_AT_ONCE, "{own} patches");
     let mut cache = crate::direct::DirectCache::new(&world, receivers.clone(), 16);
     let (old, new) = move_far(&mut world, block);
-    cache.update(&world, &[block as u32], (&[old], &[new]), 4, 1);
+    cache.update(
+        &world,
+        (&[block as u32], &[block as u32]),
+        (&[old], &[new]),
+        4,
+        1,
+    );
     assert!(cache.has_coarse());
     let full = crate::direct::DirectCache::new(&world, receivers, 16);
     let mut updates = 0;
     while cache.has_coarse() {
-        let changed = cache.update(&world, &[], (&[], &[]), 16, 1);
+        let changed = cache.update(&world, (&[], &[]), (&[], &[]), 16, 1);
         assert!(changed.len() <= crate::direct::SETTLED_AT_ONCE);
         updates += 1;
         assert!(updates <= 100, "the coarse receivers never settle");
@@ -258,7 +325,13 @@ fn shadow_receivers_found_in_turn_are_exact_at_their_turn_and_at_rest() {
         world.move_object(block, at).unwrap();
         let new = setup::world_box(&world, block);
         // Fewer samples for moving receivers: the in-turn finding is on (stride 4).
-        cache.update(&world, &[block as u32], (&[old], &[new]), 4, 4);
+        cache.update(
+            &world,
+            (&[block as u32], &[block as u32]),
+            (&[old], &[new]),
+            4,
+            4,
+        );
         let full = crate::direct::DirectCache::new(&world, boundary.clone(), 16);
         let phase = (step - 1) % 4;
         for k in 0..boundary.len() {
@@ -275,7 +348,7 @@ fn shadow_receivers_found_in_turn_are_exact_at_their_turn_and_at_rest() {
         "no receiver lagged: the test exercised nothing"
     );
     assert!(cache.catching_up());
-    let changed = cache.update(&world, &[], (&[], &[]), 16, 1);
+    let changed = cache.update(&world, (&[], &[]), (&[], &[]), 16, 1);
     assert!(!changed.is_empty() && !cache.catching_up());
     let full = crate::direct::DirectCache::new(&world, boundary, 16);
     assert_eq!(cache.irradiance(), full.irradiance());
