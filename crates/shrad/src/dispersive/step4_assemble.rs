@@ -395,6 +395,12 @@ impl Dispersive {
                 .map(|v| crate::energy::reset_non_finite(v))
                 .sum::<usize>();
         }
+        if sums_finite {
+            // So are the shares the objects sent the boundary this frame: each was added to
+            // its patch's irradiance, which the sums hold (a pass over the updated objects'
+            // shares was 0.15 ms of the 77k room's moving frame, serial).
+            return non_finite;
+        }
         // Only the objects updated this frame sent new light (the others were checked when
         // they were: a scene of many objects must not cost a pass over all their shares).
         for ob in self
