@@ -201,6 +201,8 @@ impl DirectCache {
     /// (whose light is read after this update: the dispersive solver's Step 2 updates it
     /// this frame) or when they were exact until now; the others keep what they had (they
     /// are coarse already, and held or traced when next read, or whole once they rest).
+    /// A mover lit in a frame whose Step 1 a budget carried to the next reads what was held
+    /// when it was last lit (its light lags a few frames more, as Step 1's does then).
     /// Returns the indices of the receivers whose irradiance was recomputed, ascending;
     /// [`DirectCache::irradiance`] holds the new values.
     pub fn update(

@@ -252,8 +252,8 @@ fn a_movers_held_light_is_held_only_when_read_and_then_equals_holding_every_upda
         every.update(&world, (&b, &b), (&[old], &[new]), 4, 4);
         let changed = when_read.update(&world, (&b, read), (&[old], &[new]), 4, 4);
         if step == 1 || step == 4 {
-            // The first update holds whatever is read (its receivers were exact until
-            // then), the fourth reads them all.
+            // The first update holds every untraced receiver, read or not (they were exact
+            // until then); the fourth reads them all.
             assert_eq!(when_read.irradiance(), every.irradiance(), "update {step}");
             continue;
         }
