@@ -77,7 +77,7 @@ pub use step4_assemble::{WALL_ROWS_DOZING, WALL_ROWS_PER_FRAME, WALL_ROWS_WHILE_
 pub use wall_rows::WALL_RETRACE_SHARE;
 
 use object_state::ObjectProbes;
-use object_state::{FirstObject, ObjectLight};
+use object_state::{CrossedAhead, FirstObject, ObjectLight};
 use scheduler::{Must, Scheduler};
 use setup::{outer_sides, receives_as_boundary, world_box, Neighbours, LIGHT_METER_RAYS};
 use step4_assemble::WallGather;
@@ -492,12 +492,14 @@ impl Dispersive {
         tr("what_changed_and_schedule", frame_start);
 
         // Step 1 (2.3.2), unless carried to the next frame, with the wall rows a mover passed
-        // through; beside them Step 2 (2.3.3) lights the first object the scheduler picked.
-        let (direct_ms, (first, first_ms), gathered) = self.direct_beside_first_object(
+        // through; beside them Step 2 (2.3.3) lights the first object the scheduler picked,
+        // and finds the light paths of it that a mover crossed (Step 3's amendment).
+        let amend_within = self.amend_tolerance(changes);
+        let (direct_ms, (first, first_ms, ahead), gathered) = self.direct_beside_first_object(
             world,
             changes,
             (carry, walls_until),
-            (&batch, &mut steps, at(0.8)),
+            (&batch, &mut steps, at(0.8), amend_within),
             gather_early,
         );
         steps.direct_ms = direct_ms;
@@ -517,8 +519,7 @@ impl Dispersive {
         // Step 3 (2.3.4).
         let t = Instant::now();
         let updated = lit.clone();
-        let amend_within = self.amend_tolerance(changes);
-        stats.energy.object_emitters = self.objects_to_boundary(world, lit, amend_within);
+        stats.energy.object_emitters = self.objects_to_boundary(world, lit, (amend_within, ahead));
         steps.to_boundary_ms = ms(t);
         tr("step3", t);
 
@@ -563,16 +564,23 @@ impl Dispersive {
     /// work to the second core (the 77k room's moving frame 6.47 -> 5.53 ms on two with
     /// Step 1 beside the wall rows and the meter, 5.41 -> 4.78 with Step 2's first object
     /// beside them too, 4.80 -> 4.66 with the gather).
+    /// Once the first object is lit, its light paths a mover crossed are found there too,
+    /// for Step 3 to amend its contribution with (`amend_within`: [`CrossedAhead`]).
     /// Returns the time all of it took, the first object's light with the time its Step 2
-    /// took (ms; the two overlap), and the gather.
+    /// took (ms; the two overlap) and its crossed paths, and the gather.
     fn direct_beside_first_object(
         &mut self,
         world: &World,
         changes: &Changes,
         (carry, walls_until): (bool, Option<Instant>),
-        (batch, steps, deadline): (&Batch, &mut DispersiveStats, Option<Instant>),
+        (batch, steps, deadline, amend_within): (
+            &Batch,
+            &mut DispersiveStats,
+            Option<Instant>,
+            f64,
+        ),
         gather: Option<Option<usize>>,
-    ) -> (f64, (Option<ObjectLight>, f64), Option<WallGather>) {
+    ) -> (f64, FirstLit, Option<WallGather>) {
         // What each side is expected to cost: Step 1 at its last run with a mover, the first
         // object at its last update.
         let direct_expected = match carry || self.direct_sync.moved.is_empty() {
@@ -626,8 +634,13 @@ impl Dispersive {
             tr("forget_stale", tt);
             let first = self.light_first_object(world, batch, steps, deadline);
             let first_ms = ms(t);
+            let tt = Instant::now();
+            let ahead = (batch.0.first())
+                .filter(|_| first.is_some())
+                .and_then(|&k| self.crossed_ahead(world, k, amend_within));
+            tr("crossed_ahead", tt);
             if walls_beside_direct {
-                return ((first, first_ms), None);
+                return ((first, first_ms, ahead), None);
             }
             let boundary = (&self.boundary_patches[..], &self.object_boxes[..]);
             refresh_wall_rows(
@@ -640,7 +653,7 @@ impl Dispersive {
             let tt = Instant::now();
             let gathered = gather.map(|window| self.gather_walls(world, 1, window));
             tr("gather_walls", tt);
-            ((first, first_ms), gathered)
+            ((first, first_ms, ahead), gathered)
         };
         let started = Instant::now();
         let (_, (first, gathered)) = rayon::join(direct_and_meter, the_rest);
@@ -714,6 +727,10 @@ impl Dispersive {
             .collect()
     }
 }
+
+/// The first object of a frame, lit beside Step 1: its light (`None`: not ready), the time
+/// its Step 2 took (ms) and its crossed light paths found ahead of Step 3.
+type FirstLit = (Option<ObjectLight>, f64, Option<CrossedAhead>);
 
 /// With `SHRAD_TRACE` set, print the time since `t` of a part of the frame to stderr
 /// ([`crate::trace_part`]).

@@ -197,6 +197,14 @@ pub(super) struct ObjectLight {
     pub(super) ms: f64,
 }
 
+/// Object `k`'s light paths a mover crossed, traced and turned into irradiance ahead of
+/// Step 3 (`Dispersive::crossed_ahead`), with the time that took (ms).
+pub(super) struct CrossedAhead {
+    pub(super) k: usize,
+    pub(super) change: Vec<(u32, Vec3)>,
+    pub(super) ms: f64,
+}
+
 /// A batch's first object as the frame hands it to Step 2's store
 /// (`Dispersive::light_selected_objects`).
 pub(super) enum FirstObject {

@@ -28,21 +28,48 @@ use shrad_sh::ShRgb;
 
 use super::caches::{EmitterRays, LANDS_NOWHERE, UNKNOWN};
 use super::gather::crossed_entries;
+use super::object_state::CrossedAhead;
 use super::setup::receives_as_boundary;
 use super::step3_to_boundary::trace_texels;
 use super::Dispersive;
 use crate::World;
 
 impl Dispersive {
+    /// The change [`Dispersive::resend_crossed_paths`] would send for object `k`, found
+    /// before its light is stored: what its crossed paths carry is what it sent (`sent`), so
+    /// it needs neither Step 1 nor Step 2, and the frame finds it beside Step 1 (the 77k
+    /// room's still neighbour re-traces a few hundred texels a frame, 0.3-0.4 ms that were
+    /// spent after Step 1 with the second core idle). `None` when the object may not be
+    /// amended. If Step 3 then sends it whole (its light changed more than `tolerance`), the
+    /// texels traced here are where the whole send finds them (a fresh trace of the same
+    /// scene) and nothing else was changed.
+    pub(super) fn crossed_ahead(
+        &mut self,
+        world: &World,
+        k: usize,
+        tolerance: f64,
+    ) -> Option<CrossedAhead> {
+        if tolerance <= 0.0 || !self.may_resend_crossed_paths(world, k) {
+            return None;
+        }
+        let started = std::time::Instant::now();
+        let pieces = self.crossed_pieces(world, k);
+        let change = self.pieces_to_irradiance(world, pieces);
+        let ms = super::ms(started);
+        Some(CrossedAhead { k, change, ms })
+    }
+
     /// Send the boundary only what changed in object `k`'s light paths, when it may (see
     /// the module's docs) and the light it emits is within `tolerance` of what it sent;
-    /// whether it did. Returns the flux moved (net) when it did.
+    /// whether it did (with `ahead` when its change was found ahead of Step 3). Returns the
+    /// flux moved (net), and the time finding the change took ahead (ms), when it did.
     pub(super) fn resend_crossed_paths(
         &mut self,
         world: &World,
         k: usize,
         tolerance: f64,
-    ) -> Option<f64> {
+        ahead: Option<CrossedAhead>,
+    ) -> Option<(f64, f64)> {
         if tolerance <= 0.0 || !self.may_resend_crossed_paths(world, k) {
             return None;
         }
@@ -51,8 +78,26 @@ impl Dispersive {
         if relative_change(&now, &cache.sent) > tolerance {
             return None;
         }
-        let pieces = self.crossed_pieces(world, k);
-        let change = self.pieces_to_irradiance(world, pieces);
+        let (change, ahead_ms) = match ahead {
+            Some(a) => (a.change, a.ms),
+            None => {
+                let pieces = self.crossed_pieces(world, k);
+                (self.pieces_to_irradiance(world, pieces), 0.0)
+            }
+        };
+        Some((self.amend(world, k, change), ahead_ms))
+    }
+
+    /// Object `k`'s crossed paths found ahead that Step 3 did not read (it did not light
+    /// the object): the change is sent anyway, since the texels it moved are no longer
+    /// listed as forgotten (the light as sent lands where it lands now). Returns the flux.
+    pub(super) fn amend_ahead(&mut self, world: &World, ahead: CrossedAhead) -> f64 {
+        self.amend(world, ahead.k, ahead.change)
+    }
+
+    /// Add `change` (irradiance per boundary patch) to object `k`'s contribution; the net
+    /// flux it moved.
+    fn amend(&mut self, world: &World, k: usize, change: Vec<(u32, Vec3)>) -> f64 {
         let area = &world.patches.area;
         let mut flux = 0.0;
         for &(j, e) in &change {
@@ -62,7 +107,7 @@ impl Dispersive {
         }
         // Kept as further pieces of its contribution, which the next full send removes.
         self.objects[k].to_boundary.extend(change);
-        Some(flux)
+        flux
     }
 
     /// How close to what it sent an object's emitted light must be for Step 3 to amend its

@@ -21,6 +21,7 @@ use shrad_vis::Hit;
 use super::caches::{
     EmitterCache, EmitterRays, SplatTexels, LANDS_NOWHERE, MAX_STEP3_BYTES, UNKNOWN,
 };
+use super::object_state::CrossedAhead;
 use super::setup::{receives_as_boundary, EmitterGroup, Reach};
 use super::{Dispersive, ToBoundary};
 use crate::probes::ProbeCamera;
@@ -31,18 +32,22 @@ impl Dispersive {
     /// SH emitter at its centre, replacing its previous contribution; a still one whose
     /// emitted light is within `amend_within` of what it sent may send only the light paths
     /// a mover crossed (`resend.rs`; 0: always the whole). Returns the flux sent.
+    /// `ahead`: the first object's crossed paths, found beside Step 1 (`resend.rs`).
     pub(super) fn objects_to_boundary(
         &mut self,
         world: &World,
         lit: Vec<usize>,
-        amend_within: f64,
+        (amend_within, mut ahead): (f64, Option<CrossedAhead>),
     ) -> f64 {
         let mut flux_sent = 0.0;
         for k in lit {
             let started = std::time::Instant::now();
-            if let Some(moved) = self.resend_crossed_paths(world, k, amend_within) {
+            let mine = ahead.take_if(|a| a.k == k);
+            let resent = self.resend_crossed_paths(world, k, amend_within, mine);
+            if let Some((moved, ahead_ms)) = resent {
                 flux_sent += moved;
-                self.scheduler.add_cost(k, super::ms(started), false);
+                let cost = super::ms(started) + ahead_ms;
+                self.scheduler.add_cost(k, cost, false);
                 super::tr("resend_crossed", started);
                 continue;
             }
@@ -61,6 +66,9 @@ impl Dispersive {
             self.scheduler.add_cost(k, super::ms(started), full);
             self.objects[k].coarse_now = false;
             super::tr("sum_and_replace", tt);
+        }
+        if let Some(a) = ahead {
+            flux_sent += self.amend_ahead(world, a);
         }
         flux_sent
     }

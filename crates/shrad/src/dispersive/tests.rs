@@ -157,7 +157,7 @@ fn object_sends_its_reflected_flux_to_a_closed_boundary() {
             d.radiosity[i] = b;
             reflected_flux += (b * p.area[i]).element_sum() as f64;
         }
-        d.objects_to_boundary(&world, vec![0], 0.0);
+        d.objects_to_boundary(&world, vec![0], (0.0, None));
         let received: f64 = d
             .boundary_patches
             .iter()

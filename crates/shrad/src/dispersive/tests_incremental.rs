@@ -445,7 +445,14 @@ fn a_still_objects_amended_gather_equals_a_fresh_full_gather() {
     amended_contribution_equals_a_fresh_one(ToBoundary::Gather, false);
 }
 
-fn amended_contribution_equals_a_fresh_one(to_boundary: ToBoundary, emitter_per_face: bool) {
+/// The Cornell box converged with contributions amended within 0.5, the tall block's sent
+/// afresh, then the short block moved across the light it sends the walls (not yet
+/// updated): the world, the solver, the tall block's index in it, and the indirect light
+/// before the move.
+fn still_block_crossed_by_a_mover(
+    to_boundary: ToBoundary,
+    emitter_per_face: bool,
+) -> (World, Dispersive, usize, Vec<Vec3>) {
     let mut world = cornell(3000);
     let mover = object_named(&world, "short_block");
     let still = object_named(&world, "tall_block");
@@ -459,17 +466,21 @@ fn amended_contribution_equals_a_fresh_one(to_boundary: ToBoundary, emitter_per_
     let mut d = Dispersive::new(&world, options).unwrap();
     d.converge(&world, 20);
     let k = d.objects.iter().position(|ob| ob.object == still).unwrap();
-    d.objects_to_boundary(&world, vec![k], 0.0);
+    d.objects_to_boundary(&world, vec![k], (0.0, None));
     let before = d.indirect.clone();
-    // The short block moves across the light the tall one sends the walls.
     slide_and_check(&mut world, &mut d, mover, k, Vec3::new(0.1, 0.0, 0.15));
+    (world, d, k, before)
+}
+
+fn amended_contribution_equals_a_fresh_one(to_boundary: ToBoundary, emitter_per_face: bool) {
+    let (world, mut d, k, before) = still_block_crossed_by_a_mover(to_boundary, emitter_per_face);
     assert!(
-        d.resend_crossed_paths(&world, k, 0.5).is_some(),
+        d.resend_crossed_paths(&world, k, 0.5, None).is_some(),
         "the still block's contribution was not amended"
     );
     let amended = d.indirect.clone();
     d.objects[k].emitter_cache = caches::EmitterCache::default();
-    d.objects_to_boundary(&world, vec![k], 0.0);
+    d.objects_to_boundary(&world, vec![k], (0.0, None));
     let scale = before.iter().map(|e| e.max_element()).fold(0.0, f32::max);
     let differ = |a: &[Vec3], b: &[Vec3], by: f32| {
         a.iter()
@@ -482,6 +493,49 @@ fn amended_contribution_equals_a_fresh_one(to_boundary: ToBoundary, emitter_per_
         "the mover crossed none of the still block's light paths: the test exercised nothing"
     );
     assert_eq!(differ(&amended, &d.indirect, 1e-5), 0);
+}
+
+/// Step 3's amendment found beside Step 1 (`Dispersive::crossed_ahead`) leaves the boundary
+/// as Step 3 finding it itself does: when Step 3 reads it, when Step 3 does not light the
+/// object (the change is sent anyway: the texels it moved are no longer listed), and when
+/// the object's light changed more than the tolerance and is sent whole instead. Fails if
+/// the change found ahead is dropped, sent twice, or if the texels it traced leave the whole
+/// send different.
+#[test]
+fn crossed_paths_found_ahead_leave_the_boundary_as_step3_finding_them() {
+    for (to_boundary, per_face) in [(ToBoundary::Splat, true), (ToBoundary::Gather, false)] {
+        let run = |ahead: bool, lit: bool, brighter: f32| -> Vec<Vec3> {
+            let (world, mut d, k, _) = still_block_crossed_by_a_mover(to_boundary, per_face);
+            let still = d.objects[k].object;
+            let ahead = ahead.then(|| d.crossed_ahead(&world, k, 0.5));
+            assert!(
+                ahead.as_ref().is_none_or(Option::is_some),
+                "nothing found ahead"
+            );
+            // Its light since it was sent: the same, or `brighter` times it.
+            for i in world.patches.range(still) {
+                d.radiosity[i] *= brighter;
+            }
+            let lit = if lit { vec![k] } else { Vec::new() };
+            d.objects_to_boundary(&world, lit, (0.5, ahead.flatten()));
+            d.indirect.clone()
+        };
+        let amended = run(false, true, 1.0);
+        assert_eq!(run(true, true, 1.0), amended, "read by Step 3");
+        assert_eq!(run(true, false, 1.0), amended, "not read by Step 3");
+        assert_ne!(
+            run(false, false, 1.0),
+            amended,
+            "the mover crossed no light path"
+        );
+        let whole = run(false, true, 2.0);
+        assert_ne!(whole, amended, "a light twice as bright was not sent whole");
+        assert_eq!(
+            run(true, true, 2.0),
+            whole,
+            "sent whole after its paths were found"
+        );
+    }
 }
 
 /// Amending still objects' contributions while another moves (`resend.rs`) leaves no trace

@@ -50,7 +50,7 @@ fn update(world: &World, d: &mut Dispersive, k: usize, deadline: Option<Instant>
         deadline,
     );
     let updated = !lit.is_empty();
-    d.objects_to_boundary(world, lit, 0.0);
+    d.objects_to_boundary(world, lit, (0.0, None));
     (updated, world.rays_cast() - rays)
 }
 
