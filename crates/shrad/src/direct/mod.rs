@@ -283,20 +283,45 @@ pub(crate) fn padded_swept(boxes: &[Aabb], eps: f32) -> Vec<Aabb> {
 /// `|bc - a(s)| - s lr <= br` for some `s`; the left side is convex in `s`, so its minimum
 /// is where its derivative vanishes, clamped to [0, 1]. Exact (no widening needed).
 pub(crate) fn cone_meets_sphere(x: Vec3, lc: Vec3, lr: f32, bc: Vec3, br: f32) -> bool {
-    let axis = lc - x;
-    let len = axis.length();
-    if len <= 1e-20 {
-        return (bc - x).length() <= br + lr;
+    Cone::new(x, lc, lr).meets(bc, br)
+}
+
+/// The cone of [`cone_meets_sphere`] with the terms every sphere shares found once (a
+/// receiver's cone is tested against every swept box's sphere; the same floats).
+pub(crate) struct Cone {
+    x: Vec3,
+    axis: Vec3,
+    lr: f32,
+    len: f32,
+    /// `lr / (sqrt(len^2 - lr^2) len)` where `lr < len`, else `None` (`s` is 1).
+    slope: Option<f32>,
+}
+
+impl Cone {
+    pub(crate) fn new(x: Vec3, lc: Vec3, lr: f32) -> Cone {
+        let axis = lc - x;
+        let len = axis.length();
+        let slope = (lr < len).then(|| lr / ((len * len - lr * lr).sqrt() * len));
+        Cone {
+            x,
+            axis,
+            lr,
+            len,
+            slope,
+        }
     }
-    let s0 = (bc - x).dot(axis) / (len * len);
-    let perp = (bc - (x + axis * s0)).length();
-    let s = if lr < len {
-        s0 + lr * perp / ((len * len - lr * lr).sqrt() * len)
-    } else {
-        1.0
+
+    /// Whether the cone meets the sphere `(bc, br)`.
+    pub(crate) fn meets(&self, bc: Vec3, br: f32) -> bool {
+        let (x, axis, lr, len) = (self.x, self.axis, self.lr, self.len);
+        if len <= 1e-20 {
+            return (bc - x).length() <= br + lr;
+        }
+        let s0 = (bc - x).dot(axis) / (len * len);
+        let perp = (bc - (x + axis * s0)).length();
+        let s = self.slope.map_or(1.0, |k| s0 + perp * k).clamp(0.0, 1.0);
+        (bc - (x + axis * s)).length() - s * lr <= br * (1.0 + 1e-5) + 1e-6
     }
-    .clamp(0.0, 1.0);
-    (bc - (x + axis * s)).length() - s * lr <= br * (1.0 + 1e-5) + 1e-6
 }
 
 #[cfg(test)]

@@ -51,17 +51,18 @@ impl SampleEnds {
     }
 
     /// Which of the up to 64 stored ends `first .. first + n` have their segment from
-    /// `from` meet one of `boxes` (already [`SampleEnds::pad`]ded): bit `j` of the result for
-    /// end `first + j`. `None` where no ends are kept. The ends are decoded into arrays and
-    /// tested by a slab test per box over all of them at once (vectorised: a per-ray call
-    /// was a third of finding a mover's shadow rays).
+    /// `from` meet one of the boxes of each set in `sets` (already [`SampleEnds::pad`]ded):
+    /// bit `j` of result `s` for end `first + j`, for set `s`. `None` where no ends are kept.
+    /// The ends are decoded once into arrays and tested by a slab test per box over all of
+    /// them at once (vectorised: a per-ray call was a third of finding a mover's shadow
+    /// rays).
     pub(super) fn meeting(
         &self,
         first: usize,
         n: usize,
         from: Vec3,
-        boxes: &[Aabb],
-    ) -> Option<u64> {
+        sets: [&[Aabb]; 2],
+    ) -> Option<[u64; 2]> {
         let space = self.space.as_ref()?;
         debug_assert!(n <= 64);
         let (lo, step) = (space.min - from, Self::step(space));
@@ -71,7 +72,11 @@ impl SampleEnds {
                 d[a][j] = lo[a] + e[a] as f32 * step[a];
             }
         }
-        Some(crate::segments::meeting(from, &d, n, boxes))
+        let meeting = |boxes: &[Aabb]| match boxes.is_empty() {
+            true => 0,
+            false => crate::segments::meeting(from, &d, n, boxes),
+        };
+        Some([meeting(sets[0]), meeting(sets[1])])
     }
 
     /// `boxes` padded by the quantisation step: a segment to a stored end misses them only
@@ -114,7 +119,8 @@ mod tests {
             }
             let (c, h) = (v() * 0.5, Vec3::new(rnd(), rnd(), rnd()) * 0.6 + 0.05);
             let boxes = [Aabb::new(c - h, c + h)];
-            let mask = ends.meeting(0, n, from, &ends.pad(&boxes)).unwrap();
+            let [mask, none] = ends.meeting(0, n, from, [&ends.pad(&boxes), &[]]).unwrap();
+            assert_eq!(none, 0, "no box met");
             assert_eq!(mask >> n.min(63) >> (n / 64), 0, "bits past n");
             for (j, &e) in exact.iter().enumerate() {
                 let bit = mask >> j & 1 != 0;

@@ -7,7 +7,7 @@ use shrad_scene::Aabb;
 
 use super::{DirectCache, Retrace, BLOCK, GROUP};
 use crate::direct::blocks::capsule_meets_sphere;
-use crate::direct::{cone_meets_sphere, sample_shift, shadow_segment, Emitter};
+use crate::direct::{sample_shift, shadow_segment, Cone, Emitter};
 use crate::World;
 
 /// The boxes movers swept, as [`DirectCache::rays_to_retrace`] tests shadow rays against
@@ -20,6 +20,13 @@ struct Swept<'a> {
     old_q: Vec<Aabb>,
     new_q: Vec<Aabb>,
     spheres: &'a [(Vec3, f32)],
+}
+
+impl Swept<'_> {
+    /// Where the movers were and where they are: each as (boxes, padded boxes).
+    fn sets(&self) -> [(&[Aabb], &[Aabb]); 2] {
+        [(self.old, &self.old_q), (self.new, &self.new_q)]
+    }
 }
 
 impl DirectCache {
@@ -84,8 +91,8 @@ impl DirectCache {
         let (x, n) = (p.centre[i], p.normal[i]);
         // Every shadow ray lies in the cone from x to the emitter's sphere.
         let (lc, lr) = em.sphere;
-        let cone_meets = |&(bc, br): &(Vec3, f32)| cone_meets_sphere(x, lc, lr, bc, br);
-        if !swept.spheres.iter().any(cone_meets) {
+        let cone = Cone::new(x, lc, lr);
+        if !swept.spheres.iter().any(|&(bc, br)| cone.meets(bc, br)) {
             return;
         }
         let shift = sample_shift(i, em);
@@ -99,11 +106,8 @@ impl DirectCache {
             let all = u64::MAX >> (64 - m);
             let sample = |j: u32| shadow_segment(em, (x, n), shift, j, samples, eps);
             let at = (set * samples as usize + j0 as usize, x + n * eps);
-            let meeting = |boxes: &[Aabb], padded: &[Aabb], want: u64| {
-                self.samples_meeting(at, (j0, m), (boxes, padded), want, &sample)
-            };
-            let mut found = meeting(swept.old, &swept.old_q, blocked)
-                | meeting(swept.new, &swept.new_q, !blocked & all);
+            let want = [blocked, !blocked & all];
+            let mut found = self.samples_meeting(at, (j0, m), swept.sets(), want, &sample);
             while found != 0 {
                 let j = j0 + found.trailing_zeros();
                 found &= found - 1;
@@ -114,27 +118,40 @@ impl DirectCache {
     }
 
     /// Of samples `j0 .. j0 + m` (stored ends from `at.0`, rays from `at.1`), those in
-    /// `want` whose segment may meet one of `boxes`: by the stored ends against the
-    /// `padded` boxes, or, where they cannot say, by the exact samples (`sample(j)`).
+    /// `want[s]` whose segment may meet one of set `s`'s boxes, for both sets (where the
+    /// movers were, and where they are): by the stored ends against the padded boxes (both
+    /// sets from one decoding), or, where they cannot say, by the exact samples (`sample(j)`)
+    /// against the boxes themselves.
     fn samples_meeting(
         &self,
         (at, from): (usize, Vec3),
         (j0, m): (u32, u32),
-        (boxes, padded): (&[Aabb], &[Aabb]),
-        want: u64,
+        [(old, old_q), (new, new_q)]: [(&[Aabb], &[Aabb]); 2],
+        want: [u64; 2],
         sample: &impl Fn(u32) -> (Vec3, Vec3),
     ) -> u64 {
-        if boxes.is_empty() || want == 0 {
+        let want = [
+            if old.is_empty() { 0 } else { want[0] },
+            if new.is_empty() { 0 } else { want[1] },
+        ];
+        if want == [0, 0] {
             return 0;
         }
-        if let Some(mask) = self.ends.meeting(at, m as usize, from, padded) {
-            return mask & want;
+        let sets = [
+            if want[0] == 0 { &[][..] } else { old_q },
+            if want[1] == 0 { &[][..] } else { new_q },
+        ];
+        if let Some([a, b]) = self.ends.meeting(at, m as usize, from, sets) {
+            return (a & want[0]) | (b & want[1]);
         }
+        let meets =
+            |boxes: &[Aabb], (f, t): (Vec3, Vec3)| boxes.iter().any(|b| b.meets_segment(f, t));
         (0..m)
-            .filter(|&j| want >> j & 1 != 0)
+            .filter(|&j| (want[0] | want[1]) >> j & 1 != 0)
             .filter(|&j| {
-                let (f, t) = sample(j0 + j);
-                boxes.iter().any(|b| b.meets_segment(f, t))
+                let ray = sample(j0 + j);
+                (want[0] >> j & 1 != 0 && meets(old, ray))
+                    || (want[1] >> j & 1 != 0 && meets(new, ray))
             })
             .fold(0, |mask, j| mask | 1 << j)
     }
