@@ -116,7 +116,7 @@ pub fn reflected_bound(emitted: f64, max_rho: f32) -> f64 {
 
 /// Patches a chunk of [`balance`]'s partial sums holds: a solver that knows which chunks a
 /// frame changed sums only those again ([`chunk_sums`], [`balance_of`]).
-pub const CHUNK: usize = 1024;
+pub const CHUNK: usize = 256;
 
 /// The partial sums of one chunk of patches: [emitted, received, reflected, absorbed,
 /// punctual] (W) and the largest reflectance.
