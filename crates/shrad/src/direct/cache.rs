@@ -61,6 +61,13 @@ pub struct DirectCache {
     /// Where each shadow ray ends, quantised ([`SampleEnds`]), so that finding the rays a
     /// mover may have changed is a segment test per ray, not a regenerated sample.
     ends: SampleEnds,
+    /// `[(k * emitters + e) * samples + j]`: each shadow ray's weight (`cos cos / r^2`, the
+    /// floats [`shadow_sample`] gives), kept beside its end up to [`MAX_WEIGHTS`] rays (else
+    /// empty, and the samples are regenerated), so that a receiver whose rays a mover changed
+    /// has its visible fraction summed again without regenerating its samples (the 77k
+    /// room's moving frame summed 340 receivers' 64 samples again: 0.24 ms of one thread's
+    /// Step 1).
+    weights: Vec<f32>,
     /// `[b]`: a sphere holding the shadow rays' origins of receivers `b * BLOCK ..` (their
     /// patches' centres), so that a mover far from a block's rays rejects the whole block.
     blocks: Vec<(Vec3, f32)>,
@@ -85,6 +92,11 @@ pub const MOVER_PATCHES_AT_ONCE: usize = 4096;
 /// after it stopped, in one go; the others wait for the next updates (`catching_up`).
 pub const SETTLED_AT_ONCE: usize = 1024;
 
+/// At most this many shadow rays' weights are kept (32 MB: the 77k and 129k rooms' 4.9M
+/// and 7.7M rays; the 1M room's 16M would be 64 MB more where its peak memory is at issue
+/// 24's bound, so it regenerates its samples).
+pub const MAX_WEIGHTS: usize = 1 << 23;
+
 /// A shadow ray to re-trace: (receiver, emitter, sample, from, to).
 type Retrace = (u32, u32, u32, Vec3, Vec3);
 
@@ -108,6 +120,7 @@ impl DirectCache {
             shadow_rays_found: 0,
             shadow_rays_at_once: SHADOW_RAYS_AT_ONCE,
             ends: SampleEnds::new(world, receivers.len() * ne * samples as usize),
+            weights: Vec::new(),
             blocks: receivers
                 .chunks(BLOCK)
                 .map(|b| block_sphere(world, b))
@@ -116,6 +129,9 @@ impl DirectCache {
             receivers,
         };
         cache.groups = cache.blocks.chunks(GROUP).map(group_sphere).collect();
+        if !cache.ends.end.is_empty() && cache.ends.end.len() <= MAX_WEIGHTS {
+            cache.weights = vec![0.0; cache.ends.end.len()];
+        }
         if ne > 0 {
             let all: Vec<usize> = (0..cache.receivers.len()).collect();
             cache.recompute(world, &ems, &all, samples);
@@ -173,6 +189,7 @@ impl DirectCache {
             + self.coarse.len()
             + self.held.len() * 4
             + self.ends.end.len() * 6
+            + self.weights.len() * 4
             + (self.blocks.len() + self.groups.len()) * 16
     }
 
@@ -475,6 +492,9 @@ impl DirectCache {
                     for (j, &end) in to[c * s..(c + 1) * s].iter().enumerate() {
                         self.ends.put(first + j, end);
                     }
+                    if !self.weights.is_empty() {
+                        self.weights[first..first + s].copy_from_slice(&weight[c * s..(c + 1) * s]);
+                    }
                     self.shadows.put(k * ne + e, &blocked[c * s..(c + 1) * s]);
                 }
             }
@@ -505,14 +525,18 @@ impl DirectCache {
             if u <= 0.0 {
                 continue;
             }
-            let fraction = visible_fraction(
-                em,
-                (x, n),
-                sample_shift(i, em),
-                self.shadows.samples(),
-                world.eps,
-                |j| self.shadows.is_blocked(k * ne + e, j),
-            );
+            let (set, samples) = (k * ne + e, self.shadows.samples());
+            let blocked = |j: u32| self.shadows.is_blocked(set, j);
+            let fraction = match self.weights.is_empty() {
+                true => {
+                    visible_fraction(em, (x, n), sample_shift(i, em), samples, world.eps, blocked)
+                }
+                false => {
+                    let first = set * samples as usize;
+                    let weights = &self.weights[first..first + samples as usize];
+                    weighted_fraction((weights.iter().copied()).zip((0..samples).map(blocked)))
+                }
+            };
             out += em.radiance * (u * fraction);
         }
         out
