@@ -97,8 +97,42 @@ pub const SETTLED_AT_ONCE: usize = 1024;
 /// 24's bound, so it regenerates its samples).
 pub const MAX_WEIGHTS: usize = 1 << 23;
 
-/// A shadow ray to re-trace: (receiver, emitter, sample, from, to).
-type Retrace = (u32, u32, u32, Vec3, Vec3);
+/// Shadow rays to re-trace, as arrays (the segments go to the backend as they are): per ray
+/// its (receiver, emitter, sample) and its segment.
+#[derive(Default)]
+struct Retraces {
+    which: Vec<(u32, u32, u32)>,
+    from: Vec<Vec3>,
+    to: Vec<Vec3>,
+}
+
+impl Retraces {
+    fn len(&self) -> usize {
+        self.which.len()
+    }
+
+    fn push(&mut self, which: (u32, u32, u32), (from, to): (Vec3, Vec3)) {
+        self.which.push(which);
+        self.from.push(from);
+        self.to.push(to);
+    }
+
+    /// One list of all of `parts`, in order.
+    fn concat(parts: Vec<Retraces>) -> Retraces {
+        let n = parts.iter().map(Retraces::len).sum();
+        let mut all = Retraces {
+            which: Vec::with_capacity(n),
+            from: Vec::with_capacity(n),
+            to: Vec::with_capacity(n),
+        };
+        for p in parts {
+            all.which.extend(p.which);
+            all.from.extend(p.from);
+            all.to.extend(p.to);
+        }
+        all
+    }
+}
 
 impl DirectCache {
     /// Compute the direct irradiance of `receivers` with `samples` shadow rays per
@@ -282,10 +316,10 @@ impl DirectCache {
         let t = std::time::Instant::now();
         let blocked = self.trace_movers_first(world, &all_movers, &rays, ne);
         crate::trace_part("    retrace", t);
-        let outcomes = rays.iter().zip(blocked);
+        let outcomes = rays.which.iter().zip(blocked);
         let changed = self
             .shadows
-            .keep(outcomes.map(|(&(k, e, j, ..), b)| (k as usize * ne + e as usize, j, b)));
+            .keep(outcomes.map(|(&(k, e, j), b)| (k as usize * ne + e as usize, j, b)));
         let mut touched: Vec<usize> = changed.into_iter().map(|set| set / ne).collect();
         touched.dedup();
         // The receivers whose rays changed: their visible fractions again.

@@ -5,7 +5,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::Aabb;
 
-use super::{DirectCache, Retrace, BLOCK, GROUP};
+use super::{DirectCache, Retraces, BLOCK, GROUP};
 use crate::direct::blocks::capsule_meets_sphere;
 use crate::direct::{sample_shift, shadow_segment, Cone, Emitter};
 use crate::World;
@@ -40,7 +40,7 @@ impl DirectCache {
         (old, new): (&[Aabb], &[Aabb]),
         spheres: &[(Vec3, f32)],
         find: impl Fn(usize) -> bool + Sync,
-    ) -> Vec<Retrace> {
+    ) -> Retraces {
         let swept = Swept {
             old,
             new,
@@ -50,14 +50,14 @@ impl DirectCache {
         };
         let n = self.receivers.len();
         // Whole groups and blocks of receivers first: those whose rays to every emitter pass
-        // far from every swept box. One vector of rays a group (not one a receiver: 2.5k
-        // small vectors a frame at 77k).
+        // far from every swept box. One list of rays a group (not one a receiver: 2.5k
+        // small vectors a frame at 77k), joined once.
         let nb = self.blocks.len();
-        (0..self.groups.len())
+        let parts: Vec<Retraces> = (0..self.groups.len())
             .into_par_iter()
             .filter(|&g| may_meet(self.groups[g], ems, spheres))
-            .flat_map_iter(|g| {
-                let mut out = Vec::new();
+            .map(|g| {
+                let mut out = Retraces::default();
                 let blocks = (g * GROUP..((g + 1) * GROUP).min(nb))
                     .filter(|&b| may_meet(self.blocks[b], ems, spheres));
                 for b in blocks {
@@ -67,9 +67,10 @@ impl DirectCache {
                         }
                     }
                 }
-                out.into_iter()
+                out
             })
-            .collect()
+            .collect();
+        Retraces::concat(parts)
     }
 
     /// Push to `out` receiver `k`'s shadow rays to emitter `e` that a swept box may have
@@ -80,7 +81,7 @@ impl DirectCache {
         ems: &[Emitter],
         (k, e): (usize, usize),
         swept: &Swept,
-        out: &mut Vec<Retrace>,
+        out: &mut Retraces,
     ) {
         let (em, set) = (&ems[e], k * ems.len() + e);
         if self.unoccluded[set] <= 0.0 {
@@ -111,8 +112,7 @@ impl DirectCache {
             while found != 0 {
                 let j = j0 + found.trailing_zeros();
                 found &= found - 1;
-                let (from, to) = sample(j);
-                out.push((k as u32, e as u32, j, from, to));
+                out.push((k as u32, e as u32, j), sample(j));
             }
         }
     }
@@ -156,33 +156,31 @@ impl DirectCache {
             .fold(0, |mask, j| mask | 1 << j)
     }
 
-    /// Trace `rays` (receiver, emitter, sample, from, to) against the `movers` alone, then
-    /// against the whole scene those that were blocked and the movers no longer block (a
-    /// free ray can only have been blocked by a mover). Returns whether each is blocked.
+    /// Trace `rays` against the `movers` alone, then against the whole scene those that
+    /// were blocked and the movers no longer block (a free ray can only have been blocked by
+    /// a mover). Returns whether each is blocked.
     pub(super) fn trace_movers_first(
         &self,
         world: &World,
         movers: &[u32],
-        rays: &[(u32, u32, u32, Vec3, Vec3)],
+        rays: &Retraces,
         ne: usize,
     ) -> Vec<bool> {
         let eps = world.eps;
-        let from: Vec<Vec3> = rays.iter().map(|r| r.3).collect();
-        let to: Vec<Vec3> = rays.iter().map(|r| r.4).collect();
         let mut blocked = vec![false; rays.len()];
         world
             .vis
-            .occluded_among(&from, &to, eps, movers, &mut blocked);
+            .occluded_among(&rays.from, &rays.to, eps, movers, &mut blocked);
         // Blocked before, and the movers no longer block it: something else may.
         let again: Vec<usize> = (0..rays.len())
             .filter(|&r| {
-                let (k, e, j, ..) = rays[r];
+                let (k, e, j) = rays.which[r];
                 !blocked[r] && self.shadows.is_blocked(k as usize * ne + e as usize, j)
             })
             .collect();
         if !again.is_empty() {
-            let from: Vec<Vec3> = again.iter().map(|&r| rays[r].3).collect();
-            let to: Vec<Vec3> = again.iter().map(|&r| rays[r].4).collect();
+            let from: Vec<Vec3> = again.iter().map(|&r| rays.from[r]).collect();
+            let to: Vec<Vec3> = again.iter().map(|&r| rays.to[r]).collect();
             let mut b = vec![false; again.len()];
             world.vis.occluded(&from, &to, eps, &[], &mut b);
             for (&r, b) in again.iter().zip(b) {
