@@ -287,7 +287,10 @@ pub(crate) fn cone_meets_sphere(x: Vec3, lc: Vec3, lr: f32, bc: Vec3, br: f32) -
 }
 
 /// The cone of [`cone_meets_sphere`] with the terms every sphere shares found once (a
-/// receiver's cone is tested against every swept box's sphere; the same floats).
+/// receiver's cone is tested against every swept box's sphere). The minimising `s` is
+/// rounded differently from a test that finds it for each sphere (`perp * slope`, not
+/// `lr * perp / ...`), in its last bit: a distance minimised over `s` changes to second order
+/// with `s`, far inside the test's slack.
 pub(crate) struct Cone {
     x: Vec3,
     axis: Vec3,

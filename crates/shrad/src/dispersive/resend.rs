@@ -38,11 +38,11 @@ impl Dispersive {
     /// The change [`Dispersive::resend_crossed_paths`] would send for object `k`, found
     /// before its light is stored: what its crossed paths carry is what it sent (`sent`), so
     /// it needs neither Step 1 nor Step 2, and the frame finds it beside Step 1 (the 77k
-    /// room's still neighbour re-traces a few hundred texels a frame, 0.3-0.4 ms that were
-    /// spent after Step 1 with the second core idle). `None` when the object may not be
-    /// amended. If Step 3 then sends it whole (its light changed more than `tolerance`), the
-    /// texels traced here are where the whole send finds them (a fresh trace of the same
-    /// scene) and nothing else was changed.
+    /// room's still neighbour re-traces a few hundred texels a frame, 0.3-0.4 ms that ran
+    /// after the join mostly on one core: its emitters facing the mover hold most of them).
+    /// `None` when the object may not be amended. If Step 3 then sends it whole (its light
+    /// changed more than `tolerance`), the texels traced here are where the whole send finds
+    /// them (a fresh trace of the same scene) and nothing else was changed.
     pub(super) fn crossed_ahead(
         &mut self,
         world: &World,
