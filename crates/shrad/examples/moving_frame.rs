@@ -3,11 +3,11 @@
 //! forth along x before every frame (as `shrad bench` does), and then left still. Prints the
 //! medians of the frame and of each step, the rays cast, and the still frames after.
 //!
-//! `cargo run --release --example moving_frame [patches] [objects] [frames] [budget_ms|-] [key=value ...] [error] [smallest] [built]`
+//! `cargo run --release --example moving_frame [patches] [objects] [frames] [budget_ms|-] [key=value ...] [error] [smallest] [built] [point]`
 use glam::{Affine3A, Vec3};
 use shrad::engine::Engine;
 use shrad::frame::FrameStats;
-use shrad::scene::{room, Role, RoomParams};
+use shrad::scene::{room, Light, LightKind, Role, RoomParams};
 use shrad::solver::SolverChoice;
 use shrad::vis::Backend;
 use shrad::PatchSizing;
@@ -74,11 +74,20 @@ fn main() {
     // and `built`: before moving, still frames until a large scene's lazily built wall rows
     // are all ready (the moving frame once loading is over, not while it goes on).
     let built = rest.iter().any(|a| a == "built");
-    let scene = room(&RoomParams {
+    // and `point`: a point light too, below the ceiling's middle (Step 1's punctual lights).
+    let point = rest.iter().any(|a| a == "point");
+    let mut scene = room(&RoomParams {
         objects,
         patches,
         big_object_patches: None,
     });
+    if point {
+        let b = scene.bounds().expect("a room");
+        let at = Vec3::new(b.centre().x, b.min.y + 0.9 * b.size().y, b.centre().z);
+        let mut light = Light::new("point", LightKind::Point, 2000.0);
+        light.world_from_light = Affine3A::from_translation(at);
+        scene.lights.push(light);
+    }
     let t = std::time::Instant::now();
     let mut engine = Engine::new(
         scene,
