@@ -8,15 +8,37 @@ use crate::World;
 /// Receivers per block of [`DirectCache`]'s rejection test (consecutive receivers are
 /// patches of one object, near one another). At the 77k room with its largest object moving,
 /// 7.7k receivers are left for the per-receiver cone test with blocks of 16, 25k with 64.
-pub(super) const BLOCK: usize = 16;
+pub(crate) const BLOCK: usize = 16;
 
 /// Blocks per group: a group's sphere holds its blocks' spheres, so that a mover far from a
 /// group rejects its 256 receivers with one test (the 77k room's 4.8k blocks each took one
 /// per emitter and swept box, though a tenth of them pass).
-pub(super) const GROUP: usize = 16;
+pub(crate) const GROUP: usize = 16;
+
+/// A sphere: centre and radius.
+pub(crate) type Sphere = (Vec3, f32);
+
+/// After `receivers` `ks` (indices, ascending) moved: the spheres of the blocks holding them,
+/// `sphere` of each block's receivers where they are now, and of those blocks' groups.
+pub(crate) fn refresh(
+    (blocks, groups): (&mut [Sphere], &mut [Sphere]),
+    (receivers, ks): (&[u32], &[usize]),
+    sphere: impl Fn(&[u32]) -> Sphere,
+) {
+    let mut moved: Vec<usize> = ks.iter().map(|&k| k / BLOCK).collect();
+    moved.dedup();
+    for &b in &moved {
+        blocks[b] = sphere(&receivers[b * BLOCK..((b + 1) * BLOCK).min(receivers.len())]);
+    }
+    let mut gs: Vec<usize> = moved.iter().map(|&b| b / GROUP).collect();
+    gs.dedup();
+    for g in gs {
+        groups[g] = group_sphere(&blocks[g * GROUP..((g + 1) * GROUP).min(blocks.len())]);
+    }
+}
 
 /// A sphere holding the spheres `blocks`.
-pub(super) fn group_sphere(blocks: &[(Vec3, f32)]) -> (Vec3, f32) {
+pub(crate) fn group_sphere(blocks: &[(Vec3, f32)]) -> (Vec3, f32) {
     let (lo, hi) = (blocks.iter()).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), &(c, r)| {
         (a.min(c - r), b.max(c + r))
     });

@@ -5,7 +5,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::Aabb;
 
-use super::blocks::{block_sphere, group_sphere, BLOCK, GROUP};
+use super::blocks::{self, block_sphere, group_sphere, BLOCK, GROUP};
 use super::recent_moves::RecentMoves;
 use super::sample_ends::SampleEnds;
 use super::{
@@ -336,7 +336,9 @@ impl DirectCache {
         let moved = self.movers_own(world, &ems, own, (whole_samples, own_stride, phase));
         self.recompute(world, &ems, &settled_ks, samples);
         crate::trace_part("    movers_own_patches", t);
-        self.refresh_blocks(world, &whole_ks);
+        let spheres = (&mut self.blocks[..], &mut self.groups[..]);
+        let whole = (&self.receivers[..], &whole_ks[..]);
+        blocks::refresh(spheres, whole, |ks| block_sphere(world, ks));
         self.coarse_ks = whole_ks
             .iter()
             .copied()
@@ -392,22 +394,6 @@ impl DirectCache {
         out.sort_unstable();
         out.dedup();
         out
-    }
-
-    /// The spheres of the blocks holding receivers `ks` (which moved), where they are now.
-    fn refresh_blocks(&mut self, world: &World, ks: &[usize]) {
-        let mut blocks: Vec<usize> = ks.iter().map(|&k| k / BLOCK).collect();
-        blocks.dedup();
-        for &b in &blocks {
-            let ks = &self.receivers[b * BLOCK..((b + 1) * BLOCK).min(self.receivers.len())];
-            self.blocks[b] = block_sphere(world, ks);
-        }
-        let mut groups: Vec<usize> = blocks.iter().map(|&b| b / GROUP).collect();
-        groups.dedup();
-        for g in groups {
-            let bs = &self.blocks[g * GROUP..((g + 1) * GROUP).min(self.blocks.len())];
-            self.groups[g] = group_sphere(bs);
-        }
     }
 
     /// Receivers `ks` (which moved) not traced this update: their exact unoccluded

@@ -16,7 +16,7 @@ use shrad_scene::Aabb;
 use crate::sampling::{hammersley, hash, hash2, unit};
 use crate::World;
 
-mod blocks;
+pub(crate) mod blocks;
 mod cache;
 mod recent_moves;
 mod sample_ends;

@@ -45,6 +45,7 @@ impl Dispersive {
             && self.direct_valid
             && self.direct_sync.moved.is_empty()
             && !self.direct_cache.catching_up()
+            && !self.punctual.catching_up()
             && self.scheduler.asleep() == self.objects.len()
             && self.quiet_frames >= self.frames_per_wall_sweep()
             && self.wall_rows.as_ref().is_none_or(|rows| rows.settled())

@@ -221,6 +221,7 @@ impl Step1 {
             && self.direct_sync.moved.is_empty()
             && !changes.light_changed()
             && !self.direct_cache.catching_up()
+            && !self.punctual.catching_up()
         {
             return;
         }
@@ -284,7 +285,10 @@ impl Step1 {
             None => (receivers.iter().zip(e)).for_each(|(&i, &e)| parts.area[i as usize] = e),
         }
         let rebuild = everything || parts.receivers_changed(world, &changes.relit);
-        changed.extend(parts.update(world, rebuild, samples, &old, &new, whole));
+        // A mover's patches are read (Step 2) only in a frame that lights it.
+        let read = |i: u32| lit.contains(&p.object[i as usize]);
+        let moves = (&old[..], &new[..]);
+        changed.extend(parts.update(world, (rebuild, samples), moves, (whole, read)));
         changed.par_sort_unstable();
         changed.dedup();
         for i in changed {
@@ -351,6 +355,12 @@ impl PunctualDirect {
         out
     }
 
+    /// Whether patches that moved wait to have their punctual light traced (they are once
+    /// they rest: a frame without a mover then runs Step 1).
+    pub(super) fn catching_up(&self) -> bool {
+        self.cache.catching_up()
+    }
+
     /// Whether a patch of the `relit` objects began or ceased to reflect (a reflectance set
     /// to or from 0): the cache's receivers are the patches that reflect.
     fn receivers_changed(&self, world: &World, relit: &[usize]) -> bool {
@@ -364,15 +374,15 @@ impl PunctualDirect {
     }
 
     /// Bring the punctual part up to date (whole when `everything`, or the sample count or
-    /// the number of lights changed); returns the patches whose value changed.
+    /// the number of lights changed; a moved patch when `read` says its light is read after
+    /// this update, or once it rests: [`PunctualCache::update`]); returns the patches whose
+    /// value changed.
     fn update(
         &mut self,
         world: &World,
-        everything: bool,
-        samples: u32,
-        old: &[Aabb],
-        new: &[Aabb],
-        whole: impl Fn(u32) -> bool + Sync,
+        (everything, samples): (bool, u32),
+        (old, new): (&[Aabb], &[Aabb]),
+        (whole, read): (impl Fn(u32) -> bool + Sync, impl Fn(u32) -> bool + Sync),
     ) -> Vec<u32> {
         let p = &world.patches;
         if !crate::lights::has_sources(world) {
@@ -394,7 +404,7 @@ impl PunctualDirect {
             self.by_patch = vec![Vec3::ZERO; p.len()];
             (0..self.cache.receivers().len()).collect()
         } else {
-            self.cache.update(world, old, new, whole)
+            self.cache.update(world, (old, new), whole, read)
         };
         let (receivers, e) = (self.cache.receivers(), self.cache.irradiance());
         ks.iter()

@@ -177,7 +177,7 @@ fn the_cache_after_moves_and_light_changes_equals_a_fresh_one() {
         let new = box_world(&w);
         let before = w.rays_cast();
         let object = w.patches.object.clone();
-        cache.update(&w, &[old], &[new], |i| object[i as usize] == 1);
+        cache.update(&w, (&[old], &[new]), |i| object[i as usize] == 1, |_| true);
         let traced = w.rays_cast() - before;
         assert!(
             traced < fresh_rays / 2,
@@ -190,7 +190,7 @@ fn the_cache_after_moves_and_light_changes_equals_a_fresh_one() {
     let m = w.scene.lights[0].world_from_light;
     assert!(w.set_light(0, m, Vec3::new(1.0, 0.5, 0.2), 2000.0).unwrap());
     let before = w.rays_cast();
-    cache.update(&w, &[], &[], |_| false);
+    cache.update(&w, (&[], &[]), |_| false, |_| true);
     assert_eq!(w.rays_cast(), before, "a strength change traces nothing");
     assert_eq!(
         cache.irradiance(),
@@ -198,7 +198,7 @@ fn the_cache_after_moves_and_light_changes_equals_a_fresh_one() {
     );
     let moved = Affine3A::from_translation(Vec3::new(-0.7, 1.1, 0.4));
     assert!(w.set_light(0, moved, Vec3::ONE, 683.0).unwrap());
-    cache.update(&w, &[], &[], |_| false);
+    cache.update(&w, (&[], &[]), |_| false, |_| true);
     assert_eq!(
         cache.irradiance(),
         PunctualCache::new(&w, all.clone(), 16).irradiance()
@@ -269,7 +269,7 @@ fn the_sky_after_moves_and_a_sky_change_equals_a_fresh_one() {
         let new = box_world(&w);
         let before = w.rays_cast();
         let object = w.patches.object.clone();
-        let changed = cache.update(&w, &[old], &[new], |i| object[i as usize] == 1);
+        let changed = cache.update(&w, (&[old], &[new]), |i| object[i as usize] == 1, |_| true);
         assert!(!changed.is_empty());
         let traced = w.rays_cast() - before;
         assert!(traced < fresh_rays, "{traced} of {fresh_rays} re-traced");
@@ -279,12 +279,75 @@ fn the_sky_after_moves_and_a_sky_change_equals_a_fresh_one() {
     let uniform = shrad_scene::Environment::uniform(Vec3::new(0.3, 0.2, 0.1));
     assert!(w.set_sky(Some(uniform)).unwrap());
     assert!(!cache.same_sky(&w));
-    cache.update(&w, &[], &[], |_| false);
+    cache.update(&w, (&[], &[]), |_| false, |_| true);
     assert_eq!(
         cache.irradiance(),
         PunctualCache::new(&w, all.clone(), 16).irradiance()
     );
     assert!(w.set_sky(None).unwrap());
-    cache.update(&w, &[], &[], |_| false);
+    cache.update(&w, (&[], &[]), |_| false, |_| true);
     assert!(cache.irradiance().iter().all(|e| *e == Vec3::ZERO));
+}
+
+/// A receiver that moved is traced when its light is read after the update; unread, it keeps
+/// what it had and casts no ray, and the first update where it rests traces it: the cache
+/// then equals a fresh one. The receivers it shadows are exact at every update either way.
+/// Fails if an unread mover is traced anyway, if a waiting one is never traced again, or if
+/// the blocks skip a receiver whose rays a move changed.
+#[test]
+fn a_moving_receiver_is_traced_only_when_read_or_at_rest() {
+    let lights = vec![point(Vec3::new(0.3, 1.5, 0.2), 683.0)];
+    let mut w = world(scene(lights, Some(Vec3::new(0.0, 0.2, 0.0))), 3000);
+    let all: Vec<u32> = (0..w.patches.len() as u32).collect();
+    let mut cache = PunctualCache::new(&w, all.clone(), 16);
+    let mut read = cache.clone();
+    let box_world = |w: &World| {
+        w.patches.shapes[1]
+            .bounds()
+            .unwrap()
+            .transformed(w.patches.world_from_local[1])
+    };
+    let object = w.patches.object.clone();
+    let on_box = |i: u32| object[i as usize] == 1;
+    let box_ks: Vec<usize> = (0..all.len()).filter(|&k| on_box(all[k])).collect();
+    for step in 0..3 {
+        let held: Vec<Vec3> = box_ks.iter().map(|&k| cache.irradiance()[k]).collect();
+        let old = box_world(&w);
+        let at = Vec3::new(0.4 * step as f32 - 0.5, 0.2, -0.1 * step as f32);
+        w.move_object(1, Affine3A::from_translation(at)).unwrap();
+        let new = box_world(&w);
+        let before = w.rays_cast();
+        cache.update(&w, (&[old], &[new]), on_box, |_| false);
+        let unread_rays = w.rays_cast() - before;
+        let before = w.rays_cast();
+        read.update(&w, (&[old], &[new]), on_box, |_| true);
+        let read_rays = w.rays_cast() - before;
+        assert!(cache.catching_up() && !read.catching_up());
+        assert!(
+            unread_rays + box_ks.len() as u64 <= read_rays,
+            "move {step}: {unread_rays} rays unread, {read_rays} read"
+        );
+        let now: Vec<Vec3> = box_ks.iter().map(|&k| cache.irradiance()[k]).collect();
+        assert_eq!(now, held, "move {step}: an unread mover's light changed");
+        let fresh = PunctualCache::new(&w, all.clone(), 16);
+        assert_eq!(read.irradiance(), fresh.irradiance(), "move {step}, read");
+        let others = |c: &PunctualCache| -> Vec<Vec3> {
+            (0..all.len())
+                .filter(|k| box_ks.binary_search(k).is_err())
+                .map(|k| c.irradiance()[k])
+                .collect()
+        };
+        assert_eq!(
+            others(&cache),
+            others(&fresh),
+            "move {step}: the shadows it casts"
+        );
+    }
+    // At rest: the waiting receivers are traced.
+    cache.update(&w, (&[], &[]), |_| false, |_| false);
+    assert!(!cache.catching_up());
+    assert_eq!(
+        cache.irradiance(),
+        PunctualCache::new(&w, all.clone(), 16).irradiance()
+    );
 }
