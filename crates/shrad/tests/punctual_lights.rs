@@ -141,6 +141,55 @@ fn a_light_moved_through_the_engine_equals_the_scene_loaded_with_it_there() {
         .is_err());
 }
 
+/// A box dragged under the point light beside a second box, so that Step 2 lights it only
+/// some frames (its own patches' punctual light is traced only when read, or once it
+/// rests), then left still: the dispersive default ends where the scene loaded with the box
+/// there converges.
+#[test]
+fn a_box_dragged_under_a_point_light_ends_where_the_scene_loaded_there_does() {
+    let light = Vec3::new(0.2, 1.4, 0.1);
+    let with_two = |box_at: Vec3| {
+        let mut s = scene(light, box_at);
+        let mut other = s.objects[1].clone();
+        other.name = "other".into();
+        other.world_from_object = Affine3A::from_translation(Vec3::new(-0.9, 0.25, 0.8));
+        s.objects.push(other);
+        s
+    };
+    let choice = SolverChoice::preset("dispersive", "default").unwrap();
+    let (start, end) = (Vec3::new(0.8, 0.25, -0.6), Vec3::new(-0.2, 0.25, 0.1));
+    let mut e = Engine::new(
+        with_two(start),
+        PatchSizing::Count(3000),
+        Backend::Auto,
+        choice,
+    )
+    .unwrap();
+    e.converge(2);
+    let b = e.object("box").unwrap();
+    let mut unlit = 0;
+    for k in 1..=8 {
+        let at = start + (end - start) * (k as f32 / 8.0);
+        e.set_transform(b, Affine3A::from_translation(at)).unwrap();
+        unlit += usize::from(!e.step().objects_updated.contains(&b));
+    }
+    assert!(
+        unlit > 0,
+        "the box was lit in every moving frame: nothing waited"
+    );
+    e.converge(6);
+    let mut loaded = Engine::new(
+        with_two(end),
+        PatchSizing::Count(3000),
+        Backend::Auto,
+        choice,
+    )
+    .unwrap();
+    loaded.converge(6);
+    let (worst, top) = largest_difference(e.radiosity(), loaded.radiosity());
+    assert!(worst <= 0.02 * top, "{worst} of {top}");
+}
+
 /// A track of `values` at times 0 and 2, linear.
 fn ramp<T>(values: [T; 2]) -> shrad_scene::Track<T> {
     shrad_scene::Track {
