@@ -157,14 +157,17 @@ fn a_box_dragged_under_a_point_light_ends_where_the_scene_loaded_there_does() {
         s
     };
     let choice = SolverChoice::preset("dispersive", "default").unwrap();
+    let engine = |box_at: Vec3| {
+        Engine::new(
+            with_two(box_at),
+            PatchSizing::Count(3000),
+            Backend::Auto,
+            choice,
+        )
+        .unwrap()
+    };
     let (start, end) = (Vec3::new(0.8, 0.25, -0.6), Vec3::new(-0.2, 0.25, 0.1));
-    let mut e = Engine::new(
-        with_two(start),
-        PatchSizing::Count(3000),
-        Backend::Auto,
-        choice,
-    )
-    .unwrap();
+    let mut e = engine(start);
     e.converge(2);
     let b = e.object("box").unwrap();
     let mut unlit = 0;
@@ -178,13 +181,7 @@ fn a_box_dragged_under_a_point_light_ends_where_the_scene_loaded_there_does() {
         "the box was lit in every moving frame: nothing waited"
     );
     e.converge(6);
-    let mut loaded = Engine::new(
-        with_two(end),
-        PatchSizing::Count(3000),
-        Backend::Auto,
-        choice,
-    )
-    .unwrap();
+    let mut loaded = engine(end);
     loaded.converge(6);
     let (worst, top) = largest_difference(e.radiosity(), loaded.radiosity());
     assert!(worst <= 0.02 * top, "{worst} of {top}");
