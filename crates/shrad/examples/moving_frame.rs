@@ -3,7 +3,7 @@
 //! forth along x before every frame (as `shrad bench` does), and then left still. Prints the
 //! medians of the frame and of each step, the rays cast, and the still frames after.
 //!
-//! `cargo run --release --example moving_frame [patches] [objects] [frames] [budget_ms|-] [key=value ...] [error] [smallest] [built] [point]`
+//! `cargo run --release --example moving_frame [patches] [objects] [frames] [budget_ms|-] [key=value ...] [error] [smallest] [built] [point] [sky]`
 use glam::{Affine3A, Vec3};
 use shrad::engine::Engine;
 use shrad::frame::FrameStats;
@@ -81,6 +81,10 @@ fn main() {
         patches,
         big_object_patches: None,
     });
+    // and `sky`: a uniform sky too (the room is closed: only its cost shows).
+    if rest.iter().any(|a| a == "sky") {
+        scene.environment = Some(shrad::scene::Environment::uniform(Vec3::new(0.3, 0.4, 0.6)));
+    }
     if point {
         let b = scene.bounds().expect("a room");
         let at = Vec3::new(b.centre().x, b.min.y + 0.9 * b.size().y, b.centre().z);
