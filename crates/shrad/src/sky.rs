@@ -294,15 +294,17 @@ impl SkyCache {
         }
     }
 
-    /// Bring the cache to the world's state after occluders moved `old -> new` (boxes) and
-    /// the receivers `whole` accepts moved themselves; a changed sky re-traces everything.
-    /// Returns the receivers whose irradiance changed, ascending.
+    /// Bring the cache to the world's state after occluders moved `old -> new` (boxes):
+    /// receivers `whole_ks` are traced whole (they moved, and their light is read now or they
+    /// rest: [`crate::lights::PunctualCache::update`] decides, for the sky as for the lights),
+    /// the rays of the others not in `skip` (ascending: those traced whole, and those that
+    /// moved and wait) are amended where a swept box meets them; a changed sky re-traces
+    /// everything. Returns the receivers whose irradiance changed, ascending.
     pub fn update(
         &mut self,
         world: &World,
-        old: &[Aabb],
-        new: &[Aabb],
-        whole: impl Fn(u32) -> bool + Sync,
+        (old, new): (&[Aabb], &[Aabb]),
+        (whole_ks, skip): (&[usize], &[usize]),
     ) -> Vec<usize> {
         let n = self.receivers.len();
         if !self.same_sky(world) {
@@ -312,13 +314,9 @@ impl SkyCache {
         if self.sky.is_none() {
             return Vec::new();
         }
-        let ks: Vec<usize> = (0..n)
-            .into_par_iter()
-            .filter(|&k| whole(self.receivers[k]))
-            .collect();
-        self.trace(world, &ks);
-        let mut touched = ks.clone();
-        touched.extend(self.retrace_near(world, old, new, &ks));
+        self.trace(world, whole_ks);
+        let mut touched = whole_ks.to_vec();
+        touched.extend(self.retrace_near(world, old, new, skip));
         touched.sort_unstable();
         touched.dedup();
         touched

@@ -129,8 +129,8 @@ impl PunctualCache {
     /// this update (the dispersive solver's Step 2 lights its object this frame), else it
     /// keeps what it had until it is read or rests ([`PunctualCache::catching_up`]): the 77k
     /// room's largest object, with a point light, traced its 4,512 patches every moving frame
-    /// though Step 2 lights it one frame in three. Returns the receivers whose irradiance
-    /// changed, ascending.
+    /// though Step 2 lights it one frame in three. The sky's part follows the same choice.
+    /// Returns the receivers whose irradiance changed, ascending.
     pub fn update(
         &mut self,
         world: &World,
@@ -174,7 +174,7 @@ impl PunctualCache {
         let mut skip = [&whole_ks[..], &self.unread[..]].concat();
         skip.sort_unstable();
         touched.extend(self.retrace_near(world, (old, new), &skip, &moved_lights));
-        touched.extend(self.sky.update(world, old, new, &whole));
+        touched.extend(self.sky.update(world, (old, new), (&whole_ks, &skip)));
         touched.sort_unstable();
         touched.dedup();
         self.evaluate(&touched);

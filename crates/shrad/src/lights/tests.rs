@@ -292,12 +292,15 @@ fn the_sky_after_moves_and_a_sky_change_equals_a_fresh_one() {
 /// A receiver that moved is traced when its light is read after the update; unread, it keeps
 /// what it had and casts no ray, and the first update where it rests traces it: the cache
 /// then equals a fresh one. The receivers it shadows are exact at every update either way.
-/// Fails if an unread mover is traced anyway, if a waiting one is never traced again, or if
-/// the blocks skip a receiver whose rays a move changed.
+/// A point light and a sky (whose part follows the lights' choice). Fails if an unread mover
+/// is traced anyway, if a waiting one is never traced again, or if the blocks skip a
+/// receiver whose rays a move changed.
 #[test]
 fn a_moving_receiver_is_traced_only_when_read_or_at_rest() {
     let lights = vec![point(Vec3::new(0.3, 1.5, 0.2), 683.0)];
     let mut w = world(scene(lights, Some(Vec3::new(0.0, 0.2, 0.0))), 3000);
+    let sky = shrad_scene::Environment::uniform(Vec3::new(0.3, 0.2, 0.1));
+    assert!(w.set_sky(Some(sky)).unwrap());
     let all: Vec<u32> = (0..w.patches.len() as u32).collect();
     let mut cache = PunctualCache::new(&w, all.clone(), 16);
     let mut read = cache.clone();
