@@ -20,8 +20,9 @@ mod find;
 /// Direct irradiance of a set of receivers with what it was made of, so that it can be
 /// updated exactly when only occluders move (the dispersive solver's Step 1, paper 2.3.2):
 /// per (receiver, emitter) the unoccluded irradiance and which shadow rays were blocked.
-/// The rays themselves are regenerated, identically, when needed (their seed depends on the
-/// receiver and the emitter only); only where they end is kept, quantised ([`SampleEnds`]).
+/// Where each ray ends is kept ([`SampleEnds`]: exact up to 8M rays, else quantised, when
+/// the rays are regenerated, identically, where needed: their seed depends on the receiver
+/// and the emitter only).
 ///
 /// An update re-traces only the shadow rays whose segment meets a box an occluder swept; a
 /// ray that meets none sees the same geometry as before, so the result equals a full
@@ -58,8 +59,8 @@ pub struct DirectCache {
     shadow_rays_found: usize,
     /// [`SHADOW_RAYS_AT_ONCE`] (lower in tests).
     shadow_rays_at_once: usize,
-    /// Where each shadow ray ends, quantised ([`SampleEnds`]), so that finding the rays a
-    /// mover may have changed is a segment test per ray, not a regenerated sample.
+    /// Where each shadow ray ends ([`SampleEnds`]), so that finding the rays a mover may
+    /// have changed is a segment test per ray, not a regenerated sample.
     ends: SampleEnds,
     /// `[(k * emitters + e) * samples + j]`: each shadow ray's weight (`cos cos / r^2`, the
     /// floats [`shadow_sample`] gives), kept beside its end up to [`MAX_WEIGHTS`] rays (else
@@ -163,8 +164,8 @@ impl DirectCache {
             receivers,
         };
         cache.groups = cache.blocks.chunks(GROUP).map(group_sphere).collect();
-        if !cache.ends.end.is_empty() && cache.ends.end.len() <= MAX_WEIGHTS {
-            cache.weights = vec![0.0; cache.ends.end.len()];
+        if cache.ends.len() > 0 && cache.ends.len() <= MAX_WEIGHTS {
+            cache.weights = vec![0.0; cache.ends.len()];
         }
         if ne > 0 {
             let all: Vec<usize> = (0..cache.receivers.len()).collect();
@@ -222,7 +223,7 @@ impl DirectCache {
             + self.irradiance.len() * 12
             + self.coarse.len()
             + self.held.len() * 4
-            + self.ends.end.len() * 6
+            + self.ends.bytes()
             + self.weights.len() * 4
             + (self.blocks.len() + self.groups.len()) * 16
     }

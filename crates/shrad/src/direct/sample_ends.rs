@@ -1,5 +1,5 @@
-//! Where each cached shadow ray ends, quantised: finding the rays a mover's box meets is
-//! then a slab test per ray, not a regenerated sample ([`super::cache::DirectCache`]).
+//! Where each cached shadow ray ends: finding the rays a mover's box meets is then a slab
+//! test per ray, not a regenerated sample ([`super::cache::DirectCache`]).
 
 use glam::Vec3;
 use shrad_scene::Aabb;
@@ -8,28 +8,57 @@ use crate::segments::{Offsets, LANES};
 use crate::World;
 
 /// `[(k * emitters + e) * samples + j]`: the end of shadow ray `j` of receiver `k` towards
-/// emitter `e` (a point on the emitter), quantised to 16 bits an axis in `space` (6 bytes a
-/// ray; 7 MB at the 77k room). Finding the rays a mover's box meets then costs a slab test
-/// per ray against the box padded by the quantisation step (a superset: each ray found is
-/// regenerated and tested exactly before it is re-traced). Left empty above
-/// [`SampleEnds::MAX_RAYS`] rays, where the samples are regenerated instead.
+/// emitter `e` (a point on the emitter). Up to [`SampleEnds::MAX_EXACT`] rays the ends are
+/// kept as they are (12 bytes a ray; 59 MB at the 77k room): a ray found is re-traced from
+/// its stored end, with no sample regenerated. Above, up to [`SampleEnds::MAX_RAYS`], they
+/// are quantised to 16 bits an axis in `space` (6 bytes a ray), tested against the boxes
+/// padded by the quantisation step (a superset), and each ray found is regenerated to be
+/// re-traced. Left empty above that, where every sample is regenerated.
 #[derive(Clone, Debug, Default)]
 pub(super) struct SampleEnds {
     space: Option<Aabb>,
-    pub(super) end: Vec<[u16; 3]>,
+    exact: Vec<Vec3>,
+    end: Vec<[u16; 3]>,
 }
 
 impl SampleEnds {
-    /// At most this many rays' ends are kept (192 MB; the 1M room's 16M rays take 96 MB).
+    /// At most this many rays' ends are kept as they are (96 MB: the 77k and 129k rooms'
+    /// 4.9M and 7.7M rays; the 1M room's 16M would be 96 MB more where its peak memory is
+    /// at issue 24's bound, so it keeps them quantised).
+    pub(super) const MAX_EXACT: usize = 1 << 23;
+    /// At most this many rays' ends are kept (quantised: 192 MB; the 1M room's 16M rays take
+    /// 96 MB).
     pub(super) const MAX_RAYS: usize = 1 << 25;
 
     pub(super) fn new(world: &World, rays: usize) -> SampleEnds {
+        if rays <= Self::MAX_EXACT {
+            return SampleEnds {
+                exact: vec![Vec3::ZERO; rays],
+                ..SampleEnds::default()
+            };
+        }
         let space = world.scene.bounds().filter(|_| rays <= Self::MAX_RAYS);
         let space = space.map(|b| b.padded(Vec3::splat(1e-3) + 0.01 * b.size()));
         SampleEnds {
             end: vec![[0; 3]; if space.is_some() { rays } else { 0 }],
             space,
+            exact: Vec::new(),
         }
+    }
+
+    /// Rays whose ends are kept (exact or quantised).
+    pub(super) fn len(&self) -> usize {
+        self.exact.len().max(self.end.len())
+    }
+
+    /// Bytes held.
+    pub(super) fn bytes(&self) -> usize {
+        self.exact.len() * 12 + self.end.len() * 6
+    }
+
+    /// The end of ray `at` as it was put, where ends are kept exact.
+    pub(super) fn exact(&self, at: usize) -> Option<Vec3> {
+        self.exact.get(at).copied()
     }
 
     /// Quantisation step, per axis.
@@ -38,7 +67,9 @@ impl SampleEnds {
     }
 
     pub(super) fn put(&mut self, at: usize, p: Vec3) {
-        if let Some(space) = &self.space {
+        if !self.exact.is_empty() {
+            self.exact[at] = p;
+        } else if let Some(space) = &self.space {
             if !space.contains(p) {
                 // An end outside (an emitter beyond the scene's bounds): keep none.
                 *self = SampleEnds::default();
@@ -51,7 +82,8 @@ impl SampleEnds {
     }
 
     /// Which of the up to 64 stored ends `first .. first + n` have their segment from
-    /// `from` meet one of the boxes of each set in `sets` (already [`SampleEnds::pad`]ded):
+    /// `from` meet one of the boxes of each set in `sets` (already [`SampleEnds::pad`]ded;
+    /// exactly where the ends are exact, else a superset):
     /// bit `j` of result `s` for end `first + j`, for set `s`. `None` where no ends are kept.
     /// The ends are decoded once into arrays and tested by a slab test per box over all of
     /// them at once (vectorised: a per-ray call was a third of finding a mover's shadow
@@ -63,13 +95,22 @@ impl SampleEnds {
         from: Vec3,
         sets: [&[Aabb]; 2],
     ) -> Option<[u64; 2]> {
-        let space = self.space.as_ref()?;
         debug_assert!(n <= 64);
-        let (lo, step) = (space.min - from, Self::step(space));
         let mut d: Offsets = [[0f32; LANES]; 3];
-        for (j, e) in self.end[first..first + n].iter().enumerate() {
-            for a in 0..3 {
-                d[a][j] = lo[a] + e[a] as f32 * step[a];
+        if !self.exact.is_empty() {
+            for (j, e) in self.exact[first..first + n].iter().enumerate() {
+                let e = *e - from;
+                for a in 0..3 {
+                    d[a][j] = e[a];
+                }
+            }
+        } else {
+            let space = self.space.as_ref()?;
+            let (lo, step) = (space.min - from, Self::step(space));
+            for (j, e) in self.end[first..first + n].iter().enumerate() {
+                for a in 0..3 {
+                    d[a][j] = lo[a] + e[a] as f32 * step[a];
+                }
             }
         }
         let meeting = |boxes: &[Aabb]| match boxes.is_empty() {
@@ -80,9 +121,13 @@ impl SampleEnds {
     }
 
     /// `boxes` padded by the quantisation step: a segment to a stored end misses them only
-    /// if the segment to the exact end misses the boxes unpadded.
+    /// if the segment to the exact end misses the boxes unpadded (as they are where the
+    /// ends are exact).
     pub(super) fn pad(&self, boxes: &[Aabb]) -> Vec<Aabb> {
-        let q = self.space.as_ref().map_or(Vec3::ZERO, Self::step);
+        let q = match self.exact.is_empty() {
+            true => self.space.as_ref().map_or(Vec3::ZERO, Self::step),
+            false => Vec3::ZERO,
+        };
         boxes.iter().map(|b| b.padded(q)).collect()
     }
 }
@@ -92,49 +137,63 @@ mod tests {
     use super::*;
 
     /// `meeting` finds every stored ray whose exact segment meets a box (it is given the
-    /// boxes padded by the quantisation step, as the cache does), and rejects most of those
-    /// that pass far from it; a segment along an axis (a zero component) is handled.
+    /// boxes [`SampleEnds::pad`]ded, as the cache does: by the quantisation step where the
+    /// ends are quantised), and rejects most of those that pass far from it (where the ends
+    /// are exact, every one); a segment along an axis (a zero component) is handled.
     #[test]
     fn meeting_finds_every_segment_that_meets_a_box() {
         let space = Aabb::new(Vec3::splat(-2.0), Vec3::splat(2.0));
-        let mut rnd = crate::sampling::test_rng(7);
-        let (mut found, mut rejected) = (0, 0);
-        for case in 0..400 {
-            let n = 1 + case % 64;
-            let mut v = || Vec3::new(rnd(), rnd(), rnd()) * 3.6 - 1.8;
-            let from = v();
-            let mut ends = SampleEnds {
-                space: Some(space),
-                end: vec![[0; 3]; n],
-            };
-            let exact: Vec<Vec3> = (0..n)
-                .map(|j| match j % 7 {
-                    // Straight up from `from`: two components of the segment are 0.
-                    0 => Vec3::new(from.x, 1.9, from.z),
-                    _ => v(),
-                })
-                .collect();
-            for (j, &e) in exact.iter().enumerate() {
-                ends.put(j, e);
-            }
-            let (c, h) = (v() * 0.5, Vec3::new(rnd(), rnd(), rnd()) * 0.6 + 0.05);
-            let boxes = [Aabb::new(c - h, c + h)];
-            let [mask, none] = ends.meeting(0, n, from, [&ends.pad(&boxes), &[]]).unwrap();
-            assert_eq!(none, 0, "no box met");
-            assert_eq!(mask >> n.min(63) >> (n / 64), 0, "bits past n");
-            for (j, &e) in exact.iter().enumerate() {
-                let bit = mask >> j & 1 != 0;
-                if boxes[0].meets_segment(from, e) {
-                    assert!(bit, "case {case}: ray {j} meets the box and was not found");
-                    found += 1;
-                } else if !bit {
-                    rejected += 1;
+        for exact in [false, true] {
+            let mut rnd = crate::sampling::test_rng(7);
+            let (mut found, mut rejected, mut extra) = (0, 0, 0);
+            for case in 0..400 {
+                let n = 1 + case % 64;
+                let mut v = || Vec3::new(rnd(), rnd(), rnd()) * 3.6 - 1.8;
+                let from = v();
+                let mut ends = match exact {
+                    true => SampleEnds {
+                        exact: vec![Vec3::ZERO; n],
+                        ..SampleEnds::default()
+                    },
+                    false => SampleEnds {
+                        space: Some(space),
+                        end: vec![[0; 3]; n],
+                        exact: Vec::new(),
+                    },
+                };
+                let ends_put: Vec<Vec3> = (0..n)
+                    .map(|j| match j % 7 {
+                        // Straight up from `from`: two components of the segment are 0.
+                        0 => Vec3::new(from.x, 1.9, from.z),
+                        _ => v(),
+                    })
+                    .collect();
+                for (j, &e) in ends_put.iter().enumerate() {
+                    ends.put(j, e);
+                    assert_eq!(ends.exact(j), exact.then_some(e));
+                }
+                let (c, h) = (v() * 0.5, Vec3::new(rnd(), rnd(), rnd()) * 0.6 + 0.05);
+                let boxes = [Aabb::new(c - h, c + h)];
+                let [mask, none] = ends.meeting(0, n, from, [&ends.pad(&boxes), &[]]).unwrap();
+                assert_eq!(none, 0, "no box met");
+                assert_eq!(mask >> n.min(63) >> (n / 64), 0, "bits past n");
+                for (j, &e) in ends_put.iter().enumerate() {
+                    let bit = mask >> j & 1 != 0;
+                    if boxes[0].meets_segment(from, e) {
+                        assert!(bit, "case {case}: ray {j} meets the box and was not found");
+                        found += 1;
+                    } else if !bit {
+                        rejected += 1;
+                    } else {
+                        extra += 1;
+                    }
                 }
             }
+            assert!(
+                found > 500 && rejected > 5000,
+                "{found} found, {rejected} rejected"
+            );
+            assert!(!exact || extra == 0, "{extra} found that miss the box");
         }
-        assert!(
-            found > 500 && rejected > 5000,
-            "{found} found, {rejected} rejected"
-        );
     }
 }

@@ -111,7 +111,7 @@ fn moving_an_occluder_keeps_direct_light_and_wall_rows_exact() {
             .count();
     }
     // The caches stay small: about 10 bytes a wall ray (with the rows themselves, under 24),
-    // and about 11 bytes a shadow ray (its blocked bit, its quantised end and its weight)
+    // and about 17 bytes a shadow ray (its blocked bit, its exact end and its weight)
     // plus tens of bytes a direct-light receiver.
     let rows = d.wall_rows.as_ref().unwrap();
     let rays = d.boundary_patches.len() * options.wall_rays as usize;
@@ -122,7 +122,7 @@ fn moving_an_occluder_keeps_direct_light_and_wall_rows_exact() {
     );
     let shadow_rays = d.direct_cache.receivers().len() * options.direct_samples as usize;
     assert!(
-        d.direct_cache.bytes() < 11 * shadow_rays + 64 * d.direct_cache.receivers().len(),
+        d.direct_cache.bytes() < 17 * shadow_rays + 64 * d.direct_cache.receivers().len(),
         "{} bytes for {shadow_rays} shadow rays",
         d.direct_cache.bytes()
     );
@@ -154,6 +154,24 @@ fn cornell_boundary_cache() -> (World, usize, Vec<u32>, crate::direct::DirectCac
         .collect();
     let cache = crate::direct::DirectCache::new(&world, boundary.clone(), 16);
     (world, block, boundary, cache)
+}
+
+/// The shadow rays' ends are kept exact, as the samples they were traced to, through set-up
+/// and updates: a ray a mover may have changed is re-traced from its stored end (no sample
+/// regenerated), so an end kept wrong would re-trace another ray than the cache holds.
+#[test]
+fn stored_shadow_ray_ends_are_the_samples_traced() {
+    let (mut world, block, _, mut cache) = cornell_boundary_cache();
+    let (checked, off) = cache.ends_off_their_samples(&world);
+    assert!(checked > 10_000 && off == 0, "{off} of {checked} ends off");
+    let (old, new) = move_far(&mut world, block);
+    let mover = [block as u32];
+    cache.update(&world, (&mover, &mover), (&[old], &[new]), 16, 1);
+    let (checked, off) = cache.ends_off_their_samples(&world);
+    assert!(
+        checked > 10_000 && off == 0,
+        "after a move: {off} of {checked} ends off"
+    );
 }
 
 /// The cache's partial update equals a full recomputation with the same samples, also for

@@ -98,9 +98,9 @@ impl DirectCache {
         }
         let shift = sample_shift(i, em);
         // 64 samples at a time: the blocked ones against the old boxes, the free ones
-        // against the new, by their stored ends (a superset); the exact sample of each found
-        // is re-traced (a ray re-traced that no box meets is traced for nothing, never
-        // wrong).
+        // against the new, by their stored ends (a superset where they are quantised); the
+        // exact segment of each found is re-traced (a ray re-traced that no box meets is
+        // traced for nothing, never wrong).
         for j0 in (0..samples).step_by(64) {
             let m = (samples - j0).min(64);
             let blocked = self.shadows.blocked_word(set, j0 as usize / 64);
@@ -112,7 +112,13 @@ impl DirectCache {
             while found != 0 {
                 let j = j0 + found.trailing_zeros();
                 found &= found - 1;
-                out.push((k as u32, e as u32, j), sample(j));
+                // The stored end where it is exact (`shadow_segment`'s floats), else the
+                // sample again.
+                let ray = match self.ends.exact(at.0 + (j - j0) as usize) {
+                    Some(end) => (at.1, end),
+                    None => sample(j),
+                };
+                out.push((k as u32, e as u32, j), ray);
             }
         }
     }
@@ -154,6 +160,35 @@ impl DirectCache {
                     || (want[1] >> j & 1 != 0 && meets(new, ray))
             })
             .fold(0, |mask, j| mask | 1 << j)
+    }
+
+    /// The shadow rays with a stored end kept exact (every one an emitter lights), and of
+    /// them those whose end is not the sample they were traced to (`shadow_segment`'s, the
+    /// segment re-traced from it): `(checked, off)`, for tests.
+    #[cfg(test)]
+    pub(crate) fn ends_off_their_samples(&self, world: &World) -> (usize, usize) {
+        let (ems, samples) = (crate::direct::emitters(world), self.shadows.samples());
+        let p = &world.patches;
+        let (mut checked, mut off) = (0, 0);
+        for (k, &i) in self.receivers.iter().enumerate() {
+            let (x, n) = (p.centre[i as usize], p.normal[i as usize]);
+            for (e, em) in ems.iter().enumerate() {
+                let set = k * ems.len() + e;
+                if self.unoccluded[set] <= 0.0 || self.coarse[k] {
+                    continue;
+                }
+                let shift = sample_shift(i as usize, em);
+                for j in 0..samples {
+                    let Some(end) = self.ends.exact(set * samples as usize + j as usize) else {
+                        continue;
+                    };
+                    checked += 1;
+                    let segment = shadow_segment(em, (x, n), shift, j, samples, world.eps);
+                    off += usize::from(segment.1 != end);
+                }
+            }
+        }
+        (checked, off)
     }
 
     /// Trace `rays` against the `movers` alone, then against the whole scene those that
