@@ -103,6 +103,11 @@ fn moving_an_occluder_keeps_direct_light_and_wall_rows_exact() {
             .filter(|&k| a.row(k) != b.row(k) && !ra.differ_only_in_ties(rb, k))
             .count();
         assert_eq!(differ, 0, "move {step}: {differ} wall rows differ");
+        let missing = ra.rows_missing_an_object_hit(&world);
+        assert_eq!(
+            missing, 0,
+            "move {step}: {missing} rows' masks miss an object hit"
+        );
         rows_changed += (0..a.len())
             .filter(|&k| a.row(k) != start_rows.row(k))
             .count();

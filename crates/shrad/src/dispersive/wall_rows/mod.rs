@@ -364,13 +364,34 @@ impl WallRows {
     /// Whether rows `k` of `self` and `other` differ only in rays that report different
     /// surfaces at the same distance (their stored ends equal): a box's bottom face on the floor,
     /// seen from inside the box, where which one a trace reports depends on the order it
-    /// visits them in (with Embree, on the other rays of its packet).
+    /// visits them in (with Embree, on the other rays of its packet). Rows whose rays all hit
+    /// the same do not differ in ties (their entries should be the same).
     #[cfg(test)]
     pub(super) fn differ_only_in_ties(&self, other: &WallRows, k: usize) -> bool {
         let r = k * self.rays..(k + 1) * self.rays;
-        (self.hit[r.clone()].iter().zip(&other.hit[r.clone()]))
-            .zip(self.end[r.clone()].iter().zip(&other.end[r]))
-            .all(|((a, b), (ea, eb))| a == b || ea == eb)
+        let (hits, ends) = (
+            self.hit[r.clone()].iter().zip(&other.hit[r.clone()]),
+            self.end[r.clone()].iter().zip(&other.end[r]),
+        );
+        let mut some_tie = false;
+        let only_ties = hits.zip(ends).all(|((a, b), (ea, eb))| {
+            some_tie |= a != b;
+            a == b || ea == eb
+        });
+        some_tie && only_ties
+    }
+
+    /// Rows whose mask of objects hit misses an object one of their rays hits (a row is
+    /// checked against a mover only if its mask holds the mover: see [`WallRows::check`]).
+    #[cfg(test)]
+    pub(super) fn rows_missing_an_object_hit(&self, world: &World) -> usize {
+        (0..self.bounds.len())
+            .filter(|&k| {
+                let hits = &self.hit[k * self.rays..(k + 1) * self.rays];
+                let mask = retrace::mask_of_objects_hit(world, hits);
+                mask & !self.objects_hit[k] != 0
+            })
+            .count()
     }
 
     /// Rays waiting to be re-traced.
