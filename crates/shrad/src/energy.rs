@@ -151,25 +151,28 @@ pub fn chunk_sums(
     c: usize,
 ) -> Sums {
     let p = &world.patches;
+    // Sums of the channels' sums, averaged once at the end (a division a sum a patch was
+    // most of the meter's time in a moving frame).
     let mut sums = [0.0; 5];
     let mut max_rho = 0.0f32;
+    let sum = |v: Vec3| v.element_sum() as f64;
     for i in c * CHUNK..((c + 1) * CHUNK).min(p.len()) {
         let a = p.area[i] as f64;
         let irr = irradiance(i);
         let rho = world.reflectance[i];
         let (reflected, absorbed) = if reflects(i) {
-            (avg(rho * irr) * a, avg((Vec3::ONE - rho) * irr) * a)
+            (sum(rho * irr) * a, sum((Vec3::ONE - rho) * irr) * a)
         } else {
-            (0.0, avg(irr) * a)
+            (0.0, sum(irr) * a)
         };
-        sums[0] += avg(world.exitance[i]) * a;
-        sums[1] += avg(irr) * a;
+        sums[0] += sum(world.exitance[i]) * a;
+        sums[1] += sum(irr) * a;
         sums[2] += reflected;
         sums[3] += absorbed;
-        sums[4] += punctual.get(i).map_or(0.0, |e| avg(*e) * a);
+        sums[4] += punctual.get(i).map_or(0.0, |e| sum(*e) * a);
         max_rho = max_rho.max(rho.max_element());
     }
-    (sums, max_rho)
+    (sums.map(|s| s / 3.0), max_rho)
 }
 
 /// The balance from every chunk's [`Sums`], in order.
