@@ -20,9 +20,9 @@ mod find;
 /// Direct irradiance of a set of receivers with what it was made of, so that it can be
 /// updated exactly when only occluders move (the dispersive solver's Step 1, paper 2.3.2):
 /// per (receiver, emitter) the unoccluded irradiance and which shadow rays were blocked.
-/// Where each ray ends is kept ([`SampleEnds`]: exact up to 8M rays, else quantised, when
-/// the rays are regenerated, identically, where needed: their seed depends on the receiver
-/// and the emitter only).
+/// Where each ray ends is kept ([`SampleEnds`]): exactly up to 8M rays; above, quantised,
+/// and a ray found is regenerated, identically (its seed depends on the receiver and the
+/// emitter only).
 ///
 /// An update re-traces only the shadow rays whose segment meets a box an occluder swept; a
 /// ray that meets none sees the same geometry as before, so the result equals a full
