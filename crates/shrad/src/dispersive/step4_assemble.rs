@@ -26,15 +26,13 @@ pub const WALL_ROWS_PER_FRAME: usize = 1 << 16;
 /// Wall-exchange rows gathered in a frame where an object moved: a moving frame must cost
 /// what moved, and the walls' exchange among themselves changes little between two frames
 /// of a drag (the mover's own light on the walls is Step 3's, every frame). The 77k room's
-/// 64k rows are then swept in 256 frames while it moves, and whole again once it rests.
+/// 64k rows are then swept in 64 frames while it moves, and whole again once it rests.
 /// The error of the last moving frame hardly depends on it: 4.33 % with 16k rows a frame,
 /// 4.34 % with 8k (0.9 ms less); then, at 20 frames of the bench's motion, 3.603 / 3.554 /
 /// 3.599 % with 4k / 1k / 256 rows, and after a steady drag of a fifth of the room's width
 /// over 32 frames 4.484 / 4.444 / 4.477 % (objects-8 and -128 rooms: the same to 0.006):
-/// docs/results.md §5. From 1k to 256 (2026-12-06): the gather beside Step 1 0.31 -> 0.14
-/// ms, the error after 40 frames of the bench's motion 3.696 -> 3.742 % (77k; objects-8
-/// and -128 rooms the same to 0.001).
-pub const WALL_ROWS_WHILE_MOVING: usize = 1 << 8;
+/// docs/results.md §5.
+pub const WALL_ROWS_WHILE_MOVING: usize = 1 << 10;
 
 /// Wall-exchange rows gathered in a frame where the walls doze (`sleep.rs`: the objects
 /// settle after a mover stopped, and the light the rows read changed by less than the sleep
@@ -161,7 +159,7 @@ impl Dispersive {
         }
         // Reflected light of every patch first when the window reads each twice or more
         // (one random read per row entry), else as each entry is read: a moving frame's
-        // window of 1k rows read 65k entries, and a pass over every patch (a fresh array
+        // window of 1k rows reads 65k entries, and a pass over every patch (a fresh array
         // each frame) cost more than it, in the 40k rooms (objects-128: Step 4 0.22 ->
         // 0.18 ms on one thread) as in the 1M room. A dozing window of 4k rows reads 262k:
         // in the 77k room a pass first is cheaper (its frames without rays 0.15 ms longer
