@@ -15,10 +15,14 @@ use crate::World;
 /// padded by the quantisation step (a superset), and each ray found is regenerated to be
 /// re-traced. Left empty above that, where every sample is regenerated.
 #[derive(Clone, Debug, Default)]
-pub(super) struct SampleEnds {
-    space: Option<Aabb>,
-    exact: Vec<Vec3>,
-    end: Vec<[u16; 3]>,
+pub(super) enum SampleEnds {
+    /// None kept: every sample is regenerated.
+    #[default]
+    None,
+    /// Each end as it was put.
+    Exact(Vec<Vec3>),
+    /// Each end quantised in `space`.
+    Quantised { space: Aabb, end: Vec<[u16; 3]> },
 }
 
 impl SampleEnds {
@@ -32,33 +36,41 @@ impl SampleEnds {
 
     pub(super) fn new(world: &World, rays: usize) -> SampleEnds {
         if rays <= Self::MAX_EXACT {
-            return SampleEnds {
-                exact: vec![Vec3::ZERO; rays],
-                ..SampleEnds::default()
-            };
+            return SampleEnds::Exact(vec![Vec3::ZERO; rays]);
         }
-        let space = world.scene.bounds().filter(|_| rays <= Self::MAX_RAYS);
-        let space = space.map(|b| b.padded(Vec3::splat(1e-3) + 0.01 * b.size()));
-        SampleEnds {
-            end: vec![[0; 3]; if space.is_some() { rays } else { 0 }],
-            space,
-            exact: Vec::new(),
+        match world.scene.bounds().filter(|_| rays <= Self::MAX_RAYS) {
+            Some(b) => SampleEnds::Quantised {
+                space: b.padded(Vec3::splat(1e-3) + 0.01 * b.size()),
+                end: vec![[0; 3]; rays],
+            },
+            None => SampleEnds::None,
         }
     }
 
     /// Rays whose ends are kept (exact or quantised).
     pub(super) fn len(&self) -> usize {
-        self.exact.len().max(self.end.len())
+        match self {
+            SampleEnds::None => 0,
+            SampleEnds::Exact(exact) => exact.len(),
+            SampleEnds::Quantised { end, .. } => end.len(),
+        }
     }
 
     /// Bytes held.
     pub(super) fn bytes(&self) -> usize {
-        self.exact.len() * 12 + self.end.len() * 6
+        match self {
+            SampleEnds::None => 0,
+            SampleEnds::Exact(exact) => exact.len() * 12,
+            SampleEnds::Quantised { end, .. } => end.len() * 6,
+        }
     }
 
     /// The end of ray `at` as it was put, where ends are kept exact.
     pub(super) fn exact(&self, at: usize) -> Option<Vec3> {
-        self.exact.get(at).copied()
+        match self {
+            SampleEnds::Exact(exact) => exact.get(at).copied(),
+            _ => None,
+        }
     }
 
     /// Quantisation step, per axis.
@@ -67,17 +79,19 @@ impl SampleEnds {
     }
 
     pub(super) fn put(&mut self, at: usize, p: Vec3) {
-        if !self.exact.is_empty() {
-            self.exact[at] = p;
-        } else if let Some(space) = &self.space {
-            if !space.contains(p) {
-                // An end outside (an emitter beyond the scene's bounds): keep none.
-                *self = SampleEnds::default();
-                return;
+        match self {
+            SampleEnds::None => {}
+            SampleEnds::Exact(exact) => exact[at] = p,
+            SampleEnds::Quantised { space, end } => {
+                if !space.contains(p) {
+                    // An end outside (an emitter beyond the scene's bounds): keep none.
+                    *self = SampleEnds::None;
+                    return;
+                }
+                let q = ((p - space.min) / Self::step(space)).round();
+                let q = q.clamp(Vec3::ZERO, Vec3::splat(65535.0));
+                end[at] = [q.x as u16, q.y as u16, q.z as u16];
             }
-            let q = ((p - space.min) / Self::step(space)).round();
-            let q = q.clamp(Vec3::ZERO, Vec3::splat(65535.0));
-            self.end[at] = [q.x as u16, q.y as u16, q.z as u16];
         }
     }
 
@@ -97,19 +111,22 @@ impl SampleEnds {
     ) -> Option<[u64; 2]> {
         debug_assert!(n <= 64);
         let mut d: Offsets = [[0f32; LANES]; 3];
-        if !self.exact.is_empty() {
-            for (j, e) in self.exact[first..first + n].iter().enumerate() {
-                let e = *e - from;
-                for a in 0..3 {
-                    d[a][j] = e[a];
+        match self {
+            SampleEnds::None => return None,
+            SampleEnds::Exact(exact) => {
+                for (j, e) in exact[first..first + n].iter().enumerate() {
+                    let e = *e - from;
+                    for a in 0..3 {
+                        d[a][j] = e[a];
+                    }
                 }
             }
-        } else {
-            let space = self.space.as_ref()?;
-            let (lo, step) = (space.min - from, Self::step(space));
-            for (j, e) in self.end[first..first + n].iter().enumerate() {
-                for a in 0..3 {
-                    d[a][j] = lo[a] + e[a] as f32 * step[a];
+            SampleEnds::Quantised { space, end } => {
+                let (lo, step) = (space.min - from, Self::step(space));
+                for (j, e) in end[first..first + n].iter().enumerate() {
+                    for a in 0..3 {
+                        d[a][j] = lo[a] + e[a] as f32 * step[a];
+                    }
                 }
             }
         }
@@ -124,9 +141,9 @@ impl SampleEnds {
     /// if the segment to the exact end misses the boxes unpadded (as they are where the
     /// ends are exact).
     pub(super) fn pad(&self, boxes: &[Aabb]) -> Vec<Aabb> {
-        let q = match self.exact.is_empty() {
-            true => self.space.as_ref().map_or(Vec3::ZERO, Self::step),
-            false => Vec3::ZERO,
+        let q = match self {
+            SampleEnds::Quantised { space, .. } => Self::step(space),
+            _ => Vec3::ZERO,
         };
         boxes.iter().map(|b| b.padded(q)).collect()
     }
@@ -151,14 +168,10 @@ mod tests {
                 let mut v = || Vec3::new(rnd(), rnd(), rnd()) * 3.6 - 1.8;
                 let from = v();
                 let mut ends = match exact {
-                    true => SampleEnds {
-                        exact: vec![Vec3::ZERO; n],
-                        ..SampleEnds::default()
-                    },
-                    false => SampleEnds {
-                        space: Some(space),
+                    true => SampleEnds::Exact(vec![Vec3::ZERO; n]),
+                    false => SampleEnds::Quantised {
+                        space,
                         end: vec![[0; 3]; n],
-                        exact: Vec::new(),
                     },
                 };
                 let ends_put: Vec<Vec3> = (0..n)
