@@ -80,7 +80,8 @@ impl PyEngine {
 
     fn lock(&self) -> MutexGuard<'_, Engine> {
         // A panic inside the library (a bug) poisons the lock; the engine's state is still
-        // whole (every mutation validates first), so go on with it.
+        // whole (every mutation validates first, and a frame that panics has its solver
+        // built again: `Engine::try_step_with_progress`), so go on with it.
         self.inner.lock().unwrap_or_else(|e| e.into_inner())
     }
 

@@ -423,10 +423,22 @@ impl Engine {
     /// its changes still pending for the next frame.
     pub fn try_step_with_progress(&mut self, progress: &dyn Progress) -> Result<FrameStats, Error> {
         let changes = std::mem::take(&mut self.pending);
-        match self
-            .solver
-            .try_step_with_progress(&self.world, &changes, progress)
-        {
+        let (world, solver) = (&self.world, &mut self.solver);
+        let step = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            solver.try_step_with_progress(world, &changes, progress)
+        }));
+        let step = step.unwrap_or_else(|panic| {
+            // A panic inside a frame (a bug) may leave the solver's state half lent out (the
+            // dispersive frame hands Step 1's caches to a thread of its join): the solver is
+            // built again for the world as it stands, so that a front end that catches the
+            // panic (Python, the viewer's engine thread) goes on with a whole engine; then
+            // the panic goes on to it.
+            if let Ok(fresh) = Solver::new(&self.world, self.choice) {
+                self.solver = fresh;
+            }
+            std::panic::resume_unwind(panic)
+        });
+        match step {
             Ok(stats) => {
                 self.frames += 1;
                 Ok(stats)
@@ -560,6 +572,35 @@ mod tests {
     use super::*;
 
     fn assert_send<T: Send>() {}
+
+    /// A panic inside a frame's join (a bug) reaches the caller, and the engine that caught
+    /// it is whole: its next frames are those of an engine built where it stands. Before,
+    /// Step 1's state stayed lent out and every later frame failed.
+    #[test]
+    fn a_frame_that_panics_leaves_the_engine_whole() {
+        let choice = SolverChoice::Dispersive(crate::dispersive::DispersiveOptions::improved());
+        let build = || {
+            let scene = shrad_scene::cornell_box();
+            Engine::new(scene, PatchSizing::Count(1500), Backend::Auto, choice).unwrap()
+        };
+        let (mut engine, mut fresh) = (build(), build());
+        engine.step();
+        let Solver::Dispersive(d) = &mut engine.solver else {
+            panic!("not the dispersive solver");
+        };
+        d.fail_inside_join = true;
+        let caught = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| engine.step()));
+        let message = caught.expect_err("the frame did not panic");
+        let message = message.downcast_ref::<&str>().copied().unwrap_or_default();
+        assert!(message.contains("fault injected"), "{message}");
+        for _ in 0..3 {
+            let (a, b) = (engine.step(), fresh.step());
+            assert!(a.diverged.is_none(), "{:?}", a.diverged);
+            assert_eq!(a.rays_cast, b.rays_cast);
+        }
+        let error = relative_error(&engine.world.patches, engine.radiosity(), fresh.radiosity());
+        assert!(error.overall < 1e-4, "{error:?}");
+    }
 
     /// Counts every call, as a progress bar would draw them.
     #[derive(Default)]

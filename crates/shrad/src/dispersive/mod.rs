@@ -158,6 +158,9 @@ pub struct Dispersive {
     light_meter: IncidentMeter,
     /// What this frame's guards found (moved into `FrameStats::diverged`).
     step_warnings: Vec<String>,
+    /// Tests: panic inside the next frame's join, while Step 1's state is lent out.
+    #[cfg(test)]
+    pub(crate) fail_inside_join: bool,
     /// Per patch: the side of a double-sided boundary surface that faces away from the
     /// scene's centre, and of a double-sided interior object the side that faces its box
     /// centre. A probe that sees it is outside the enclosure or inside the object, like one
@@ -325,6 +328,8 @@ impl Dispersive {
                 LIGHT_METER_RAYS,
             ),
             step_warnings: Vec::new(),
+            #[cfg(test)]
+            fail_inside_join: false,
             outer_side: outer_sides(world),
             open: options.near_rays > 0 && near_rays::is_open(world),
             caching: true,
@@ -600,9 +605,13 @@ impl Dispersive {
         // The wall rows read nothing else of the solver (Step 2 reads the boundary's list
         // too: it prepares Step 3's gather).
         let boundary = self.boundary_patches.clone();
+        #[cfg(test)]
+        let fail = std::mem::take(&mut self.fail_inside_join);
         let direct_and_meter = || {
             rayon::join(
                 || {
+                    #[cfg(test)]
+                    assert!(!fail, "a fault injected inside the frame's join");
                     let t = Instant::now();
                     if !carry {
                         let moving = !step1.direct_sync.moved.is_empty();
