@@ -18,6 +18,7 @@ pub mod direct;
 pub mod dispersive;
 pub mod energy;
 pub mod engine;
+mod footprint_cones;
 pub mod form_factors;
 pub mod frame;
 pub mod grid;

@@ -151,20 +151,21 @@ impl ShadowRays {
 
     /// The rays of `sets` a move may have changed: a blocked one whose segment meets an `old`
     /// box (its blocker may have left), a free one whose segment meets a `new` box (boxes
-    /// padded as [`crate::direct::padded_swept`]). `ray(s, j)` gives ray `j` of set `s`, or
-    /// `None` for a sample that casts no ray.
-    pub fn near_movers(
+    /// padded as [`crate::direct::padded_swept`]). `rays_of(s)` gives set `s`'s rays: ray
+    /// `j` as `(from, to)`, or `None` for a sample that casts no ray or that cannot meet a
+    /// box (a caller's cheaper test first: [`crate::footprint_cones`]).
+    pub fn near_movers<R: Fn(u32) -> Option<(Vec3, Vec3)>>(
         &self,
         sets: &[usize],
         old: &[Aabb],
         new: &[Aabb],
-        ray: impl Fn(usize, u32) -> Option<(Vec3, Vec3)> + Sync,
+        rays_of: impl Fn(usize) -> R + Sync,
     ) -> Vec<ShadowRay> {
         sets.par_iter()
             .flat_map_iter(|&s| {
-                let ray = &ray;
+                let ray = rays_of(s);
                 (0..self.samples).filter_map(move |j| {
-                    let (from, to) = ray(s, j)?;
+                    let (from, to) = ray(j)?;
                     let boxes = if self.is_blocked(s, j) { old } else { new };
                     boxes
                         .iter()

@@ -24,6 +24,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::{Aabb, Environment};
 
+use crate::footprint_cones::{self, FootprintCones};
 use crate::sampling::{hammersley, hash, hash2, square_to_cosine_hemisphere, unit};
 use crate::shadow_rays::{padded_move, ShadowRays};
 use crate::World;
@@ -239,6 +240,13 @@ fn receiver_sample(world: &World, sky: &Sky, i: usize, j: u32, samples: u32) -> 
     let seed = hash(i as u32 ^ 0x5c4e_9d1b);
     let (u, v) = hammersley(j, samples, (unit(seed), unit(hash(seed))));
     let x = world.patches.sample_point(i, u, v);
+    let (d, w) = sample_direction(world, sky, i, j, samples);
+    (x, d, w)
+}
+
+/// The direction and weight of [`receiver_sample`] (not its point).
+fn sample_direction(world: &World, sky: &Sky, i: usize, j: u32, samples: u32) -> (Vec3, Vec3) {
+    let seed = hash(i as u32 ^ 0x5c4e_9d1b);
     // The direction from a second, independent stratified pair.
     let s2 = hash2(seed, 0x2f6b_11a3);
     let (a, b) = hammersley(
@@ -246,8 +254,7 @@ fn receiver_sample(world: &World, sky: &Sky, i: usize, j: u32, samples: u32) -> 
         samples,
         (unit(s2), unit(hash(s2))),
     );
-    let (d, w) = sky.sample(world.patches.normal[i], j, a, b);
-    (x, d, w)
+    sky.sample(world.patches.normal[i], j, a, b)
 }
 
 /// The sky's direct irradiance of a set of patches with the rays it was made of (see the
@@ -260,7 +267,19 @@ pub struct SkyCache {
     shadows: ShadowRays,
     /// `[k]`: the irradiance.
     irradiance: Vec<Vec3>,
+    /// `[k * samples + j]`: the direction of receiver `k`'s ray `j`, kept
+    /// ([`footprint_cones::encode`]) so that a mover's cones reject most rays without
+    /// regenerating them ([`SkyCache::retrace_near`]); empty above [`MAX_KEPT_DIRECTIONS`]
+    /// rays (every sample is regenerated then).
+    directions: Vec<[u16; 2]>,
+    /// `[k]`: whether receiver `k`'s directions are kept as it stands (a receiver that
+    /// moved has them again when a mover next makes it look).
+    directions_kept: Vec<bool>,
 }
+
+/// The most sky rays whose directions [`SkyCache`] keeps (4 bytes each: 32 MB; the 77k room's
+/// 4.6M take 18 MB).
+const MAX_KEPT_DIRECTIONS: usize = 1 << 23;
 
 impl SkyCache {
     /// Trace the sky's direct irradiance of `receivers` with `samples` rays each (an empty
@@ -272,10 +291,16 @@ impl SkyCache {
             receivers: receivers.to_vec(),
             shadows: ShadowRays::new(n, samples),
             irradiance: vec![Vec3::ZERO; n],
+            directions: Vec::new(),
+            directions_kept: vec![false; n],
         };
         if cache.sky.is_some() {
             let all: Vec<usize> = (0..n).collect();
             cache.trace(world, &all);
+            if n * samples as usize <= MAX_KEPT_DIRECTIONS {
+                cache.directions = vec![[0; 2]; n * samples as usize];
+                cache.keep_directions(world, &all);
+            }
         }
         cache
     }
@@ -323,7 +348,9 @@ impl SkyCache {
     }
 
     /// Re-trace the rays of receivers not in `skip` that a mover's old box (blocked rays) or
-    /// new box (free rays) meets; returns the receivers whose irradiance changed.
+    /// new box (free rays) meets; returns the receivers whose irradiance changed. Where the
+    /// rays' directions are kept, only those in a cone from the receiver's footprint to a
+    /// box's sphere are regenerated and tested ([`FootprintCones`]: the same rays found).
     fn retrace_near(
         &mut self,
         world: &World,
@@ -342,17 +369,76 @@ impl SkyCache {
         let sets: Vec<usize> = (0..self.receivers.len())
             .filter(|k| skip.binary_search(k).is_err())
             .collect();
-        let rays = self.shadows.near_movers(&sets, &old, &new, |k, j| {
-            let i = self.receivers[k] as usize;
-            let (x, d, w) = receiver_sample(world, &sky, i, j, samples);
+        if !self.directions.is_empty() {
+            let moved: Vec<usize> = (sets.iter())
+                .filter(|&&k| !self.directions_kept[k])
+                .copied()
+                .collect();
+            self.keep_directions(world, &moved);
+        }
+        let spheres = [&old, &new].map(|b| b.iter().map(Aabb::bounding_sphere).collect::<Vec<_>>());
+        let this = &*self;
+        let rays = self.shadows.near_movers(&sets, &old, &new, |k| {
+            let i = this.receivers[k] as usize;
             let n = world.patches.normal[i];
-            (w.max_element() > 0.0).then(|| (x + n * eps, x + d * far))
+            // The footprint holds every ray's start (a point of the patch, lifted by eps).
+            let footprint = (
+                world.patches.centre[i],
+                world.patches.radius(i) * 1.001 + 2.0 * eps,
+            );
+            let kept = (!this.directions.is_empty()).then(|| {
+                let s = samples as usize;
+                &this.directions[k * s..(k + 1) * s]
+            });
+            // Bit `j` of word `j / 64` set where ray `j` may meet a box, 64 at a time (a
+            // blocked ray the boxes where the movers were, a free one where they are).
+            let candidates: Option<Vec<u64>> = kept.and_then(|kept| {
+                let cones = FootprintCones::new(footprint, [&spheres[0], &spheres[1]])?;
+                let words = kept.chunks(64).enumerate();
+                let word = |(w, kept)| cones.meeting(kept, this.shadows.blocked_word(k, w));
+                Some(words.map(word).collect())
+            });
+            let sky = &sky;
+            move |j| {
+                if let Some(words) = &candidates {
+                    if words[j as usize / 64] >> (j % 64) & 1 == 0 {
+                        return None;
+                    }
+                }
+                let (x, d, w) = receiver_sample(world, sky, i, j, samples);
+                (w.max_element() > 0.0).then(|| (x + n * eps, x + d * far))
+            }
         });
         let changed = self.shadows.retrace(world, &rays);
-        for &k in &changed {
-            self.irradiance[k] = self.sum(world, &sky, k);
+        // Side by side: under an open sky a mover's shadow may change thousands of
+        // receivers, each summing its free samples' weights again.
+        let sums: Vec<Vec3> = (changed.par_iter())
+            .map(|&k| self.sum(world, &sky, k))
+            .collect();
+        for (&k, e) in changed.iter().zip(sums) {
+            self.irradiance[k] = e;
         }
         changed
+    }
+
+    /// Keep the directions of receivers `ks`' rays as they stand.
+    fn keep_directions(&mut self, world: &World, ks: &[usize]) {
+        let (Some(sky), s) = (self.sky.as_ref(), self.shadows.samples()) else {
+            return;
+        };
+        let receivers = &self.receivers;
+        let kept: Vec<[u16; 2]> = (ks.par_iter())
+            .flat_map_iter(|&k| {
+                let i = receivers[k] as usize;
+                (0..s)
+                    .map(move |j| footprint_cones::encode(sample_direction(world, sky, i, j, s).0))
+            })
+            .collect();
+        let s = s as usize;
+        for (&k, kept) in ks.iter().zip(kept.chunks(s)) {
+            self.directions[k * s..(k + 1) * s].copy_from_slice(kept);
+            self.directions_kept[k] = true;
+        }
     }
 
     /// Irradiance of receiver `k` from its cached blocked bits.
@@ -362,7 +448,7 @@ impl SkyCache {
         let mut e = Vec3::ZERO;
         for j in 0..samples {
             if !self.shadows.is_blocked(k, j) {
-                e += receiver_sample(world, sky, i, j, samples).2;
+                e += sample_direction(world, sky, i, j, samples).1;
             }
         }
         e / samples as f32
@@ -384,12 +470,15 @@ impl SkyCache {
         });
         for (&k, (_, free)) in ks.iter().zip(sums) {
             self.irradiance[k] = free / samples as f32;
+            // A receiver traced again has moved (or is new): its rays' directions are kept
+            // again when a mover next makes it look (`retrace_near`).
+            self.directions_kept[k] = false;
         }
     }
 
     /// Bytes held.
     pub fn bytes(&self) -> usize {
-        self.receivers.len() * 16 + self.shadows.bytes()
+        self.receivers.len() * 17 + self.shadows.bytes() + self.directions.len() * 4
     }
 }
 

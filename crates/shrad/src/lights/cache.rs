@@ -239,12 +239,15 @@ impl PunctualCache {
                     .collect::<Vec<usize>>()
             })
             .collect();
-        let rays = self.shadows.near_movers(&sets, &old, &new, |set, j| {
+        let rays = self.shadows.near_movers(&sets, &old, &new, |set| {
             let i = self.receivers[set / nl] as usize;
-            let light = self.lights[set % nl]?;
+            let light = self.lights[set % nl];
             let n = world.patches.normal[i];
-            let x = sample(world, i, j, samples);
-            (light.geometry(x, n, eps) > 0.0).then(|| (x + n * eps, light.shadow_end(x, far)))
+            move |j| {
+                let light = light?;
+                let x = sample(world, i, j, samples);
+                (light.geometry(x, n, eps) > 0.0).then(|| (x + n * eps, light.shadow_end(x, far)))
+            }
         });
         let changed = self.shadows.retrace(world, &rays);
         for &set in &changed {
