@@ -450,13 +450,29 @@ pub fn splat_to_boundary(
     let mut hits = vec![Hit::MISS; dirs.len()];
     // Still in texel order, so the capture's ray packets stay coherent.
     world.vis.capture(&[centre], &dirs, 0.0, &[own], &mut hits);
+    let covered = covered_by(world, own as usize);
     hits.iter()
         .zip(&flux)
-        .filter_map(|(h, &(_, f))| {
+        .zip(&dirs)
+        .filter_map(|((h, &(_, f)), &d)| {
             let j = world.seen_patch(h)?;
-            receives_as_boundary(world, j).then_some((j as u32, f))
+            let lands = receives_as_boundary(world, j) && !covered(centre + d * h.t);
+            lands.then_some((j as u32, f))
         })
         .collect()
+}
+
+/// Whether a point lies within object `o`'s box (its own frame's bounds, a hair larger):
+/// where a splat's ray from inside the object meets the boundary before it leaves that box,
+/// it lands on a patch the object covers (the floor under a box resting on it), which the
+/// object's light cannot reach; a splat from its centre would light it through the object
+/// (under a sky, with the bottom faces lit from below the floor, the 77k room's floor under
+/// two boxes: 12 % error against the reference, 2.4 % with the gather).
+fn covered_by(world: &World, o: usize) -> impl Fn(Vec3) -> bool {
+    let eps = Vec3::splat(world.eps);
+    let bounds = (world.patches.shapes[o].bounds()).map(|b| b.padded(b.size() * 1e-4 + eps));
+    let local_from_world = world.patches.world_from_local[o].inverse();
+    move |at: Vec3| bounds.is_some_and(|b| b.contains(local_from_world.transform_point3(at)))
 }
 
 /// Trace the splat texels `which` of object `o` (in texel order, so the capture's ray
@@ -476,8 +492,12 @@ pub(super) fn trace_texels(
     world
         .vis
         .capture(&[texels.centre], &dirs, 0.0, &[o as u32], &mut hits);
-    for (&t, h) in which.iter().zip(&hits) {
-        texels.seen[t] = world.seen_patch(h).map_or(LANDS_NOWHERE, |j| j as u32);
+    let covered = covered_by(world, o);
+    for ((&t, h), &d) in which.iter().zip(&hits).zip(&dirs) {
+        let seen = world
+            .seen_patch(h)
+            .filter(|_| !covered(texels.centre + d * h.t));
+        texels.seen[t] = seen.map_or(LANDS_NOWHERE, |j| j as u32);
         texels.t[t] = if h.is_hit() { h.t } else { f32::INFINITY };
     }
 }

@@ -369,3 +369,55 @@ fn a_ball_beside_a_block_comes_from_the_near_field_alone() {
         "the face's bias: {seen:+.4} seen by the probes, {through:+.4} seen through"
     );
 }
+
+/// Step 3's splat does not light the floor a block covers: its rays leave the emitter inside
+/// the block, and one that meets the floor before it leaves the block's box lands on a patch
+/// under the block, which the block's light cannot reach (the reference leaves those patches
+/// dark). The floor around the block takes its light as before. Fails without the block's box
+/// test (the splat's rays straight down light the floor under the block's middle).
+#[test]
+fn a_splat_does_not_light_the_floor_a_block_covers() {
+    let world = cornell(3000);
+    let p = &world.patches;
+    let (block, floor) = (
+        object_named(&world, "tall_block"),
+        object_named(&world, "floor"),
+    );
+    let local = p.shapes[block].bounds().unwrap();
+    let m = p.world_from_local[block];
+    let centre = m.transform_point3(local.centre());
+    // A uniform intensity: 1 W/sr in every direction, as a DC term.
+    let bands = 3;
+    let mut coeffs = vec![Vec3::ZERO; shrad_sh::num_coeffs(bands)];
+    coeffs[0] = Vec3::splat(2.0 * std::f32::consts::PI.sqrt());
+    let intensity = shrad_sh::ShRgb::from_coeffs(coeffs);
+    let camera = crate::probes::ProbeCamera::new(64, bands);
+    let pieces = splat_to_boundary(&world, &camera, block as u32, centre, &intensity);
+    // Floor patches wholly under the block: their centre inside its box's footprint by more
+    // than their own radius.
+    let under = |i: usize| {
+        let x = m.inverse().transform_point3(p.centre[i]);
+        let inset = local.padded(Vec3::splat(-p.radius(i) / m.matrix3.x_axis.length()));
+        x.x <= inset.max.x && x.z <= inset.max.z && x.x >= inset.min.x && x.z >= inset.min.z
+    };
+    let covered = p.range(floor).filter(|&i| under(i)).count();
+    assert!(
+        covered >= 10,
+        "only {covered} floor patches under the block"
+    );
+    let on_floor = |j: u32| p.range(floor).contains(&(j as usize));
+    let lit_under: Vec<u32> = (pieces.iter())
+        .filter(|&&(j, f)| on_floor(j) && under(j as usize) && f.max_element() > 0.0)
+        .map(|&(j, _)| j)
+        .collect();
+    assert!(
+        lit_under.is_empty(),
+        "the splat lit {} patches under the block",
+        lit_under.len()
+    );
+    let around: f32 = (pieces.iter())
+        .filter(|&&(j, _)| on_floor(j) && !under(j as usize))
+        .map(|&(_, f)| f.x)
+        .sum();
+    assert!(around > 0.0, "nothing reached the floor around the block");
+}
