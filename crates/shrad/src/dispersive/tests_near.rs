@@ -370,10 +370,21 @@ fn a_ball_beside_a_block_comes_from_the_near_field_alone() {
     );
 }
 
+/// Step 3's splat of object `o` from `centre` at 1 W/sr in every direction (a DC term), with
+/// cube maps of `res`^2 texels a face.
+fn uniform_splat(world: &World, o: usize, centre: Vec3, res: usize) -> Vec<(u32, Vec3)> {
+    let bands = 3;
+    let mut coeffs = vec![Vec3::ZERO; shrad_sh::num_coeffs(bands)];
+    coeffs[0] = Vec3::splat(2.0 * std::f32::consts::PI.sqrt());
+    let intensity = shrad_sh::ShRgb::from_coeffs(coeffs);
+    let camera = crate::probes::ProbeCamera::new(res, bands);
+    splat_to_boundary(world, &camera, o as u32, centre, &intensity)
+}
+
 /// Step 3's splat does not light the floor a block covers: its rays leave the emitter inside
 /// the block, and one that meets the floor before it leaves the block's box lands on a patch
 /// under the block, which the block's light cannot reach (the reference leaves those patches
-/// dark). The floor around the block takes its light as before. Fails without the block's box
+/// dark). The floor around the block takes its light as before. Fails without the covered
 /// test (the splat's rays straight down light the floor under the block's middle).
 #[test]
 fn a_splat_does_not_light_the_floor_a_block_covers() {
@@ -386,13 +397,7 @@ fn a_splat_does_not_light_the_floor_a_block_covers() {
     let local = p.shapes[block].bounds().unwrap();
     let m = p.world_from_local[block];
     let centre = m.transform_point3(local.centre());
-    // A uniform intensity: 1 W/sr in every direction, as a DC term.
-    let bands = 3;
-    let mut coeffs = vec![Vec3::ZERO; shrad_sh::num_coeffs(bands)];
-    coeffs[0] = Vec3::splat(2.0 * std::f32::consts::PI.sqrt());
-    let intensity = shrad_sh::ShRgb::from_coeffs(coeffs);
-    let camera = crate::probes::ProbeCamera::new(64, bands);
-    let pieces = splat_to_boundary(&world, &camera, block as u32, centre, &intensity);
+    let pieces = uniform_splat(&world, block, centre, 64);
     // Floor patches wholly under the block: their centre inside its box's footprint by more
     // than their own radius.
     let under = |i: usize| {
@@ -420,4 +425,69 @@ fn a_splat_does_not_light_the_floor_a_block_covers() {
         .map(|&(_, f)| f.x)
         .sum();
     assert!(around > 0.0, "nothing reached the floor around the block");
+}
+
+/// The floor under a table's top is not covered: its legs touch the floor, so the table's box
+/// reaches it, but the splat's rays meet the floor there far from the table's surface, and
+/// keep lighting it (the top's underside does); the floor under a leg is covered.
+#[test]
+fn a_splat_lights_the_floor_under_a_tables_top_but_not_under_its_legs() {
+    let mut scene = shrad_scene::cornell_box();
+    let (blocks, keep): (Vec<_>, Vec<_>) =
+        (scene.objects.drain(..)).partition(|o| o.name.ends_with("block"));
+    drop(blocks);
+    scene.objects = keep;
+    let slab = |half: Vec3, at: Vec3| {
+        shrad_scene::box_mesh(half, false).transformed(Affine3A::from_translation(at))
+    };
+    let mut table = slab(Vec3::new(110.0, 8.0, 110.0), Vec3::new(278.0, 160.0, 280.0));
+    for (dx, dz) in [(-95.0, -95.0), (-95.0, 95.0), (95.0, -95.0), (95.0, 95.0)] {
+        let leg = slab(
+            Vec3::new(25.0, 76.0, 25.0),
+            Vec3::new(278.0 + dx, 76.0, 280.0 + dz),
+        );
+        table.append(&leg);
+    }
+    let mut object = shrad_scene::Object::new(
+        "table",
+        table,
+        shrad_scene::Material::diffuse(Vec3::splat(0.7)),
+    );
+    object.role = Some(Role::Interior);
+    scene.objects.push(object);
+    let world = World::new(
+        scene,
+        crate::PatchSizing::Count(8000),
+        crate::vis::Backend::Auto,
+    )
+    .unwrap();
+    let p = &world.patches;
+    let (o, floor) = (object_named(&world, "table"), object_named(&world, "floor"));
+    let centre = p.shapes[o]
+        .bounds()
+        .unwrap()
+        .transformed(p.world_from_local[o])
+        .centre();
+    let pieces = uniform_splat(&world, o, centre, 128);
+    let near = |i: usize, (x, z): (f32, f32), r: f32| {
+        let c = p.centre[i];
+        (c.x - x).abs() + p.radius(i) < r && (c.z - z).abs() + p.radius(i) < r
+    };
+    let lit = |pick: &dyn Fn(usize) -> bool| -> (usize, usize) {
+        let patches: Vec<usize> = p.range(floor).filter(|&i| pick(i)).collect();
+        let lit = patches
+            .iter()
+            .filter(|&&i| pieces.iter().any(|&(j, f)| j as usize == i && f.x > 0.0));
+        (lit.count(), patches.len())
+    };
+    let (middle_lit, middle) = lit(&|i| near(i, (278.0, 280.0), 60.0));
+    assert!(
+        middle > 5 && middle_lit * 2 > middle,
+        "{middle_lit} of {middle} lit under the top"
+    );
+    let (leg_lit, legs) = lit(&|i| near(i, (278.0 + 95.0, 280.0 + 95.0), 25.0));
+    assert!(
+        legs > 0 && leg_lit == 0,
+        "{leg_lit} of {legs} lit under a leg"
+    );
 }
