@@ -69,15 +69,8 @@ impl FootprintCones {
             if dist <= reach * (1.0 + 1e-4) {
                 return (Vec3::Z, -2.0);
             }
-            let half = (reach / dist).asin() + MARGIN;
-            (
-                to / dist,
-                if half >= std::f32::consts::PI {
-                    -2.0
-                } else {
-                    half.cos()
-                },
-            )
+            // At most a right angle and the margin: its cosine is the test's as it is.
+            (to / dist, ((reach / dist).asin() + MARGIN).cos())
         };
         let mut out = FootprintCones {
             cones: [[(Vec3::Z, -2.0); MOST]; 2],
