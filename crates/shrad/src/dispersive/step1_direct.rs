@@ -232,8 +232,6 @@ impl Step1 {
         let everything = !self.direct_valid;
         let old: Vec<Aabb> = moved.iter().map(|&o| self.direct_sync.boxes[o]).collect();
         let new: Vec<Aabb> = moved.iter().map(|&o| object_boxes[o]).collect();
-        // Patches of a moved object moved themselves: recomputed whole.
-        let whole = |i: u32| moved.contains(&(p.object[i as usize] as usize));
         let parts = &mut self.punctual;
         parts.area.resize(p.len(), Vec3::ZERO);
         let mut changed: Vec<u32> = Vec::new();
@@ -288,7 +286,8 @@ impl Step1 {
         // A mover's patches are read (Step 2) only in a frame that lights it.
         let read = |i: u32| lit.contains(&p.object[i as usize]);
         let moves = (&old[..], &new[..]);
-        changed.extend(parts.update(world, (rebuild, samples), moves, (whole, read)));
+        // Patches of a moved object moved themselves: recomputed whole.
+        changed.extend(parts.update(world, (rebuild, samples), moves, (&moved, read)));
         changed.par_sort_unstable();
         changed.dedup();
         for i in changed {
@@ -382,7 +381,7 @@ impl PunctualDirect {
         world: &World,
         (everything, samples): (bool, u32),
         (old, new): (&[Aabb], &[Aabb]),
-        (whole, read): (impl Fn(u32) -> bool + Sync, impl Fn(u32) -> bool + Sync),
+        (moved, read): (&[usize], impl Fn(u32) -> bool + Sync),
     ) -> Vec<u32> {
         let p = &world.patches;
         if !crate::lights::has_sources(world) {
@@ -404,7 +403,7 @@ impl PunctualDirect {
             self.by_patch = vec![Vec3::ZERO; p.len()];
             (0..self.cache.receivers().len()).collect()
         } else {
-            self.cache.update(world, (old, new), whole, read)
+            self.cache.update(world, (old, new), moved, read)
         };
         let (receivers, e) = (self.cache.receivers(), self.cache.irradiance());
         ks.iter()
