@@ -380,21 +380,9 @@ impl DirectCache {
         traced
     }
 
-    /// The indices of the receivers that are patches of `objects`, ascending: a binary
-    /// search per object (receivers ascend, and an object's patches are a range), not a pass
-    /// over every receiver.
+    /// The indices of the receivers (ascending) that are patches of `objects`, ascending.
     fn receivers_of(&self, world: &World, objects: &[u32]) -> Vec<usize> {
-        debug_assert!(self.receivers.is_sorted());
-        let mut out: Vec<usize> = Vec::new();
-        for &o in objects {
-            let r = world.patches.range(o as usize);
-            let lo = self.receivers.partition_point(|&i| (i as usize) < r.start);
-            let hi = self.receivers.partition_point(|&i| (i as usize) < r.end);
-            out.extend(lo..hi);
-        }
-        out.sort_unstable();
-        out.dedup();
-        out
+        (world.patches).positions_in(&self.receivers, objects.iter().map(|&o| o as usize))
     }
 
     /// Receivers `ks` (which moved) not traced this update: their exact unoccluded

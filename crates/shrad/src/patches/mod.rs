@@ -182,6 +182,27 @@ impl Patches {
         r.start as usize..r.end as usize
     }
 
+    /// Where the patches of `objects` sit in `sorted` (patch indices, ascending), ascending:
+    /// a binary search per object (an object's patches are a range), not a pass over
+    /// `sorted` (a cache's receivers: the 1M-patch room's million).
+    pub fn positions_in(
+        &self,
+        sorted: &[u32],
+        objects: impl IntoIterator<Item = usize>,
+    ) -> Vec<usize> {
+        debug_assert!(sorted.is_sorted());
+        let mut out: Vec<usize> = Vec::new();
+        for o in objects {
+            let r = self.range(o);
+            let lo = sorted.partition_point(|&i| (i as usize) < r.start);
+            let hi = sorted.partition_point(|&i| (i as usize) < r.end);
+            out.extend(lo..hi);
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
     /// The patch size and the number of patches that [`Patches::build`] would make, found
     /// without making them (so that an absurd size is refused before anything is allocated).
     pub fn plan(scene: &Scene, sizing: PatchSizing) -> PatchPlan {
