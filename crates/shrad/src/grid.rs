@@ -151,7 +151,8 @@ impl Grid {
             self.punctual = crate::lights::PunctualCache::new(world, all, GRID_PUNCTUAL_SAMPLES);
             (0..n).collect()
         } else {
-            self.punctual.update(world, (&[], &[]), &[], |_| true)
+            self.punctual
+                .update(world, (&[], &[]), (&[], GRID_PUNCTUAL_SAMPLES), |_| true)
         };
         self.punctual_by_patch.resize(n, Vec3::ZERO);
         for k in ks {

@@ -18,6 +18,67 @@ use crate::World;
 /// Sets traced in one batch by [`ShadowRays::trace`] (bounds the rays held at once).
 const SETS_PER_BATCH: usize = 4096;
 
+/// The rays `ray(s, j)` of `sets` (`samples` a set), cast: per ray (the set's place in
+/// `sets`, its sample, its weight), and whether it is blocked.
+#[allow(clippy::type_complexity)]
+fn cast<W: Copy + Send + Sync>(
+    world: &World,
+    sets: &[usize],
+    samples: u32,
+    ray: &(impl Fn(usize, u32) -> Option<(Vec3, Vec3, W)> + Sync),
+) -> (Vec<(usize, u32, W)>, Vec<bool>) {
+    let rays: Vec<(usize, u32, Vec3, Vec3, W)> = sets
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(c, &s)| {
+            (0..samples).filter_map(move |j| ray(s, j).map(|(f, t, w)| (c, j, f, t, w)))
+        })
+        .collect();
+    let from: Vec<Vec3> = rays.iter().map(|r| r.2).collect();
+    let to: Vec<Vec3> = rays.iter().map(|r| r.3).collect();
+    let mut blocked = vec![false; rays.len()];
+    world.vis.occluded(&from, &to, world.eps, &[], &mut blocked);
+    (
+        rays.into_iter().map(|(c, j, .., w)| (c, j, w)).collect(),
+        blocked,
+    )
+}
+
+/// Cast the rays of `sets` ([`cast`]) [`SETS_PER_BATCH`] sets at a time, handing each batch
+/// (its sets, rays and outcomes) to `each`; per set, its sums ([`sum_by_set`]).
+fn cast_in_batches<W: Copy + Default + AddAssign + Send + Sync>(
+    world: &World,
+    sets: &[usize],
+    samples: u32,
+    ray: impl Fn(usize, u32) -> Option<(Vec3, Vec3, W)> + Sync,
+    mut each: impl FnMut(&[usize], &[(usize, u32, W)], &[bool]),
+) -> Vec<(W, W)> {
+    let mut sums = Vec::with_capacity(sets.len());
+    for batch in sets.chunks(SETS_PER_BATCH) {
+        let (rays, blocked) = cast(world, batch, samples, &ray);
+        each(batch, &rays, &blocked);
+        sums.extend(sum_by_set(batch.len(), &rays, &blocked));
+    }
+    sums
+}
+
+/// Per set (`n` of them), the sum of its rays' weights and of its free rays' (in sample
+/// order), from [`cast`]'s rays.
+fn sum_by_set<W: Copy + Default + AddAssign>(
+    n: usize,
+    rays: &[(usize, u32, W)],
+    blocked: &[bool],
+) -> Vec<(W, W)> {
+    let mut sums = vec![(W::default(), W::default()); n];
+    for (&(c, _, w), &b) in rays.iter().zip(blocked) {
+        sums[c].0 += w;
+        if !b {
+            sums[c].1 += w;
+        }
+    }
+    sums
+}
+
 /// A move's `old` and `new` boxes padded for the shadow-ray tests of
 /// [`ShadowRays::near_movers`] ([`crate::direct::padded_swept`]), or `None` when both are
 /// empty: no ray can have changed.
@@ -115,38 +176,32 @@ impl ShadowRays {
     where
         W: Copy + Default + AddAssign + Send + Sync,
     {
-        let samples = self.samples;
-        let mut sums = Vec::with_capacity(sets.len());
-        for batch in sets.chunks(SETS_PER_BATCH) {
-            // (set's place in the batch, sample, from, to, weight).
-            let rays: Vec<(usize, u32, Vec3, Vec3, W)> = batch
-                .par_iter()
-                .enumerate()
-                .flat_map_iter(|(c, &s)| {
-                    let ray = &ray;
-                    (0..samples).filter_map(move |j| ray(s, j).map(|(f, t, w)| (c, j, f, t, w)))
-                })
-                .collect();
-            let from: Vec<Vec3> = rays.iter().map(|r| r.2).collect();
-            let to: Vec<Vec3> = rays.iter().map(|r| r.3).collect();
-            let mut blocked = vec![false; rays.len()];
-            world.vis.occluded(&from, &to, world.eps, &[], &mut blocked);
+        cast_in_batches(world, sets, self.samples, ray, |batch, rays, blocked| {
             for &s in batch {
                 self.clear(s);
             }
-            let mut batch_sums = vec![(W::default(), W::default()); batch.len()];
-            for (&(c, j, .., w), &b) in rays.iter().zip(&blocked) {
-                batch_sums[c].0 += w;
+            for (&(c, j, _), &b) in rays.iter().zip(blocked) {
                 if b {
                     let (w, bit) = self.at(batch[c], j);
                     self.blocked[w] |= bit;
-                } else {
-                    batch_sums[c].1 += w;
                 }
             }
-            sums.extend(batch_sums);
-        }
-        sums
+        })
+    }
+
+    /// [`ShadowRays::trace`] with `samples` rays a set (fewer than the sets keep, say:
+    /// `ray(s, j)` is then sample `j` of `samples`), keeping nothing: a moving receiver's
+    /// light while it moves, whose rays are traced whole once it rests.
+    pub fn trace_sums<W>(
+        world: &World,
+        sets: &[usize],
+        samples: u32,
+        ray: impl Fn(usize, u32) -> Option<(Vec3, Vec3, W)> + Sync,
+    ) -> Vec<(W, W)>
+    where
+        W: Copy + Default + AddAssign + Send + Sync,
+    {
+        cast_in_batches(world, sets, samples.max(1), ray, |_, _, _| {})
     }
 
     /// The rays of `sets` a move may have changed: a blocked one whose segment meets an `old`

@@ -296,7 +296,7 @@ impl SkyCache {
         };
         if cache.sky.is_some() {
             let all: Vec<usize> = (0..n).collect();
-            cache.trace(world, &all);
+            cache.trace(world, &all, None);
             if n * samples as usize <= MAX_KEPT_DIRECTIONS {
                 cache.directions = vec![[0; 2]; n * samples as usize];
                 cache.keep_directions(world, &all);
@@ -321,15 +321,17 @@ impl SkyCache {
 
     /// Bring the cache to the world's state after occluders moved `old -> new` (boxes):
     /// receivers `whole_ks` are traced whole (they moved, and their light is read now or they
-    /// rest: [`crate::lights::PunctualCache::update`] decides, for the sky as for the lights),
-    /// the rays of the others not in `skip` (ascending: those traced whole, and those that
-    /// moved and wait) are amended where a swept box meets them; a changed sky re-traces
-    /// everything. Returns the receivers whose irradiance changed, ascending.
+    /// rest: [`crate::lights::PunctualCache::update`] decides, for the sky as for the lights)
+    /// and `coarse_ks` (moving, read now) with `coarse` samples, the rays of the others not
+    /// in `skip` (ascending: those traced, and those that moved and wait) are amended where a
+    /// swept box meets them; a changed sky re-traces everything. Returns the receivers whose
+    /// irradiance changed, ascending.
     pub fn update(
         &mut self,
         world: &World,
         (old, new): (&[Aabb], &[Aabb]),
-        (whole_ks, skip): (&[usize], &[usize]),
+        (whole_ks, coarse_ks, coarse): (&[usize], &[usize], Option<u32>),
+        skip: &[usize],
     ) -> Vec<usize> {
         let n = self.receivers.len();
         if !self.same_sky(world) {
@@ -339,8 +341,9 @@ impl SkyCache {
         if self.sky.is_none() {
             return Vec::new();
         }
-        self.trace(world, whole_ks);
-        let mut touched = whole_ks.to_vec();
+        self.trace(world, whole_ks, None);
+        self.trace(world, coarse_ks, coarse);
+        let mut touched = [whole_ks, coarse_ks].concat();
         touched.extend(self.retrace_near(world, old, new, skip));
         touched.sort_unstable();
         touched.dedup();
@@ -458,20 +461,26 @@ impl SkyCache {
         e / samples as f32
     }
 
-    /// Trace receivers `ks` from scratch.
-    fn trace(&mut self, world: &World, ks: &[usize]) {
+    /// Trace receivers `ks` from scratch; with `coarse`, that many samples each, keeping
+    /// only their sums (the receivers' rays are traced whole later).
+    fn trace(&mut self, world: &World, ks: &[usize], coarse: Option<u32>) {
         let Some(sky) = self.sky.clone() else {
             return;
         };
-        let (eps, far, samples) = (world.eps, world.far(), self.shadows.samples());
+        let (eps, far) = (world.eps, world.far());
+        let samples = coarse.unwrap_or(self.shadows.samples());
         let receivers = &self.receivers;
         // A sample of no weight casts no ray (its bit stays clear).
-        let sums = self.shadows.trace(world, ks, |k, j| {
+        let ray = |k: usize, j: u32| {
             let i = receivers[k] as usize;
             let n = world.patches.normal[i];
             let (x, d, w) = receiver_sample(world, &sky, i, j, samples);
             (w.max_element() > 0.0).then(|| (x + n * eps, x + d * far, w))
-        });
+        };
+        let sums = match coarse {
+            None => self.shadows.trace(world, ks, ray),
+            Some(samples) => ShadowRays::trace_sums(world, ks, samples, ray),
+        };
         for (&k, (_, free)) in ks.iter().zip(sums) {
             self.irradiance[k] = free / samples as f32;
             // A receiver traced again has moved (or is new): its rays' directions are kept

@@ -154,8 +154,9 @@ pub struct DispersiveOptions {
     /// An object that moved since the last frame is updated from coarser cube maps
     /// (`cube_res / 2` probes, a quarter of the rays; `3 emitter_res / 8` splat, 9/64 of them:
     /// at the 77k room 24^2 against 32^2 cost 0.04 points of error while moving and 1.5 ms),
-    /// its own patches' direct light from a quarter of `direct_samples`, a quarter of them
-    /// each frame in turn, and again at full resolution as soon as it stops (beyond the
+    /// its own patches' direct light from a quarter of `direct_samples` (the light surfaces',
+    /// a quarter of the patches each frame in turn; the lamps' and the sky's, in the frames
+    /// that read it), and again at full resolution as soon as it stops (beyond the
     /// paper: the light of a
     /// moving object is wrong by its motion anyway, so the frame spends its rays on
     /// following it; the light settles at full resolution once it rests).

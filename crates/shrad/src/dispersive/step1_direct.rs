@@ -230,6 +230,11 @@ impl Step1 {
         let surface_changed = !changes.relit.is_empty() || moved.iter().any(|&o| emits(world, o));
         let samples = options.direct_samples.max(1);
         let everything = !self.direct_valid;
+        // A moving receiver with a quarter of the samples (`coarse_while_moving`).
+        let moving_samples = match options.coarse_while_moving {
+            true => samples.div_ceil(4),
+            false => samples,
+        };
         let old: Vec<Aabb> = moved.iter().map(|&o| self.direct_sync.boxes[o]).collect();
         let new: Vec<Aabb> = moved.iter().map(|&o| object_boxes[o]).collect();
         let parts = &mut self.punctual;
@@ -254,12 +259,6 @@ impl Step1 {
             changed.extend(self.direct_cache.receivers());
         } else if !moved.is_empty() || self.direct_cache.catching_up() {
             let movers: Vec<u32> = moved.iter().map(|&o| o as u32).collect();
-            // A moving receiver with a quarter of the samples (`coarse_while_moving`).
-            let moving_samples = if options.coarse_while_moving {
-                samples.div_ceil(4)
-            } else {
-                samples
-            };
             let ks = self.direct_cache.update(
                 world,
                 (&movers, lit),
@@ -287,7 +286,8 @@ impl Step1 {
         let read = |i: u32| lit.contains(&p.object[i as usize]);
         let moves = (&old[..], &new[..]);
         // Patches of a moved object moved themselves: recomputed whole.
-        changed.extend(parts.update(world, (rebuild, samples), moves, (&moved, read)));
+        let movers = (&moved[..], moving_samples);
+        changed.extend(parts.update(world, (rebuild, samples), moves, (movers, read)));
         changed.par_sort_unstable();
         changed.dedup();
         for i in changed {
@@ -381,7 +381,7 @@ impl PunctualDirect {
         world: &World,
         (everything, samples): (bool, u32),
         (old, new): (&[Aabb], &[Aabb]),
-        (moved, read): (&[usize], impl Fn(u32) -> bool + Sync),
+        (moved, read): ((&[usize], u32), impl Fn(u32) -> bool + Sync),
     ) -> Vec<u32> {
         let p = &world.patches;
         if !crate::lights::has_sources(world) {

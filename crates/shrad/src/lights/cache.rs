@@ -90,7 +90,7 @@ impl PunctualCache {
         cache.groups = cache.blocks.chunks(GROUP).map(group_sphere).collect();
         let all: Vec<usize> = (0..n).collect();
         for l in 0..nl {
-            cache.trace(world, l, &all);
+            cache.trace(world, l, &all, None);
         }
         cache.evaluate(&all);
         cache
@@ -127,17 +127,21 @@ impl PunctualCache {
     }
 
     /// Bring the cache to the world's state after the occluders `old -> new` moved (their
-    /// boxes) and the patches of objects `moved` with them, and whatever the lights did. A receiver that moved is traced whole now if `read` says its light is read after
-    /// this update (the dispersive solver's Step 2 lights its object this frame), else it
-    /// keeps what it had until it is read or rests ([`PunctualCache::catching_up`]): the 77k
-    /// room's largest object, with a point light, traced its 4,512 patches every moving frame
-    /// though Step 2 lights it one frame in three. The sky's part follows the same choice.
+    /// boxes) and the patches of objects `moved` with them, and whatever the lights did. A
+    /// receiver that moved is traced now if `read` says its light is read after this update
+    /// (the dispersive solver's Step 2 lights its object this frame), else it keeps what it
+    /// had until it is read or rests ([`PunctualCache::catching_up`]): the 77k room's
+    /// largest object, with a point light, traced its 4,512 patches every moving frame
+    /// though Step 2 lights it one frame in three. Traced while it moves, it takes
+    /// `moving_samples` rays a light (fewer than the cache's, say: `coarse_while_moving`),
+    /// and every sample once it rests: the courtyard's sliding block took 6-10 ms of its
+    /// lit frames with all 16. The sky's part follows the same choices.
     /// Returns the receivers whose irradiance changed, ascending.
     pub fn update(
         &mut self,
         world: &World,
         (old, new): (&[Aabb], &[Aabb]),
-        moved: &[usize],
+        (moved, moving_samples): (&[usize], u32),
         read: impl Fn(u32) -> bool + Sync,
     ) -> Vec<usize> {
         debug_assert!(self.same_lights(world));
@@ -162,22 +166,26 @@ impl PunctualCache {
             }
         }
         for (l, _) in moved_lights.iter().enumerate().filter(|m| *m.1) {
-            self.trace(world, l, &all());
+            self.trace(world, l, &all(), None);
         }
         let moving = self.receivers_of(world, moved);
-        let whole_ks = self.whole_now(&moving, &read);
+        let coarse = (moving_samples < self.shadows.samples()).then_some(moving_samples.max(1));
+        let (whole_ks, coarse_ks) = self.traced_now(&moving, &read, coarse.is_some());
         for l in (0..self.lights.len()).filter(|&l| !moved_lights[l]) {
-            self.trace(world, l, &whole_ks);
+            self.trace(world, l, &whole_ks, None);
+            self.trace(world, l, &coarse_ks, coarse);
         }
         let spheres = (&mut self.blocks[..], &mut self.groups[..]);
         let moved = (&self.receivers[..], &moving[..]);
         blocks::refresh(spheres, moved, |ks| footprints_sphere(world, ks));
-        touched.extend(&whole_ks);
-        // Neither those traced whole nor those still waiting have rays worth amending.
+        touched.extend(whole_ks.iter().chain(&coarse_ks));
+        // Neither those traced whole nor those still waiting (the coarse ones too) have rays
+        // worth amending.
         let mut skip = [&whole_ks[..], &self.unread[..]].concat();
         skip.sort_unstable();
         touched.extend(self.retrace_near(world, (old, new), &skip, &moved_lights));
-        touched.extend(self.sky.update(world, (old, new), (&whole_ks, &skip)));
+        let traced = (&whole_ks[..], &coarse_ks[..], coarse);
+        touched.extend(self.sky.update(world, (old, new), traced, &skip));
         touched.sort_unstable();
         touched.dedup();
         self.evaluate(&touched);
@@ -202,17 +210,33 @@ impl PunctualCache {
     }
 
     /// Of the receivers that moved (`moving`, ascending) and those waiting since they last
-    /// moved, those traced whole now: the ones read after this update and the ones at rest.
-    /// The others wait (`unread`).
-    fn whole_now(&mut self, moving: &[usize], read: impl Fn(u32) -> bool) -> Vec<usize> {
+    /// moved, those traced now, ascending: whole, the ones at rest (and the ones read after
+    /// this update, unless `coarse`); with fewer samples, the ones read that move, if
+    /// `coarse`. The ones that move wait (`unread`) to be traced whole once they rest.
+    fn traced_now(
+        &mut self,
+        moving: &[usize],
+        read: impl Fn(u32) -> bool,
+        coarse: bool,
+    ) -> (Vec<usize>, Vec<usize>) {
         let mut candidates = [moving, &self.unread[..]].concat();
         candidates.sort_unstable();
         candidates.dedup();
-        let (now, wait): (Vec<usize>, Vec<usize>) = candidates
-            .into_iter()
-            .partition(|&k| moving.binary_search(&k).is_err() || read(self.receivers[k]));
+        let (mut whole, mut coarse_ks, mut wait) = (Vec::new(), Vec::new(), Vec::new());
+        for k in candidates {
+            let moves = moving.binary_search(&k).is_ok();
+            match (moves, moves && read(self.receivers[k])) {
+                (false, _) => whole.push(k),
+                (true, true) if !coarse => whole.push(k),
+                (true, true) => {
+                    coarse_ks.push(k);
+                    wait.push(k);
+                }
+                (true, false) => wait.push(k),
+            }
+        }
         self.unread = wait;
-        now
+        (whole, coarse_ks)
     }
 
     /// Re-trace the shadow rays that a mover's old box (blocked rays) or new box (free rays)
@@ -299,8 +323,9 @@ impl PunctualCache {
         (reach / s, visible / s)
     }
 
-    /// Trace light `l`'s shadow rays of receivers `ks` from scratch.
-    fn trace(&mut self, world: &World, l: usize, ks: &[usize]) {
+    /// Trace light `l`'s shadow rays of receivers `ks` from scratch; with `coarse`, that many
+    /// samples each, keeping only their sums (the receivers' rays are traced whole later).
+    fn trace(&mut self, world: &World, l: usize, ks: &[usize], coarse: Option<u32>) {
         let nl = self.lights.len();
         let sets: Vec<usize> = ks.iter().map(|&k| k * nl + l).collect();
         let Some(light) = self.lights[l] else {
@@ -311,16 +336,21 @@ impl PunctualCache {
             }
             return;
         };
-        let (far, eps, samples) = (world.far(), world.eps, self.shadows.samples());
+        let (far, eps) = (world.far(), world.eps);
+        let samples = coarse.unwrap_or(self.shadows.samples());
         let receivers = &self.receivers;
         // A sample the light does not reach casts no ray (its bit stays clear).
-        let sums = self.shadows.trace(world, &sets, |set, j| {
+        let ray = |set: usize, j: u32| {
             let i = receivers[set / nl] as usize;
             let n = world.patches.normal[i];
             let x = sample(world, i, j, samples);
             let g = light.geometry(x, n, eps);
             (g > 0.0).then(|| (x + n * eps, light.shadow_end(x, far), g))
-        });
+        };
+        let sums = match coarse {
+            None => self.shadows.trace(world, &sets, ray),
+            Some(samples) => ShadowRays::trace_sums(world, &sets, samples, ray),
+        };
         for (&set, (reach, visible)) in sets.iter().zip(sums) {
             self.reach[set] = reach / samples as f32;
             self.visible[set] = visible / samples as f32;

@@ -177,7 +177,7 @@ fn the_cache_after_moves_and_light_changes_equals_a_fresh_one() {
         w.move_object(1, Affine3A::from_translation(at)).unwrap();
         let new = box_world(&w);
         let before = w.rays_cast();
-        cache.update(&w, (&[old], &[new]), &[1], |_| true);
+        cache.update(&w, (&[old], &[new]), (&[1], 16), |_| true);
         let traced = w.rays_cast() - before;
         assert!(
             traced < fresh_rays / 2,
@@ -186,7 +186,7 @@ fn the_cache_after_moves_and_light_changes_equals_a_fresh_one() {
         let fresh = PunctualCache::new(&w, all.clone(), 16);
         assert_eq!(cache.irradiance(), fresh.irradiance(), "after move {step}");
         // Receivers in any order: the mover's are found by a pass, not by their ranges.
-        backwards.update(&w, (&[old], &[new]), &[1], |_| true);
+        backwards.update(&w, (&[old], &[new]), (&[1], 16), |_| true);
         let mut turned = backwards.irradiance().to_vec();
         turned.reverse();
         assert_eq!(turned, fresh.irradiance(), "backwards, after move {step}");
@@ -195,7 +195,7 @@ fn the_cache_after_moves_and_light_changes_equals_a_fresh_one() {
     let m = w.scene.lights[0].world_from_light;
     assert!(w.set_light(0, m, Vec3::new(1.0, 0.5, 0.2), 2000.0).unwrap());
     let before = w.rays_cast();
-    cache.update(&w, (&[], &[]), &[], |_| true);
+    cache.update(&w, (&[], &[]), (&[], 16), |_| true);
     assert_eq!(w.rays_cast(), before, "a strength change traces nothing");
     assert_eq!(
         cache.irradiance(),
@@ -203,7 +203,7 @@ fn the_cache_after_moves_and_light_changes_equals_a_fresh_one() {
     );
     let moved = Affine3A::from_translation(Vec3::new(-0.7, 1.1, 0.4));
     assert!(w.set_light(0, moved, Vec3::ONE, 683.0).unwrap());
-    cache.update(&w, (&[], &[]), &[], |_| true);
+    cache.update(&w, (&[], &[]), (&[], 16), |_| true);
     assert_eq!(
         cache.irradiance(),
         PunctualCache::new(&w, all.clone(), 16).irradiance()
@@ -273,7 +273,7 @@ fn the_sky_after_moves_and_a_sky_change_equals_a_fresh_one() {
         w.move_object(1, Affine3A::from_translation(at)).unwrap();
         let new = box_world(&w);
         let before = w.rays_cast();
-        let changed = cache.update(&w, (&[old], &[new]), &[1], |_| true);
+        let changed = cache.update(&w, (&[old], &[new]), (&[1], 16), |_| true);
         assert!(!changed.is_empty());
         let traced = w.rays_cast() - before;
         assert!(traced < fresh_rays, "{traced} of {fresh_rays} re-traced");
@@ -283,13 +283,13 @@ fn the_sky_after_moves_and_a_sky_change_equals_a_fresh_one() {
     let uniform = shrad_scene::Environment::uniform(Vec3::new(0.3, 0.2, 0.1));
     assert!(w.set_sky(Some(uniform)).unwrap());
     assert!(!cache.same_sky(&w));
-    cache.update(&w, (&[], &[]), &[], |_| true);
+    cache.update(&w, (&[], &[]), (&[], 16), |_| true);
     assert_eq!(
         cache.irradiance(),
         PunctualCache::new(&w, all.clone(), 16).irradiance()
     );
     assert!(w.set_sky(None).unwrap());
-    cache.update(&w, (&[], &[]), &[], |_| true);
+    cache.update(&w, (&[], &[]), (&[], 16), |_| true);
     assert!(cache.irradiance().iter().all(|e| *e == Vec3::ZERO));
 }
 
@@ -300,7 +300,7 @@ fn the_sky_after_moves_and_a_sky_change_equals_a_fresh_one() {
 /// is traced anyway, if a waiting one is never traced again, or if the blocks skip a
 /// receiver whose rays a move changed.
 #[test]
-fn a_moving_receiver_is_traced_only_when_read_or_at_rest() {
+fn a_moving_receiver_is_traced_only_when_read_coarse_while_it_moves_and_whole_at_rest() {
     let lights = vec![point(Vec3::new(0.3, 1.5, 0.2), 683.0)];
     let mut w = world(scene(lights, Some(Vec3::new(0.0, 0.2, 0.0))), 3000);
     let sky = shrad_scene::Environment::uniform(Vec3::new(0.3, 0.2, 0.1));
@@ -308,6 +308,8 @@ fn a_moving_receiver_is_traced_only_when_read_or_at_rest() {
     let all: Vec<u32> = (0..w.patches.len() as u32).collect();
     let mut cache = PunctualCache::new(&w, all.clone(), 16);
     let mut read = cache.clone();
+    // Read while it moves, with a quarter of the samples (`coarse_while_moving`).
+    let mut coarse = cache.clone();
     let box_world = |w: &World| {
         w.patches.shapes[1]
             .bounds()
@@ -324,15 +326,25 @@ fn a_moving_receiver_is_traced_only_when_read_or_at_rest() {
         w.move_object(1, Affine3A::from_translation(at)).unwrap();
         let new = box_world(&w);
         let before = w.rays_cast();
-        cache.update(&w, (&[old], &[new]), &[1], |_| false);
+        cache.update(&w, (&[old], &[new]), (&[1], 16), |_| false);
         let unread_rays = w.rays_cast() - before;
         let before = w.rays_cast();
-        read.update(&w, (&[old], &[new]), &[1], |_| true);
+        read.update(&w, (&[old], &[new]), (&[1], 16), |_| true);
         let read_rays = w.rays_cast() - before;
-        assert!(cache.catching_up() && !read.catching_up());
+        let before = w.rays_cast();
+        coarse.update(&w, (&[old], &[new]), (&[1], 4), |_| true);
+        let coarse_rays = w.rays_cast() - before;
+        assert!(cache.catching_up() && !read.catching_up() && coarse.catching_up());
         assert!(
             unread_rays + box_ks.len() as u64 <= read_rays,
             "move {step}: {unread_rays} rays unread, {read_rays} read"
+        );
+        // The box's own rays: all of them read, a quarter coarse (both of the light and the
+        // sky), the rays near it the same.
+        let (own, own_coarse) = (read_rays - unread_rays, coarse_rays - unread_rays);
+        assert!(
+            own_coarse * 4 <= own + 8 && own_coarse * 4 + 8 >= own,
+            "move {step}: the box's own rays {own} whole, {own_coarse} coarse"
         );
         let now: Vec<Vec3> = box_ks.iter().map(|&k| cache.irradiance()[k]).collect();
         assert_eq!(now, held, "move {step}: an unread mover's light changed");
@@ -349,12 +361,25 @@ fn a_moving_receiver_is_traced_only_when_read_or_at_rest() {
             others(&fresh),
             "move {step}: the shadows it casts"
         );
+        assert_eq!(others(&coarse), others(&fresh), "move {step}: coarse");
+        // The box's light from 4 samples a patch: its total near the whole trace's.
+        let total = |c: &PunctualCache| -> f32 {
+            box_ks
+                .iter()
+                .map(|&k| c.irradiance()[k].element_sum())
+                .sum()
+        };
+        let (t_coarse, t_fresh) = (total(&coarse), total(&fresh));
+        assert!(
+            (t_coarse - t_fresh).abs() <= 0.05 * t_fresh && t_coarse != t_fresh,
+            "move {step}: the box's light coarse {t_coarse}, whole {t_fresh}"
+        );
     }
-    // At rest: the waiting receivers are traced.
-    cache.update(&w, (&[], &[]), &[], |_| false);
-    assert!(!cache.catching_up());
-    assert_eq!(
-        cache.irradiance(),
-        PunctualCache::new(&w, all.clone(), 16).irradiance()
-    );
+    // At rest: the waiting receivers, and those traced coarse, are traced whole.
+    let fresh = PunctualCache::new(&w, all.clone(), 16);
+    for c in [&mut cache, &mut coarse] {
+        c.update(&w, (&[], &[]), (&[], 16), |_| false);
+        assert!(!c.catching_up());
+        assert_eq!(c.irradiance(), fresh.irradiance());
+    }
 }
