@@ -213,7 +213,7 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
     ),
     flag(
         "coarse_while_moving",
-        "an object that moved since the last frame is updated from half-resolution cube maps and a quarter of the direct light's samples, and at full resolution once it stops",
+        "an object that moved since the last frame is updated from half-resolution cube maps and a quarter of the direct light's samples (light surfaces, lamps and the sky), and at full resolution once it stops",
     ),
     flag(
         "one_emitter_while_moving",
