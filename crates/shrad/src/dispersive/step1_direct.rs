@@ -285,7 +285,8 @@ impl Step1 {
         // A mover's patches are read (Step 2) only in a frame that lights it.
         let read = |i: u32| lit.contains(&p.object[i as usize]);
         let moves = (&old[..], &new[..]);
-        // Patches of a moved object moved themselves: recomputed whole.
+        // A moved object's patches moved themselves: traced again when read (with
+        // `moving_samples` while they move), and whole once they rest.
         let movers = (&moved[..], moving_samples);
         changed.extend(parts.update(world, (rebuild, samples), moves, (movers, read)));
         changed.par_sort_unstable();
