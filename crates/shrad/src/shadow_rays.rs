@@ -18,16 +18,18 @@ use crate::World;
 /// Sets traced in one batch by [`ShadowRays::trace`] (bounds the rays held at once).
 const SETS_PER_BATCH: usize = 4096;
 
-/// The rays `ray(s, j)` of `sets` (`samples` a set), cast: per ray (the set's place in
-/// `sets`, its sample, its weight), and whether it is blocked.
-#[allow(clippy::type_complexity)]
+/// A ray as [`cast`] makes it: the set's place in the batch, its sample, its segment (from,
+/// to) and its weight.
+type Cast<W> = (usize, u32, Vec3, Vec3, W);
+
+/// The rays `ray(s, j)` of `sets` (`samples` a set), cast, with whether each is blocked.
 fn cast<W: Copy + Send + Sync>(
     world: &World,
     sets: &[usize],
     samples: u32,
     ray: &(impl Fn(usize, u32) -> Option<(Vec3, Vec3, W)> + Sync),
-) -> (Vec<(usize, u32, W)>, Vec<bool>) {
-    let rays: Vec<(usize, u32, Vec3, Vec3, W)> = sets
+) -> (Vec<Cast<W>>, Vec<bool>) {
+    let rays: Vec<Cast<W>> = sets
         .par_iter()
         .enumerate()
         .flat_map_iter(|(c, &s)| {
@@ -38,10 +40,7 @@ fn cast<W: Copy + Send + Sync>(
     let to: Vec<Vec3> = rays.iter().map(|r| r.3).collect();
     let mut blocked = vec![false; rays.len()];
     world.vis.occluded(&from, &to, world.eps, &[], &mut blocked);
-    (
-        rays.into_iter().map(|(c, j, .., w)| (c, j, w)).collect(),
-        blocked,
-    )
+    (rays, blocked)
 }
 
 /// Cast the rays of `sets` ([`cast`]) [`SETS_PER_BATCH`] sets at a time, handing each batch
@@ -51,7 +50,7 @@ fn cast_in_batches<W: Copy + Default + AddAssign + Send + Sync>(
     sets: &[usize],
     samples: u32,
     ray: impl Fn(usize, u32) -> Option<(Vec3, Vec3, W)> + Sync,
-    mut each: impl FnMut(&[usize], &[(usize, u32, W)], &[bool]),
+    mut each: impl FnMut(&[usize], &[Cast<W>], &[bool]),
 ) -> Vec<(W, W)> {
     let mut sums = Vec::with_capacity(sets.len());
     for batch in sets.chunks(SETS_PER_BATCH) {
@@ -66,11 +65,11 @@ fn cast_in_batches<W: Copy + Default + AddAssign + Send + Sync>(
 /// order), from [`cast`]'s rays.
 fn sum_by_set<W: Copy + Default + AddAssign>(
     n: usize,
-    rays: &[(usize, u32, W)],
+    rays: &[Cast<W>],
     blocked: &[bool],
 ) -> Vec<(W, W)> {
     let mut sums = vec![(W::default(), W::default()); n];
-    for (&(c, _, w), &b) in rays.iter().zip(blocked) {
+    for (&(c, .., w), &b) in rays.iter().zip(blocked) {
         sums[c].0 += w;
         if !b {
             sums[c].1 += w;
@@ -180,7 +179,7 @@ impl ShadowRays {
             for &s in batch {
                 self.clear(s);
             }
-            for (&(c, j, _), &b) in rays.iter().zip(blocked) {
+            for (&(c, j, ..), &b) in rays.iter().zip(blocked) {
                 if b {
                     let (w, bit) = self.at(batch[c], j);
                     self.blocked[w] |= bit;
