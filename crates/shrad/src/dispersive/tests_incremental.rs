@@ -161,6 +161,26 @@ fn cornell_boundary_cache() -> (World, usize, Vec<u32>, crate::direct::DirectCac
     (world, block, boundary, cache)
 }
 
+/// A receiver that faces away from every emitter casts no shadow ray, and none is counted:
+/// of the tall block's own patches only those that face the ceiling's light have rays (the
+/// block's bottom and the sides turned away have none). Fails if the cache casts, or counts,
+/// the empty rays of an unlit receiver (it did: a tenth of the 77k room's moving frame).
+#[test]
+fn a_receiver_facing_away_from_every_emitter_casts_no_shadow_ray() {
+    let world = cornell(2000);
+    let block = object_named(&world, "tall_block");
+    let own: Vec<u32> = world.patches.range(block).map(|i| i as u32).collect();
+    let before = world.rays_cast();
+    let cache = crate::direct::DirectCache::new(&world, own, 16);
+    let rays = world.rays_cast() - before;
+    let (lit, sets) = cache.lit_sets();
+    assert!(
+        0 < lit && lit < sets,
+        "{lit} of {sets} (receiver, emitter) pairs lit"
+    );
+    assert_eq!(rays, 16 * lit as u64, "{lit} lit pairs of 16 samples");
+}
+
 /// The shadow rays' ends are kept exact, as the samples they were traced to, through set-up
 /// and updates: a ray a mover may have changed is re-traced from its stored end (no sample
 /// regenerated), so an end kept wrong would re-trace another ray than the cache holds.
