@@ -6,11 +6,12 @@ use rayon::prelude::*;
 use shrad_scene::Aabb;
 
 use super::blocks::{self, block_sphere, group_sphere, BLOCK, GROUP};
+use super::mover_spheres::MoverSpheres;
 use super::recent_moves::RecentMoves;
 use super::sample_ends::SampleEnds;
 use super::{
-    emitters, emitting_objects, padded_swept, sample_shift, shadow_sample, unoccluded_irradiance,
-    visible_fraction, weighted_fraction, Emitter,
+    emitters, emitting_objects, occluded_where_lit, sample_shift, shadow_sample,
+    unoccluded_irradiance, visible_fraction, weighted_fraction, Emitter,
 };
 use crate::shadow_rays::ShadowRays;
 use crate::World;
@@ -74,6 +75,9 @@ pub struct DirectCache {
     blocks: Vec<(Vec3, f32)>,
     /// `[g]`: a sphere holding the spheres of blocks `g * GROUP ..`.
     groups: Vec<(Vec3, f32)>,
+    /// Where each object was at the last update, as a sphere about it: a shadow ray a mover
+    /// changed meets it there or where it is now.
+    spheres: MoverSpheres,
 }
 
 /// Above this many shadow rays a mover may have changed in one update (the last update's,
@@ -161,6 +165,7 @@ impl DirectCache {
                 .map(|b| block_sphere(world, b))
                 .collect(),
             groups: Vec::new(),
+            spheres: MoverSpheres::new(world),
             receivers,
         };
         cache.groups = cache.blocks.chunks(GROUP).map(group_sphere).collect();
@@ -210,6 +215,13 @@ impl DirectCache {
     pub(crate) fn lit_sets(&self) -> (usize, usize) {
         let lit = self.unoccluded.iter().filter(|&&u| u > 0.0).count();
         (lit, self.unoccluded.len())
+    }
+
+    /// Forget where the objects were as spheres: the next updates find a mover's shadow
+    /// rays by its boxes alone (for tests).
+    #[cfg(test)]
+    pub(crate) fn forget_mover_spheres(&mut self) {
+        self.spheres = Default::default();
     }
 
     /// Shadow rays per (receiver, emitter).
@@ -280,7 +292,6 @@ impl DirectCache {
         debug_assert!(self.same_emitters(world));
         let ne = ems.len();
         let samples = self.shadows.samples();
-        let eps = world.eps;
         let stride = match whole_samples < samples && !movers.is_empty() {
             true => whole_stride.max(1),
             false => 1,
@@ -294,9 +305,8 @@ impl DirectCache {
             true => stride,
             false => 1,
         };
-        let (all_movers, left, now) = self.recent_moves.since_last_turn(movers, (old, new), turns);
-        let (old, new) = (padded_swept(&left, eps), padded_swept(&now, eps));
-        let spheres: Vec<(Vec3, f32)> = old.iter().chain(&new).map(Aabb::bounding_sphere).collect();
+        let (all_movers, [(old, old_spheres), (new, new_spheres)]) =
+            self.swept_since_last_turn(world, movers, (old, new), turns);
         // The movers' own patches are traced whole (they moved), and so are coarse receivers
         // that rest now, with every sample, [`SETTLED_AT_ONCE`] an update.
         let whole_ks = self.receivers_of(world, movers);
@@ -319,7 +329,8 @@ impl DirectCache {
         };
         let find = |k: usize| k % turns == phase % turns && !is_whole(k);
         let t = std::time::Instant::now();
-        let rays = self.rays_to_retrace(world, &ems, (&old, &new), &spheres, find);
+        let spheres = (&old_spheres[..], &new_spheres[..]);
+        let rays = self.rays_to_retrace(world, &ems, (&old, &new), spheres, find);
         crate::trace_part("    find_rays_to_retrace", t);
         self.shadow_rays_found = rays.len() * turns;
         let t = std::time::Instant::now();
@@ -558,37 +569,4 @@ impl DirectCache {
         }
         out
     }
-}
-
-/// Whether each of the shadow rays `from`, `to` (sets of `s`, one set a receiver) is
-/// blocked, casting only the sets `lit` says receive the emitter: a receiver facing away from
-/// it has no rays (its segments are empty, and it reads as free). Casting them anyway counted
-/// them as rays and left packets half empty: the 77k room's moving sphere faces its light
-/// with half its patches, and their empty rays were a tenth of a moving frame's count.
-fn occluded_where_lit(
-    world: &World,
-    (from, to): (&[Vec3], &[Vec3]),
-    s: usize,
-    lit: impl Fn(usize) -> bool,
-) -> Vec<bool> {
-    let sets = from.len() / s.max(1);
-    let live: Vec<usize> = (0..sets).filter(|&c| lit(c)).collect();
-    let mut blocked = vec![false; from.len()];
-    if live.len() == sets {
-        world.vis.occluded(from, to, world.eps, &[], &mut blocked);
-        return blocked;
-    }
-    let rays = |ends: &[Vec3]| -> Vec<Vec3> {
-        (live.iter())
-            .flat_map(|&c| ends[c * s..(c + 1) * s].iter().copied())
-            .collect()
-    };
-    let mut cast = vec![false; live.len() * s];
-    world
-        .vis
-        .occluded(&rays(from), &rays(to), world.eps, &[], &mut cast);
-    for (&c, outcome) in live.iter().zip(cast.chunks(s.max(1))) {
-        blocked[c * s..(c + 1) * s].copy_from_slice(outcome);
-    }
-    blocked
 }

@@ -27,10 +27,7 @@ pub(super) fn receives_as_boundary(world: &World, i: usize) -> bool {
 
 /// World bounding box of object `o` (its rest-frame mesh box, transformed).
 pub(super) fn world_box(world: &World, o: usize) -> Aabb {
-    match world.patches.shapes[o].bounds() {
-        Some(local) => local.transformed(world.patches.world_from_local[o]),
-        None => Aabb::new(Vec3::ZERO, Vec3::ZERO),
-    }
+    world.patches.world_box(o)
 }
 
 /// See `Dispersive::outer_side`.

@@ -181,6 +181,56 @@ fn a_receiver_facing_away_from_every_emitter_casts_no_shadow_ray() {
     assert_eq!(rays, 16 * lit as u64, "{lit} lit pairs of 16 samples");
 }
 
+/// A moving ball's shadow rays are found by its boxes and by a sphere about it where it was
+/// and where it is (`direct/mover_spheres.rs`): the update re-traces far fewer rays than by
+/// its boxes alone (most rays through a ball's box pass beside the ball), and still equals
+/// a fresh cache of the moved world. Fails if the spheres are not used (as many rays), or
+/// if they drop a ray the move changed (the update then differs from the fresh cache).
+#[test]
+fn a_moving_balls_shadow_rays_are_found_by_its_spheres_and_stay_exact() {
+    let scene = shrad_scene::room(&shrad_scene::RoomParams {
+        objects: 8,
+        patches: 8000,
+        big_object_patches: None,
+    });
+    let sizing = crate::PatchSizing::Count(8000);
+    let mut world = World::new(scene, sizing, crate::vis::Backend::Auto).unwrap();
+    let ball = object_named(&world, "sphere_2");
+    let boundary: Vec<u32> = (0..world.patches.len() as u32)
+        .filter(|&i| world.patches.role(i as usize) == Role::Boundary)
+        .collect();
+    let mut cache = crate::direct::DirectCache::new(&world, boundary.clone(), 16);
+    let mut boxes_only = cache.clone();
+    boxes_only.forget_mover_spheres();
+    let old = world.patches.world_box(ball);
+    let step = 0.05 * world.scene.bounds().unwrap().size().x;
+    let m = world.patches.world_from_local[ball]
+        * Affine3A::from_mat3(world.patches.local_from_object[ball]);
+    world
+        .move_object(ball, Affine3A::from_translation(Vec3::X * step) * m)
+        .unwrap();
+    let new = world.patches.world_box(ball);
+    let rays = |cache: &mut crate::direct::DirectCache| {
+        let before = world.rays_cast();
+        let mover = [ball as u32];
+        cache.update(&world, (&mover, &mover), (&[old], &[new]), 16, 1);
+        world.rays_cast() - before
+    };
+    let (by_spheres, by_boxes) = (rays(&mut cache), rays(&mut boxes_only));
+    assert!(
+        by_spheres * 5 < by_boxes * 4,
+        "{by_spheres} rays re-traced with the spheres, {by_boxes} by the boxes alone"
+    );
+    let fresh = crate::direct::DirectCache::new(&world, boundary, 16);
+    let off = |c: &crate::direct::DirectCache| {
+        (c.irradiance().iter().zip(fresh.irradiance()))
+            .filter(|(a, b)| a != b)
+            .count()
+    };
+    assert_eq!(off(&cache), 0, "receivers off the fresh cache (spheres)");
+    assert_eq!(off(&boxes_only), 0, "receivers off the fresh cache (boxes)");
+}
+
 /// The shadow rays' ends are kept exact, as the samples they were traced to, through set-up
 /// and updates: a ray a mover may have changed is re-traced from its stored end (no sample
 /// regenerated), so an end kept wrong would re-trace another ray than the cache holds.

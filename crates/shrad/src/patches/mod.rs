@@ -39,7 +39,7 @@ mod weld;
 use std::ops::Range;
 
 use glam::{Affine3A, Mat3, Vec3};
-use shrad_scene::{Mesh, Role, Scene};
+use shrad_scene::{Aabb, Mesh, Role, Scene};
 
 pub use attrs::CornerAttr;
 pub use shape::split_rest_transform;
@@ -381,6 +381,29 @@ impl Patches {
                 self.area_local[p] * det * n.length()
             };
         }
+    }
+
+    /// Object `o`'s world box where it is now: its shape's box transformed (empty, at the
+    /// origin, for a shape without vertices).
+    pub fn world_box(&self, o: usize) -> Aabb {
+        match self.shapes[o].bounds() {
+            Some(local) => local.transformed(self.world_from_local[o]),
+            None => Aabb::new(Vec3::ZERO, Vec3::ZERO),
+        }
+    }
+
+    /// A sphere (world centre, radius) holding object `o`'s surface where it is now: about
+    /// its shape's box centre, through its farthest vertex (every patch lies in the hull of
+    /// the vertices). A ball's is 1/sqrt(3) of its world box's own sphere, and a shadow ray
+    /// it may block must meet it (`direct::cache`). `None` for a shape without vertices.
+    pub fn world_sphere(&self, o: usize) -> Option<(Vec3, f32)> {
+        let m = self.world_from_local[o];
+        let shape = &self.shapes[o];
+        let centre = m.transform_point3(shape.bounds()?.centre());
+        let radius = (shape.positions.iter())
+            .map(|&v| (m.transform_point3(v) - centre).length())
+            .fold(0.0, f32::max);
+        Some((centre, radius))
     }
 
     /// World-space corners of patch `p` (4; a triangle repeats its last corner).

@@ -7,19 +7,24 @@ use shrad_scene::Aabb;
 
 use super::{DirectCache, Retraces, BLOCK, GROUP};
 use crate::direct::blocks::capsule_meets_sphere;
+use crate::direct::mover_spheres::{padded_with_spheres, segment_meets_sphere, Bounds, Sphere};
 use crate::direct::{sample_shift, shadow_segment, Cone, Emitter};
 use crate::World;
 
 /// The boxes movers swept, as [`DirectCache::rays_to_retrace`] tests shadow rays against
 /// them: where they were (`old`, which may have unblocked a blocked ray) and where they are
 /// (`new`, which may block a free one), each also padded for the stored ends' rounding
-/// (`*_q`), and the bounding spheres of both (`spheres`) for the receivers' cones.
+/// (`*_q`), with a sphere about each mover there (`old_spheres`, `new_spheres`: the tighter
+/// of its box's and its own, `mover_spheres.rs`) and all of them (`spheres`) for the
+/// receivers' cones.
 struct Swept<'a> {
     old: &'a [Aabb],
     new: &'a [Aabb],
     old_q: Vec<Aabb>,
     new_q: Vec<Aabb>,
-    spheres: &'a [(Vec3, f32)],
+    old_spheres: &'a [Sphere],
+    new_spheres: &'a [Sphere],
+    spheres: Vec<Sphere>,
 }
 
 impl Swept<'_> {
@@ -27,18 +32,55 @@ impl Swept<'_> {
     fn sets(&self) -> [(&[Aabb], &[Aabb]); 2] {
         [(self.old, &self.old_q), (self.new, &self.new_q)]
     }
+
+    /// Whether a ray found by the boxes (`blocked`: by where the movers were) meets one of
+    /// the movers' spheres there too; else no mover can have changed it.
+    fn meets_a_sphere(&self, blocked: bool, (from, to): (Vec3, Vec3)) -> bool {
+        let spheres = if blocked {
+            self.old_spheres
+        } else {
+            self.new_spheres
+        };
+        (spheres.iter()).any(|&s| segment_meets_sphere(from, to, s))
+    }
 }
 
 impl DirectCache {
+    /// The moves whose shadow rays this update finds (`RecentMoves::since_last_turn`):
+    /// the objects, and the boxes they left and went to, padded, each with a sphere about
+    /// the mover there (`mover_spheres.rs`; a box's own sphere where the moves are unions of
+    /// several, found in turn). Remembers where `movers` are.
+    pub(super) fn swept_since_last_turn(
+        &mut self,
+        world: &World,
+        movers: &[u32],
+        (old, new): (&[Aabb], &[Aabb]),
+        turns: usize,
+    ) -> (Vec<u32>, [Bounds; 2]) {
+        let (all_movers, left, now) = self.recent_moves.since_last_turn(movers, (old, new), turns);
+        let (was, is) = self.spheres.moved(world, movers, old);
+        let (was, is) = match all_movers.len() == movers.len() && turns == 1 {
+            true => (was, is),
+            false => (vec![None; left.len()], vec![None; now.len()]),
+        };
+        let eps = world.eps;
+        let swept = [
+            padded_with_spheres(&left, &was, eps),
+            padded_with_spheres(&now, &is, eps),
+        ];
+        (all_movers, swept)
+    }
+
     /// The shadow rays (receiver, emitter, sample, from, to) that a mover may have changed:
-    /// of the receivers to `find`, those blocked whose segment meets an `old` box, those
-    /// free whose segment meets a `new` one (`spheres`: the boxes' bounding spheres).
+    /// of the receivers to `find`, those blocked whose segment meets an `old` box and a
+    /// sphere about a mover there, those free whose segment meets a `new` one and a sphere
+    /// (`spheres`: old and new, aligned with the boxes).
     pub(super) fn rays_to_retrace(
         &self,
         world: &World,
         ems: &[Emitter],
         (old, new): (&[Aabb], &[Aabb]),
-        spheres: &[(Vec3, f32)],
+        (old_spheres, new_spheres): (&[Sphere], &[Sphere]),
         find: impl Fn(usize) -> bool + Sync,
     ) -> Retraces {
         let swept = Swept {
@@ -46,8 +88,11 @@ impl DirectCache {
             new,
             old_q: self.ends.pad(old),
             new_q: self.ends.pad(new),
-            spheres,
+            old_spheres,
+            new_spheres,
+            spheres: old_spheres.iter().chain(new_spheres).copied().collect(),
         };
+        let spheres = &swept.spheres[..];
         let n = self.receivers.len();
         // Whole groups and blocks of receivers first: those whose rays to every emitter pass
         // far from every swept box. One list of rays a group (not one a receiver: 2.5k
@@ -118,7 +163,9 @@ impl DirectCache {
                     Some(end) => (at.1, end),
                     None => sample(j),
                 };
-                out.push((k as u32, e as u32, j), ray);
+                if swept.meets_a_sphere(blocked >> (j - j0) & 1 != 0, ray) {
+                    out.push((k as u32, e as u32, j), ray);
+                }
             }
         }
     }

@@ -1,0 +1,91 @@
+//! Where each object was at a [`super::DirectCache`]'s last update, as a sphere about it
+//! ([`crate::Patches::world_sphere`]) beside its box: a shadow ray a mover changed meets its
+//! surface where it was or where it is, so it meets both the box and the sphere there.
+//! For a box-like object the sphere adds nothing, but a ball fills only half the rays its
+//! box lets through: of the 11.6k shadow rays a frame the 77k room's moving ball's boxes
+//! found, 6.4k met its spheres.
+
+use glam::Vec3;
+use shrad_scene::Aabb;
+
+use crate::World;
+
+/// A sphere: centre and radius.
+pub(super) type Sphere = (Vec3, f32);
+
+/// Boxes where movers were (or are), padded, each with a sphere about its mover there.
+pub(super) type Bounds = (Vec<Aabb>, Vec<Sphere>);
+
+/// Per object, the box and sphere where the cache last saw it (`None` for a shape without
+/// vertices).
+#[derive(Clone, Debug, Default)]
+pub(super) struct MoverSpheres(Vec<Option<(Aabb, Sphere)>>);
+
+impl MoverSpheres {
+    /// Every object of `world` where it is now.
+    pub(super) fn new(world: &World) -> MoverSpheres {
+        let p = &world.patches;
+        MoverSpheres(
+            (0..p.object_role.len())
+                .map(|o| Some((p.world_box(o), p.world_sphere(o)?)))
+                .collect(),
+        )
+    }
+
+    /// `movers` moved from the boxes `old`: their spheres there and where they are now,
+    /// each `None` where the box the cache last saw the mover at is not that `old` box (the
+    /// caller's idea of where it was is not the cache's: only its boxes are then trusted).
+    /// Remembers where they are.
+    pub(super) fn moved(
+        &mut self,
+        world: &World,
+        movers: &[u32],
+        old: &[Aabb],
+    ) -> (Vec<Option<Sphere>>, Vec<Option<Sphere>>) {
+        let p = &world.patches;
+        (movers.iter().zip(old))
+            .map(|(&o, old)| {
+                let o = o as usize;
+                let now = p.world_sphere(o).map(|s| (p.world_box(o), s));
+                let Some(memory) = self.0.get_mut(o) else {
+                    return (None, None);
+                };
+                let was = std::mem::replace(memory, now);
+                match was {
+                    Some((b, s)) if b == *old => (Some(s), now.map(|n| n.1)),
+                    _ => (None, None),
+                }
+            })
+            .unzip()
+    }
+}
+
+/// `boxes` padded as [`super::padded_swept`] pads them (the empty ones left out), each with
+/// the tighter of its padded box's own bounding sphere and its mover's sphere (`spheres`,
+/// aligned with `boxes`) padded by as much.
+pub(super) fn padded_with_spheres(boxes: &[Aabb], spheres: &[Option<Sphere>], eps: f32) -> Bounds {
+    (boxes.iter().zip(spheres))
+        .filter(|(b, _)| !b.is_empty())
+        .map(|(b, s)| {
+            let pad = 4.0 * eps + 1e-5 * b.diagonal();
+            let padded = b.padded(Vec3::splat(pad));
+            let own = padded.bounding_sphere();
+            let sphere = match s {
+                Some((c, r)) if r + pad < own.1 => (*c, r + pad),
+                _ => own,
+            };
+            (padded, sphere)
+        })
+        .unzip()
+}
+
+/// Whether the segment `from`-`to` meets the sphere.
+pub(super) fn segment_meets_sphere(from: Vec3, to: Vec3, (c, r): Sphere) -> bool {
+    let d = to - from;
+    let d2 = d.length_squared();
+    let s = match d2 > 0.0 {
+        true => ((c - from).dot(d) / d2).clamp(0.0, 1.0),
+        false => 0.0,
+    };
+    (from + d * s - c).length_squared() <= r * r
+}
