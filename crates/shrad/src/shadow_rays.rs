@@ -10,9 +10,8 @@ use std::ops::AddAssign;
 
 use glam::Vec3;
 use rayon::prelude::*;
-use shrad_scene::Aabb;
 
-use crate::direct::padded_swept;
+use crate::direct::mover_spheres::{padded_with_spheres, segment_meets_sphere, Bounds, Moves};
 use crate::World;
 
 /// Sets traced in one batch by [`ShadowRays::trace`] (bounds the rays held at once).
@@ -78,12 +77,14 @@ fn sum_by_set<W: Copy + Default + AddAssign>(
     sums
 }
 
-/// A move's `old` and `new` boxes padded for the shadow-ray tests of
-/// [`ShadowRays::near_movers`] ([`crate::direct::padded_swept`]), or `None` when both are
-/// empty: no ray can have changed.
-pub fn padded_move(old: &[Aabb], new: &[Aabb], eps: f32) -> Option<(Vec<Aabb>, Vec<Aabb>)> {
-    let (old, new) = (padded_swept(old, eps), padded_swept(new, eps));
-    (!old.is_empty() || !new.is_empty()).then_some((old, new))
+/// A move's boxes padded for the shadow-ray tests of [`ShadowRays::near_movers`]
+/// ([`padded_with_spheres`]), each with a sphere about its mover
+/// (`direct/mover_spheres.rs`), where the movers were and where they are; `None` when there
+/// are none: no ray can have changed.
+pub fn padded_move(moves: Moves, eps: f32) -> Option<(Bounds, Bounds)> {
+    let old = padded_with_spheres(moves.old, moves.was, eps);
+    let new = padded_with_spheres(moves.new, moves.is, eps);
+    (!old.0.is_empty() || !new.0.is_empty()).then_some((old, new))
 }
 
 /// Sets of `samples` shadow rays each: bit `j` of set `s` is set when ray `j` is blocked.
@@ -204,15 +205,16 @@ impl ShadowRays {
     }
 
     /// The rays of `sets` a move may have changed: a blocked one whose segment meets an `old`
-    /// box (its blocker may have left), a free one whose segment meets a `new` box (boxes
-    /// padded as [`crate::direct::padded_swept`]). `rays_of(s)` gives set `s`'s rays: ray
+    /// box (its blocker may have left) and a sphere about a mover there, a free one whose
+    /// segment meets a `new` box and sphere (as [`padded_move`] has them). `rays_of(s)` gives
+    /// set `s`'s rays: ray
     /// `j` as `(from, to)`, or `None` for a sample that casts no ray or that cannot meet a
     /// box (a caller's cheaper test first: [`crate::footprint_cones`]).
     pub fn near_movers<R: Fn(u32) -> Option<(Vec3, Vec3)>>(
         &self,
         sets: &[usize],
-        old: &[Aabb],
-        new: &[Aabb],
+        old: &Bounds,
+        new: &Bounds,
         rays_of: impl Fn(usize) -> R + Sync,
     ) -> Vec<ShadowRay> {
         sets.par_iter()
@@ -220,16 +222,15 @@ impl ShadowRays {
                 let ray = rays_of(s);
                 (0..self.samples).filter_map(move |j| {
                     let (from, to) = ray(j)?;
-                    let boxes = if self.is_blocked(s, j) { old } else { new };
-                    boxes
-                        .iter()
-                        .any(|b| b.meets_segment(from, to))
-                        .then_some(ShadowRay {
-                            set: s as u32,
-                            sample: j,
-                            from,
-                            to,
-                        })
+                    let (boxes, spheres) = if self.is_blocked(s, j) { old } else { new };
+                    let meets = (boxes.iter()).any(|b| b.meets_segment(from, to))
+                        && (spheres.iter()).any(|&s| segment_meets_sphere(from, to, s));
+                    meets.then_some(ShadowRay {
+                        set: s as u32,
+                        sample: j,
+                        from,
+                        to,
+                    })
                 })
             })
             .collect()

@@ -22,8 +22,9 @@ use std::sync::Arc;
 
 use glam::Vec3;
 use rayon::prelude::*;
-use shrad_scene::{Aabb, Environment};
+use shrad_scene::Environment;
 
+use crate::direct::mover_spheres::Moves;
 use crate::footprint_cones::{self, FootprintCones};
 use crate::sampling::{hammersley, hash, hash2, square_to_cosine_hemisphere, unit};
 use crate::shadow_rays::{padded_move, ShadowRays};
@@ -326,10 +327,10 @@ impl SkyCache {
     /// in `skip` (ascending: those traced, and those that moved and wait) are amended where a
     /// swept box meets them; a changed sky re-traces everything. Returns the receivers whose
     /// irradiance changed, ascending.
-    pub fn update(
+    pub(crate) fn update(
         &mut self,
         world: &World,
-        (old, new): (&[Aabb], &[Aabb]),
+        moves: Moves,
         (whole_ks, coarse_ks, coarse): (&[usize], &[usize], Option<u32>),
         skip: &[usize],
     ) -> Vec<usize> {
@@ -344,7 +345,7 @@ impl SkyCache {
         self.trace(world, whole_ks, None);
         self.trace(world, coarse_ks, coarse);
         let mut touched = [whole_ks, coarse_ks].concat();
-        touched.extend(self.retrace_near(world, old, new, skip));
+        touched.extend(self.retrace_near(world, moves, skip));
         touched.sort_unstable();
         touched.dedup();
         touched
@@ -354,18 +355,12 @@ impl SkyCache {
     /// new box (free rays) meets; returns the receivers whose irradiance changed. Where the
     /// rays' directions are kept, only those in a cone from the receiver's footprint to a
     /// box's sphere are regenerated and tested ([`FootprintCones`]: the same rays found).
-    fn retrace_near(
-        &mut self,
-        world: &World,
-        old: &[Aabb],
-        new: &[Aabb],
-        skip: &[usize],
-    ) -> Vec<usize> {
+    fn retrace_near(&mut self, world: &World, moves: Moves, skip: &[usize]) -> Vec<usize> {
         let Some(sky) = self.sky.clone() else {
             return Vec::new();
         };
         let eps = world.eps;
-        let Some((old, new)) = padded_move(old, new, eps) else {
+        let Some((old, new)) = padded_move(moves, eps) else {
             return Vec::new();
         };
         let (samples, far) = (self.shadows.samples(), world.far());
@@ -379,7 +374,7 @@ impl SkyCache {
                 .collect();
             self.keep_directions(world, &moved);
         }
-        let spheres = [&old, &new].map(|b| b.iter().map(Aabb::bounding_sphere).collect::<Vec<_>>());
+        let spheres = [&old.1[..], &new.1[..]];
         let this = &*self;
         let rays = self.shadows.near_movers(&sets, &old, &new, |k| {
             let i = this.receivers[k] as usize;
@@ -398,7 +393,7 @@ impl SkyCache {
             // A receiver's words in place (no vector a receiver: 72k a frame at 77k); more
             // than 256 samples are all regenerated.
             let candidates: Option<[u64; 4]> = kept.filter(|k| k.len() <= 256).and_then(|kept| {
-                let cones = FootprintCones::new(footprint, [&spheres[0], &spheres[1]])?;
+                let cones = FootprintCones::new(footprint, spheres)?;
                 let mut words = [0u64; 4];
                 for (w, kept) in kept.chunks(64).enumerate() {
                     words[w] = cones.meeting(kept, this.shadows.blocked_word(k, w));

@@ -18,7 +18,7 @@ use crate::World;
 
 pub(crate) mod blocks;
 mod cache;
-mod mover_spheres;
+pub(crate) mod mover_spheres;
 mod recent_moves;
 mod sample_ends;
 pub use cache::{DirectCache, SETTLED_AT_ONCE};
@@ -264,18 +264,6 @@ fn sample_point(em: &Emitter, shift: (f32, f32), j: u32, samples: u32) -> (usize
     let [a, b, c] = em.triangles[ti];
     let su = u2.sqrt();
     (ti, a * (1.0 - su) + b * (su * (1.0 - v)) + c * (su * v))
-}
-
-/// The boxes movers swept, with a little slack on every side (empty ones left out): a hit
-/// on a mover's surface is within float noise of its box, and a ray that grazes a padded
-/// box is only re-traced for nothing. Shared by every cache of shadow rays (the light
-/// surfaces', the punctual lights', the sky's).
-pub(crate) fn padded_swept(boxes: &[Aabb], eps: f32) -> Vec<Aabb> {
-    boxes
-        .iter()
-        .filter(|b| !b.is_empty())
-        .map(|b| b.padded(Vec3::splat(4.0 * eps + 1e-5 * b.diagonal())))
-        .collect()
 }
 
 /// Does the cone from `x` to the sphere `(lc, lr)` meet the sphere `(bc, br)`? The cone is

@@ -11,19 +11,29 @@ use shrad_scene::Aabb;
 use crate::World;
 
 /// A sphere: centre and radius.
-pub(super) type Sphere = (Vec3, f32);
+pub(crate) type Sphere = (Vec3, f32);
 
 /// Boxes where movers were (or are), padded, each with a sphere about its mover there.
-pub(super) type Bounds = (Vec<Aabb>, Vec<Sphere>);
+pub(crate) type Bounds = (Vec<Aabb>, Vec<Sphere>);
+
+/// Where movers were and are: their boxes (as the caller has them, aligned with the movers)
+/// and spheres about them (`None` where not known: then a box's own).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Moves<'a> {
+    pub(crate) old: &'a [Aabb],
+    pub(crate) new: &'a [Aabb],
+    pub(crate) was: &'a [Option<Sphere>],
+    pub(crate) is: &'a [Option<Sphere>],
+}
 
 /// Per object, the box and sphere where the cache last saw it (`None` for a shape without
 /// vertices).
 #[derive(Clone, Debug, Default)]
-pub(super) struct MoverSpheres(Vec<Option<(Aabb, Sphere)>>);
+pub(crate) struct MoverSpheres(Vec<Option<(Aabb, Sphere)>>);
 
 impl MoverSpheres {
     /// Every object of `world` where it is now.
-    pub(super) fn new(world: &World) -> MoverSpheres {
+    pub(crate) fn new(world: &World) -> MoverSpheres {
         let p = &world.patches;
         MoverSpheres(
             (0..p.object_role.len())
@@ -36,7 +46,7 @@ impl MoverSpheres {
     /// each `None` where the box the cache last saw the mover at is not that `old` box (the
     /// caller's idea of where it was is not the cache's: only its boxes are then trusted).
     /// Remembers where they are.
-    pub(super) fn moved(
+    pub(crate) fn moved(
         &mut self,
         world: &World,
         movers: &[u32],
@@ -60,10 +70,13 @@ impl MoverSpheres {
     }
 }
 
-/// `boxes` padded as [`super::padded_swept`] pads them (the empty ones left out), each with
-/// the tighter of its padded box's own bounding sphere and its mover's sphere (`spheres`,
-/// aligned with `boxes`) padded by as much.
-pub(super) fn padded_with_spheres(boxes: &[Aabb], spheres: &[Option<Sphere>], eps: f32) -> Bounds {
+/// The boxes movers swept, with a little slack on every side (the empty ones left out: a hit
+/// on a mover's surface is within float noise of its box, and a ray that grazes a padded
+/// box is only re-traced for nothing), each with the tighter of its padded box's own
+/// bounding sphere and its mover's sphere (`spheres`, aligned with `boxes`) padded by as
+/// much. Shared by every cache of shadow rays (the light surfaces', the punctual lights',
+/// the sky's).
+pub(crate) fn padded_with_spheres(boxes: &[Aabb], spheres: &[Option<Sphere>], eps: f32) -> Bounds {
     (boxes.iter().zip(spheres))
         .filter(|(b, _)| !b.is_empty())
         .map(|(b, s)| {
@@ -80,7 +93,7 @@ pub(super) fn padded_with_spheres(boxes: &[Aabb], spheres: &[Option<Sphere>], ep
 }
 
 /// Whether the segment `from`-`to` meets the sphere.
-pub(super) fn segment_meets_sphere(from: Vec3, to: Vec3, (c, r): Sphere) -> bool {
+pub(crate) fn segment_meets_sphere(from: Vec3, to: Vec3, (c, r): Sphere) -> bool {
     let d = to - from;
     let d2 = d.length_squared();
     let s = match d2 > 0.0 {

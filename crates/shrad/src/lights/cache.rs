@@ -20,6 +20,7 @@ use shrad_scene::Aabb;
 
 use super::LightState;
 use crate::direct::blocks::{self, group_sphere, BLOCK, GROUP};
+use crate::direct::mover_spheres::{MoverSpheres, Moves};
 use crate::sampling::{hammersley, hash, unit};
 use crate::shadow_rays::{padded_move, ShadowRays};
 use crate::World;
@@ -51,6 +52,9 @@ pub struct PunctualCache {
     blocks: Vec<(Vec3, f32)>,
     /// `[g]`: a sphere holding the spheres of blocks `g * GROUP ..`.
     groups: Vec<(Vec3, f32)>,
+    /// Where each object was at the last update, as a sphere about it: a shadow ray a mover
+    /// changed meets it there or where it is now (`direct/mover_spheres.rs`).
+    spheres: MoverSpheres,
 }
 
 /// Sample `j` of `samples` on receiver `i`: (ray start, geometry point).
@@ -82,6 +86,7 @@ impl PunctualCache {
             blocks: Vec::new(),
             groups: Vec::new(),
             ascending: receivers.is_sorted(),
+            spheres: MoverSpheres::new(world),
             receivers,
         };
         cache.blocks = (cache.receivers.chunks(BLOCK))
@@ -176,20 +181,35 @@ impl PunctualCache {
             self.trace(world, l, &coarse_ks, coarse);
         }
         let spheres = (&mut self.blocks[..], &mut self.groups[..]);
-        let moved = (&self.receivers[..], &moving[..]);
-        blocks::refresh(spheres, moved, |ks| footprints_sphere(world, ks));
+        let moving_ks = (&self.receivers[..], &moving[..]);
+        blocks::refresh(spheres, moving_ks, |ks| footprints_sphere(world, ks));
         touched.extend(whole_ks.iter().chain(&coarse_ks));
         // Neither those traced whole nor those still waiting (the coarse ones too) have rays
         // worth amending.
         let mut skip = [&whole_ks[..], &self.unread[..]].concat();
         skip.sort_unstable();
-        touched.extend(self.retrace_near(world, (old, new), &skip, &moved_lights));
+        let movers: Vec<u32> = moved.iter().map(|&o| o as u32).collect();
+        let (was, is) = self.spheres.moved(world, &movers, old);
+        let moves = Moves {
+            old,
+            new,
+            was: &was,
+            is: &is,
+        };
+        touched.extend(self.retrace_near(world, moves, &skip, &moved_lights));
         let traced = (&whole_ks[..], &coarse_ks[..], coarse);
-        touched.extend(self.sky.update(world, (old, new), traced, &skip));
+        touched.extend(self.sky.update(world, moves, traced, &skip));
         touched.sort_unstable();
         touched.dedup();
         self.evaluate(&touched);
         touched
+    }
+
+    /// Forget where the objects were as spheres: the next updates find a mover's shadow
+    /// rays by its boxes alone (for tests).
+    #[cfg(test)]
+    pub(crate) fn forget_mover_spheres(&mut self) {
+        self.spheres = Default::default();
     }
 
     /// The indices of the receivers that are patches of `objects`, ascending: where the
@@ -245,15 +265,15 @@ impl PunctualCache {
     fn retrace_near(
         &mut self,
         world: &World,
-        (old, new): (&[Aabb], &[Aabb]),
+        moves: Moves,
         skip: &[usize],
         moved: &[bool],
     ) -> Vec<usize> {
         let eps = world.eps;
-        let Some((old, new)) = padded_move(old, new, eps) else {
+        let Some((old, new)) = padded_move(moves, eps) else {
             return Vec::new();
         };
-        let spheres: Vec<(Vec3, f32)> = old.iter().chain(&new).map(Aabb::bounding_sphere).collect();
+        let spheres: Vec<(Vec3, f32)> = old.1.iter().chain(&new.1).copied().collect();
         let (nl, samples) = (self.lights.len(), self.shadows.samples());
         let far = world.far();
         // The (receiver, light) sets whose bundle of rays may meet a box: whole groups and

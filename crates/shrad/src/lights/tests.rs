@@ -247,6 +247,58 @@ fn a_box_casts_a_shadow_and_its_lit_side_is_lit() {
 
 /// The sky's part of the cache (`crate::sky`) after an occluder moved equals a fresh cache,
 /// tracing only the rays the box's path meets; a changed sky re-traces it.
+/// A moving ball's shadow rays to a point light and to the sky are found by its boxes and by
+/// a sphere about it where it was and where it is (`direct/mover_spheres.rs`): far fewer
+/// rays are re-traced than by its boxes alone, and every receiver but the ball's own (which
+/// wait, unread, while it moves) has the light of a fresh cache. Fails if the spheres are
+/// not used (as many rays), or if they drop a ray the move changed.
+#[test]
+fn a_moving_balls_rays_to_a_lamp_and_the_sky_are_found_by_its_spheres_and_stay_exact() {
+    let mut s = shrad_scene::room(&shrad_scene::RoomParams {
+        objects: 8,
+        patches: 6000,
+        big_object_patches: None,
+    });
+    let b = s.bounds().unwrap();
+    s.lights
+        .push(point(b.centre() + 0.4 * b.size().y * Vec3::Y, 2000.0));
+    s.environment = Some(shrad_scene::Environment::uniform(Vec3::new(0.3, 0.4, 0.6)));
+    let mut w = world(s, 6000);
+    let ball = (w.scene.objects.iter())
+        .position(|o| o.name == "sphere_2")
+        .unwrap();
+    let all: Vec<u32> = (0..w.patches.len() as u32).collect();
+    let mut cache = PunctualCache::new(&w, all.clone(), 16);
+    let mut boxes_only = cache.clone();
+    boxes_only.forget_mover_spheres();
+    let old = w.patches.world_box(ball);
+    let m =
+        w.patches.world_from_local[ball] * Affine3A::from_mat3(w.patches.local_from_object[ball]);
+    let step = Vec3::X * 0.05 * b.size().x;
+    w.move_object(ball, Affine3A::from_translation(step) * m)
+        .unwrap();
+    let new = w.patches.world_box(ball);
+    let rays = |cache: &mut PunctualCache| {
+        let before = w.rays_cast();
+        cache.update(&w, (&[old], &[new]), (&[ball], 16), |_| false);
+        w.rays_cast() - before
+    };
+    let (by_spheres, by_boxes) = (rays(&mut cache), rays(&mut boxes_only));
+    assert!(
+        by_spheres * 5 < by_boxes * 4,
+        "{by_spheres} rays re-traced with the spheres, {by_boxes} by the boxes alone"
+    );
+    let fresh = PunctualCache::new(&w, all, 16);
+    let own = w.patches.range(ball);
+    let off = |c: &PunctualCache| {
+        (c.irradiance().iter().zip(fresh.irradiance()).enumerate())
+            .filter(|(i, (a, b))| !own.contains(i) && a != b)
+            .count()
+    };
+    assert_eq!(off(&cache), 0, "receivers off the fresh cache (spheres)");
+    assert_eq!(off(&boxes_only), 0, "receivers off the fresh cache (boxes)");
+}
+
 #[test]
 fn the_sky_after_moves_and_a_sky_change_equals_a_fresh_one() {
     let texels = (0..16 * 8)
