@@ -10,8 +10,7 @@ use shrad_scene::Aabb;
 
 use crate::World;
 
-/// A sphere: centre and radius.
-pub(crate) type Sphere = (Vec3, f32);
+pub(crate) use super::blocks::Sphere;
 
 /// Boxes where movers were (or are), padded, each with a sphere about its mover there.
 pub(crate) type Bounds = (Vec<Aabb>, Vec<Sphere>);

@@ -136,6 +136,8 @@ pub struct Dispersive {
     neighbours: Neighbours,
     /// World bounding box of every object at the last frame (to know where movers were).
     object_boxes: Vec<shrad_scene::Aabb>,
+    /// Every object's sphere (`Patches::world_sphere`) where `object_boxes` has it.
+    object_spheres: Vec<Option<crate::direct::mover_spheres::Sphere>>,
     /// Where the next frame's window of wall-exchange rows starts.
     wall_cursor: usize,
     direct_valid: bool,
@@ -336,6 +338,9 @@ impl Dispersive {
             drift: 0.0,
             object_change: vec![f64::INFINITY; n_objects],
             object_boxes,
+            object_spheres: (0..world.scene.objects.len())
+                .map(|o| world.patches.world_sphere(o))
+                .collect(),
             quiet_frames: 0,
             wall_unswept: f64::INFINITY,
             last_energy: EnergyBalance::default(),

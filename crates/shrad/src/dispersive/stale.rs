@@ -23,6 +23,7 @@ use super::caches::{
 use super::object_state::ObjectProbes;
 use super::swept_boxes::SweptBoxes;
 use super::{Changes, Dispersive, DispersiveOptions};
+use crate::direct::mover_spheres::Sphere;
 use crate::World;
 
 /// Frames with movers kept apart in the log at most.
@@ -33,8 +34,9 @@ pub(super) const SWEPT_LOG_CAP: usize = 64;
 pub(super) struct Swept {
     /// The frame it moved in.
     frame: u64,
-    /// The boxes the movers swept (old and new places), padded for rounding.
-    boxes: Vec<Aabb>,
+    /// The boxes the movers swept (old and new places), padded for rounding, each with a
+    /// sphere about its mover there where it is known (`direct/mover_spheres.rs`).
+    boxes: Vec<(Aabb, Option<Sphere>)>,
     /// The objects that moved (scene indices).
     moved: Vec<usize>,
     /// A boundary or light object moved: every Step 3 cache aims at its patches.
@@ -55,7 +57,7 @@ impl SweptLog {
             let (a, b) = (self.frames.pop_front(), self.frames.pop_front());
             let (Some(a), Some(b)) = (a, b) else { break };
             let all = a.boxes.iter().chain(&b.boxes);
-            let union = all.fold(Aabb::EMPTY, |u, x| u.union(*x));
+            let union = all.fold(Aabb::EMPTY, |u, x| u.union(x.0));
             let mut moved = a.moved;
             for o in b.moved {
                 if !moved.contains(&o) {
@@ -64,15 +66,17 @@ impl SweptLog {
             }
             self.frames.push_front(Swept {
                 frame: b.frame,
-                boxes: vec![union],
+                boxes: vec![(union, None)],
                 moved,
                 boundary_moved: a.boundary_moved || b.boundary_moved,
             });
         }
     }
 
-    /// What moved after `frame`, merged: (boxes, movers, a boundary object moved).
-    fn since(&self, frame: Option<u64>) -> (Vec<Aabb>, Vec<usize>, bool) {
+    /// What moved after `frame`, merged: (boxes with spheres, movers, a boundary object
+    /// moved).
+    #[allow(clippy::type_complexity)]
+    fn since(&self, frame: Option<u64>) -> (Vec<(Aabb, Option<Sphere>)>, Vec<usize>, bool) {
         let after = self
             .frames
             .iter()
@@ -104,9 +108,15 @@ impl SweptLog {
 }
 
 impl Dispersive {
-    /// Log the boxes this frame's movers swept (old and new places, in pairs), to be checked
-    /// against each object's caches when it is next updated.
-    pub(super) fn log_swept(&mut self, world: &World, changes: &Changes, swept: &[Aabb]) {
+    /// Log the boxes this frame's movers swept (old and new places, in pairs, each with a
+    /// sphere about the mover there), to be checked against each object's caches when it is
+    /// next updated.
+    pub(super) fn log_swept(
+        &mut self,
+        world: &World,
+        changes: &Changes,
+        swept: &[(Aabb, Option<Sphere>)],
+    ) {
         if changes.moved.is_empty() {
             return;
         }
@@ -117,10 +127,13 @@ impl Dispersive {
         let all = (self.object_boxes.iter()).fold(Aabb::EMPTY, |u, b| u.union(*b));
         let diag = if all.is_empty() { 1.0 } else { all.diagonal() };
         // A hit on a mover's surface lies on its box up to rounding.
-        let pad = Vec3::splat(4.0 * world.eps + 1e-5 * diag);
+        let pad = 4.0 * world.eps + 1e-5 * diag;
+        let padded = |&(b, s): &(Aabb, Option<Sphere>)| {
+            (b.padded(Vec3::splat(pad)), s.map(|(c, r)| (c, r + pad)))
+        };
         self.swept_log.push(Swept {
             frame: self.frame,
-            boxes: swept.iter().map(|b| b.padded(pad)).collect(),
+            boxes: swept.iter().map(padded).collect(),
             moved: changes.moved.clone(),
             boundary_moved: changes
                 .moved

@@ -16,24 +16,35 @@ use std::ops::Range;
 use glam::Vec3;
 use shrad_scene::Aabb;
 
+use crate::direct::mover_spheres::Sphere;
+
 /// Boxes per group; with no more boxes than this there is one level.
 const GROUP: usize = 8;
 
-/// A bound with its bounding sphere, for a quick rejection before the slab test.
+/// A box a mover swept with a sphere that holds the mover there (the box's own, or the
+/// tighter one about the mover: `direct/mover_spheres.rs`), for a quick rejection before
+/// the slab test: a ray the mover changed meets both.
 #[derive(Clone, Copy, Debug)]
 struct Bound {
     aabb: Aabb,
-    /// Centre and radius squared of the box's bounding sphere.
+    /// Centre, radius and radius squared of the sphere.
     centre: Vec3,
+    r: f32,
     r2: f32,
 }
 
 impl Bound {
-    fn new(aabb: Aabb) -> Self {
-        let (centre, r) = aabb.bounding_sphere();
+    /// `aabb` with the tighter of its bounding sphere and `sphere` (about its mover).
+    fn new(aabb: Aabb, sphere: Option<Sphere>) -> Self {
+        let own = aabb.bounding_sphere();
+        let (centre, r) = match sphere {
+            Some(s) if s.1 < own.1 => s,
+            _ => own,
+        };
         Bound {
             aabb,
             centre,
+            r,
             r2: r * r,
         }
     }
@@ -55,8 +66,9 @@ pub(super) struct SweptBoxes {
 }
 
 impl SweptBoxes {
-    /// The boxes in the order they were swept.
-    pub(super) fn new(boxes: &[Aabb]) -> Self {
+    /// The boxes in the order they were swept, each with a sphere about its mover where it
+    /// is known.
+    pub(super) fn new(boxes: &[(Aabb, Option<Sphere>)]) -> Self {
         let groups = match boxes.len() > GROUP {
             false => Vec::new(),
             true => (0..boxes.len())
@@ -65,13 +77,13 @@ impl SweptBoxes {
                     let members = start..(start + GROUP).min(boxes.len());
                     let union = boxes[members.clone()]
                         .iter()
-                        .fold(Aabb::EMPTY, |u, b| u.union(*b));
-                    (Bound::new(union), members)
+                        .fold(Aabb::EMPTY, |u, b| u.union(b.0));
+                    (Bound::new(union, None), members)
                 })
                 .collect(),
         };
         SweptBoxes {
-            boxes: boxes.iter().copied().map(Bound::new).collect(),
+            boxes: (boxes.iter()).map(|&(b, s)| Bound::new(b, s)).collect(),
             groups,
         }
     }
@@ -81,15 +93,12 @@ impl SweptBoxes {
         self.boxes.iter().map(|b| &b.aabb)
     }
 
-    /// Bounding spheres (centre, radius) that hold every box, for the chunks' cones
-    /// (`caches.rs`): the groups' when there are groups, fewer and a little looser.
+    /// Spheres (centre, radius) that hold every mover where it swept, for the chunks' cones
+    /// (`caches.rs`): the boxes' (each the tighter of its own and its mover's), or the
+    /// groups' when there are groups, fewer and looser.
     pub(super) fn spheres(&self) -> Vec<(Vec3, f32)> {
         match self.groups.is_empty() {
-            true => self
-                .boxes
-                .iter()
-                .map(|b| b.aabb.bounding_sphere())
-                .collect(),
+            true => (self.boxes.iter()).map(|b| (b.centre, b.r)).collect(),
             false => (self.groups.iter())
                 .map(|(g, _)| g.aabb.bounding_sphere())
                 .collect(),
@@ -127,7 +136,8 @@ mod tests {
                     Aabb::new(at, at + Vec3::splat(0.1) + point(0.05))
                 })
                 .collect();
-            let swept = SweptBoxes::new(&boxes);
+            let with: Vec<(Aabb, Option<Sphere>)> = boxes.iter().map(|&b| (b, None)).collect();
+            let swept = SweptBoxes::new(&with);
             assert_eq!(swept.groups.is_empty(), count <= GROUP);
             let (mut met, mut missed) = (0, 0);
             for _ in 0..4000 {

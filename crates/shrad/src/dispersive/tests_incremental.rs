@@ -181,6 +181,19 @@ fn a_receiver_facing_away_from_every_emitter_casts_no_shadow_ray() {
     assert_eq!(rays, 16 * lit as u64, "{lit} lit pairs of 16 samples");
 }
 
+/// The built-in room of 8 objects at `patches` patches, and its ball (`sphere_2`).
+fn room_and_its_ball(patches: usize) -> (World, usize) {
+    let scene = shrad_scene::room(&shrad_scene::RoomParams {
+        objects: 8,
+        patches,
+        big_object_patches: None,
+    });
+    let sizing = crate::PatchSizing::Count(patches);
+    let world = World::new(scene, sizing, crate::vis::Backend::Auto).unwrap();
+    let ball = object_named(&world, "sphere_2");
+    (world, ball)
+}
+
 /// A moving ball's shadow rays are found by its boxes and by a sphere about it where it was
 /// and where it is (`direct/mover_spheres.rs`): the update re-traces far fewer rays than by
 /// its boxes alone (most rays through a ball's box pass beside the ball), and still equals
@@ -188,14 +201,7 @@ fn a_receiver_facing_away_from_every_emitter_casts_no_shadow_ray() {
 /// if they drop a ray the move changed (the update then differs from the fresh cache).
 #[test]
 fn a_moving_balls_shadow_rays_are_found_by_its_spheres_and_stay_exact() {
-    let scene = shrad_scene::room(&shrad_scene::RoomParams {
-        objects: 8,
-        patches: 8000,
-        big_object_patches: None,
-    });
-    let sizing = crate::PatchSizing::Count(8000);
-    let mut world = World::new(scene, sizing, crate::vis::Backend::Auto).unwrap();
-    let ball = object_named(&world, "sphere_2");
+    let (mut world, ball) = room_and_its_ball(8000);
     let boundary: Vec<u32> = (0..world.patches.len() as u32)
         .filter(|&i| world.patches.role(i as usize) == Role::Boundary)
         .collect();
@@ -734,6 +740,51 @@ fn the_neighbours_of_an_object_that_stops_are_updated_before_it() {
     assert_eq!(
         (first.objects_updated, second.objects_updated),
         (vec![neighbour], vec![mover])
+    );
+}
+
+/// A moving ball's swept boxes are logged with a sphere about it where it was and where it
+/// is (`stale.rs`, `direct/mover_spheres.rs`), so the caches of the objects around it forget
+/// only the rays that meet the ball there, not all that meet its boxes: a drag re-traces
+/// fewer rays than with the boxes alone, and gives the same light. Fails if the spheres are
+/// not used (as many rays), or if they leave a changed ray cached (the light differs).
+#[test]
+fn a_balls_swept_spheres_forget_fewer_cached_rays_and_give_the_same_light() {
+    let (mut world, ball) = room_and_its_ball(6000);
+    let options = DispersiveOptions {
+        sleep_tolerance: 0.0,
+        ..DispersiveOptions::improved()
+    };
+    let mut spheres = Dispersive::new(&world, options).unwrap();
+    let mut boxes = Dispersive::new(&world, options).unwrap();
+    boxes.object_spheres.iter_mut().for_each(|s| *s = None);
+    spheres.converge(&world, 3);
+    boxes.converge(&world, 3);
+    let start = world.patches.world_from_local[ball]
+        * Affine3A::from_mat3(world.patches.local_from_object[ball]);
+    let size = world.scene.bounds().unwrap().size().x;
+    let (mut by_spheres, mut by_boxes) = (0, 0);
+    for f in 1..=8 {
+        let m = Affine3A::from_translation(Vec3::X * 0.01 * f as f32 * size) * start;
+        world.move_object(ball, m).unwrap();
+        let changes = Changes {
+            moved: vec![ball],
+            ..Default::default()
+        };
+        let before = world.rays_cast();
+        spheres.step(&world, &changes);
+        let between = world.rays_cast();
+        boxes.step(&world, &changes);
+        (by_spheres, by_boxes) = (
+            by_spheres + between - before,
+            by_boxes + world.rays_cast() - between,
+        );
+        let off = max_relative(spheres.radiosity(), boxes.radiosity());
+        assert!(off < 1e-5, "frame {f}: the light differs by {off}");
+    }
+    assert!(
+        by_spheres < by_boxes,
+        "{by_spheres} rays with the spheres, {by_boxes} with the boxes alone"
     );
 }
 
