@@ -207,9 +207,8 @@ impl ShadowRays {
     /// The rays of `sets` a move may have changed: a blocked one whose segment meets an `old`
     /// box (its blocker may have left) and a sphere about a mover there, a free one whose
     /// segment meets a `new` box and sphere (as [`padded_move`] has them). `rays_of(s)` gives
-    /// set `s`'s rays: ray
-    /// `j` as `(from, to)`, or `None` for a sample that casts no ray or that cannot meet a
-    /// box (a caller's cheaper test first: [`crate::footprint_cones`]).
+    /// set `s`'s rays: ray `j` as `(from, to)`, or `None` for a sample that casts no ray or
+    /// that cannot meet a box (a caller's cheaper test first: [`crate::footprint_cones`]).
     pub fn near_movers<R: Fn(u32) -> Option<(Vec3, Vec3)>>(
         &self,
         sets: &[usize],

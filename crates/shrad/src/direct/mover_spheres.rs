@@ -1,6 +1,8 @@
-//! Where each object was at a [`super::DirectCache`]'s last update, as a sphere about it
-//! ([`crate::Patches::world_sphere`]) beside its box: a shadow ray a mover changed meets its
-//! surface where it was or where it is, so it meets both the box and the sphere there.
+//! Where each object was at a cache of rays' last update (the light surfaces', the lamps',
+//! the sky's shadow rays; the probes' and emitters' cached rays, `dispersive/stale.rs`), as a
+//! sphere about it ([`crate::Patches::world_sphere`]) beside its box: a ray a mover changed
+//! meets its surface where it was or where it is, so it meets both the box and the sphere
+//! there.
 //! For a box-like object the sphere adds nothing, but a ball fills only half the rays its
 //! box lets through: of the 11.6k shadow rays a frame the 77k room's moving ball's boxes
 //! found, 6.4k met its spheres.
@@ -11,6 +13,9 @@ use shrad_scene::Aabb;
 use crate::World;
 
 pub(crate) use super::blocks::Sphere;
+
+/// A box a mover swept, with a sphere about the mover there where it is known.
+pub(crate) type SweptBox = (Aabb, Option<Sphere>);
 
 /// Boxes where movers were (or are), padded, each with a sphere about its mover there.
 pub(crate) type Bounds = (Vec<Aabb>, Vec<Sphere>);
@@ -73,17 +78,18 @@ impl MoverSpheres {
 /// on a mover's surface is within float noise of its box, and a ray that grazes a padded
 /// box is only re-traced for nothing), each with the tighter of its padded box's own
 /// bounding sphere and its mover's sphere (`spheres`, aligned with `boxes`) padded by as
-/// much. Shared by every cache of shadow rays (the light surfaces', the punctual lights',
-/// the sky's).
+/// much (a box without one keeps its own). Shared by every cache of shadow rays (the light
+/// surfaces', the punctual lights', the sky's).
 pub(crate) fn padded_with_spheres(boxes: &[Aabb], spheres: &[Option<Sphere>], eps: f32) -> Bounds {
-    (boxes.iter().zip(spheres))
+    (boxes.iter().enumerate())
+        .map(|(k, b)| (b, spheres.get(k).copied().flatten()))
         .filter(|(b, _)| !b.is_empty())
         .map(|(b, s)| {
             let pad = 4.0 * eps + 1e-5 * b.diagonal();
             let padded = b.padded(Vec3::splat(pad));
             let own = padded.bounding_sphere();
             let sphere = match s {
-                Some((c, r)) if r + pad < own.1 => (*c, r + pad),
+                Some((c, r)) if r + pad < own.1 => (c, r + pad),
                 _ => own,
             };
             (padded, sphere)

@@ -23,7 +23,7 @@ use super::caches::{
 use super::object_state::ObjectProbes;
 use super::swept_boxes::SweptBoxes;
 use super::{Changes, Dispersive, DispersiveOptions};
-use crate::direct::mover_spheres::Sphere;
+use crate::direct::mover_spheres::SweptBox;
 use crate::World;
 
 /// Frames with movers kept apart in the log at most.
@@ -36,7 +36,7 @@ pub(super) struct Swept {
     frame: u64,
     /// The boxes the movers swept (old and new places), padded for rounding, each with a
     /// sphere about its mover there where it is known (`direct/mover_spheres.rs`).
-    boxes: Vec<(Aabb, Option<Sphere>)>,
+    boxes: Vec<SweptBox>,
     /// The objects that moved (scene indices).
     moved: Vec<usize>,
     /// A boundary or light object moved: every Step 3 cache aims at its patches.
@@ -75,8 +75,7 @@ impl SweptLog {
 
     /// What moved after `frame`, merged: (boxes with spheres, movers, a boundary object
     /// moved).
-    #[allow(clippy::type_complexity)]
-    fn since(&self, frame: Option<u64>) -> (Vec<(Aabb, Option<Sphere>)>, Vec<usize>, bool) {
+    fn since(&self, frame: Option<u64>) -> (Vec<SweptBox>, Vec<usize>, bool) {
         let after = self
             .frames
             .iter()
@@ -111,12 +110,7 @@ impl Dispersive {
     /// Log the boxes this frame's movers swept (old and new places, in pairs, each with a
     /// sphere about the mover there), to be checked against each object's caches when it is
     /// next updated.
-    pub(super) fn log_swept(
-        &mut self,
-        world: &World,
-        changes: &Changes,
-        swept: &[(Aabb, Option<Sphere>)],
-    ) {
+    pub(super) fn log_swept(&mut self, world: &World, changes: &Changes, swept: &[SweptBox]) {
         if changes.moved.is_empty() {
             return;
         }
@@ -128,9 +122,8 @@ impl Dispersive {
         let diag = if all.is_empty() { 1.0 } else { all.diagonal() };
         // A hit on a mover's surface lies on its box up to rounding.
         let pad = 4.0 * world.eps + 1e-5 * diag;
-        let padded = |&(b, s): &(Aabb, Option<Sphere>)| {
-            (b.padded(Vec3::splat(pad)), s.map(|(c, r)| (c, r + pad)))
-        };
+        let padded =
+            |&(b, s): &SweptBox| (b.padded(Vec3::splat(pad)), s.map(|(c, r)| (c, r + pad)));
         self.swept_log.push(Swept {
             frame: self.frame,
             boxes: swept.iter().map(padded).collect(),

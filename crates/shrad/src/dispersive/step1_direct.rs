@@ -21,7 +21,7 @@ use shrad_scene::{Aabb, Role};
 use super::object_state::ObjectProbes;
 use super::setup::world_box;
 use super::{Changes, Dispersive, DispersiveOptions};
-use crate::direct::mover_spheres::Sphere;
+use crate::direct::mover_spheres::SweptBox;
 use crate::direct::DirectCache;
 use crate::lights::PunctualCache;
 use crate::World;
@@ -124,11 +124,7 @@ impl Dispersive {
     /// Boxes swept by the objects that moved since the last frame: for each, in order, its
     /// old box then its new one, each with a sphere about the object there
     /// ([`crate::Patches::world_sphere`]). Updates the remembered boxes and spheres.
-    pub(super) fn swept_boxes(
-        &mut self,
-        world: &World,
-        changes: &Changes,
-    ) -> Vec<(Aabb, Option<Sphere>)> {
+    pub(super) fn swept_boxes(&mut self, world: &World, changes: &Changes) -> Vec<SweptBox> {
         let mut swept = Vec::new();
         for &o in &changes.moved {
             let old = (self.object_boxes[o], self.object_spheres[o]);

@@ -16,7 +16,7 @@ use std::ops::Range;
 use glam::Vec3;
 use shrad_scene::Aabb;
 
-use crate::direct::mover_spheres::Sphere;
+use crate::direct::mover_spheres::{Sphere, SweptBox};
 
 /// Boxes per group; with no more boxes than this there is one level.
 const GROUP: usize = 8;
@@ -68,7 +68,7 @@ pub(super) struct SweptBoxes {
 impl SweptBoxes {
     /// The boxes in the order they were swept, each with a sphere about its mover where it
     /// is known.
-    pub(super) fn new(boxes: &[(Aabb, Option<Sphere>)]) -> Self {
+    pub(super) fn new(boxes: &[SweptBox]) -> Self {
         let groups = match boxes.len() > GROUP {
             false => Vec::new(),
             true => (0..boxes.len())
@@ -136,7 +136,7 @@ mod tests {
                     Aabb::new(at, at + Vec3::splat(0.1) + point(0.05))
                 })
                 .collect();
-            let with: Vec<(Aabb, Option<Sphere>)> = boxes.iter().map(|&b| (b, None)).collect();
+            let with: Vec<SweptBox> = boxes.iter().map(|&b| (b, None)).collect();
             let swept = SweptBoxes::new(&with);
             assert_eq!(swept.groups.is_empty(), count <= GROUP);
             let (mut met, mut missed) = (0, 0);
