@@ -118,6 +118,10 @@ pub struct Patches {
     pub object_role: Vec<Role>,
     /// Current transform of each object's local frame (rigid unless an animation scales).
     pub world_from_local: Vec<Affine3A>,
+    /// Each object's world box and sphere where it is now ([`Patches::world_box`],
+    /// [`Patches::world_sphere`]), kept by [`Patches::set_transform`]: a pass over the
+    /// shape's vertices when it moves, not at each of the several asks of a moving frame.
+    world_bounds: Vec<(Aabb, Option<(Vec3, f32)>)>,
     /// The rest shape of each object: its scale, shear and mirroring (see the module docs).
     pub local_from_object: Vec<Mat3>,
     /// Each object's input mesh in its local frame (shape applied, winding made
@@ -303,6 +307,7 @@ impl Patches {
         patches.centre = patches.centre_local.clone();
         patches.normal = patches.normal_local.clone();
         patches.area = patches.area_local.clone();
+        patches.world_bounds = vec![(Aabb::EMPTY, None); scene.objects.len()];
         for o in 0..scene.objects.len() {
             patches.update_world(o);
         }
@@ -367,6 +372,7 @@ impl Patches {
 
     fn update_world(&mut self, o: usize) {
         let m = self.world_from_local[o];
+        self.world_bounds[o] = (self.shape_box(o), self.shape_sphere(o));
         let normal_matrix = m.matrix3.inverse().transpose();
         let rigid = is_rigid(Mat3::from(m.matrix3));
         let det = m.matrix3.determinant().abs();
@@ -386,17 +392,27 @@ impl Patches {
     /// Object `o`'s world box where it is now: its shape's box transformed (empty, at the
     /// origin, for a shape without vertices).
     pub fn world_box(&self, o: usize) -> Aabb {
+        self.world_bounds[o].0
+    }
+
+    /// A sphere (world centre, radius) holding object `o`'s surface where it is now: about
+    /// its shape's box centre, through its farthest vertex (every patch lies in the hull of
+    /// the vertices). A ball's is 1/sqrt(3) of its world box's own sphere, and a ray it may
+    /// block must meet it (`direct/mover_spheres.rs`). `None` for a shape without vertices.
+    pub fn world_sphere(&self, o: usize) -> Option<(Vec3, f32)> {
+        self.world_bounds[o].1
+    }
+
+    /// [`Patches::world_box`] found again from the shape.
+    fn shape_box(&self, o: usize) -> Aabb {
         match self.shapes[o].bounds() {
             Some(local) => local.transformed(self.world_from_local[o]),
             None => Aabb::new(Vec3::ZERO, Vec3::ZERO),
         }
     }
 
-    /// A sphere (world centre, radius) holding object `o`'s surface where it is now: about
-    /// its shape's box centre, through its farthest vertex (every patch lies in the hull of
-    /// the vertices). A ball's is 1/sqrt(3) of its world box's own sphere, and a shadow ray
-    /// it may block must meet it (`direct::cache`). `None` for a shape without vertices.
-    pub fn world_sphere(&self, o: usize) -> Option<(Vec3, f32)> {
+    /// [`Patches::world_sphere`] found again from the shape.
+    fn shape_sphere(&self, o: usize) -> Option<(Vec3, f32)> {
         let m = self.world_from_local[o];
         let shape = &self.shapes[o];
         let centre = m.transform_point3(shape.bounds()?.centre());

@@ -113,3 +113,46 @@ fn world_normals_follow_rotation() {
         .range(short)
         .all(|p| (patches.normal[p].length() - 1.0).abs() < 1e-4));
 }
+
+/// An object's world box and sphere are kept as it moves (`Patches::set_transform`): after
+/// a turn, a mirror and a stretch they equal the ones found again from its shape, the box
+/// holds every corner of its patches, and so does the sphere, which is tighter than the
+/// box's own for a ball. Fails if a move leaves them where the object was, or if the sphere
+/// misses a patch (a stretch taken as a uniform scale would).
+#[test]
+fn an_objects_world_box_and_sphere_follow_it_and_hold_its_patches() {
+    let mut scene = shrad_scene::room(&Default::default());
+    scene.objects.retain(|o| o.name.starts_with("sphere"));
+    scene.objects.truncate(1);
+    let mut patches = Patches::build(&scene, PatchSizing::Size(0.1));
+    let moves = [
+        Affine3A::from_translation(Vec3::new(0.3, 0.1, -0.2)),
+        Affine3A::from_scale_rotation_translation(
+            Vec3::new(1.5, -0.7, 1.1),
+            glam::Quat::from_euler(glam::EulerRot::XYZ, 0.3, 0.9, -0.4),
+            Vec3::new(-1.0, 0.5, 2.0),
+        ),
+    ];
+    for m in moves {
+        patches.set_transform(0, m * patches.world_from_local[0]);
+        let (b, (c, r)) = (patches.world_box(0), patches.world_sphere(0).unwrap());
+        assert_eq!(b, patches.shape_box(0));
+        assert_eq!(Some((c, r)), patches.shape_sphere(0));
+        assert!(
+            r < b.bounding_sphere().1,
+            "the sphere {r} is no tighter than the box's"
+        );
+        for p in patches.range(0) {
+            for x in patches.world_corners(p) {
+                assert!(
+                    b.padded(Vec3::splat(1e-5)).contains(x),
+                    "{x} outside the box"
+                );
+                assert!(
+                    (x - c).length() <= r * (1.0 + 1e-5),
+                    "{x} outside the sphere"
+                );
+            }
+        }
+    }
+}
