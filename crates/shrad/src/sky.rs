@@ -24,10 +24,10 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_scene::Environment;
 
-use crate::direct::mover_spheres::Moves;
+use crate::direct::mover_spheres::Bounds;
 use crate::footprint_cones::{self, FootprintCones};
 use crate::sampling::{hammersley, hash, hash2, square_to_cosine_hemisphere, unit};
-use crate::shadow_rays::{padded_move, ShadowRays};
+use crate::shadow_rays::ShadowRays;
 use crate::World;
 
 /// The sky ready for lookups and sampling.
@@ -320,7 +320,8 @@ impl SkyCache {
         }
     }
 
-    /// Bring the cache to the world's state after occluders moved `old -> new` (boxes):
+    /// Bring the cache to the world's state after occluders moved (`swept`: where they were
+    /// and are, as [`crate::shadow_rays::padded_move`] gives them; `None` when nothing moved):
     /// receivers `whole_ks` are traced whole (they moved, and their light is read now or they
     /// rest: [`crate::lights::PunctualCache::update`] decides, for the sky as for the lights)
     /// and `coarse_ks` (moving, read now) with `coarse` samples, the rays of the others not
@@ -330,7 +331,7 @@ impl SkyCache {
     pub(crate) fn update(
         &mut self,
         world: &World,
-        moves: Moves,
+        swept: Option<&(Bounds, Bounds)>,
         (whole_ks, coarse_ks, coarse): (&[usize], &[usize], Option<u32>),
         skip: &[usize],
     ) -> Vec<usize> {
@@ -345,7 +346,7 @@ impl SkyCache {
         self.trace(world, whole_ks, None);
         self.trace(world, coarse_ks, coarse);
         let mut touched = [whole_ks, coarse_ks].concat();
-        touched.extend(self.retrace_near(world, moves, skip));
+        touched.extend(self.retrace_near(world, swept, skip));
         touched.sort_unstable();
         touched.dedup();
         touched
@@ -355,14 +356,16 @@ impl SkyCache {
     /// new box (free rays) meets; returns the receivers whose irradiance changed. Where the
     /// rays' directions are kept, only those in a cone from the receiver's footprint to a
     /// box's sphere are regenerated and tested ([`FootprintCones`]: the same rays found).
-    fn retrace_near(&mut self, world: &World, moves: Moves, skip: &[usize]) -> Vec<usize> {
-        let Some(sky) = self.sky.clone() else {
+    fn retrace_near(
+        &mut self,
+        world: &World,
+        swept: Option<&(Bounds, Bounds)>,
+        skip: &[usize],
+    ) -> Vec<usize> {
+        let (Some(sky), Some((old, new))) = (self.sky.clone(), swept) else {
             return Vec::new();
         };
         let eps = world.eps;
-        let Some((old, new)) = padded_move(moves, eps) else {
-            return Vec::new();
-        };
         let (samples, far) = (self.shadows.samples(), world.far());
         let sets: Vec<usize> = (0..self.receivers.len())
             .filter(|k| skip.binary_search(k).is_err())
@@ -376,7 +379,7 @@ impl SkyCache {
         }
         let spheres = [&old.1[..], &new.1[..]];
         let this = &*self;
-        let rays = self.shadows.near_movers(&sets, &old, &new, |k| {
+        let rays = self.shadows.near_movers(&sets, old, new, |k| {
             let i = this.receivers[k] as usize;
             let n = world.patches.normal[i];
             // The footprint holds every ray's start (a point of the patch, lifted by eps).

@@ -20,7 +20,7 @@ use shrad_scene::Aabb;
 
 use super::LightState;
 use crate::direct::blocks::{self, group_sphere, BLOCK, GROUP};
-use crate::direct::mover_spheres::{MoverSpheres, Moves};
+use crate::direct::mover_spheres::{Bounds, MoverSpheres, Moves};
 use crate::sampling::{hammersley, hash, unit};
 use crate::shadow_rays::{padded_move, ShadowRays};
 use crate::World;
@@ -196,9 +196,11 @@ impl PunctualCache {
             was: &was,
             is: &is,
         };
-        touched.extend(self.retrace_near(world, moves, &skip, &moved_lights));
+        // Padded once for the lamps' rays and the sky's.
+        let swept = padded_move(moves, world.eps);
+        touched.extend(self.retrace_near(world, swept.as_ref(), &skip, &moved_lights));
         let traced = (&whole_ks[..], &coarse_ks[..], coarse);
-        touched.extend(self.sky.update(world, moves, traced, &skip));
+        touched.extend(self.sky.update(world, swept.as_ref(), traced, &skip));
         touched.sort_unstable();
         touched.dedup();
         self.evaluate(&touched);
@@ -265,12 +267,12 @@ impl PunctualCache {
     fn retrace_near(
         &mut self,
         world: &World,
-        moves: Moves,
+        swept: Option<&(Bounds, Bounds)>,
         skip: &[usize],
         moved: &[bool],
     ) -> Vec<usize> {
         let eps = world.eps;
-        let Some((old, new)) = padded_move(moves, eps) else {
+        let Some((old, new)) = swept else {
             return Vec::new();
         };
         let spheres: Vec<(Vec3, f32)> = old.1.iter().chain(&new.1).copied().collect();
@@ -303,7 +305,7 @@ impl PunctualCache {
                     .collect::<Vec<usize>>()
             })
             .collect();
-        let rays = self.shadows.near_movers(&sets, &old, &new, |set| {
+        let rays = self.shadows.near_movers(&sets, old, new, |set| {
             let i = self.receivers[set / nl] as usize;
             let light = self.lights[set % nl];
             let n = world.patches.normal[i];
