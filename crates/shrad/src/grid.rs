@@ -9,6 +9,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use shrad_sh::{cosine_lobe_sh, num_coeffs, trilinear_weights, ShRgb};
 
+use crate::direct::Moves;
 use crate::frame::{Changes, FrameStats, GridStats, SolverStats};
 use crate::probes::{ProbeCamera, Seen};
 use crate::World;
@@ -151,8 +152,12 @@ impl Grid {
             self.punctual = crate::lights::PunctualCache::new(world, all, GRID_PUNCTUAL_SAMPLES);
             (0..n).collect()
         } else {
-            self.punctual
-                .update(world, (&[], &[]), (&[], GRID_PUNCTUAL_SAMPLES), |_| true)
+            self.punctual.update(
+                world,
+                Moves::boxes(&[], &[]),
+                (&[], GRID_PUNCTUAL_SAMPLES),
+                |_| true,
+            )
         };
         self.punctual_by_patch.resize(n, Vec3::ZERO);
         for k in ks {

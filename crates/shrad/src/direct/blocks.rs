@@ -16,7 +16,7 @@ pub(crate) const BLOCK: usize = 16;
 pub(crate) const GROUP: usize = 16;
 
 /// A sphere: centre and radius.
-pub(crate) type Sphere = (Vec3, f32);
+pub type Sphere = (Vec3, f32);
 
 /// After `receivers` `ks` (indices, ascending) moved: the spheres of the blocks holding them,
 /// `sphere` of each block's receivers where they are now, and of those blocks' groups.

@@ -3,10 +3,9 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
-use shrad_scene::Aabb;
 
 use super::blocks::{self, block_sphere, group_sphere, BLOCK, GROUP};
-use super::mover_spheres::MoverSpheres;
+use super::mover_spheres::Moves;
 use super::recent_moves::RecentMoves;
 use super::sample_ends::SampleEnds;
 use super::{
@@ -75,9 +74,6 @@ pub struct DirectCache {
     blocks: Vec<(Vec3, f32)>,
     /// `[g]`: a sphere holding the spheres of blocks `g * GROUP ..`.
     groups: Vec<(Vec3, f32)>,
-    /// Where each object was at the last update, as a sphere about it: a shadow ray a mover
-    /// changed meets it there or where it is now.
-    spheres: MoverSpheres,
 }
 
 /// Above this many shadow rays a mover may have changed in one update (the last update's,
@@ -165,7 +161,6 @@ impl DirectCache {
                 .map(|b| block_sphere(world, b))
                 .collect(),
             groups: Vec::new(),
-            spheres: MoverSpheres::new(world),
             receivers,
         };
         cache.groups = cache.blocks.chunks(GROUP).map(group_sphere).collect();
@@ -217,13 +212,6 @@ impl DirectCache {
         (lit, self.unoccluded.len())
     }
 
-    /// Forget where the objects were as spheres: the next updates find a mover's shadow
-    /// rays by its boxes alone (for tests).
-    #[cfg(test)]
-    pub(crate) fn forget_mover_spheres(&mut self) {
-        self.spheres = Default::default();
-    }
-
     /// Shadow rays per (receiver, emitter).
     pub fn samples(&self) -> u32 {
         self.shadows.samples()
@@ -248,8 +236,10 @@ impl DirectCache {
             + (self.blocks.len() + self.groups.len()) * 16
     }
 
-    /// After the objects `movers` moved from the boxes `old` to the boxes `new`: re-trace the
-    /// shadow rays that may have changed, and recompute whole the receivers that are the
+    /// After the objects `movers` moved from the boxes `moves.old` to the boxes `moves.new`
+    /// (each also within a sphere there where `moves` knows one: a ray is then re-traced
+    /// only if it meets both, `mover_spheres.rs`): re-trace the shadow rays that may have
+    /// changed, and recompute whole the receivers that are the
     /// movers' own patches. A blocked ray can only be freed if its blocker moved, so if its
     /// segment meets an old box; a free ray can only be blocked by a mover's new place, so if
     /// its segment meets a new box. The movers' own receivers are traced with `whole_samples`
@@ -281,7 +271,7 @@ impl DirectCache {
         &mut self,
         world: &World,
         (movers, read_now): (&[u32], &[u32]),
-        (old, new): (&[Aabb], &[Aabb]),
+        moves: Moves,
         whole_samples: u32,
         whole_stride: usize,
     ) -> Vec<usize> {
@@ -306,7 +296,7 @@ impl DirectCache {
             false => 1,
         };
         let (all_movers, [(old, old_spheres), (new, new_spheres)]) =
-            self.swept_since_last_turn(world, movers, (old, new), turns);
+            self.swept_since_last_turn(world, movers, moves, turns);
         // The movers' own patches are traced whole (they moved), and so are coarse receivers
         // that rest now, with every sample, [`SETTLED_AT_ONCE`] an update.
         let whole_ks = self.receivers_of(world, movers);

@@ -22,6 +22,7 @@ pub(crate) mod mover_spheres;
 mod recent_moves;
 mod sample_ends;
 pub use cache::{DirectCache, SETTLED_AT_ONCE};
+pub use mover_spheres::{Moves, Sphere};
 
 /// One emitting object, in world space at the current time.
 struct Emitter {

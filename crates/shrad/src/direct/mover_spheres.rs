@@ -1,18 +1,18 @@
-//! Where each object was at a cache of rays' last update (the light surfaces', the lamps',
-//! the sky's shadow rays; the probes' and emitters' cached rays, `dispersive/stale.rs`), as a
-//! sphere about it ([`crate::Patches::world_sphere`]) beside its box: a ray a mover changed
-//! meets its surface where it was or where it is, so it meets both the box and the sphere
-//! there.
+//! Where movers were and where they are, as boxes and as spheres about them
+//! ([`crate::Patches::world_sphere`]), as every cache of rays takes a move (the light
+//! surfaces', the lamps', the sky's shadow rays; the probes' and emitters' cached rays,
+//! `dispersive/stale.rs`): a ray a mover changed meets its surface where it was or where it
+//! is, so it meets both the box and the sphere there.
 //! For a box-like object the sphere adds nothing, but a ball fills only half the rays its
 //! box lets through: of the 11.6k shadow rays a frame the 77k room's moving ball's boxes
 //! found, 6.4k met its spheres.
+//! The caller remembers where each object was (the dispersive solver's Step 1:
+//! `DirectSync`); a cache is told the move, and keeps no memory of its own.
 
 use glam::Vec3;
 use shrad_scene::Aabb;
 
-use crate::World;
-
-pub(crate) use super::blocks::Sphere;
+pub use super::blocks::Sphere;
 
 /// A box a mover swept, with a sphere about the mover there where it is known.
 pub(crate) type SweptBox = (Aabb, Option<Sphere>);
@@ -20,57 +20,29 @@ pub(crate) type SweptBox = (Aabb, Option<Sphere>);
 /// Boxes where movers were (or are), padded, each with a sphere about its mover there.
 pub(crate) type Bounds = (Vec<Aabb>, Vec<Sphere>);
 
-/// Where movers were and are: their boxes (as the caller has them, aligned with the movers)
-/// and spheres about them (`None` where not known: then a box's own).
+/// Where movers were and are: their boxes (aligned with the movers) and spheres about them
+/// there (aligned with the boxes; `None`, or missing, where not known: then a box's own).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Moves<'a> {
-    pub(crate) old: &'a [Aabb],
-    pub(crate) new: &'a [Aabb],
-    pub(crate) was: &'a [Option<Sphere>],
-    pub(crate) is: &'a [Option<Sphere>],
+pub struct Moves<'a> {
+    /// Where each mover was.
+    pub old: &'a [Aabb],
+    /// Where each mover is.
+    pub new: &'a [Aabb],
+    /// A sphere about each mover where it was.
+    pub was: &'a [Option<Sphere>],
+    /// A sphere about each mover where it is.
+    pub is: &'a [Option<Sphere>],
 }
 
-/// Per object, the box and sphere where the cache last saw it (`None` for a shape without
-/// vertices).
-#[derive(Clone, Debug, Default)]
-pub(crate) struct MoverSpheres(Vec<Option<(Aabb, Sphere)>>);
-
-impl MoverSpheres {
-    /// Every object of `world` where it is now.
-    pub(crate) fn new(world: &World) -> MoverSpheres {
-        let p = &world.patches;
-        MoverSpheres(
-            (0..p.object_role.len())
-                .map(|o| Some((p.world_box(o), p.world_sphere(o)?)))
-                .collect(),
-        )
-    }
-
-    /// `movers` moved from the boxes `old`: their spheres there and where they are now,
-    /// each `None` where the box the cache last saw the mover at is not that `old` box (the
-    /// caller's idea of where it was is not the cache's: only its boxes are then trusted).
-    /// Remembers where they are.
-    pub(crate) fn moved(
-        &mut self,
-        world: &World,
-        movers: &[u32],
-        old: &[Aabb],
-    ) -> (Vec<Option<Sphere>>, Vec<Option<Sphere>>) {
-        let p = &world.patches;
-        (movers.iter().zip(old))
-            .map(|(&o, old)| {
-                let o = o as usize;
-                let now = p.world_sphere(o).map(|s| (p.world_box(o), s));
-                let Some(memory) = self.0.get_mut(o) else {
-                    return (None, None);
-                };
-                let was = std::mem::replace(memory, now);
-                match was {
-                    Some((b, s)) if b == *old => (Some(s), now.map(|n| n.1)),
-                    _ => (None, None),
-                }
-            })
-            .unzip()
+impl<'a> Moves<'a> {
+    /// Movers known by their boxes alone.
+    pub fn boxes(old: &'a [Aabb], new: &'a [Aabb]) -> Moves<'a> {
+        Moves {
+            old,
+            new,
+            was: &[],
+            is: &[],
+        }
     }
 }
 
@@ -100,10 +72,61 @@ pub(crate) fn padded_with_spheres(boxes: &[Aabb], spheres: &[Option<Sphere>], ep
 /// Whether the segment `from`-`to` meets the sphere.
 pub(crate) fn segment_meets_sphere(from: Vec3, to: Vec3, (c, r): Sphere) -> bool {
     let d = to - from;
-    let d2 = d.length_squared();
+    ray_meets_sphere(from, d, d.length_squared(), 1.0, c, r * r)
+}
+
+/// Whether the segment `o + s d`, `s` in `[0, t]`, comes within `sqrt(r2)` of `c` (`d2` is
+/// `|d|^2`, given by callers that test one ray against many spheres).
+#[inline]
+pub(crate) fn ray_meets_sphere(o: Vec3, d: Vec3, d2: f32, t: f32, c: Vec3, r2: f32) -> bool {
+    let w = c - o;
     let s = match d2 > 0.0 {
-        true => ((c - from).dot(d) / d2).clamp(0.0, 1.0),
+        true => (w.dot(d) / d2).clamp(0.0, t),
         false => 0.0,
     };
-    (from + d * s - c).length_squared() <= r * r
+    (w - d * s).length_squared() <= r2
+}
+
+/// One object's move, as tests make and give it: where it was and is, by box and sphere.
+#[cfg(test)]
+pub(crate) struct OneMove {
+    old: [Aabb; 1],
+    new: [Aabb; 1],
+    was: [Option<Sphere>; 1],
+    is: [Option<Sphere>; 1],
+}
+
+#[cfg(test)]
+impl OneMove {
+    /// Slide object `o` of `world` by `step`.
+    pub(crate) fn slide(world: &mut crate::World, o: usize, step: Vec3) -> OneMove {
+        let p = &world.patches;
+        let (old, was) = (p.world_box(o), p.world_sphere(o));
+        let m = p.world_from_local[o] * glam::Affine3A::from_mat3(p.local_from_object[o]);
+        world
+            .move_object(o, glam::Affine3A::from_translation(step) * m)
+            .unwrap();
+        let p = &world.patches;
+        OneMove {
+            old: [old],
+            new: [p.world_box(o)],
+            was: [was],
+            is: [p.world_sphere(o)],
+        }
+    }
+
+    /// The move with its spheres.
+    pub(crate) fn with_spheres(&self) -> Moves<'_> {
+        Moves {
+            old: &self.old,
+            new: &self.new,
+            was: &self.was,
+            is: &self.is,
+        }
+    }
+
+    /// The move by its boxes alone.
+    pub(crate) fn boxes_only(&self) -> Moves<'_> {
+        Moves::boxes(&self.old, &self.new)
+    }
 }

@@ -266,6 +266,9 @@ impl Dispersive {
             .wall_exchange
             .then(|| WallRows::new(world, &boundary_patches, wall_rays, false, progress))
             .transpose()?;
+        let object_spheres: Vec<Option<crate::direct::Sphere>> = (0..world.scene.objects.len())
+            .map(|o| world.patches.world_sphere(o))
+            .collect();
         let object_boxes: Vec<shrad_scene::Aabb> = (0..world.scene.objects.len())
             .map(|o| world_box(world, o))
             .collect();
@@ -314,6 +317,7 @@ impl Dispersive {
             punctual: Default::default(),
             direct_sync: step1_direct::DirectSync {
                 boxes: object_boxes.clone(),
+                spheres: object_spheres.clone(),
                 ..Default::default()
             },
             objects_owed: false,
@@ -338,9 +342,7 @@ impl Dispersive {
             drift: 0.0,
             object_change: vec![f64::INFINITY; n_objects],
             object_boxes,
-            object_spheres: (0..world.scene.objects.len())
-                .map(|o| world.patches.world_sphere(o))
-                .collect(),
+            object_spheres,
             quiet_frames: 0,
             wall_unswept: f64::INFINITY,
             last_energy: EnergyBalance::default(),
@@ -603,7 +605,9 @@ impl Dispersive {
         step1.direct_sync.carried = carry;
         let mut meter = std::mem::take(&mut self.light_meter);
         let mut rows = walls_beside_direct.then(|| self.wall_rows.take()).flatten();
-        let (options, boxes) = (self.options, self.object_boxes.clone());
+        let options = self.options;
+        let places = (self.object_boxes.clone(), self.object_spheres.clone());
+        let boxes = &places.0[..];
         let lit: Vec<u32> = (batch.0.iter())
             .map(|&k| self.objects[k].object as u32)
             .collect();
@@ -620,7 +624,8 @@ impl Dispersive {
                     let t = Instant::now();
                     if !carry {
                         let moving = !step1.direct_sync.moved.is_empty();
-                        step1.direct_to_boundary(world, (changes, &lit), (&options, &boxes));
+                        let places = (&places.0[..], &places.1[..]);
+                        step1.direct_to_boundary(world, (changes, &lit), (&options, places));
                         if moving {
                             step1.direct_sync.cost_ms = ms(t);
                         }
@@ -631,12 +636,12 @@ impl Dispersive {
                     refresh_wall_rows(
                         rows.as_mut(),
                         world,
-                        (&boundary, &boxes),
+                        (&boundary, boxes),
                         changes,
                         walls_until,
                     );
                     let tt = Instant::now();
-                    meter.update(world, &changes.moved, &boxes);
+                    meter.update(world, &changes.moved, boxes);
                     tr("light_meter", tt);
                 },
             )

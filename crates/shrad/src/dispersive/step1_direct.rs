@@ -22,9 +22,13 @@ use super::object_state::ObjectProbes;
 use super::setup::world_box;
 use super::{Changes, Dispersive, DispersiveOptions};
 use crate::direct::mover_spheres::SweptBox;
-use crate::direct::DirectCache;
+use crate::direct::{DirectCache, Moves, Sphere};
 use crate::lights::PunctualCache;
 use crate::World;
+
+/// Where every object is: its world box and a sphere about it (`None` for a shape without
+/// vertices), aligned with the scene's objects.
+pub(super) type ObjectPlaces<'a> = (&'a [Aabb], &'a [Option<Sphere>]);
 
 /// While an object moves with `coarse_while_moving`, Step 1 traces one in this many of its
 /// own patches each frame (in turn); the others keep their last visible fraction under their
@@ -215,7 +219,7 @@ impl Step1 {
         &mut self,
         world: &World,
         (changes, lit): (&Changes, &[u32]),
-        (options, object_boxes): (&DispersiveOptions, &[Aabb]),
+        (options, now): (&DispersiveOptions, ObjectPlaces),
     ) {
         // A frame without changes still traces, with every sample, the receivers a mover
         // left with fewer (`coarse_while_moving`).
@@ -237,8 +241,8 @@ impl Step1 {
             true => samples.div_ceil(4),
             false => samples,
         };
-        let old: Vec<Aabb> = moved.iter().map(|&o| self.direct_sync.boxes[o]).collect();
-        let new: Vec<Aabb> = moved.iter().map(|&o| object_boxes[o]).collect();
+        let places = self.direct_sync.moved_places(&moved, now);
+        let moves = places.moves();
         let parts = &mut self.punctual;
         parts.area.resize(p.len(), Vec3::ZERO);
         let mut changed: Vec<u32> = Vec::new();
@@ -264,7 +268,7 @@ impl Step1 {
             let ks = self.direct_cache.update(
                 world,
                 (&movers, lit),
-                (&old, &new),
+                moves,
                 moving_samples,
                 MOVING_STRIDE,
             );
@@ -286,7 +290,6 @@ impl Step1 {
         let rebuild = everything || parts.receivers_changed(world, &changes.relit);
         // A mover's patches are read (Step 2) only in a frame that lights it.
         let read = |i: u32| lit.contains(&p.object[i as usize]);
-        let moves = (&old[..], &new[..]);
         // A moved object's patches moved themselves: traced again when read (with
         // `moving_samples` while they move), and whole once they rest.
         let movers = (&moved[..], moving_samples);
@@ -299,15 +302,28 @@ impl Step1 {
             self.touched.patch(i);
         }
         self.direct_valid = true;
-        // In sync: every object is where Step 1 now has it.
-        match everything {
-            true => {
-                self.direct_sync.boxes.clear();
-                self.direct_sync.boxes.extend_from_slice(object_boxes);
-            }
-            false => moved
-                .iter()
-                .for_each(|&o| self.direct_sync.boxes[o] = object_boxes[o]),
+        self.direct_sync
+            .in_sync((!everything).then_some(&moved[..]), now);
+    }
+}
+
+/// Where the objects that moved since Step 1 last ran were then and are now, as boxes and
+/// spheres (aligned with them).
+struct MovedPlaces {
+    old: Vec<Aabb>,
+    new: Vec<Aabb>,
+    was: Vec<Option<Sphere>>,
+    is: Vec<Option<Sphere>>,
+}
+
+impl MovedPlaces {
+    /// The move, as the caches take it.
+    fn moves(&self) -> Moves<'_> {
+        Moves {
+            old: &self.old,
+            new: &self.new,
+            was: &self.was,
+            is: &self.is,
         }
     }
 }
@@ -320,12 +336,43 @@ impl Step1 {
 pub(super) struct DirectSync {
     /// Every object's world box when Step 1 last ran.
     pub(super) boxes: Vec<Aabb>,
+    /// Every object's sphere ([`crate::Patches::world_sphere`]) when Step 1 last ran: a
+    /// mover's shadow rays are found by its box and its sphere there (`mover_spheres.rs`).
+    pub(super) spheres: Vec<Option<Sphere>>,
     /// The objects that moved since, in the order they first moved.
     pub(super) moved: Vec<usize>,
     /// Whether the last frame carried Step 1 over (the next one runs it).
     pub(super) carried: bool,
     /// Measured cost of Step 1 at its last run with a mover (ms), for the deadline.
     pub(super) cost_ms: f64,
+}
+
+impl DirectSync {
+    /// Where `moved` were when Step 1 last ran, and are `now`.
+    fn moved_places(&self, moved: &[usize], (boxes, spheres): ObjectPlaces) -> MovedPlaces {
+        MovedPlaces {
+            old: moved.iter().map(|&o| self.boxes[o]).collect(),
+            new: moved.iter().map(|&o| boxes[o]).collect(),
+            was: (moved.iter())
+                .map(|&o| self.spheres.get(o).copied().flatten())
+                .collect(),
+            is: moved.iter().map(|&o| spheres[o]).collect(),
+        }
+    }
+
+    /// Step 1 now has the objects `moved` (every object: `None`) where they are `now`.
+    fn in_sync(&mut self, moved: Option<&[usize]>, (boxes, spheres): ObjectPlaces) {
+        match moved {
+            None => {
+                self.boxes = boxes.to_vec();
+                self.spheres = spheres.to_vec();
+            }
+            Some(moved) => moved.iter().for_each(|&o| {
+                self.boxes[o] = boxes[o];
+                self.spheres[o] = spheres[o];
+            }),
+        }
+    }
 }
 
 /// Step 1's punctual lights: their cached direct light and, per patch, its value and the
@@ -383,7 +430,7 @@ impl PunctualDirect {
         &mut self,
         world: &World,
         (everything, samples): (bool, u32),
-        (old, new): (&[Aabb], &[Aabb]),
+        moves: Moves,
         (moved, read): ((&[usize], u32), impl Fn(u32) -> bool + Sync),
     ) -> Vec<u32> {
         let p = &world.patches;
@@ -406,7 +453,7 @@ impl PunctualDirect {
             self.by_patch = vec![Vec3::ZERO; p.len()];
             (0..self.cache.receivers().len()).collect()
         } else {
-            self.cache.update(world, (old, new), moved, read)
+            self.cache.update(world, moves, moved, read)
         };
         let (receivers, e) = (self.cache.receivers(), self.cache.irradiance());
         ks.iter()

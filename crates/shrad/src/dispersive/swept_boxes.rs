@@ -16,7 +16,7 @@ use std::ops::Range;
 use glam::Vec3;
 use shrad_scene::Aabb;
 
-use crate::direct::mover_spheres::{Sphere, SweptBox};
+use crate::direct::mover_spheres::{ray_meets_sphere, Sphere, SweptBox};
 
 /// Boxes per group; with no more boxes than this there is one level.
 const GROUP: usize = 8;
@@ -51,9 +51,7 @@ impl Bound {
 
     /// Whether the segment `o + s d`, `s` in `[0, t]`, meets the box (`d2` is `|d|^2`).
     fn meets(&self, o: Vec3, d: Vec3, d2: f32, t: f32) -> bool {
-        let w = self.centre - o;
-        let s = (w.dot(d) / d2).clamp(0.0, t);
-        (w - d * s).length_squared() <= self.r2 && self.aabb.meets_ray_within(o, d, t)
+        ray_meets_sphere(o, d, d2, t, self.centre, self.r2) && self.aabb.meets_ray_within(o, d, t)
     }
 }
 

@@ -6,6 +6,8 @@ use glam::{Affine3A, Vec3};
 
 use super::tests::{cornell, object_named};
 use super::*;
+use crate::direct::mover_spheres::OneMove;
+use crate::direct::Moves;
 use shrad_scene::Aabb;
 
 /// The largest relative difference between two irradiance arrays (0 where both are 0).
@@ -207,22 +209,16 @@ fn a_moving_balls_shadow_rays_are_found_by_its_spheres_and_stay_exact() {
         .collect();
     let mut cache = crate::direct::DirectCache::new(&world, boundary.clone(), 16);
     let mut boxes_only = cache.clone();
-    boxes_only.forget_mover_spheres();
-    let old = world.patches.world_box(ball);
-    let step = 0.05 * world.scene.bounds().unwrap().size().x;
-    let m = world.patches.world_from_local[ball]
-        * Affine3A::from_mat3(world.patches.local_from_object[ball]);
-    world
-        .move_object(ball, Affine3A::from_translation(Vec3::X * step) * m)
-        .unwrap();
-    let new = world.patches.world_box(ball);
-    let rays = |cache: &mut crate::direct::DirectCache| {
+    let step = Vec3::X * 0.05 * world.scene.bounds().unwrap().size().x;
+    let slide = OneMove::slide(&mut world, ball, step);
+    let rays = |cache: &mut crate::direct::DirectCache, moves: Moves| {
         let before = world.rays_cast();
         let mover = [ball as u32];
-        cache.update(&world, (&mover, &mover), (&[old], &[new]), 16, 1);
+        cache.update(&world, (&mover, &mover), moves, 16, 1);
         world.rays_cast() - before
     };
-    let (by_spheres, by_boxes) = (rays(&mut cache), rays(&mut boxes_only));
+    let by_spheres = rays(&mut cache, slide.with_spheres());
+    let by_boxes = rays(&mut boxes_only, slide.boxes_only());
     assert!(
         by_spheres * 5 < by_boxes * 4,
         "{by_spheres} rays re-traced with the spheres, {by_boxes} by the boxes alone"
@@ -247,7 +243,13 @@ fn stored_shadow_ray_ends_are_the_samples_traced() {
     assert!(checked > 10_000 && off == 0, "{off} of {checked} ends off");
     let (old, new) = move_far(&mut world, block);
     let mover = [block as u32];
-    cache.update(&world, (&mover, &mover), (&[old], &[new]), 16, 1);
+    cache.update(
+        &world,
+        (&mover, &mover),
+        Moves::boxes(&[old], &[new]),
+        16,
+        1,
+    );
     let (checked, off) = cache.ends_off_their_samples(&world);
     assert!(
         checked > 10_000 && off == 0,
@@ -264,7 +266,7 @@ fn direct_cache_update_equals_a_full_recomputation() {
     let changed = cache.update(
         &world,
         (&[block as u32], &[block as u32]),
-        (&[old], &[new]),
+        Moves::boxes(&[old], &[new]),
         16,
         1,
     );
@@ -304,7 +306,7 @@ fn coarse_moving_receivers_are_exact_again_once_they_rest() {
         cache.update(
             &world,
             (&[block as u32], &[block as u32]),
-            (&[old], &[new]),
+            Moves::boxes(&[old], &[new]),
             samples,
             4,
         );
@@ -318,7 +320,7 @@ fn coarse_moving_receivers_are_exact_again_once_they_rest() {
     assert!(coarse < fine, "coarse {coarse} rays, every sample {fine}");
     let full = crate::direct::DirectCache::new(&world, receivers.clone(), 16);
     // At rest: nothing moves, and the coarse receivers are traced whole again.
-    let changed = cache.update(&world, (&[], &[]), (&[], &[]), 16, 1);
+    let changed = cache.update(&world, (&[], &[]), Moves::boxes(&[], &[]), 16, 1);
     assert!(!changed.is_empty() && !cache.has_coarse());
     assert_eq!(cache.irradiance(), full.irradiance());
 }
@@ -348,8 +350,8 @@ fn a_movers_held_light_is_held_only_when_read_and_then_equals_holding_every_upda
         let new = setup::world_box(&world, block);
         let before = when_read.irradiance().to_vec();
         let read: &[u32] = if step == 4 { &b } else { &[] };
-        every.update(&world, (&b, &b), (&[old], &[new]), 4, 4);
-        let changed = when_read.update(&world, (&b, read), (&[old], &[new]), 4, 4);
+        every.update(&world, (&b, &b), Moves::boxes(&[old], &[new]), 4, 4);
+        let changed = when_read.update(&world, (&b, read), Moves::boxes(&[old], &[new]), 4, 4);
         if step == 1 || step == 4 {
             // The first update holds every untraced receiver, read or not (they were exact
             // until then); the fourth reads them all.
@@ -387,7 +389,7 @@ fn a_large_movers_coarse_receivers_settle_over_several_updates_to_the_exact_ligh
     cache.update(
         &world,
         (&[block as u32], &[block as u32]),
-        (&[old], &[new]),
+        Moves::boxes(&[old], &[new]),
         4,
         1,
     );
@@ -395,7 +397,7 @@ fn a_large_movers_coarse_receivers_settle_over_several_updates_to_the_exact_ligh
     let full = crate::direct::DirectCache::new(&world, receivers, 16);
     let mut updates = 0;
     while cache.has_coarse() {
-        let changed = cache.update(&world, (&[], &[]), (&[], &[]), 16, 1);
+        let changed = cache.update(&world, (&[], &[]), Moves::boxes(&[], &[]), 16, 1);
         assert!(changed.len() <= crate::direct::SETTLED_AT_ONCE);
         updates += 1;
         assert!(updates <= 100, "the coarse receivers never settle");
@@ -427,7 +429,7 @@ fn shadow_receivers_found_in_turn_are_exact_at_their_turn_and_at_rest() {
         cache.update(
             &world,
             (&[block as u32], &[block as u32]),
-            (&[old], &[new]),
+            Moves::boxes(&[old], &[new]),
             4,
             4,
         );
@@ -447,7 +449,7 @@ fn shadow_receivers_found_in_turn_are_exact_at_their_turn_and_at_rest() {
         "no receiver lagged: the test exercised nothing"
     );
     assert!(cache.catching_up());
-    let changed = cache.update(&world, (&[], &[]), (&[], &[]), 16, 1);
+    let changed = cache.update(&world, (&[], &[]), Moves::boxes(&[], &[]), 16, 1);
     assert!(!changed.is_empty() && !cache.catching_up());
     let full = crate::direct::DirectCache::new(&world, boundary, 16);
     assert_eq!(cache.irradiance(), full.irradiance());
@@ -745,8 +747,9 @@ fn the_neighbours_of_an_object_that_stops_are_updated_before_it() {
 
 /// A moving ball's swept boxes are logged with a sphere about it where it was and where it
 /// is (`stale.rs`, `direct/mover_spheres.rs`), so the caches of the objects around it forget
-/// only the rays that meet the ball there, not all that meet its boxes: a drag re-traces
-/// fewer rays than with the boxes alone, and gives the same light. Fails if the spheres are
+/// only the rays that meet the ball there, not all that meet its boxes, and Step 1 is given
+/// them with its move (`DirectSync`) for its shadow rays: a drag re-traces fewer rays than
+/// with the boxes alone, and gives the same light. Fails if the spheres are
 /// not used (as many rays), or if they leave a changed ray cached (the light differs).
 #[test]
 fn a_balls_swept_spheres_forget_fewer_cached_rays_and_give_the_same_light() {
@@ -758,6 +761,7 @@ fn a_balls_swept_spheres_forget_fewer_cached_rays_and_give_the_same_light() {
     let mut spheres = Dispersive::new(&world, options).unwrap();
     let mut boxes = Dispersive::new(&world, options).unwrap();
     boxes.object_spheres.iter_mut().for_each(|s| *s = None);
+    boxes.direct_sync.spheres.iter_mut().for_each(|s| *s = None);
     spheres.converge(&world, 3);
     boxes.converge(&world, 3);
     let start = world.patches.world_from_local[ball]

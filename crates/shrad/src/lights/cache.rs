@@ -16,11 +16,10 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
-use shrad_scene::Aabb;
 
 use super::LightState;
 use crate::direct::blocks::{self, group_sphere, BLOCK, GROUP};
-use crate::direct::mover_spheres::{Bounds, MoverSpheres, Moves};
+use crate::direct::mover_spheres::{Bounds, Moves};
 use crate::sampling::{hammersley, hash, unit};
 use crate::shadow_rays::{padded_move, ShadowRays};
 use crate::World;
@@ -52,9 +51,6 @@ pub struct PunctualCache {
     blocks: Vec<(Vec3, f32)>,
     /// `[g]`: a sphere holding the spheres of blocks `g * GROUP ..`.
     groups: Vec<(Vec3, f32)>,
-    /// Where each object was at the last update, as a sphere about it: a shadow ray a mover
-    /// changed meets it there or where it is now (`direct/mover_spheres.rs`).
-    spheres: MoverSpheres,
 }
 
 /// Sample `j` of `samples` on receiver `i`: (ray start, geometry point).
@@ -86,7 +82,6 @@ impl PunctualCache {
             blocks: Vec::new(),
             groups: Vec::new(),
             ascending: receivers.is_sorted(),
-            spheres: MoverSpheres::new(world),
             receivers,
         };
         cache.blocks = (cache.receivers.chunks(BLOCK))
@@ -131,8 +126,8 @@ impl PunctualCache {
         self.lights.len() == world.lights.len()
     }
 
-    /// Bring the cache to the world's state after the occluders `old -> new` moved (their
-    /// boxes) and the patches of objects `moved` with them, and whatever the lights did. A
+    /// Bring the cache to the world's state after the occluders moved (`moves`: their boxes,
+    /// and spheres about them where known) and the patches of objects `moved` with them, and whatever the lights did. A
     /// receiver that moved is traced now if `read` says its light is read after this update
     /// (the dispersive solver's Step 2 lights its object this frame), else it keeps what it
     /// had until it is read or rests ([`PunctualCache::catching_up`]): the 77k room's
@@ -145,7 +140,7 @@ impl PunctualCache {
     pub fn update(
         &mut self,
         world: &World,
-        (old, new): (&[Aabb], &[Aabb]),
+        moves: Moves,
         (moved, moving_samples): (&[usize], u32),
         read: impl Fn(u32) -> bool + Sync,
     ) -> Vec<usize> {
@@ -188,14 +183,6 @@ impl PunctualCache {
         // worth amending.
         let mut skip = [&whole_ks[..], &self.unread[..]].concat();
         skip.sort_unstable();
-        let movers: Vec<u32> = moved.iter().map(|&o| o as u32).collect();
-        let (was, is) = self.spheres.moved(world, &movers, old);
-        let moves = Moves {
-            old,
-            new,
-            was: &was,
-            is: &is,
-        };
         // Padded once for the lamps' rays and the sky's.
         let swept = padded_move(moves, world.eps);
         touched.extend(self.retrace_near(world, swept.as_ref(), &skip, &moved_lights));
@@ -205,13 +192,6 @@ impl PunctualCache {
         touched.dedup();
         self.evaluate(&touched);
         touched
-    }
-
-    /// Forget where the objects were as spheres: the next updates find a mover's shadow
-    /// rays by its boxes alone (for tests).
-    #[cfg(test)]
-    pub(crate) fn forget_mover_spheres(&mut self) {
-        self.spheres = Default::default();
     }
 
     /// The indices of the receivers that are patches of `objects`, ascending: where the

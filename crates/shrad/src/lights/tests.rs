@@ -7,6 +7,8 @@ use shrad_scene::{box_mesh, quad, Light, LightKind, Material, Object, Role, Scen
 use shrad_vis::Backend;
 
 use super::{punctual_irradiance_all, PunctualCache};
+use crate::direct::mover_spheres::OneMove;
+use crate::direct::Moves;
 use crate::{PatchSizing, World};
 
 const HALF: f32 = 2.0;
@@ -177,7 +179,7 @@ fn the_cache_after_moves_and_light_changes_equals_a_fresh_one() {
         w.move_object(1, Affine3A::from_translation(at)).unwrap();
         let new = box_world(&w);
         let before = w.rays_cast();
-        cache.update(&w, (&[old], &[new]), (&[1], 16), |_| true);
+        cache.update(&w, Moves::boxes(&[old], &[new]), (&[1], 16), |_| true);
         let traced = w.rays_cast() - before;
         assert!(
             traced < fresh_rays / 2,
@@ -186,7 +188,7 @@ fn the_cache_after_moves_and_light_changes_equals_a_fresh_one() {
         let fresh = PunctualCache::new(&w, all.clone(), 16);
         assert_eq!(cache.irradiance(), fresh.irradiance(), "after move {step}");
         // Receivers in any order: the mover's are found by a pass, not by their ranges.
-        backwards.update(&w, (&[old], &[new]), (&[1], 16), |_| true);
+        backwards.update(&w, Moves::boxes(&[old], &[new]), (&[1], 16), |_| true);
         let mut turned = backwards.irradiance().to_vec();
         turned.reverse();
         assert_eq!(turned, fresh.irradiance(), "backwards, after move {step}");
@@ -195,7 +197,7 @@ fn the_cache_after_moves_and_light_changes_equals_a_fresh_one() {
     let m = w.scene.lights[0].world_from_light;
     assert!(w.set_light(0, m, Vec3::new(1.0, 0.5, 0.2), 2000.0).unwrap());
     let before = w.rays_cast();
-    cache.update(&w, (&[], &[]), (&[], 16), |_| true);
+    cache.update(&w, Moves::boxes(&[], &[]), (&[], 16), |_| true);
     assert_eq!(w.rays_cast(), before, "a strength change traces nothing");
     assert_eq!(
         cache.irradiance(),
@@ -203,7 +205,7 @@ fn the_cache_after_moves_and_light_changes_equals_a_fresh_one() {
     );
     let moved = Affine3A::from_translation(Vec3::new(-0.7, 1.1, 0.4));
     assert!(w.set_light(0, moved, Vec3::ONE, 683.0).unwrap());
-    cache.update(&w, (&[], &[]), (&[], 16), |_| true);
+    cache.update(&w, Moves::boxes(&[], &[]), (&[], 16), |_| true);
     assert_eq!(
         cache.irradiance(),
         PunctualCache::new(&w, all.clone(), 16).irradiance()
@@ -270,20 +272,14 @@ fn a_moving_balls_rays_to_a_lamp_and_the_sky_are_found_by_its_spheres_and_stay_e
     let all: Vec<u32> = (0..w.patches.len() as u32).collect();
     let mut cache = PunctualCache::new(&w, all.clone(), 16);
     let mut boxes_only = cache.clone();
-    boxes_only.forget_mover_spheres();
-    let old = w.patches.world_box(ball);
-    let m =
-        w.patches.world_from_local[ball] * Affine3A::from_mat3(w.patches.local_from_object[ball]);
-    let step = Vec3::X * 0.05 * b.size().x;
-    w.move_object(ball, Affine3A::from_translation(step) * m)
-        .unwrap();
-    let new = w.patches.world_box(ball);
-    let rays = |cache: &mut PunctualCache| {
+    let slide = OneMove::slide(&mut w, ball, Vec3::X * 0.05 * b.size().x);
+    let rays = |cache: &mut PunctualCache, moves: Moves| {
         let before = w.rays_cast();
-        cache.update(&w, (&[old], &[new]), (&[ball], 16), |_| false);
+        cache.update(&w, moves, (&[ball], 16), |_| false);
         w.rays_cast() - before
     };
-    let (by_spheres, by_boxes) = (rays(&mut cache), rays(&mut boxes_only));
+    let by_spheres = rays(&mut cache, slide.with_spheres());
+    let by_boxes = rays(&mut boxes_only, slide.boxes_only());
     assert!(
         by_spheres * 5 < by_boxes * 4,
         "{by_spheres} rays re-traced with the spheres, {by_boxes} by the boxes alone"
@@ -325,7 +321,7 @@ fn the_sky_after_moves_and_a_sky_change_equals_a_fresh_one() {
         w.move_object(1, Affine3A::from_translation(at)).unwrap();
         let new = box_world(&w);
         let before = w.rays_cast();
-        let changed = cache.update(&w, (&[old], &[new]), (&[1], 16), |_| true);
+        let changed = cache.update(&w, Moves::boxes(&[old], &[new]), (&[1], 16), |_| true);
         assert!(!changed.is_empty());
         let traced = w.rays_cast() - before;
         assert!(traced < fresh_rays, "{traced} of {fresh_rays} re-traced");
@@ -335,13 +331,13 @@ fn the_sky_after_moves_and_a_sky_change_equals_a_fresh_one() {
     let uniform = shrad_scene::Environment::uniform(Vec3::new(0.3, 0.2, 0.1));
     assert!(w.set_sky(Some(uniform)).unwrap());
     assert!(!cache.same_sky(&w));
-    cache.update(&w, (&[], &[]), (&[], 16), |_| true);
+    cache.update(&w, Moves::boxes(&[], &[]), (&[], 16), |_| true);
     assert_eq!(
         cache.irradiance(),
         PunctualCache::new(&w, all.clone(), 16).irradiance()
     );
     assert!(w.set_sky(None).unwrap());
-    cache.update(&w, (&[], &[]), (&[], 16), |_| true);
+    cache.update(&w, Moves::boxes(&[], &[]), (&[], 16), |_| true);
     assert!(cache.irradiance().iter().all(|e| *e == Vec3::ZERO));
 }
 
@@ -378,13 +374,13 @@ fn a_moving_receiver_is_traced_only_when_read_coarse_while_it_moves_and_whole_at
         w.move_object(1, Affine3A::from_translation(at)).unwrap();
         let new = box_world(&w);
         let before = w.rays_cast();
-        cache.update(&w, (&[old], &[new]), (&[1], 16), |_| false);
+        cache.update(&w, Moves::boxes(&[old], &[new]), (&[1], 16), |_| false);
         let unread_rays = w.rays_cast() - before;
         let before = w.rays_cast();
-        read.update(&w, (&[old], &[new]), (&[1], 16), |_| true);
+        read.update(&w, Moves::boxes(&[old], &[new]), (&[1], 16), |_| true);
         let read_rays = w.rays_cast() - before;
         let before = w.rays_cast();
-        coarse.update(&w, (&[old], &[new]), (&[1], 4), |_| true);
+        coarse.update(&w, Moves::boxes(&[old], &[new]), (&[1], 4), |_| true);
         let coarse_rays = w.rays_cast() - before;
         assert!(cache.catching_up() && !read.catching_up() && coarse.catching_up());
         assert!(
@@ -430,7 +426,7 @@ fn a_moving_receiver_is_traced_only_when_read_coarse_while_it_moves_and_whole_at
     // At rest: the waiting receivers, and those traced coarse, are traced whole.
     let fresh = PunctualCache::new(&w, all.clone(), 16);
     for c in [&mut cache, &mut coarse] {
-        c.update(&w, (&[], &[]), (&[], 16), |_| false);
+        c.update(&w, Moves::boxes(&[], &[]), (&[], 16), |_| false);
         assert!(!c.catching_up());
         assert_eq!(c.irradiance(), fresh.irradiance());
     }

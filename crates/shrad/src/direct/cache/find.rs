@@ -7,7 +7,9 @@ use shrad_scene::Aabb;
 
 use super::{DirectCache, Retraces, BLOCK, GROUP};
 use crate::direct::blocks::capsule_meets_sphere;
-use crate::direct::mover_spheres::{padded_with_spheres, segment_meets_sphere, Bounds, Sphere};
+use crate::direct::mover_spheres::{
+    padded_with_spheres, segment_meets_sphere, Bounds, Moves, Sphere,
+};
 use crate::direct::{sample_shift, shadow_segment, Cone, Emitter};
 use crate::World;
 
@@ -48,25 +50,25 @@ impl Swept<'_> {
 impl DirectCache {
     /// The moves whose shadow rays this update finds (`RecentMoves::since_last_turn`):
     /// the objects, and the boxes they left and went to, padded, each with a sphere about
-    /// the mover there (`mover_spheres.rs`; a box's own sphere where the moves are unions of
-    /// several, found in turn). Remembers where `movers` are.
+    /// the mover there (`moves`' spheres where this update's moves are `moves` alone; a
+    /// box's own where they are unions of several, found in turn).
     pub(super) fn swept_since_last_turn(
         &mut self,
         world: &World,
         movers: &[u32],
-        (old, new): (&[Aabb], &[Aabb]),
+        moves: Moves,
         turns: usize,
     ) -> (Vec<u32>, [Bounds; 2]) {
-        let (all_movers, left, now) = self.recent_moves.since_last_turn(movers, (old, new), turns);
-        let (was, is) = self.spheres.moved(world, movers, old);
+        let (all_movers, left, now) =
+            (self.recent_moves).since_last_turn(movers, (moves.old, moves.new), turns);
         let (was, is) = match all_movers.len() == movers.len() && turns == 1 {
-            true => (was, is),
-            false => (vec![None; left.len()], vec![None; now.len()]),
+            true => (moves.was, moves.is),
+            false => (&[][..], &[][..]),
         };
         let eps = world.eps;
         let swept = [
-            padded_with_spheres(&left, &was, eps),
-            padded_with_spheres(&now, &is, eps),
+            padded_with_spheres(&left, was, eps),
+            padded_with_spheres(&now, is, eps),
         ];
         (all_movers, swept)
     }
