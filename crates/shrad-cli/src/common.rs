@@ -30,11 +30,11 @@ pub struct SceneArgs {
     #[arg(long, value_name = "NAME|INDEX")]
     pub animation: Option<String>,
     /// A uniform sky of this linear radiance (W / (m^2 sr)), e.g. 0.5,0.6,0.8 (replaces the
-    /// scene file's [environment]).
+    /// scene file's `[environment]`).
     #[arg(long, value_name = "R,G,B", conflicts_with = "env")]
     pub sky: Option<String>,
     /// A sky from an equirectangular map: linear OpenEXR (.exr) or Radiance (.hdr), top row
-    /// +Y (replaces the scene file's [environment]).
+    /// +Y (replaces the scene file's `[environment]`).
     #[arg(long, value_name = "FILE")]
     pub env: Option<std::path::PathBuf>,
     /// Turn the sky's map about +Y by this many degrees [default: the scene file's, else 0].

@@ -1,10 +1,10 @@
 //! `shrad._shrad`, the native half of the Python package `shrad` (PyO3): scenes
-//! ([`scene`]), the live engine ([`engine`]), pictures ([`images`]). The Python half
+//! (`scene`), the live engine (`engine`), pictures (`images`). The Python half
 //! (`python/shrad/`) adds `sweep` and re-exports everything here.
 //!
 //! Errors: a bad input is a `ValueError`, a file that cannot be read or written an
 //! `OSError`, each with the message the CLI prints (it names the file and what is wrong).
-//! Ctrl-C stops the long calls ([`stop`]).
+//! Ctrl-C stops the long calls (`stop`).
 
 use pyo3::exceptions::{
     PyFileNotFoundError, PyKeyboardInterrupt, PyOSError, PyPermissionError, PyValueError,

@@ -33,7 +33,7 @@ const TOKEN_BYTES: usize = 24;
 /// The shortest token `--token` accepts: a short one could be guessed.
 pub const MIN_TOKEN_CHARS: usize = 16;
 
-/// A new token: [`TOKEN_BYTES`] from the operating system's randomness, in hex.
+/// A new token: `TOKEN_BYTES` from the operating system's randomness, in hex.
 pub fn generate_token() -> Result<String, String> {
     let mut bytes = [0u8; TOKEN_BYTES];
     getrandom::fill(&mut bytes)

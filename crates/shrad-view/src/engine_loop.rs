@@ -32,10 +32,10 @@ const PROBE_PERIOD: Duration = Duration::from_millis(400);
 /// and channels of the absolute change over the sum of the values).
 const CALM: f64 = 2e-4;
 /// The frames after a drag (or any change) stops that run under a budget
-/// ([`EngineLoop::step_engine`]): enough for a mover's full update at rest to be prepared.
+/// (`EngineLoop::step_engine`): enough for a mover's full update at rest to be prepared.
 const SETTLE_FRAMES: usize = 60;
 
-/// The budget of the frames after a change stops ([`EngineLoop::step_engine`]): twice what a
+/// The budget of the frames after a change stops (`EngineLoop::step_engine`): twice what a
 /// frame cost while it went on (`drag_ms`), within 8-50 ms.
 pub fn settle_budget_ms(drag_ms: f64) -> f32 {
     (2.0 * drag_ms).clamp(8.0, 50.0) as f32

@@ -5,7 +5,8 @@
 //! With every `rho < 1`, a steady state reflects at most `emitted * max rho / (1 - max rho)`
 //! (the reflected flux `R = sum rho E A <= max rho * sum E A`, and `sum E A` is at most what
 //! leaves the surfaces, `emitted + R`). A solver state beyond that bound is divergence, not
-//! light; see [`Guard`] for what the solvers do about it.
+//! light; see [`Divergence`] for what the solvers report and do about it (they damp the
+//! state back to the bound).
 //!
 //! A solver that does not compute the irradiance of some patches (the dispersive solver's
 //! lights, which it keeps at their emission) measures it with an [`IncidentMeter`]:

@@ -12,7 +12,7 @@
 //! [`warm`] runs a closure on a worker of the pool and, while it runs, keeps every other
 //! worker spinning: each looks for pool work ([`rayon::yield_now`]) and runs it, so a
 //! section's second half starts at once. A spinner never holds up what it runs on top of:
-//! after [`IDLE_TURN`] without work it hands its place back (it queues itself again and
+//! after `IDLE_TURN` without work it hands its place back (it queues itself again and
 //! returns), and it ends when the closure does. The cost is the other cores' time during the
 //! frame, which a frame on a machine of its own would spend waiting anyway.
 //!

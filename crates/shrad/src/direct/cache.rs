@@ -20,7 +20,7 @@ mod find;
 /// Direct irradiance of a set of receivers with what it was made of, so that it can be
 /// updated exactly when only occluders move (the dispersive solver's Step 1, paper 2.3.2):
 /// per (receiver, emitter) the unoccluded irradiance and which shadow rays were blocked.
-/// Where each ray ends is kept ([`SampleEnds`]): exactly up to 8M rays; above, quantised,
+/// Where each ray ends is kept (`SampleEnds`): exactly up to 8M rays; above, quantised,
 /// and a ray found is regenerated, identically (its seed depends on the receiver and the
 /// emitter only).
 ///

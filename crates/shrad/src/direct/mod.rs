@@ -21,7 +21,7 @@ mod cache;
 pub(crate) mod mover_spheres;
 mod recent_moves;
 mod sample_ends;
-pub use cache::{DirectCache, SETTLED_AT_ONCE};
+pub use cache::{DirectCache, MOVER_PATCHES_AT_ONCE, SETTLED_AT_ONCE, SHADOW_RAYS_AT_ONCE};
 pub use mover_spheres::{Moves, Sphere};
 
 /// One emitting object, in world space at the current time.

@@ -20,7 +20,7 @@ use crate::World;
 /// frame's cost does not grow with the boundary beyond it (the 77k room sweeps all its rows
 /// every frame, a 1M-patch room in 13 frames; a window of 32k rows made the 77k room's
 /// same-frames error 4.6 % instead of 4.4 %). Re-tracing rows where a mover passed is
-/// bounded apart, by [`super::WALL_RETRACE_SHARE`] and [`super::wall_rows::WALL_RETRACE_MAX`].
+/// bounded apart, by [`super::WALL_RETRACE_SHARE`] and `WALL_RETRACE_MAX` (`wall_rows`).
 pub const WALL_ROWS_PER_FRAME: usize = 1 << 16;
 
 /// Wall-exchange rows gathered in a frame where an object moved: a moving frame must cost

@@ -74,8 +74,8 @@ pub(super) const DEFAULT_MAX_STALENESS: usize = 16;
 /// See [`DEFAULT_PER_FRAME`].
 pub(super) const DEFAULT_BUDGET_MS: f32 = 20.0;
 
-/// The dispersive solver's keys (fields of [`DispersiveOptions`]; `schedule`, `per_frame`,
-/// `max_staleness` and `budget_ms` flatten its [`Schedule`]).
+/// The dispersive solver's keys (fields of [`crate::dispersive::DispersiveOptions`]; `schedule`, `per_frame`,
+/// `max_staleness` and `budget_ms` flatten its [`crate::dispersive::Schedule`]).
 pub const DISPERSIVE_KEYS: &[KeySpec] = &[
     int("bands", 1, MAX_BANDS, true, "SH bands (paper: 4 = 16 coefficients)"),
     int(
@@ -248,7 +248,7 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
     ),
 ];
 
-/// The grid baseline's keys (fields of [`GridOptions`]).
+/// The grid baseline's keys (fields of [`crate::grid::GridOptions`]).
 pub const GRID_KEYS: &[KeySpec] = &[
     int(
         "per_axis",
@@ -267,7 +267,7 @@ pub const GRID_KEYS: &[KeySpec] = &[
     int("bands", 1, MAX_BANDS, true, "SH bands (paper: 4)"),
 ];
 
-/// The reference solver's keys (fields of [`ReferenceOptions`]). It keeps nothing between
+/// The reference solver's keys (fields of [`crate::reference::ReferenceOptions`]). It keeps nothing between
 /// frames, so none needs a rebuild.
 pub const REFERENCE_KEYS: &[KeySpec] = &[
     int(
