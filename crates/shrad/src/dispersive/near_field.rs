@@ -279,9 +279,11 @@ impl Dispersive {
 
     /// Object `k`'s near field measured again at its stale patches alone
     /// (`ObjectProbes::near_stale`), a run of consecutive patches at a time: the rest was
-    /// measured where everything within its reach still is.
-    pub(super) fn near_field_again(&mut self, world: &World, k: usize) {
-        let stale = std::mem::take(&mut self.objects[k].near_stale);
+    /// measured where everything within its reach still is. With `at_most`, that many of
+    /// them, in turn from where the last such slice ended (`near_cursor`); the others stay
+    /// stale.
+    pub(super) fn near_field_again(&mut self, world: &World, k: usize, at_most: Option<usize>) {
+        let stale = self.objects[k].take_stale_slice(at_most);
         let ob = &self.objects[k];
         let o = ob.object;
         let m = world.patches.world_from_local[o];
@@ -328,7 +330,7 @@ impl Dispersive {
         (ob.near_stale).extend((start..start + slice).map(|i| (i % n) as u32));
         ob.near_stale.sort_unstable();
         ob.near_stale.dedup();
-        self.near_field_again(world, k);
+        self.near_field_again(world, k, None);
     }
 
     /// The interior objects whose boxes come within object `k`'s near reach of its box, where

@@ -67,7 +67,8 @@ pub(super) struct ObjectProbes {
     /// measured again.
     pub(super) near_stale: Vec<u32>,
     /// Where the next slice of a moving object's near field is measured again
-    /// (`Dispersive::near_field_follows`): an offset in its range.
+    /// (`Dispersive::near_field_follows`), or of its stale patches while a neighbour moves
+    /// (`ObjectProbes::take_stale_slice`): an offset in its range.
     pub(super) near_cursor: usize,
     /// Which probes each patch sees (`probe_visibility.rs`; empty when off or unmeasured).
     pub(super) probe_vis: ProbeVisibility,
@@ -152,6 +153,26 @@ impl ObjectProbes {
             coarse_now: false,
             checked_frame: None,
         }
+    }
+
+    /// The stale patches of the near field to measure again now, taken out of
+    /// `near_stale`: all of them, or `at_most`, in turn from the first at or past
+    /// `near_cursor` (wrapping round), which moves past them; the others stay stale.
+    pub(super) fn take_stale_slice(&mut self, at_most: Option<usize>) -> Vec<u32> {
+        let stale = std::mem::take(&mut self.near_stale);
+        let Some(n) = at_most.filter(|&n| n < stale.len()) else {
+            return stale;
+        };
+        // From the first stale patch at or past the cursor, wrapping round.
+        let first = stale.partition_point(|&i| (i as usize) < self.near_cursor);
+        let mut slice: Vec<u32> = (0..n).map(|j| stale[(first + j) % stale.len()]).collect();
+        self.near_cursor = *slice.last().unwrap_or(&0) as usize + 1;
+        self.near_stale = (0..stale.len() - n)
+            .map(|j| stale[(first + n + j) % stale.len()])
+            .collect();
+        self.near_stale.sort_unstable();
+        slice.sort_unstable();
+        slice
     }
 
     /// The contact openness and the near field are no longer current, and what was measured

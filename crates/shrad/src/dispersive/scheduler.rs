@@ -105,6 +105,11 @@ impl Scheduler {
         self.something_moves = moves;
     }
 
+    /// Whether something moves this frame ([`Scheduler::note_something_moves`]).
+    pub(super) fn something_moves(&self) -> bool {
+        self.something_moves
+    }
+
     /// What object `k`'s last update cost (ms).
     pub(super) fn last_cost(&self, k: usize) -> f64 {
         self.objects[k].cost_ms

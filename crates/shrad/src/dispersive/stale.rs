@@ -214,8 +214,8 @@ impl StaleTest<'_> {
     /// Contact openness looks a short reach (`contact_openness`) beyond the object's own
     /// surface: only a mover whose box comes within that reach can change it.
     /// A measured near field is forgotten only at the patches a box comes within reach of
-    /// (each patch's near field is its own rays within that reach), unless that is most of
-    /// them.
+    /// (each patch's near field is its own rays within that reach); they are measured again
+    /// at the object's next updates (`Dispersive::measure_openness`).
     /// A patch that sees the void looks beyond the reach too: it is forgotten where a box
     /// meets one of those rays ([`super::near_field::NearField::far_stale`]).
     fn forget_openness(&self, world: &World, ob: &mut ObjectProbes) {
@@ -244,9 +244,7 @@ impl StaleTest<'_> {
         ob.near_stale.extend(stale.chain(far));
         ob.near_stale.sort_unstable();
         ob.near_stale.dedup();
-        if ob.near_stale.len() * 2 > range.len() {
-            ob.forget_openness();
-        } else if !ob.near_stale.is_empty() {
+        if !ob.near_stale.is_empty() {
             ob.openness_current = false;
         }
     }

@@ -491,3 +491,62 @@ fn a_splat_lights_the_floor_under_a_tables_top_but_not_under_its_legs() {
         "{leg_lit} of {legs} lit under a leg"
     );
 }
+
+/// The Cornell box's short block dragged back and forth beside the tall one: most of the
+/// tall block's near field goes stale at each of its updates, and while the drag goes on
+/// each update measures a slice of it again (`NEAR_RAYS_WHILE_NEIGHBOURS_MOVE`), the rest
+/// waiting for the next ones; once nothing moves it is all measured again, and equals a
+/// near field measured fresh where everything stands. Fails if an update measures them all
+/// while something moves (nothing is ever left waiting), or if some are never caught up.
+#[test]
+fn a_neighbours_drag_measures_the_near_field_in_slices_and_whole_once_still() {
+    let mut world = cornell(3000);
+    let (short, rest, _) = short_block(&world);
+    let tall = object_named(&world, "tall_block");
+    // Rays enough that a slice (32k rays) is a few dozen of the tall block's patches.
+    let options = DispersiveOptions {
+        near_rays: 1024,
+        ..DispersiveOptions::improved()
+    };
+    let mut d = Dispersive::new(&world, options).unwrap();
+    d.converge(&world, 4);
+    let k = d.objects.iter().position(|ob| ob.object == tall).unwrap();
+    let patches = world.patches.range(tall).len();
+    let slice = super::prepare::NEAR_RAYS_WHILE_NEIGHBOURS_MOVE / 1024;
+    assert!(slice * 4 < patches, "{patches} patches, a slice of {slice}");
+    let width = world.scene.bounds().unwrap().size().x;
+    let mut waiting_after_an_update = 0;
+    for f in 1..=24 {
+        let x = 0.15 * width * (f as f32 * 0.5).sin();
+        let m = Affine3A::from_translation(Vec3::X * x) * rest;
+        assert!(world.move_object(short, m).unwrap());
+        let moved = Changes {
+            moved: vec![short],
+            ..Default::default()
+        };
+        let stats = d.step(&world, &moved);
+        if stats.objects_updated.contains(&tall) && !d.objects[k].near_stale.is_empty() {
+            waiting_after_an_update += 1;
+        }
+    }
+    assert!(
+        waiting_after_an_update > 0,
+        "every update of the tall block measured all its stale patches while the drag went on"
+    );
+    d.converge(&world, 4);
+    let ob = &d.objects[k];
+    assert!(ob.near_stale.is_empty() && ob.openness_current);
+    let mut fresh = Default::default();
+    assert!(d.near_field_within(&world, k, &mut fresh, None));
+    let (kept, measured) = (&ob.near.lobe, &fresh.0.lobe);
+    assert_eq!(kept.len(), measured.len());
+    let off = (kept.iter().zip(measured))
+        .filter(|(a, b)| (*a - *b).abs() > 1e-6 * (1.0 + b.abs()))
+        .count();
+    assert_eq!(
+        off,
+        0,
+        "{off} of {} near-field coefficients off a fresh measure",
+        kept.len()
+    );
+}
