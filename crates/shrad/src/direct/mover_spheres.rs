@@ -54,19 +54,29 @@ impl<'a> Moves<'a> {
 /// surfaces', the punctual lights', the sky's).
 pub(crate) fn padded_with_spheres(boxes: &[Aabb], spheres: &[Option<Sphere>], eps: f32) -> Bounds {
     (boxes.iter().enumerate())
-        .map(|(k, b)| (b, spheres.get(k).copied().flatten()))
+        .map(|(k, &b)| (b, spheres.get(k).copied().flatten()))
         .filter(|(b, _)| !b.is_empty())
-        .map(|(b, s)| {
-            let pad = 4.0 * eps + 1e-5 * b.diagonal();
-            let padded = b.padded(Vec3::splat(pad));
-            let own = padded.bounding_sphere();
-            let sphere = match s {
-                Some((c, r)) if r + pad < own.1 => (c, r + pad),
-                _ => own,
-            };
-            (padded, sphere)
+        .map(|swept| {
+            let (b, s) = padded(swept, 4.0 * eps + 1e-5 * swept.0.diagonal());
+            (b, tighter_sphere(b, s))
         })
         .unzip()
+}
+
+/// A swept box and its sphere, each grown by `pad` (a hit on a mover's surface lies on them
+/// up to rounding).
+pub(crate) fn padded((b, s): SweptBox, pad: f32) -> SweptBox {
+    (b.padded(Vec3::splat(pad)), s.map(|(c, r)| (c, r + pad)))
+}
+
+/// The tighter of `aabb`'s own bounding sphere and `sphere` (about the mover in it, where
+/// known): a ray the mover changed meets both the box and it.
+pub(crate) fn tighter_sphere(aabb: Aabb, sphere: Option<Sphere>) -> Sphere {
+    let own = aabb.bounding_sphere();
+    match sphere {
+        Some(s) if s.1 < own.1 => s,
+        _ => own,
+    }
 }
 
 /// Whether the segment `from`-`to` meets the sphere.

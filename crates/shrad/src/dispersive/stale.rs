@@ -23,7 +23,7 @@ use super::caches::{
 use super::object_state::ObjectProbes;
 use super::swept_boxes::SweptBoxes;
 use super::{Changes, Dispersive, DispersiveOptions};
-use crate::direct::mover_spheres::SweptBox;
+use crate::direct::mover_spheres::{padded, SweptBox};
 use crate::World;
 
 /// Frames with movers kept apart in the log at most.
@@ -122,11 +122,9 @@ impl Dispersive {
         let diag = if all.is_empty() { 1.0 } else { all.diagonal() };
         // A hit on a mover's surface lies on its box up to rounding.
         let pad = 4.0 * world.eps + 1e-5 * diag;
-        let padded =
-            |&(b, s): &SweptBox| (b.padded(Vec3::splat(pad)), s.map(|(c, r)| (c, r + pad)));
         self.swept_log.push(Swept {
             frame: self.frame,
-            boxes: swept.iter().map(padded).collect(),
+            boxes: swept.iter().map(|&b| padded(b, pad)).collect(),
             moved: changes.moved.clone(),
             boundary_moved: changes
                 .moved

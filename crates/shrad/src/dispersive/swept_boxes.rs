@@ -16,7 +16,7 @@ use std::ops::Range;
 use glam::Vec3;
 use shrad_scene::Aabb;
 
-use crate::direct::mover_spheres::{ray_meets_sphere, Sphere, SweptBox};
+use crate::direct::mover_spheres::{ray_meets_sphere, tighter_sphere, Sphere, SweptBox};
 
 /// Boxes per group; with no more boxes than this there is one level.
 const GROUP: usize = 8;
@@ -36,11 +36,7 @@ struct Bound {
 impl Bound {
     /// `aabb` with the tighter of its bounding sphere and `sphere` (about its mover).
     fn new(aabb: Aabb, sphere: Option<Sphere>) -> Self {
-        let own = aabb.bounding_sphere();
-        let (centre, r) = match sphere {
-            Some(s) if s.1 < own.1 => s,
-            _ => own,
-        };
+        let (centre, r) = tighter_sphere(aabb, sphere);
         Bound {
             aabb,
             centre,
