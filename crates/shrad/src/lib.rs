@@ -38,6 +38,7 @@ mod segments;
 pub mod settings;
 mod shadow_rays;
 pub mod sky;
+pub mod solid_core;
 pub mod solver;
 pub mod sparse;
 pub mod surface;

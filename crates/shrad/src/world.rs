@@ -5,10 +5,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use glam::{Affine3A, Vec3};
+use rayon::prelude::*;
 use shrad_scene::Scene;
 use shrad_vis::{Backend, Hit, MeshRef, Visibility};
 
 use crate::patches::{PatchSizing, Patches, NO_PATCH};
+use crate::solid_core::SolidCores;
 use crate::Error;
 
 /// A scene ready for solving.
@@ -40,11 +42,13 @@ pub struct World {
     rays_cast: Arc<AtomicU64>,
 }
 
-/// A visibility backend that counts the rays it is asked to cast: one atomic add per batch,
-/// so the count costs nothing next to the rays.
+/// A visibility backend that counts the rays it casts (one atomic add per batch, so the
+/// count costs nothing next to the rays), and casts no shadow ray among some objects that
+/// passes through one's solid core ([`SolidCores`]): those are blocked for sure.
 struct Counted {
     inner: Box<dyn Visibility>,
     rays: Arc<AtomicU64>,
+    cores: SolidCores,
 }
 
 impl Counted {
@@ -61,6 +65,7 @@ impl Visibility for Counted {
         self.inner.object_count()
     }
     fn set_transform(&mut self, object: usize, world_from_object: Affine3A) {
+        self.cores.place(object, world_from_object);
         self.inner.set_transform(object, world_from_object)
     }
     fn commit(&mut self) {
@@ -113,8 +118,22 @@ impl Visibility for Counted {
         among: &[u32],
         out: &mut [bool],
     ) {
-        self.add(out.len());
-        self.inner.occluded_among(from, to, eps, among, out)
+        if !self.cores.any(among) {
+            self.add(out.len());
+            return self.inner.occluded_among(from, to, eps, among, out);
+        }
+        // Those through a core are blocked; the backend traces the rest.
+        (out.par_iter_mut().enumerate().with_min_len(512))
+            .for_each(|(r, b)| *b = self.cores.blocks(among, from[r], to[r], eps));
+        let rest: Vec<usize> = (0..out.len()).filter(|&r| !out[r]).collect();
+        let rest_from: Vec<Vec3> = rest.iter().map(|&r| from[r]).collect();
+        let rest_to: Vec<Vec3> = rest.iter().map(|&r| to[r]).collect();
+        let mut blocked = vec![false; rest.len()];
+        self.add(rest.len());
+        (self.inner).occluded_among(&rest_from, &rest_to, eps, among, &mut blocked);
+        for (&r, b) in rest.iter().zip(blocked) {
+            out[r] = b;
+        }
     }
 }
 
@@ -142,12 +161,26 @@ impl World {
             .collect();
         let inner = shrad_vis::build(backend, &meshes, &patches.world_from_local)
             .map_err(|e| Error::Invalid(e.to_string()))?;
+        // Interior objects move (the dispersive solver's objects); their cores spare the
+        // rays a move sends through them again. Whether one closes a solid is read from its
+        // own mesh (its patches split its edges), the core from what the backend traces.
+        let mesh_parts: Vec<_> = (meshes.iter())
+            .map(|m| (m.positions, m.triangles))
+            .collect();
+        let role = &patches.object_role;
+        let cores = SolidCores::new(&mesh_parts, &patches.world_from_local, |o| {
+            let mesh = &scene.objects[o].mesh;
+            role[o] == shrad_scene::Role::Interior
+                && crate::solid_core::closed(&mesh.positions, &mesh.triangles)
+        });
+        drop(mesh_parts);
         drop(meshes);
         drop(patch_meshes);
         let rays_cast = Arc::new(AtomicU64::new(0));
         let vis = Box::new(Counted {
             inner,
             rays: rays_cast.clone(),
+            cores,
         });
         let (reflectance, emission_texture) = crate::surface::patch_fields(&scene, &patches);
         let diagonal = scene.bounds().map_or(1.0, |b| b.diagonal());
