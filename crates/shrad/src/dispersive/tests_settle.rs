@@ -113,3 +113,69 @@ fn a_row_rebuilt_while_the_walls_doze_is_gathered_beside_their_window() {
         "the re-traced row holds {held} where it gives {fresh}"
     );
 }
+
+/// A ball rolled along the floor: its lower probes, sunk into the floor at the corners, are
+/// moved up when it starts to move and stay where they were found valid while it moves (each
+/// captured once an update, not once at the corner and again moved); once it rests, its full
+/// update puts them where a fresh solver of that place does.
+#[test]
+fn a_movers_repaired_probes_stay_repaired_while_it_moves_and_return_at_rest() {
+    let scene = shrad_scene::room(&shrad_scene::RoomParams {
+        objects: 3,
+        patches: 6000,
+        big_object_patches: None,
+    });
+    let mut world = World::new(scene, PatchSizing::Count(6000), Backend::Auto).unwrap();
+    let ball = (world.scene.objects.iter())
+        .position(|o| o.name == "sphere_2")
+        .unwrap();
+    let mut d = Dispersive::new(&world, DispersiveOptions::default()).unwrap();
+    d.converge(&world, 2);
+    let k = (d.objects.iter()).position(|ob| ob.object == ball).unwrap();
+    let rest = world.patches.world_from_local[ball]
+        * Affine3A::from_mat3(world.patches.local_from_object[ball]);
+    let size = world.scene.bounds().unwrap().size().x;
+    // (captured, invalid) at each of the ball's updates while it rolls.
+    let mut updates = Vec::new();
+    for f in 1..=24 {
+        let m = Affine3A::from_translation(Vec3::X * 0.004 * size * f as f32) * rest;
+        world.move_object(ball, m).unwrap();
+        let changes = Changes {
+            moved: vec![ball],
+            ..Default::default()
+        };
+        let stats = d.step(&world, &changes);
+        let steps = stats.dispersive().unwrap();
+        if stats.objects_updated.contains(&ball) {
+            updates.push((steps.probes_captured, steps.probes_invalid));
+        }
+    }
+    assert!(updates.len() >= 3, "{updates:?}");
+    assert!(
+        updates[0].1 > 0,
+        "its first update finds probes in the floor: {updates:?}"
+    );
+    for &(captured, invalid) in &updates[1..] {
+        assert_eq!((captured, invalid), (8, 0), "{updates:?}");
+    }
+    assert!(d.objects[k]
+        .probe_scale
+        .iter()
+        .any(|s| s.min_element() < 1.0));
+    // Lifted off the floor and left there: the probes go back to the corners (valid there
+    // now), as a fresh solver of that place has them.
+    let lifted = Affine3A::from_translation(Vec3::Y * 0.05 * size)
+        * world.patches.world_from_local[ball]
+        * Affine3A::from_mat3(world.patches.local_from_object[ball]);
+    world.move_object(ball, lifted).unwrap();
+    let changes = Changes {
+        moved: vec![ball],
+        ..Default::default()
+    };
+    d.step(&world, &changes);
+    d.step(&world, &Changes::default());
+    d.converge(&world, 2);
+    let mut fresh = Dispersive::new(&world, DispersiveOptions::default()).unwrap();
+    fresh.converge(&world, 2);
+    assert_eq!(d.objects[k].probe_scale, fresh.objects[k].probe_scale);
+}
