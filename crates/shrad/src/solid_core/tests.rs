@@ -163,3 +163,29 @@ fn a_segment_that_ends_inside_an_objects_box_is_traced() {
     assert_eq!(world.rays_cast() - before, 1);
     assert!(out[0]);
 }
+
+#[test]
+fn a_collapsed_or_broken_transform_leaves_no_core() {
+    let mesh = box_mesh(Vec3::ONE, false);
+    let meshes = [(&mesh.positions[..], &mesh.triangles[..])];
+    let mut cores = SolidCores::new(&meshes, &[Affine3A::IDENTITY], |_| true);
+    let (from, to) = (Vec3::new(-5.0, 0.1, 0.2), Vec3::new(5.0, -0.1, 0.0));
+    assert!(
+        cores.blocks(&[0], from, to, 1e-4),
+        "through the unit box's core"
+    );
+    assert!(
+        !cores.blocks(&[0], from, to + Vec3::Y * 20.0, 1e-4),
+        "past it"
+    );
+    for broken in [
+        Affine3A::from_scale(Vec3::new(1.0, 0.0, 1.0)),
+        Affine3A::from_translation(Vec3::splat(f32::NAN)),
+    ] {
+        cores.place(0, broken);
+        assert!(!cores.blocks(&[0], from, to, 1e-4), "{broken:?}");
+    }
+    // An object not picked, or out of range, has none.
+    let none = SolidCores::new(&meshes, &[Affine3A::IDENTITY], |_| false);
+    assert!(!none.blocks(&[0, 7], from, to, 1e-4));
+}
