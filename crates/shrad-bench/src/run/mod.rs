@@ -50,10 +50,14 @@ pub struct BenchOptions {
     pub error_bound: f64,
     /// Grid: frames timed with one object moving every frame.
     pub grid_moving: usize,
-    /// Dispersive: passes timed with one object moving every frame.
+    /// Dispersive: passes timed with one object moving every frame. Six (52 frames in the
+    /// 8-object rooms): about 3 frames in 10 update the mover (twice the cost of the others),
+    /// so the median of two passes' 20 frames fell on either kind and moved by a fifth from
+    /// run to run (the 77k room: 2.3-3.1 ms, one build, one hour; 2.4-2.5 with six).
     pub dispersive_moving_passes: usize,
     /// The objects scenes ([`Table::Objects`]): frames timed with the smallest box moving
-    /// (a fixed count, not passes: a pass of 128 objects would be 128 moving frames).
+    /// (a fixed count, not passes: a pass of 128 objects would be 128 moving frames; as many
+    /// in `--quick` as in the full run, for the same reason as above).
     pub objects_moving_frames: usize,
     /// Rays of each kind cast once per scene to measure the backend's rate (the ray floor,
     /// [`crate::rays`]); 0: not measured.
@@ -81,8 +85,8 @@ impl BenchOptions {
             max_frames: 4000,
             error_bound: 1.0,
             grid_moving: 3,
-            dispersive_moving_passes: 2,
-            objects_moving_frames: if quick { 12 } else { 36 },
+            dispersive_moving_passes: 6,
+            objects_moving_frames: 36,
             ray_rate_rays: RAY_RATE_RAYS,
         }
     }
