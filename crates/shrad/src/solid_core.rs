@@ -183,16 +183,21 @@ impl SolidCores {
 /// ray from it crosses it an odd number of times.
 pub fn closed(positions: &[Vec3], triangles: &[[u32; 3]]) -> bool {
     let mut welded: HashMap<[u32; 3], u32> = HashMap::new();
+    // (`+ 0.0` makes -0 and 0 one position.)
     let ids: Vec<u32> = (positions.iter())
         .map(|p| {
             let n = welded.len() as u32;
-            *welded.entry(p.to_array().map(f32::to_bits)).or_insert(n)
+            let key = (*p + Vec3::ZERO).to_array().map(f32::to_bits);
+            *welded.entry(key).or_insert(n)
         })
         .collect();
     let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
     for t in triangles {
         for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
-            let (a, b) = (ids[a as usize], ids[b as usize]);
+            // A corner out of range: not a mesh that closes anything.
+            let (Some(&a), Some(&b)) = (ids.get(a as usize), ids.get(b as usize)) else {
+                return false;
+            };
             if a != b {
                 *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
             }

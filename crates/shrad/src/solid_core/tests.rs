@@ -42,6 +42,9 @@ fn an_open_or_hollow_mesh_has_none() {
     (shell.triangles).extend(inner.triangles.iter().map(|t| t.map(|i| i + n)));
     assert_eq!(core_of(&shell), None, "a hollow shell");
     assert_eq!(core_of(&Mesh::default()), None, "no triangles");
+    let mut broken = box_mesh(Vec3::ONE, false);
+    broken.triangles[0][1] = 99;
+    assert_eq!(core_of(&broken), None, "a corner out of range");
 }
 
 /// Random points in the box `lo..hi`, from a fixed seed.
