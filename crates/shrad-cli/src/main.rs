@@ -1,6 +1,10 @@
 //! The `shrad` command line: parses options, loads the scene and calls the library. It
 //! holds no algorithm; each command is a file of `commands/`.
 
+// First: `say!` is seen by the modules after it.
+#[macro_use]
+mod say;
+
 mod commands;
 mod common;
 mod progress;
@@ -82,6 +86,7 @@ fn run(command: Command) -> Result<()> {
 
 fn main() -> ExitCode {
     match run(Cli::parse().command) {
+        Ok(()) if say::failed() => ExitCode::FAILURE,
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");

@@ -277,6 +277,41 @@ fn info_prints_roles() {
     }
 }
 
+/// A reader that closes the pipe at once (`shrad info cornell | head -1`) ends the report,
+/// not the command: no panic, exit 0. A standard output that cannot be written (a full
+/// disk) is said and the command exits 1.
+#[test]
+fn a_closed_or_full_standard_output_is_no_panic() {
+    use std::process::{Command, Stdio};
+    let scene = repo().join("scenes/cornell.obj");
+    for args in [vec!["info", scene.to_str().unwrap()], vec!["options"]] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_shrad"))
+            .args(&args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take());
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            o.status.success() && !err.contains("panicked"),
+            "{args:?}: {err}"
+        );
+    }
+    let full = std::fs::OpenOptions::new().write(true).open("/dev/full");
+    if let Ok(full) = full {
+        let o = Command::new(env!("CARGO_BIN_EXE_shrad"))
+            .args(["info", scene.to_str().unwrap()])
+            .stdout(full)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(err.contains("cannot print to standard output") && !err.contains("panicked"));
+    }
+}
+
 #[test]
 fn animate_writes_frames_gif_and_stats() {
     let dir = temp_dir("anim");

@@ -17,6 +17,7 @@
 //! shrad_view::serve(options).unwrap();
 //! ```
 
+use std::io::Write;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
@@ -267,13 +268,18 @@ impl Drop for Server {
 pub fn serve(options: ServeOptions) -> Result<()> {
     let unspecified = options.host.is_unspecified();
     let server = Server::start(options)?;
-    println!("shrad view: {}  (Ctrl-C to stop)", server.url());
+    // Written, not `println!`: a reader that keeps only the address (`shrad view | head -1`)
+    // closes the pipe, and the server must go on.
+    let mut said = format!("shrad view: {}  (Ctrl-C to stop)\n", server.url());
     if unspecified {
-        println!(
-            "  (listening on every interface: put this machine's name or address in place of {})",
+        said += &format!(
+            "  (listening on every interface: put this machine's name or address in place of {})\n",
             server.addr().ip()
         );
     }
+    let mut out = std::io::stdout().lock();
+    let _ = out.write_all(said.as_bytes()).and_then(|()| out.flush());
+    drop(out);
     let ctrl_c = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?

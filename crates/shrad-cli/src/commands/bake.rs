@@ -146,7 +146,7 @@ fn write_probes(engine: &Engine, output: &Path, quiet: bool) -> Result<()> {
         std::fs::write(tmp, &text).map_err(|e| e.to_string())
     })?;
     if !quiet {
-        println!("wrote {}: {} probes, 3 bands", path.display(), probes.len());
+        say!("wrote {}: {} probes, 3 bands", path.display(), probes.len());
     }
     Ok(())
 }
@@ -227,7 +227,7 @@ pub fn run(args: BakeArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     }
     if !quiet {
         for b in &baked {
-            println!(
+            say!(
                 "wrote {}: time {} s, {} meshes, {} vertices, {} triangles, exposure {:.6e}",
                 b.path.display(),
                 b.time,
@@ -237,7 +237,7 @@ pub fn run(args: BakeArgs, scene: Scene, file: &FileSettings) -> Result<()> {
                 b.exposure
             );
             if let Some(f) = &b.lightmap_file {
-                println!("  and its lightmap {f}");
+                say!("  and its lightmap {f}");
             }
         }
         eprintln!("solved and baked in {:.2} s", t.elapsed().as_secs_f64());

@@ -17,18 +17,18 @@ pub struct InfoArgs {
 
 fn print_animations(scene: &Scene) {
     if scene.duration() > 0.0 {
-        println!("animation: {:.2} s", scene.duration());
+        say!("animation: {:.2} s", scene.duration());
     }
     if scene.animations.is_empty() {
         return;
     }
     let playing = scene.animations.iter().filter(|a| a.playing).count();
-    println!(
+    say!(
         "glTF animations: {} ({playing} playing; --animation NAME|INDEX plays one)",
         scene.animations.len()
     );
     for a in &scene.animations {
-        println!(
+        say!(
             "  {:<3} {:<24} {:>3} channel(s){} {:.3} .. {:.3} s{}",
             a.index,
             a.name,
@@ -52,9 +52,14 @@ fn print_lights(scene: &Scene) {
     if scene.lights.is_empty() {
         return;
     }
-    println!(
+    say!(
         "{:<4} {:<24} {:<11} {:>14} {:>14}  {:<30} animated",
-        "#", "light", "kind", "intensity", "radiometric", "position / direction"
+        "#",
+        "light",
+        "kind",
+        "intensity",
+        "radiometric",
+        "position / direction"
     );
     for (l, light) in scene.lights.iter().enumerate() {
         use shrad::scene::{Light, LightKind};
@@ -85,7 +90,7 @@ fn print_lights(scene: &Scene) {
             _ => String::new(),
         };
         let w = light.radiometric();
-        println!(
+        say!(
             "{:<4} {:<24} {:<11} {:>14} {:>14}  {:<30} {}{cone}",
             l,
             light.name,
@@ -101,19 +106,24 @@ fn print_lights(scene: &Scene) {
 /// Print the scene.
 pub fn run(args: InfoArgs, scene: Scene) -> Result<()> {
     let sizing = sizing(&args.scene, &scene)?;
-    println!("scene: {}", scene.source);
+    say!("scene: {}", scene.source);
     if let Some(shrad::scene::Aabb { min: lo, max: hi }) = scene.bounds() {
-        println!(
+        say!(
             "bounds: [{:.3}, {:.3}, {:.3}] .. [{:.3}, {:.3}, {:.3}]",
-            lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+            lo.x,
+            lo.y,
+            lo.z,
+            hi.x,
+            hi.y,
+            hi.z
         );
     }
     match &scene.camera {
-        Some(c) => println!(
+        Some(c) => say!(
             "camera: from the scene, yfov {:.2} deg",
             c.yfov.to_degrees()
         ),
-        None => println!("camera: none in the scene (a default frames the scene)"),
+        None => say!("camera: none in the scene (a default frames the scene)"),
     }
     print_animations(&scene);
     print_lights(&scene);
@@ -121,19 +131,25 @@ pub fn run(args: InfoArgs, scene: Scene) -> Result<()> {
     let plan = shrad::Patches::plan(&scene, sizing);
     shrad::limits::check_patches(&scene.source, plan)?;
     let patches = shrad::Patches::build(&scene, PatchSizing::Size(plan.patch_size));
-    println!(
+    say!(
         "patch size: {:.4}, patches: {}",
         patches.patch_size,
         patches.len()
     );
-    println!(
+    say!(
         "{:<4} {:<24} {:<9} {:>9} {:>9} {:<22} {:<22} animated",
-        "#", "object", "role", "triangles", "patches", "reflectance", "emission L_e"
+        "#",
+        "object",
+        "role",
+        "triangles",
+        "patches",
+        "reflectance",
+        "emission L_e"
     );
     for (o, object) in scene.objects.iter().enumerate() {
         let r = object.material.reflectance;
         let e = object.material.emitted_radiance;
-        println!(
+        say!(
             "{:<4} {:<24} {:<9} {:>9} {:>9} {:<22} {:<22} {}",
             o,
             object.name,

@@ -261,7 +261,7 @@ pub fn run(args: RenderArgs, scene: Scene, file: &FileSettings) -> Result<()> {
             true => "",
             false => " (-: no patch of that part, or a black reference there)",
         };
-        println!(
+        say!(
             "error vs reference (spec 8): overall {}, boundary {}, interior {}{why}",
             percent(e.overall),
             percent(e.boundary),
