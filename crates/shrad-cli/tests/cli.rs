@@ -96,6 +96,77 @@ fn index_out_of_range_nan_and_degenerate_obj() {
     }
 }
 
+/// A small room scene file: a light of radiance `emission` and a box keyed from rest to
+/// `far` along x over one second.
+fn keyed_room(emission: &str, far: &str) -> String {
+    format!(
+        "[settings]\npatches = 1500\n\
+         [[object]]\nname = \"room\"\nrole = \"boundary\"\nshape = \"box\"\nsize = [10, 10, 10]\n\
+         inward = true\nreflectance = [0.7, 0.7, 0.7]\n\
+         [[object]]\nname = \"lamp\"\nrole = \"light\"\nshape = \"quad\"\n\
+         corners = [[-1, 4.9, -1], [1, 4.9, -1], [1, 4.9, 1], [-1, 4.9, 1]]\n\
+         reflectance = [0, 0, 0]\nemission = {emission}\n\
+         [[object]]\nname = \"cube\"\nshape = \"box\"\nsize = [1, 1, 1]\nposition = [0, -4, 0]\n\
+         [[object.key]]\ntime = 0\ntranslation = [0, 0, 0]\n\
+         [[object.key]]\ntime = 1\ntranslation = [{far}, 0, 0]\n"
+    )
+}
+
+/// Values that are finite but beyond what a solve's 32-bit sums hold: an emission of 1e38
+/// (every frame diverged, a black picture, exit 0) and an animation that throws an object to
+/// 1e30 (Embree aborted on its rays, exit 134) are errors naming the file and the object,
+/// before anything is written; a reasonable file of the same shape plays.
+#[test]
+fn radiance_and_animation_beyond_what_a_solve_holds_are_errors() {
+    let dir = temp_dir("beyond");
+    let bright = dir.join("bright.toml");
+    std::fs::write(&bright, keyed_room("[1e38, 1e38, 1e38]", "1")).unwrap();
+    fails_cleanly(
+        &bright,
+        &[],
+        "'lamp': emitted radiance up to 1.000e38 is beyond",
+    );
+    let far = dir.join("far.toml");
+    std::fs::write(&far, keyed_room("[10, 10, 10]", "1e30")).unwrap();
+    let frames = dir.join("far-frames");
+    let scene = far.to_str().unwrap();
+    let args = [
+        "animate",
+        scene,
+        "-q",
+        "--solver",
+        "dispersive",
+        "--frames",
+        "31",
+    ];
+    let o = shrad(&[&args[..], &["-o", frames.to_str().unwrap()]].concat());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("far.toml") && err.contains("'cube'") && err.contains("1e12"),
+        "{err}"
+    );
+    assert!(!frames.exists(), "nothing written");
+    let near = dir.join("near.toml");
+    std::fs::write(&near, keyed_room("[10, 10, 10]", "2")).unwrap();
+    let frames = dir.join("near-frames");
+    let args = [
+        "animate",
+        near.to_str().unwrap(),
+        "-q",
+        "--solver",
+        "dispersive",
+    ];
+    let o = shrad(
+        &[
+            &args[..],
+            &["--frames", "3", "-o", frames.to_str().unwrap()],
+        ]
+        .concat(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
 #[test]
 fn unknown_option_values_and_absurd_parameters() {
     cornell_fails_cleanly(&[

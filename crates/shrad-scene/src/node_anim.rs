@@ -235,7 +235,10 @@ impl GraphNode {
         };
         let t_ = self.translation.as_ref().map_or(t0, |c| c.sample(t));
         let r = self.rotation.as_ref().map_or(r0, |c| c.sample(t));
-        let s = self.scale.as_ref().map_or(s0, |c| c.sample(t));
+        // Keys with a zero component were raised to 1e-4 at load; between keys of opposite
+        // signs (a mirror animated) the interpolated scale passes through 0, and is raised
+        // the same way there (a surface of no area, which the solvers cannot take).
+        let s = (self.scale.as_ref()).map_or(s0, |c| raise_collapsed(c.sample(t)));
         Affine3A::from_scale_rotation_translation(s, r, t_)
     }
 
@@ -246,6 +249,12 @@ impl GraphNode {
         let c = self.scale.as_ref().map_or(0.0, Track::end);
         a.max(b).max(c)
     }
+}
+
+/// `s` with every component under 1e-4 in size raised to 1e-4, keeping its sign.
+fn raise_collapsed(s: Vec3) -> Vec3 {
+    let floor = Vec3::splat(1e-4).copysign(s);
+    Vec3::select(s.abs().cmplt(Vec3::splat(1e-4)), floor, s)
 }
 
 /// A glTF file's node hierarchy with the channels of the animations that play.

@@ -80,6 +80,17 @@ pub(crate) fn light(d: &LightDef, i: usize) -> Result<Light, String> {
         }
         _ => return Err("give one of power (W) or intensity (candela)".into()),
     };
+    // Named as written: a power of 1e38 W was refused as "intensity inf".
+    let most = crate::MAX_RADIANCE * LUMENS_PER_WATT;
+    if intensity.is_nan() || intensity > most {
+        let (key, v) = [("power", d.power), ("irradiance", d.irradiance)]
+            .into_iter()
+            .find_map(|(k, v)| v.map(|v| (k, v)))
+            .unwrap_or(("intensity", intensity));
+        return Err(format!(
+            "{key} {v:e} is beyond what a solve can hold (an intensity of at most {most:.1e} cd or lux)"
+        ));
+    }
     let position = match (d.kind, d.position) {
         (Kind::Directional, Some(_)) => {
             return Err("a directional light has a direction, not a position".into())

@@ -99,6 +99,11 @@ fn bad_values_are_errors_naming_the_file() {
     assert!(load_err(&p).contains("needs 'radiance'"));
     let p = write("scale.toml", "radiance = [1, 1, 1]\nscale = -2");
     assert!(load_err(&p).contains("scale -2"));
+    // Finite, but beyond what a solve's sums hold (the picture was black, every value reset).
+    let p = write("bright.toml", "radiance = [1e38, 1, 1]");
+    assert!(load_err(&p).contains("beyond the 1e20"), "{}", load_err(&p));
+    let p = write("scaled.toml", "radiance = [1e15, 1, 1]\nscale = 1e10");
+    assert!(load_err(&p).contains("1.000e25"), "{}", load_err(&p));
     let p = write("missing.toml", "file = \"nowhere.exr\"");
     let e = load_err(&p);
     assert!(

@@ -89,6 +89,9 @@ fn bad_lights_name_the_file_the_light_and_the_line() {
         ),
         ("nodir.toml", "kind = \"directional\"\nirradiance = 1", "direction missing"),
         ("nopos.toml", "kind = \"point\"\npower = 1", "position missing"),
+        // Finite, but beyond what a solve's 32-bit sums hold (it was "intensity inf").
+        ("hugepower.toml", "kind = \"point\"\nposition = [0, 1, 0]\npower = 1e38", "power 1e38 is beyond"),
+        ("hugesun.toml", "kind = \"directional\"\ndirection = [0, -1, 0]\nirradiance = 1e30", "irradiance 1e30 is beyond"),
     ];
     for (name, body, what) in cases {
         let p = write(name, &format!("[[lights]]\n{body}\n"));

@@ -268,7 +268,7 @@ impl Engine {
             return Err(Error::Invalid(format!("time {t} is not a finite number")));
         }
         let before = self.world.lights.clone();
-        let (moved, relit) = self.world.set_time(t);
+        let (moved, relit) = self.world.set_time(t)?;
         for (l, (a, b)) in before.iter().zip(&self.world.lights).enumerate() {
             if a != b && !self.pending.lights.contains(&l) {
                 self.pending.lights.push(l);

@@ -200,7 +200,7 @@ impl World {
             time: f32::NAN,
             rays_cast,
         };
-        world.set_time(0.0);
+        world.set_time(0.0)?;
         Ok(world)
     }
 
@@ -212,7 +212,44 @@ impl World {
 
     /// Move animated objects and update emission and base colour to time `t`. Returns the
     /// objects whose transform changed, and those whose emission or reflectance changed.
-    pub fn set_time(&mut self, t: f32) -> (Vec<usize>, Vec<usize>) {
+    /// A pose or an emission at `t` that no solver can take (an animation that flattens an
+    /// object, throws it beyond the coordinates 32-bit floats can hold, or makes it emit
+    /// more than [`shrad_scene::MAX_RADIANCE`]) is an error naming the object and the time,
+    /// and nothing changes.
+    pub fn set_time(&mut self, t: f32) -> Result<(Vec<usize>, Vec<usize>), Error> {
+        self.check_time(t)?;
+        Ok(self.go_to_time(t))
+    }
+
+    /// Whether every animated object's pose and emission at `t` can be taken
+    /// ([`World::set_time`]'s error if not); a command that plays an animation checks every
+    /// frame's time before it writes anything.
+    pub fn check_time(&self, t: f32) -> Result<(), Error> {
+        for (o, object) in self.scene.objects.iter().enumerate() {
+            let animated = object.animation.is_some()
+                || object.node_animation.is_some()
+                || object.material_tracks.is_some();
+            if !animated {
+                continue;
+            }
+            let xf = self
+                .patches
+                .local_transform_for(o, object.world_from_object_at(t));
+            let problem = shrad_scene::placement_problem(xf, self.patches.shapes[o].bounds())
+                .or_else(|| shrad_scene::emission_problem(object.material_at(t).emitted_radiance));
+            if let Some(why) = problem {
+                return Err(Error::Invalid(format!(
+                    "{}: {}: its animation at time {t} s cannot be taken: {why}",
+                    self.scene.source,
+                    self.object_label(o)?
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// [`World::set_time`] once checked.
+    fn go_to_time(&mut self, t: f32) -> (Vec<usize>, Vec<usize>) {
         let first = self.time.is_nan();
         let mut moved = Vec::new();
         let mut relit = Vec::new();
@@ -362,6 +399,9 @@ impl World {
             )));
         }
         let xf = self.patches.local_transform_for(o, m);
+        if let Some(why) = shrad_scene::placement_problem(xf, self.patches.shapes[o].bounds()) {
+            return Err(Error::Invalid(format!("{name}: {why}")));
+        }
         if xf == self.patches.world_from_local[o] {
             return Ok(false);
         }

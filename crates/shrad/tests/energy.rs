@@ -169,7 +169,7 @@ fn random_rooms_never_run_away() {
                 )),
             };
             for f in 0..FRAMES {
-                let (moved, relit) = world.set_time(f as f32);
+                let (moved, relit) = world.set_time(f as f32).unwrap();
                 let changes = Changes {
                     moved,
                     relit,

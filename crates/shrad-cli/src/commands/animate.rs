@@ -65,14 +65,27 @@ pub struct AnimateArgs {
 fn frame_count(args: &AnimateArgs, scene: &Scene) -> Result<usize> {
     check_positive("--fps", args.fps)?;
     // The whole animation by default: frame f shows f / fps, the last one its end.
-    let frames = args.frames.unwrap_or_else(|| {
-        let d = scene.duration();
-        if d > 0.0 {
-            ((f64::from(d) * f64::from(args.fps) - 1e-3).ceil() as usize + 1).min(100_000)
-        } else {
-            120
+    // The whole animation by default: frame f shows f / fps, the last one its end.
+    let frames = match args.frames {
+        Some(frames) => frames,
+        None => {
+            let d = f64::from(scene.duration());
+            let whole = (d * f64::from(args.fps) - 1e-3).ceil() + 1.0;
+            if d > 0.0 && (whole.is_nan() || whole > 100_000.0) {
+                bail!(
+                    "{}: its animation lasts {d:.3e} s, {whole:.3e} frames at --fps {:.3e}: more than \
+                     100000; give --frames (or a lower --fps) to play part of it",
+                    scene.source,
+                    args.fps
+                );
+            }
+            if d > 0.0 {
+                whole as usize
+            } else {
+                120
+            }
         }
-    });
+    };
     if frames == 0 || frames > 100_000 {
         bail!("--frames must be between 1 and 100000, got {frames}");
     }
@@ -204,6 +217,10 @@ pub fn run(args: AnimateArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     let reference = args.solver.reference()?;
     let progress = progress_for(quiet);
     let world = build_world(scene, &args.scene, quiet)?;
+    // Every frame's pose, before anything is written.
+    for f in 0..frames {
+        world.check_time(f as f32 / args.fps)?;
+    }
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("{}: cannot create directory", args.output.display()))?;
     let options = RenderOptions {

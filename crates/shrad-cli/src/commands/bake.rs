@@ -169,7 +169,7 @@ pub fn run(args: BakeArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     // `render`), so the solver converges at that pose.
     let time = args.time.unwrap_or(0.0);
     if time != 0.0 {
-        let (moved, relit) = world.set_time(time);
+        let (moved, relit) = world.set_time(time)?;
         if !quiet {
             eprintln!(
                 "time {time} s: {} object(s) moved, {} light(s) changed",

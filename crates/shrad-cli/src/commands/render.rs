@@ -240,7 +240,7 @@ pub fn run(args: RenderArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     let mut world = build_world(scene, &args.scene, quiet)?;
     if args.time != 0.0 {
         // Before any solver exists: each converges at this pose.
-        let (moved, relit) = world.set_time(args.time);
+        let (moved, relit) = world.set_time(args.time)?;
         if !quiet {
             eprintln!(
                 "time {} s: {} object(s) moved, {} light(s) changed",

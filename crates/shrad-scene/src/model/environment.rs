@@ -31,6 +31,11 @@ pub struct EnvMap {
 }
 
 impl EnvMap {
+    /// The largest channel of its brightest texel.
+    pub fn brightest(&self) -> f32 {
+        (self.texels.iter()).fold(0.0, |m, t| m.max(t.max_element()))
+    }
+
     /// Read a linear OpenEXR (`.exr`) or Radiance (`.hdr`) map. Errors name the file and
     /// what is wrong: unreadable, another format, too large, a negative or non-finite texel.
     pub fn load(path: &Path) -> Result<EnvMap, SceneError> {
@@ -150,6 +155,16 @@ impl Environment {
         }
         if !(self.scale.is_finite() && self.scale >= 0.0) {
             return Some(format!("env scale {} must be finite and >= 0", self.scale));
+        }
+        let brightest = self.radiance.max_element()
+            * self.scale
+            * self.map.as_ref().map_or(1.0, |m| m.brightest());
+        if brightest.is_nan() || brightest > crate::MAX_RADIANCE {
+            return Some(format!(
+                "sky radiance up to {brightest:.3e} (radiance x scale x the map's brightest texel) \
+                 is beyond the {:.0e} W/(m^2 sr) a solve can hold",
+                crate::MAX_RADIANCE
+            ));
         }
         if !self.rotate_deg.is_finite() {
             return Some(format!("env rotate {} must be finite", self.rotate_deg));

@@ -122,6 +122,13 @@ impl Light {
         if !self.color.is_finite() || self.color.min_element() < 0.0 {
             return Some(format!("color {} must be finite and >= 0", self.color));
         }
+        let most = crate::MAX_RADIANCE * LUMENS_PER_WATT;
+        if self.intensity * self.color.max_element() > most {
+            return Some(format!(
+                "intensity {:.3e} (x colour {}) is beyond the {most:.1e} (cd or lux) a solve can hold",
+                self.intensity, self.color
+            ));
+        }
         if let Some(r) = self.range {
             if !(r.is_finite() && r > 0.0) {
                 return Some(format!("range {r} must be > 0"));

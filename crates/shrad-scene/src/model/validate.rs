@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use crate::{Object, Scene, SceneError};
+use crate::{Aabb, Object, Scene, SceneError};
 
 impl Scene {
     /// Check what every solver relies on: finite positions and transforms, indices in range,
@@ -89,10 +89,35 @@ fn geometry_problem(o: &Object) -> Option<String> {
     None
 }
 
+/// What makes `world_from_local` no place for a shape whose vertices span `local` (in its
+/// own frame), if anything: a transform that is not finite or flattens space, or one that
+/// puts the shape beyond [`MAX_COORDINATE`]. An animation's pose at some time, or a
+/// `set_transform`, is checked by it before anything moves: such a pose made the visibility
+/// backend abort (Embree's assertion on a ray that is not valid), not fail.
+pub fn placement_problem(world_from_local: glam::Affine3A, local: Option<Aabb>) -> Option<String> {
+    let m = world_from_local;
+    if !(m.matrix3.is_finite() && m.translation.is_finite()) {
+        return Some(format!("transform {m:?} is not finite"));
+    }
+    if is_singular(&glam::Mat3::from(m.matrix3)) {
+        return Some(format!(
+            "transform {m:?} is singular (it flattens the object)"
+        ));
+    }
+    let world = local.map(|b| b.transformed(m))?;
+    let reach = world.min.abs().max(world.max.abs()).max_element();
+    (reach.is_nan() || reach > MAX_COORDINATE).then(|| {
+        format!(
+            "it would reach world coordinate {reach:.1e}, beyond the {MAX_COORDINATE:.0e} that \
+             32-bit arithmetic of its areas and distances can hold"
+        )
+    })
+}
+
 /// The largest world coordinate a scene may have: its squared distances and areas (up to
 /// 1e24) stay far from the 3.4e38 where 32-bit floats overflow (a node scaled by 1e30 made
 /// every area infinite, and the first error was about an infinite patch size).
-pub(crate) const MAX_COORDINATE: f32 = 1e12;
+pub const MAX_COORDINATE: f32 = 1e12;
 
 /// The smallest world size (box diagonal) an object may have: its patches' areas (down to
 /// about 1e-24) stay far from the 1e-38 below which 32-bit floats lose them (a node scaled
@@ -204,11 +229,28 @@ fn material_problem(m: &crate::Material) -> Option<String> {
             "reflectance {r} must be in [0, 1) (energy conservation)"
         ));
     }
-    let e = m.emitted_radiance;
+    emission_problem(m.emitted_radiance)
+}
+
+/// The largest radiance (W/(m^2 sr)) a surface, the sky or a punctual light (its intensity
+/// in W/sr, its irradiance in W/m^2) may have: 13 orders of magnitude above the sun's disc,
+/// and far enough below the 3.4e38 where 32-bit floats overflow that the sums of a solve
+/// stay finite (an emission of 1e38 loaded, every frame diverged to infinity and the picture
+/// was black).
+pub const MAX_RADIANCE: f32 = 1e20;
+
+/// What is wrong with an emitted radiance, if anything: negative, not finite, or beyond
+/// [`MAX_RADIANCE`].
+pub fn emission_problem(e: glam::Vec3) -> Option<String> {
     if !e.is_finite() || e.min_element() < 0.0 {
         return Some(format!("emitted radiance {e} must be finite and >= 0"));
     }
-    None
+    (e.max_element() > MAX_RADIANCE).then(|| {
+        format!(
+            "emitted radiance up to {:.3e} is beyond the {MAX_RADIANCE:.0e} W/(m^2 sr) a solve can hold",
+            e.max_element()
+        )
+    })
 }
 
 /// Whether a linear map flattens space (to a plane, a line or a point), relative to its own
