@@ -105,6 +105,13 @@ pub(super) enum Face {
     Triangle([u32; 3]),
 }
 
+/// An edge by its two ends' quantised positions, the smaller first.
+type EdgeKey = ([i64; 3], [i64; 3]);
+
+/// The most triangles sharing a longest edge that one triangle tries to pair with
+/// ([`pair_parallelograms`]).
+const PAIR_CANDIDATES: usize = 8;
+
 /// Pair triangles that share their longest edge and together form a planar parallelogram
 /// (the usual export of a quad) over which the attributes (texture coordinates, colours)
 /// are affine and continuous; the rest stay triangles. Deterministic: triangle order.
@@ -128,12 +135,13 @@ pub(super) fn pair_parallelograms(mesh: &Mesh) -> Vec<Face> {
         ];
         (0..3).max_by(|&x, &y| l[x].total_cmp(&l[y])).unwrap_or(0)
     };
-    let mut by_edge: HashMap<([i64; 3], [i64; 3]), Vec<usize>> = HashMap::new();
+    // Per longest edge: its triangles in order, and how many at the front are used.
+    let mut by_edge: HashMap<EdgeKey, (usize, Vec<usize>)> = HashMap::new();
     for (ti, t) in mesh.triangles.iter().enumerate() {
         let e = longest_edge(t);
         let (ka, kb) = (tri_keys[ti][e], tri_keys[ti][(e + 1) % 3]);
         let k = if ka <= kb { (ka, kb) } else { (kb, ka) };
-        by_edge.entry(k).or_default().push(ti);
+        by_edge.entry(k).or_default().1.push(ti);
     }
     let mut used = vec![false; mesh.triangles.len()];
     let mut faces = Vec::with_capacity(mesh.triangles.len());
@@ -146,10 +154,22 @@ pub(super) fn pair_parallelograms(mesh: &Mesh) -> Vec<Face> {
         let (ka, kb) = (tri_keys[ti][e], tri_keys[ti][(e + 1) % 3]);
         let k = if ka <= kb { (ka, kb) } else { (kb, ka) };
         let mut paired = None;
-        for &other in by_edge.get(&k).into_iter().flatten() {
-            if used[other] {
-                continue;
+        // Past the used front of the edge's list, at most `PAIR_CANDIDATES` tries: an edge
+        // shared by thousands of triangles (the same one repeated) made this quadratic
+        // (20k copies 3.4 s, 200k never ended), and a parallelogram's partner is one of few.
+        let (mut tries, mut n) = ([0usize; PAIR_CANDIDATES], 0);
+        if let Some((front, list)) = by_edge.get_mut(&k) {
+            while list.get(*front).is_some_and(|&o| used[o]) {
+                *front += 1;
             }
+            for &o in list[*front..].iter().filter(|&&o| !used[o]) {
+                if n == PAIR_CANDIDATES {
+                    break;
+                }
+                (tries[n], n) = (o, n + 1);
+            }
+        }
+        for &other in &tries[..n] {
             if let Some(q) = parallelogram(
                 t,
                 &mesh.triangles[other],
@@ -210,4 +230,31 @@ pub(super) fn parallelogram(
     }
     // Corners counter-clockwise: a, d, b, c (t = a,b,c is ccw; d lies across edge ab).
     Some(([a, d, b, c], [aa, ad, ab, ac]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit square as two triangles, `copies` times over (the same vertices each time).
+    fn squares(copies: usize) -> Mesh {
+        let positions = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+        let triangles = (0..copies).flat_map(|_| [[0, 1, 2], [0, 2, 3]]).collect();
+        Mesh {
+            positions,
+            triangles,
+            ..Mesh::default()
+        }
+    }
+
+    /// Triangles sharing one edge by the thousand (a square repeated) still pair, each
+    /// with its own partner: every square a quad, as one square alone is.
+    #[test]
+    fn a_repeated_square_pairs_into_as_many_quads() {
+        for copies in [1, 3, 5000] {
+            let faces = pair_parallelograms(&squares(copies));
+            let quads = faces.iter().filter(|f| matches!(f, Face::Quad(..))).count();
+            assert_eq!((faces.len(), quads), (copies, copies));
+        }
+    }
 }
