@@ -902,6 +902,10 @@ mod tests {
             .set_transform(0, Affine3A::from_translation(Vec3::splat(f32::NAN)))
             .is_err());
         assert!(e.set_emission(0, Vec3::splat(-1.0)).is_err());
+        // Finite, but beyond what a solve holds: far away, and emitting 1e38.
+        let far = e.set_transform(0, Affine3A::from_translation(Vec3::splat(1e30)));
+        assert!(far.unwrap_err().to_string().contains("1e12"));
+        assert!(e.set_emission(0, Vec3::splat(1e38)).is_err());
         assert!(e.set_time(f32::INFINITY).is_err());
         e.step();
         assert!(e.radiosity().iter().all(|b| b.is_finite()));

@@ -415,10 +415,8 @@ impl World {
     /// until the next [`World::set_time`]. Returns whether it changed.
     pub fn set_emission(&mut self, o: usize, emitted_radiance: Vec3) -> Result<bool, Error> {
         let name = self.object_label(o)?;
-        if !emitted_radiance.is_finite() || emitted_radiance.min_element() < 0.0 {
-            return Err(Error::Invalid(format!(
-                "{name}: emitted radiance {emitted_radiance} must be finite and >= 0"
-            )));
+        if let Some(why) = shrad_scene::emission_problem(emitted_radiance) {
+            return Err(Error::Invalid(format!("{name}: {why}")));
         }
         let m = emitted_radiance * std::f32::consts::PI;
         let r = self.patches.range(o);
