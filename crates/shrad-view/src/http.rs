@@ -53,8 +53,22 @@ pub async fn run(
 /// or the cookie set when the page was loaded with it. A good token in the query sets the
 /// cookie, so the page's own files and modules (which the page cannot add a query to)
 /// follow.
+/// Without a token (a server on loopback), a request must name this machine as loopback in
+/// its `Host`: a site whose name a rebinding DNS points at 127.0.0.1 sends its own name there
+/// (and the same one in `Origin`, so the WebSocket's origin check alone let it steer).
 async fn token_check(State(app): State<Arc<App>>, request: Request, next: Next) -> Response {
     if app.access.options().token.is_none() {
+        let host = request.headers().get(header::HOST);
+        let host = host.map(|h| h.to_str().unwrap_or("(not text)"));
+        if let Some(host) = host.filter(|h| !is_loopback_host(h)) {
+            let message = format!(
+                "403: Host '{host}' refused: a viewer without a token answers only to \
+                 127.0.0.1, localhost or [::1] (another site's name pointed at this machine, \
+                 DNS rebinding, must not steer it); open the URL `shrad view` printed, or give \
+                 --token\n"
+            );
+            return (StatusCode::FORBIDDEN, message).into_response();
+        }
         return next.run(request).await;
     }
     let from_query = request.uri().query().and_then(|q| {
@@ -88,6 +102,19 @@ async fn token_check(State(app): State<Arc<App>>, request: Request, next: Next) 
         }
     }
     response
+}
+
+/// Whether a `Host` header (a name or address, with or without a port) names this machine
+/// by loopback: `localhost`, `127.x.x.x` or `[::1]`.
+fn is_loopback_host(host: &str) -> bool {
+    let name = match host.strip_prefix('[') {
+        Some(v6) => v6.split_once(']').map_or(v6, |(a, _)| a),
+        None => host.rsplit_once(':').map_or(host, |(a, _)| a),
+    };
+    name.eq_ignore_ascii_case("localhost")
+        || name
+            .parse::<std::net::IpAddr>()
+            .is_ok_and(|ip| ip.is_loopback())
 }
 
 /// A file of the page: `/` is `web/src/index.html`, `/vendor/three/...` is three.js's
@@ -181,5 +208,36 @@ async fn websocket(
     match seat {
         Ok(seat) => ws.on_upgrade(move |socket| crate::client::serve(socket, app, seat)),
         Err(message) => ws.on_upgrade(move |socket| crate::client::refuse(socket, message)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::is_loopback_host;
+
+    #[test]
+    fn loopback_hosts_are_named_by_loopback_only() {
+        for ok in [
+            "127.0.0.1:8080",
+            "127.0.0.1",
+            "localhost:1",
+            "LOCALHOST",
+            "[::1]:9",
+            "[::1]",
+            "127.1.2.3:5",
+        ] {
+            assert!(is_loopback_host(ok), "{ok}");
+        }
+        for no in [
+            "evil.com:8080",
+            "evil.com",
+            "10.0.0.1:80",
+            "[::2]:9",
+            "localhost.evil.com",
+            "",
+            "127.0.0.1.evil.com:80",
+        ] {
+            assert!(!is_loopback_host(no), "{no}");
+        }
     }
 }

@@ -382,6 +382,24 @@ fn files_are_served_from_the_page_folder_only() {
         let mut buf = [0u8; 64];
         let n = tcp.read(&mut buf).await.unwrap();
         assert!(String::from_utf8_lossy(&buf[..n]).contains(" 403 "));
+        // Nor a page of a site whose name points at this machine (DNS rebinding): the same
+        // name in Host and Origin. Its page is refused too; by address or localhost it is
+        // served.
+        let port = s.addr().port();
+        for (host, path, want) in [
+            (format!("evil.example:{port}"), "/ws", " 403 "),
+            (format!("evil.example:{port}"), "/", " 403 "),
+            (format!("localhost:{port}"), "/", " 200 "),
+        ] {
+            let mut tcp = tokio::net::TcpStream::connect(s.addr()).await.unwrap();
+            let request = format!(
+                "GET {path} HTTP/1.1\r\nHost: {host}\r\nOrigin: http://{host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n"
+            );
+            tcp.write_all(request.as_bytes()).await.unwrap();
+            let n = tcp.read(&mut buf).await.unwrap();
+            let answer = String::from_utf8_lossy(&buf[..n]).to_string();
+            assert!(answer.contains(want), "{host}{path}: {answer}");
+        }
     });
     s.stop().unwrap();
 }
