@@ -32,6 +32,28 @@ pub fn set_option(engine: &mut Engine, key: &str, value: &str) -> Result<Value, 
     }))
 }
 
+/// The largest values the viewer takes for the settings that make a frame or its rebuild
+/// cost seconds and gigabytes (one `set_option` of `cube_res` 2048 held 4-10 GB and made
+/// every frame take 10 s for every client); `shrad render --set` takes the library's whole
+/// range.
+pub const INTERACTIVE_MAX: [(&str, u64); 3] =
+    [("cube_res", 256), ("emitter_res", 256), ("per_axis", 8)];
+
+/// Refuse a value of `key` beyond [`INTERACTIVE_MAX`] (what is not a number is the
+/// settings' own check's to refuse).
+pub fn interactive(key: &str, value: &str) -> Result<(), String> {
+    let Some(&(_, most)) = INTERACTIVE_MAX.iter().find(|(k, _)| *k == key) else {
+        return Ok(());
+    };
+    match value.trim().parse::<f64>() {
+        Ok(v) if v > most as f64 => Err(format!(
+            "{key} {value}: the viewer takes at most {most} (frames must stay interactive); \
+             `shrad render --set {key}=...` takes more"
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// Every setting of the solver in use, as text (`-` for a schedule parameter the schedule
 /// in force does not use).
 pub fn settings(engine: &Engine) -> Value {

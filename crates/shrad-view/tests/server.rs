@@ -457,6 +457,14 @@ fn steering_requests_do_what_they_say() {
         assert_eq!(r["type"], "ok", "{r}");
         assert_eq!(r["value"], "2");
         assert!(r["precompute_ms"].is_null());
+        // A resolution that would hold gigabytes and make every frame take seconds, for
+        // every client: refused by the viewer, as a number or as text.
+        for value in [json!(2048), json!("2048")] {
+            let set = json!({"v": 1, "type": "set_option", "key": "cube_res", "value": value});
+            let r = ask(&mut ws, set).await;
+            assert_eq!(r["type"], "error", "{r}");
+            assert!(r["message"].as_str().unwrap().contains("at most 256"), "{r}");
+        }
         let r = ask(
             &mut ws,
             json!({"v": 1, "type": "set_solver", "solver": "grid", "preset": "paper4"}),

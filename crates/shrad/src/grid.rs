@@ -69,6 +69,8 @@ impl Grid {
     /// Place the probes over the scene's box at rest. `options` are taken as checked, as for
     /// [`crate::dispersive::Dispersive::new`] (`Solver::new` checks them).
     pub fn new(world: &World, options: GridOptions) -> Result<Grid, crate::Error> {
+        let coefficients = shrad_sh::num_coeffs(options.bands);
+        crate::limits::check_cube_maps(options.cube_res, None, coefficients)?;
         let g = options.per_axis.max(1);
         let bounds = world
             .scene

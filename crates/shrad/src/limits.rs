@@ -109,9 +109,82 @@ pub fn check_image_within(width: u32, height: u32, spp: u32, budget: u64) -> Res
     Ok(())
 }
 
+/// Bytes the probes' cube maps cost at their peak, per texel of a face resolution's 6 res^2:
+/// `CUBE_TEXEL_BYTES` plus `COEFF_TEXEL_BYTES` per SH coefficient for the probes' camera
+/// (its directions, the capture's rays and hits, and the projector's weights, with the
+/// coarse camera's quarter), `EMITTER_TEXEL_BYTES` plus as much per coefficient for Step 3's.
+/// Measured on the Cornell box (`/usr/bin/time -f %M`, 2026-12-07): `cube_res` 512 with 2 /
+/// 4 / 8 bands peaks at 420 / 606 / 1355 MB, 1024 with 4 bands at 2.35 GB; `emitter_res`
+/// 512 and 1024 at 335 MB and 1.11 GB (79 MB at the defaults).
+const CUBE_TEXEL_BYTES: u64 = 176;
+/// See [`CUBE_TEXEL_BYTES`].
+const COEFF_TEXEL_BYTES: u64 = 10;
+/// See [`CUBE_TEXEL_BYTES`].
+const EMITTER_TEXEL_BYTES: u64 = 20;
+
+/// What the probes' cube maps of face resolution `cube` (and Step 3's of `emitter`, for
+/// the dispersive solver) with `coefficients` SH coefficients cost at their peak (bytes).
+pub fn cube_map_bytes(cube: usize, emitter: Option<usize>, coefficients: usize) -> u64 {
+    let texels = |res: usize| 6 * (res as u64).saturating_mul(res as u64);
+    let per_coeff = COEFF_TEXEL_BYTES * coefficients as u64;
+    let probes = texels(cube).saturating_mul(CUBE_TEXEL_BYTES + per_coeff);
+    let splat = emitter.map_or(0, |e| {
+        texels(e).saturating_mul(EMITTER_TEXEL_BYTES + per_coeff)
+    });
+    probes.saturating_add(splat)
+}
+
+/// Refuse cube maps (see [`cube_map_bytes`]) that need more memory than is available: a
+/// `cube_res` of 2048 with 8 bands would take about 20 GiB, and the allocator's abort was
+/// the only message.
+pub fn check_cube_maps(
+    cube: usize,
+    emitter: Option<usize>,
+    coefficients: usize,
+) -> Result<(), Error> {
+    check_cube_maps_within(cube, emitter, coefficients, available_bytes())
+}
+
+/// [`check_cube_maps`] against a given budget in bytes.
+pub fn check_cube_maps_within(
+    cube: usize,
+    emitter: Option<usize>,
+    coefficients: usize,
+    budget: u64,
+) -> Result<(), Error> {
+    let need = cube_map_bytes(cube, emitter, coefficients);
+    if need <= budget {
+        return Ok(());
+    }
+    let emitter = emitter.map_or(String::new(), |e| format!(" and emitter_res {e}"));
+    Err(Error::Invalid(format!(
+        "cube_res {cube}{emitter} with {coefficients} SH coefficients would need about {} of \
+         memory for the cube maps ({} available); use a smaller cube_res, emitter_res or bands",
+        gib(need),
+        gib(budget)
+    )))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The estimate meets what was measured (see [`CUBE_TEXEL_BYTES`]; 21.1 GB measured at
+    /// `cube_res` 2048 with 8 bands, 8.5 GiB estimated at 2048 with 4), and a budget below it
+    /// is refused naming the settings.
+    #[test]
+    fn cube_maps_beyond_the_memory_are_refused() {
+        let gb = |b: u64| b as f64 / 1e9;
+        let at = |cube, emitter, n| gb(cube_map_bytes(cube, emitter, n));
+        assert!((at(1024, Some(64), 16) - (2.35 - 0.08)).abs() < 0.25);
+        assert!((at(512, Some(64), 64) - (1.36 - 0.08)).abs() < 0.15);
+        assert!((at(2048, Some(64), 64) - (21.1 - 0.08)).abs() < 1.5);
+        let e = check_cube_maps_within(2048, Some(64), 64, 16 << 30)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("cube_res 2048") && e.contains("GiB"), "{e}");
+        check_cube_maps_within(128, Some(128), 16, 1 << 30).unwrap();
+    }
 
     #[test]
     fn absurd_plans_are_refused_with_the_memory_they_need() {

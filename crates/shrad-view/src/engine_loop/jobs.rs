@@ -358,14 +358,18 @@ fn world_at<'w>(
 
 /// A setting's value as the engine reads it (a string, a number or a boolean).
 pub(super) fn option_text(key: &str, value: &Value) -> Result<String, String> {
-    match value {
-        Value::String(s) => Ok(s.clone()),
-        Value::Number(n) => Ok(n.to_string()),
-        Value::Bool(b) => Ok(b.to_string()),
-        other => Err(format!(
-            "value of '{key}' must be a string or a number, got {other}"
-        )),
-    }
+    let text = match value {
+        Value::String(s) => s.clone(),
+        Value::Number(n) => n.to_string(),
+        Value::Bool(b) => b.to_string(),
+        other => {
+            return Err(format!(
+                "value of '{key}' must be a string or a number, got {other}"
+            ))
+        }
+    };
+    crate::solvers::interactive(key, &text)?;
+    Ok(text)
 }
 
 impl EngineLoop {

@@ -219,6 +219,8 @@ impl Dispersive {
         progress: &dyn crate::Progress,
     ) -> Result<Dispersive, crate::Error> {
         let p = &world.patches;
+        let coefficients = shrad_sh::num_coeffs(options.bands);
+        crate::limits::check_cube_maps(options.cube_res, Some(options.emitter_res), coefficients)?;
         let camera = ProbeCamera::new(options.cube_res, options.bands);
         let emitter_camera = ProbeCamera::new(options.emitter_res, options.bands);
         let half = |res: usize| {
