@@ -239,8 +239,15 @@ pub async fn serve(socket: WebSocket, app: Arc<App>, seat: Seat) {
         c = read(&mut stream, &app, &sub, &flow, &reply_tx) => c,
         c = write(&mut sink, &app, &sub, &flow, replies) => c,
     };
-    if let Some(frame) = close {
-        let _ = sink.send(Message::Close(Some(frame))).await;
+    match close {
+        Some(frame) => {
+            let _ = sink.send(Message::Close(Some(frame))).await;
+        }
+        // The client closed (or went): the close it sent is answered as the closing
+        // handshake asks (a client saw 1006, an abnormal closure, when it was not).
+        None => {
+            let _ = sink.close().await;
+        }
     }
     drop(sub);
     app.shared.inbox.refresh();

@@ -59,11 +59,14 @@ pub struct Names {
     pub lights: Vec<String>,
 }
 
-/// The index `r` names among `names` (a name resolves to its index).
+/// The index `r` names among `names`, as the engine resolves it (`Engine::object`): a name
+/// to its index, else a number written as text ("6", "+6", "06": three moves of one object
+/// that did not share its key, so none replaced another).
 fn index_of(r: &ObjectRef, names: &[String]) -> Option<usize> {
     match r {
         ObjectRef::Index(o) => (*o < names.len()).then_some(*o),
-        ObjectRef::Name(n) => names.iter().position(|m| m == n),
+        ObjectRef::Name(n) => (names.iter().position(|m| m == n))
+            .or_else(|| n.parse::<usize>().ok().filter(|&o| o < names.len())),
     }
 }
 
@@ -388,13 +391,18 @@ mod tests {
         // The same object by name: the same key.
         let older = push(&inbox, &moved(3, "\"short_block\"", 0.3), &tx);
         assert_eq!(older, Some(Some(1)));
+        // By its index written as text, as the engine reads it too: the same key.
+        let older = push(&inbox, &moved(5, "\"+1\"", 0.5), &tx);
+        assert_eq!(older, Some(Some(3)));
+        let older = push(&inbox, &moved(6, "\"01\"", 0.6), &tx);
+        assert_eq!(older, Some(Some(5)));
         // Another object: its own key.
         assert_eq!(push(&inbox, &moved(4, "0", 0.4), &tx), None);
-        assert_eq!(taken_ids(&inbox), [Some(2), Some(3), Some(4)]);
+        assert_eq!(taken_ids(&inbox), [Some(2), Some(6), Some(4)]);
         let c = inbox.counts();
         assert_eq!(
             (c.received, c.superseded, c.most_pending_per_key),
-            (4, 1, 1)
+            (6, 3, 1)
         );
         assert!(inbox.is_empty());
     }

@@ -595,3 +595,27 @@ fn a_client_that_does_not_acknowledge_is_sent_a_bounded_number_of_bytes_and_stil
     });
     s.stop().unwrap();
 }
+
+/// A client that closes gets the closing handshake's answer, its own close frame back (not
+/// a dropped connection, which a client reports as 1006, an abnormal closure).
+#[test]
+fn a_client_that_closes_is_answered_with_a_close() {
+    let s = server();
+    runtime().block_on(async {
+        let mut ws = connect_raw(&s).await;
+        ws.send(Message::Close(None)).await.unwrap();
+        let answered = tokio::time::timeout(Duration::from_secs(10), async {
+            while let Some(m) = ws.next().await {
+                match m {
+                    Ok(Message::Close(_)) => return true,
+                    Ok(_) => continue,
+                    Err(_) => return false,
+                }
+            }
+            false
+        })
+        .await;
+        assert_eq!(answered, Ok(true), "no close frame came back");
+    });
+    s.stop().unwrap();
+}
