@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use std::time::Duration;
 
 use axum::extract::ws::WebSocketUpgrade;
 use axum::extract::{Request, State};
@@ -12,7 +13,11 @@ use axum::middleware::{self, Next};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use axum::Router;
-use tokio::sync::watch;
+use hyper_util::rt::{TokioExecutor, TokioIo, TokioTimer};
+use hyper_util::server::conn::auto::Builder;
+use hyper_util::service::TowerToHyperService;
+use tokio::sync::{watch, OwnedSemaphorePermit, Semaphore};
+use tokio::task::JoinSet;
 
 use crate::access::Access;
 use crate::engine_loop::{Frame, Intro, Shared};
@@ -31,7 +36,18 @@ pub struct App {
     pub cookie: String,
 }
 
-/// Serve until `stop` turns true.
+/// How long a client may take to send a request's headers (and a kept-alive connection to
+/// start its next request): a client that sends half a request and trickles the rest
+/// (slowloris) was held open forever, and 20,000 of them made the server unreachable.
+pub const HEADER_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// The most connections open at once (page loads, assets and WebSockets; the WebSockets
+/// have their own, smaller cap): beyond it the next waits in the listener's queue.
+pub const MAX_CONNECTIONS: usize = 512;
+
+/// Serve until `stop` turns true, then let the open connections finish (the clients' tasks
+/// close their WebSockets when they see `stop`). axum's own `serve` has no header timeout:
+/// this is its loop with one.
 pub async fn run(
     listener: tokio::net::TcpListener,
     app: Arc<App>,
@@ -42,11 +58,48 @@ pub async fn run(
         .fallback(get(file))
         .layer(middleware::from_fn_with_state(app.clone(), token_check))
         .with_state(app);
-    axum::serve(listener, router)
-        .with_graceful_shutdown(async move {
-            let _ = stop.wait_for(|s| *s).await;
-        })
-        .await
+    let places = Arc::new(Semaphore::new(MAX_CONNECTIONS));
+    let mut connections = JoinSet::new();
+    loop {
+        let Ok(place) = places.clone().acquire_owned().await else {
+            break;
+        };
+        let accepted = tokio::select! {
+            accepted = listener.accept() => accepted,
+            _ = stop.wait_for(|s| *s) => break,
+        };
+        while connections.try_join_next().is_some() {}
+        // A failed accept (out of descriptors, a reset) is the client's, not the server's.
+        let Ok((socket, _)) = accepted else {
+            continue;
+        };
+        let service = TowerToHyperService::new(router.clone());
+        let stop = stop.clone();
+        connections.spawn(serve_connection(socket, service, stop, place));
+    }
+    while connections.join_next().await.is_some() {}
+    Ok(())
+}
+
+/// One connection, with [`HEADER_TIMEOUT`]; shut down gracefully when `stop` turns true.
+async fn serve_connection(
+    socket: tokio::net::TcpStream,
+    service: TowerToHyperService<Router>,
+    mut stop: watch::Receiver<bool>,
+    _place: OwnedSemaphorePermit,
+) {
+    let mut builder = Builder::new(TokioExecutor::new());
+    builder
+        .http1()
+        .timer(TokioTimer::new())
+        .header_read_timeout(HEADER_TIMEOUT);
+    let connection = builder.serve_connection_with_upgrades(TokioIo::new(socket), service);
+    let mut connection = std::pin::pin!(connection);
+    tokio::select! {
+        _ = connection.as_mut() => return,
+        _ = stop.wait_for(|s| *s) => connection.as_mut().graceful_shutdown(),
+    }
+    let _ = connection.await;
 }
 
 /// 401 unless the request carries the token (when there is one): `?token=` in its query,

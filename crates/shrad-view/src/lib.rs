@@ -47,6 +47,7 @@ pub mod solvers;
 pub use access::AccessOptions;
 pub use engine_loop::settle_budget_ms;
 use engine_loop::{EngineLoop, Shared};
+pub use http::{HEADER_TIMEOUT, MAX_CONNECTIONS};
 pub use inbox::InboxCounts;
 
 /// What [`serve`] and [`Server::start`] need (no command-line parsing here: `shrad view`

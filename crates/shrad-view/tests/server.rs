@@ -619,3 +619,29 @@ fn a_client_that_closes_is_answered_with_a_close() {
     });
     s.stop().unwrap();
 }
+
+/// A client that sends half a request and no more (slowloris) is dropped once the header
+/// timeout passes; it was held open forever, and 20,000 of them made the server
+/// unreachable. A whole request on another connection is served meanwhile.
+#[test]
+fn a_request_left_half_sent_is_dropped_after_the_header_timeout() {
+    let s = server();
+    runtime().block_on(async {
+        let mut tcp = tokio::net::TcpStream::connect(s.addr()).await.unwrap();
+        tcp.write_all(b"GET / HTTP/1.1\r\nHost: 127.0.0.1\r\n")
+            .await
+            .unwrap();
+        assert_eq!(http_get(&s, "/").await, 200);
+        let wait = shrad_view::HEADER_TIMEOUT + Duration::from_secs(20);
+        let mut buf = [0u8; 256];
+        let read = tokio::time::timeout(wait, tcp.read(&mut buf)).await;
+        // Closed: the end of the stream, or a 408 before it.
+        let answer = read.expect("still open long after the header timeout");
+        let said = match answer {
+            Ok(n) => String::from_utf8_lossy(&buf[..n]).to_string(),
+            Err(_) => String::new(),
+        };
+        assert!(said.is_empty() || said.contains(" 408 "), "{said}");
+    });
+    s.stop().unwrap();
+}
