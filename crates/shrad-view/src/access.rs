@@ -78,7 +78,14 @@ pub struct AccessOptions {
     pub max_clients: usize,
     /// Nobody steers: every client watches.
     pub watch_only: bool,
+    /// How often a client is pinged; one that has sent nothing (not even the pong a
+    /// browser sends by itself) for three of these is closed, and its seat freed.
+    pub keepalive: std::time::Duration,
 }
+
+/// [`AccessOptions::keepalive`] unless set: a vanished peer (its machine asleep, its
+/// network gone) held its seat until TCP noticed, which may be never.
+pub const DEFAULT_KEEPALIVE: std::time::Duration = std::time::Duration::from_secs(20);
 
 impl Default for AccessOptions {
     fn default() -> AccessOptions {
@@ -86,6 +93,7 @@ impl Default for AccessOptions {
             token: None,
             max_clients: DEFAULT_MAX_CLIENTS,
             watch_only: false,
+            keepalive: DEFAULT_KEEPALIVE,
         }
     }
 }

@@ -97,6 +97,8 @@ struct Flow {
     sent: AtomicU64,
     acked: AtomicU64,
     wake: Notify,
+    /// Keepalive periods that passed since the client last sent anything (a pong too).
+    silent: AtomicU64,
 }
 
 impl Flow {
@@ -273,6 +275,7 @@ async fn read(
             }
             Some(Ok(m)) => m,
         };
+        flow.silent.store(0, Ordering::Release);
         let answer = match message {
             Message::Text(text) => handle(app, sub, flow, text.as_str(), reply).await,
             Message::Binary(b) => Some(protocol::error(
@@ -307,6 +310,8 @@ async fn write(
     let mut stop = app.stop.clone();
     let mut in_flight = InFlight::default();
     let mut sent = Sent::default();
+    let period = app.access.options().keepalive;
+    let mut keepalive = tokio::time::interval_at(tokio::time::Instant::now() + period, period);
     // A frame may be out that this client has not had.
     let mut newer = true;
     loop {
@@ -342,6 +347,12 @@ async fn write(
             }
             _ = stopped(&mut stop) => {
                 return Some(CloseFrame { code: 1001, reason: "server stopping".into() });
+            }
+            _ = keepalive.tick() => {
+                if flow.silent.fetch_add(1, Ordering::AcqRel) >= 3 {
+                    return Some(CloseFrame { code: 1001, reason: "no answer to pings".into() });
+                }
+                sink.send(Message::Ping(Default::default())).await.ok()?;
             }
         }
     }

@@ -362,3 +362,39 @@ fn a_solver_switch_runs_beside_the_frames_and_keeps_a_move_sent_while_it_precomp
     });
     s.stop().unwrap();
 }
+
+/// A client that answers no ping (connected, then never reading: a vanished peer) is closed
+/// after a few keepalive periods and its seat is free again; a client that reads answers
+/// the pings by itself and keeps its seat however long it stays silent.
+#[test]
+fn a_client_that_answers_no_ping_is_closed_and_its_seat_freed() {
+    let s = server_with(AccessOptions {
+        max_clients: 1,
+        keepalive: Duration::from_millis(100),
+        ..AccessOptions::default()
+    });
+    runtime().block_on(async {
+        let silent = connect_raw(&s).await;
+        let deadline = Instant::now() + Duration::from_secs(30);
+        let mut d = loop {
+            let mut d = connect(&s).await;
+            match tokio::time::timeout(Duration::from_secs(30), d.next()).await {
+                Ok(Some(Ok(Message::Text(t)))) if t.as_str().contains("\"scene\"") => break d,
+                _ => assert!(Instant::now() < deadline, "the silent client kept the seat"),
+            }
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        };
+        // Twenty periods, reading (and so answering the pings) but sending nothing.
+        let until = Instant::now() + Duration::from_secs(2);
+        while Instant::now() < until {
+            match tokio::time::timeout(until - Instant::now(), d.next()).await {
+                Ok(Some(Ok(Message::Close(f)))) => panic!("closed while reading: {f:?}"),
+                Ok(Some(Ok(_))) | Err(_) => {}
+                Ok(other) => panic!("the reading client lost its connection: {other:?}"),
+            }
+        }
+        ping(&mut d, 1).await;
+        drop(silent);
+    });
+    s.stop().unwrap();
+}

@@ -81,6 +81,7 @@ pub fn run(mut args: ViewArgs, scene: Scene, file: &FileSettings) -> Result<()> 
         token: args.token,
         max_clients: args.max_clients,
         watch_only: args.watch_only,
+        ..Default::default()
     };
     options.port = args.port;
     if let Some(web) = args.web {

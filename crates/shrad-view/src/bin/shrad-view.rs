@@ -62,6 +62,7 @@ fn main() -> Result<()> {
         token: args.token,
         max_clients: args.max_clients,
         watch_only: args.watch_only,
+        ..Default::default()
     };
     options.port = args.port;
     options.backend = match args.backend.as_str() {
