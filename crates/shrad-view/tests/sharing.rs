@@ -370,7 +370,9 @@ fn a_solver_switch_runs_beside_the_frames_and_keeps_a_move_sent_while_it_precomp
 fn a_client_that_answers_no_ping_is_closed_and_its_seat_freed() {
     let s = server_with(AccessOptions {
         max_clients: 1,
-        keepalive: Duration::from_millis(100),
+        // Long enough that a loaded machine (the suite's other tests) cannot starve the
+        // reading client of four periods: 2 s.
+        keepalive: Duration::from_millis(500),
         ..AccessOptions::default()
     });
     runtime().block_on(async {
@@ -384,8 +386,8 @@ fn a_client_that_answers_no_ping_is_closed_and_its_seat_freed() {
             }
             tokio::time::sleep(Duration::from_millis(100)).await;
         };
-        // Twenty periods, reading (and so answering the pings) but sending nothing.
-        let until = Instant::now() + Duration::from_secs(2);
+        // Twelve periods, reading (and so answering the pings) but sending nothing.
+        let until = Instant::now() + Duration::from_secs(6);
         while Instant::now() < until {
             match tokio::time::timeout(until - Instant::now(), d.next()).await {
                 Ok(Some(Ok(Message::Close(f)))) => panic!("closed while reading: {f:?}"),
