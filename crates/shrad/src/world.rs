@@ -235,7 +235,7 @@ impl World {
             let xf = self
                 .patches
                 .local_transform_for(o, object.world_from_object_at(t));
-            let problem = shrad_scene::placement_problem(xf, self.patches.shapes[o].bounds())
+            let problem = shrad_scene::placement_problem(xf, self.patches.shape_bounds(o))
                 .or_else(|| shrad_scene::emission_problem(object.material_at(t).emitted_radiance));
             if let Some(why) = problem {
                 return Err(Error::Invalid(format!(
@@ -399,7 +399,7 @@ impl World {
             )));
         }
         let xf = self.patches.local_transform_for(o, m);
-        if let Some(why) = shrad_scene::placement_problem(xf, self.patches.shapes[o].bounds()) {
+        if let Some(why) = shrad_scene::placement_problem(xf, self.patches.shape_bounds(o)) {
             return Err(Error::Invalid(format!("{name}: {why}")));
         }
         if xf == self.patches.world_from_local[o] {

@@ -122,6 +122,9 @@ pub struct Patches {
     /// [`Patches::world_sphere`]), kept by [`Patches::set_transform`]: a pass over the
     /// shape's vertices when it moves, not at each of the several asks of a moving frame.
     world_bounds: Vec<(Aabb, Option<(Vec3, f32)>)>,
+    /// Each object's shape's box in its local frame (`None` without vertices), found once
+    /// ([`Patches::shape_bounds`]): every move and every check of a pose reads it.
+    shape_bounds: Vec<Option<Aabb>>,
     /// The rest shape of each object: its scale, shear and mirroring (see the module docs).
     pub local_from_object: Vec<Mat3>,
     /// Each object's input mesh in its local frame (shape applied, winding made
@@ -301,6 +304,7 @@ impl Patches {
             patches.object_role.push(object.role());
             patches.world_from_local.push(world_from_local);
             patches.local_from_object.push(local_from_object);
+            patches.shape_bounds.push(shape.bounds());
             patches.shapes.push(shape);
         }
         patches.shading_vertex_count = welder.count;
@@ -405,17 +409,22 @@ impl Patches {
 
     /// [`Patches::world_box`] found again from the shape.
     fn shape_box(&self, o: usize) -> Aabb {
-        match self.shapes[o].bounds() {
+        match self.shape_bounds(o) {
             Some(local) => local.transformed(self.world_from_local[o]),
             None => Aabb::new(Vec3::ZERO, Vec3::ZERO),
         }
+    }
+
+    /// Object `o`'s shape's box in its local frame (`None` for a shape without vertices).
+    pub fn shape_bounds(&self, o: usize) -> Option<Aabb> {
+        self.shape_bounds[o]
     }
 
     /// [`Patches::world_sphere`] found again from the shape.
     fn shape_sphere(&self, o: usize) -> Option<(Vec3, f32)> {
         let m = self.world_from_local[o];
         let shape = &self.shapes[o];
-        let centre = m.transform_point3(shape.bounds()?.centre());
+        let centre = m.transform_point3(self.shape_bounds(o)?.centre());
         let radius = (shape.positions.iter())
             .map(|&v| (m.transform_point3(v) - centre).length())
             .fold(0.0, f32::max);
