@@ -10,6 +10,7 @@
 
 use crate::patches::PatchPlan;
 use crate::Error;
+use shrad_scene::Scene;
 
 /// Bytes one patch costs at peak (patches, visibility, the heaviest solver), rounded up.
 pub const BYTES_PER_PATCH: u64 = 5 * 1024;
@@ -39,12 +40,14 @@ fn gib(bytes: u64) -> String {
 }
 
 /// Refuse a patch plan that needs more memory than is available, or more patches than ids.
-pub fn check_patches(source: &str, plan: PatchPlan) -> Result<(), Error> {
-    check_patches_within(source, plan, available_bytes())
+/// Where one object's own patch size makes most of them, the error names it and its size.
+pub fn check_patches(scene: &Scene, plan: PatchPlan) -> Result<(), Error> {
+    check_patches_within(scene, plan, available_bytes())
 }
 
 /// [`check_patches`] against a given budget in bytes.
-pub fn check_patches_within(source: &str, plan: PatchPlan, budget: u64) -> Result<(), Error> {
+pub fn check_patches_within(scene: &Scene, plan: PatchPlan, budget: u64) -> Result<(), Error> {
+    let source = &scene.source;
     if !(plan.patch_size.is_finite() && plan.patch_size > 0.0) {
         return Err(Error::Invalid(format!(
             "{source}: patch size {} must be a positive number",
@@ -53,26 +56,42 @@ pub fn check_patches_within(source: &str, plan: PatchPlan, budget: u64) -> Resul
     }
     let count = plan.count as u64;
     let need = count.saturating_mul(BYTES_PER_PATCH);
-    if count > MAX_PATCHES || need > budget {
-        return Err(Error::Invalid(format!(
-            "{source}: patch size {:.3e} would make {} patches, needing about {} of memory \
-             ({} available{}); use a larger --patch-size or a smaller --patches",
-            plan.patch_size,
-            if plan.count == usize::MAX {
-                "more than 1.8e19".to_string()
-            } else {
-                format!("{:.3e}", plan.count as f64)
-            },
-            gib(need),
-            gib(budget),
-            if count > MAX_PATCHES {
-                ", and more than the 4.3e9 patch ids"
-            } else {
-                ""
-            }
-        )));
+    if count <= MAX_PATCHES && need <= budget {
+        return Ok(());
     }
-    Ok(())
+    // The object whose own size makes at least half the patches is the one to change.
+    let culprit = (plan.heaviest_own).filter(|own| own.count >= plan.count / 2);
+    let (whose, size, fix) = match culprit {
+        Some(own) => (
+            format!(
+                "object {} '{}': its own patch_size",
+                own.object, scene.objects[own.object].name
+            ),
+            own.patch_size,
+            "give it a larger patch_size",
+        ),
+        None => (
+            "patch size".to_string(),
+            plan.patch_size,
+            "use a larger --patch-size or a smaller --patches",
+        ),
+    };
+    Err(Error::Invalid(format!(
+        "{source}: {whose} {size:.3e} would make {} patches, needing about {} of memory \
+         ({} available{}); {fix}",
+        if plan.count == usize::MAX {
+            "more than 1.8e19".to_string()
+        } else {
+            format!("{:.3e}", plan.count as f64)
+        },
+        gib(need),
+        gib(budget),
+        if count > MAX_PATCHES {
+            ", and more than the 4.3e9 patch ids"
+        } else {
+            ""
+        }
+    )))
 }
 
 /// Refuse a picture of `width` x `height` pixels with `spp` samples each that needs more
@@ -188,11 +207,13 @@ mod tests {
 
     #[test]
     fn absurd_plans_are_refused_with_the_memory_they_need() {
+        let cornell = shrad_scene::cornell_box();
         let plan = PatchPlan {
             patch_size: 1e-9,
             count: 3_000_000_000_000,
+            heaviest_own: None,
         };
-        let e = check_patches_within("cornell", plan, 24 << 30)
+        let e = check_patches_within(&cornell, plan, 24 << 30)
             .unwrap_err()
             .to_string();
         assert!(
@@ -202,13 +223,15 @@ mod tests {
         let fine = PatchPlan {
             patch_size: 0.05,
             count: 20_000,
+            heaviest_own: None,
         };
-        check_patches_within("cornell", fine, 24 << 30).unwrap();
+        check_patches_within(&cornell, fine, 24 << 30).unwrap();
         let nan = PatchPlan {
             patch_size: f32::NAN,
             count: 1,
+            heaviest_own: None,
         };
-        assert!(check_patches_within("x", nan, 24 << 30).is_err());
+        assert!(check_patches_within(&cornell, nan, 24 << 30).is_err());
     }
 
     #[test]
@@ -230,6 +253,30 @@ mod tests {
         let scene = shrad_scene::cornell_box();
         let plan = crate::Patches::plan(&scene, crate::PatchSizing::Size(1e-9));
         assert!(plan.count > 1_000_000_000_000, "{}", plan.count);
-        assert!(check_patches_within("cornell", plan, 24 << 30).is_err());
+        assert!(check_patches_within(&scene, plan, 24 << 30).is_err());
+    }
+
+    #[test]
+    fn an_objects_own_patch_size_too_small_is_named() {
+        let mut scene = shrad_scene::cornell_box();
+        let o = scene.objects.iter().position(|o| o.name == "short_block");
+        let o = o.expect("the Cornell box has a short block");
+        scene.objects[o].patch_size = Some(1e-7);
+        let plan = crate::Patches::plan(&scene, crate::PatchSizing::Count(2000));
+        let e = check_patches_within(&scene, plan, 24 << 30)
+            .unwrap_err()
+            .to_string();
+        let named = format!("object {o} 'short_block': its own patch_size 1.000e-7");
+        assert!(e.contains(&named) && e.contains("give it a larger"), "{e}");
+        // A scene size too small is still the scene's.
+        scene.objects[o].patch_size = Some(0.1);
+        let plan = crate::Patches::plan(&scene, crate::PatchSizing::Size(1e-7));
+        let e = check_patches_within(&scene, plan, 24 << 30)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(": patch size 1.000e-7") && e.contains("--patch-size"),
+            "{e}"
+        );
     }
 }

@@ -141,7 +141,7 @@ impl World {
     /// Subdivide `scene` into patches and build its visibility.
     pub fn new(scene: Scene, sizing: PatchSizing, backend: Backend) -> Result<World, Error> {
         let plan = Patches::plan(&scene, sizing);
-        crate::limits::check_patches(&scene.source, plan)?;
+        crate::limits::check_patches(&scene, plan)?;
         // A scene without patches (a valid glTF with nothing to light loads empty) is a
         // world too: every solver, picture and bake of it is empty or the background.
         let mut patches = Patches::build(&scene, PatchSizing::Size(plan.patch_size));

@@ -129,7 +129,7 @@ pub fn run(args: InfoArgs, scene: Scene) -> Result<()> {
     print_lights(&scene);
     // The same memory check as a solve: a tiny --patch-size is an error, not an abort.
     let plan = shrad::Patches::plan(&scene, sizing);
-    shrad::limits::check_patches(&scene.source, plan)?;
+    shrad::limits::check_patches(&scene, plan)?;
     let patches = shrad::Patches::build(&scene, PatchSizing::Size(plan.patch_size));
     say!(
         "patch size: {:.4}, patches: {}",

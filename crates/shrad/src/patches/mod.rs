@@ -60,6 +60,20 @@ pub struct PatchPlan {
     pub patch_size: f32,
     /// The number of patches (saturating at `usize::MAX`).
     pub count: usize,
+    /// Of the objects with a patch size of their own, the one with the most patches: a too
+    /// small size there is reported with its name (`limits::check_patches`).
+    pub heaviest_own: Option<OwnSized>,
+}
+
+/// An object's own patch size and the patches it makes ([`PatchPlan::heaviest_own`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OwnSized {
+    /// Its index in the scene.
+    pub object: usize,
+    /// Its own patch size.
+    pub patch_size: f32,
+    /// The patches it makes (saturating).
+    pub count: usize,
 }
 
 /// How to choose the patch size.
@@ -225,6 +239,7 @@ impl Patches {
         PatchPlan {
             patch_size: h,
             count: count_patches(scene, &shaped, &faces, h),
+            heaviest_own: plan::heaviest_own(scene, &shaped, &faces),
         }
     }
 

@@ -5,6 +5,7 @@ use shrad_scene::{Mesh, Scene};
 
 use super::shape::ShapedObject;
 use super::split::{cells_along, Face};
+use super::OwnSized;
 
 /// Patch size that gives about `n` patches, by bisection on the count (cheap: no geometry).
 pub(super) fn size_for_count(
@@ -44,16 +45,42 @@ pub(super) fn count_patches(
     faces: &[Vec<Face>],
     h: f32,
 ) -> usize {
-    scene
-        .objects
-        .iter()
-        .zip(shaped.iter().zip(faces))
-        .map(|(o, ((_, _, mesh), faces))| {
-            let sides = if o.material.double_sided { 2 } else { 1 };
-            let oh = o.patch_size.unwrap_or(h);
-            count_faces(mesh, faces, oh).saturating_mul(sides)
-        })
+    (0..scene.objects.len())
+        .map(|o| count_object(scene, shaped, faces, o, h))
         .fold(0usize, usize::saturating_add)
+}
+
+/// Patches of object `o` at the scene's size `h` (or its own), saturating.
+fn count_object(
+    scene: &Scene,
+    shaped: &[ShapedObject],
+    faces: &[Vec<Face>],
+    o: usize,
+    h: f32,
+) -> usize {
+    let object = &scene.objects[o];
+    let sides = if object.material.double_sided { 2 } else { 1 };
+    let oh = object.patch_size.unwrap_or(h);
+    count_faces(&shaped[o].2, &faces[o], oh).saturating_mul(sides)
+}
+
+/// Of the objects with their own patch size, the one that makes the most patches.
+pub(super) fn heaviest_own(
+    scene: &Scene,
+    shaped: &[ShapedObject],
+    faces: &[Vec<Face>],
+) -> Option<OwnSized> {
+    (scene.objects.iter().enumerate())
+        .filter_map(|(o, object)| {
+            let patch_size = object.patch_size?;
+            let count = count_object(scene, shaped, faces, o, patch_size);
+            Some(OwnSized {
+                object: o,
+                patch_size,
+                count,
+            })
+        })
+        .max_by_key(|own| own.count)
 }
 
 /// How many cells `faces` (of `mesh`) give at patch size `h`, saturating (no overflow for
