@@ -80,7 +80,11 @@ impl Object {
 
     /// World bounding box at rest.
     pub fn world_bounds(&self) -> Option<crate::Aabb> {
-        self.mesh.transformed(self.world_from_object).bounds()
+        // Point by point: a keyed object asks for it at every pose
+        // (`world_from_object_at`), and a transformed copy of the mesh copied its triangles,
+        // UVs and colours too.
+        let m = self.world_from_object;
+        crate::Aabb::from_points(self.mesh.positions.iter().map(|&p| m.transform_point3(p)))
     }
 
     /// The object's world transform at time `t`: the glTF node animation's transform at
