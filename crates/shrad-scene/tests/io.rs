@@ -950,3 +950,26 @@ fn gltf_unknown_role_in_extras() {
     assert_eq!(s.objects[0].role, Some(Role::Light));
     assert_eq!(s.objects[0].patch_size, Some(0.25));
 }
+
+#[test]
+fn repeated_triangles_are_dropped_with_a_warning_in_every_format() {
+    let dir = temp_dir("repeated");
+    // Triangle 2 repeats 0 from another corner; 3 is 0 mirrored (the back of the same
+    // sheet: kept).
+    let s = tri_scene(square(), vec![[0, 1, 2], [0, 2, 3], [1, 2, 0], [0, 2, 1]]);
+    for name in ["twice.gltf", "twice.obj"] {
+        let p = dir.join(name);
+        match name.ends_with(".obj") {
+            true => write_obj(&s, &p).unwrap(),
+            false => write_gltf(&s, &p).unwrap(),
+        }
+        let loaded = load(&p, &LoadOptions::default()).unwrap();
+        assert_eq!(loaded.objects[0].mesh.triangles.len(), 3, "{name}");
+        let said = "dropped 1 repeated triangle(s)";
+        assert!(
+            loaded.warnings.iter().any(|w| w.contains(said)),
+            "{name}: {:?}",
+            loaded.warnings
+        );
+    }
+}

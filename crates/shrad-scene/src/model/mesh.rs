@@ -43,6 +43,19 @@ impl Mesh {
             })
             .collect()
     }
+    /// The triangles with the same three corners, facing the same way, as an earlier one
+    /// (bit for bit; in increasing order). Such a copy is the same surface twice: it
+    /// cannot be seen, yet lit as a patch of its own it would be counted again in every
+    /// sum, and every ray that meets it meets all its copies.
+    pub fn repeated_triangles(&self) -> Vec<usize> {
+        let mut seen = std::collections::HashSet::with_capacity(self.triangles.len());
+        (0..self.triangles.len())
+            .filter(|&t| {
+                let corners = self.triangles[t].map(|i| self.positions[i as usize]);
+                !seen.insert(same_way_key(corners))
+            })
+            .collect()
+    }
     /// Remove the triangles `sorted` lists (increasing indices, as
     /// [`Mesh::zero_area_triangles`] gives them); vertices stay.
     pub fn remove_triangles(&mut self, sorted: &[usize]) {
@@ -150,9 +163,38 @@ impl Mesh {
     }
 }
 
+/// The corners' bits from the smallest corner on, in the triangle's own order: equal for
+/// the same triangle whatever corner it starts at, different for its mirror.
+fn same_way_key(corners: [Vec3; 3]) -> [u32; 9] {
+    let bits = corners.map(|p| p.to_array().map(f32::to_bits));
+    let first = (0..3).min_by_key(|&k| bits[k]).unwrap_or(0);
+    let mut key = [0u32; 9];
+    for k in 0..3 {
+        key[3 * k..3 * k + 3].copy_from_slice(&bits[(first + k) % 3]);
+    }
+    key
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn repeated_triangles_are_the_same_corners_facing_the_same_way() {
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::X, Vec3::Z];
+        // 1 is 0 started at another corner, 2 is 0 mirrored, 3 shares the corners through
+        // other vertices (3 is at X as 1 is), 4 is another triangle, 5 repeats 2.
+        let t = vec![
+            [0, 1, 2],
+            [1, 2, 0],
+            [0, 2, 1],
+            [2, 0, 3],
+            [0, 1, 4],
+            [2, 1, 0],
+        ];
+        let m = Mesh::new(p, t);
+        assert_eq!(m.repeated_triangles(), vec![1, 3, 5]);
+    }
 
     #[test]
     fn a_subset_keeps_its_triangles_vertices_and_their_attributes_only() {

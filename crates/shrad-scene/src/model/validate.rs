@@ -30,7 +30,9 @@ impl Scene {
                 .or_else(|| attribute_problem(o))
                 .or_else(|| material_problem(&o.material))
                 .map_or(Ok(()), Err)
-                .and_then(|()| zero_area(o, drop_degenerate, &who, &mut self.warnings));
+                .and_then(|()| {
+                    drop_degenerate_triangles(o, drop_degenerate, &who, &mut self.warnings)
+                });
             if let Err(why) = problem {
                 return Err(SceneError::invalid(path, format!("{who}: {why}")));
             }
@@ -176,9 +178,10 @@ fn attribute_problem(o: &Object) -> Option<String> {
     None
 }
 
-/// Zero-area triangles are an error, or dropped with a warning when `drop`; an object
-/// without triangles is an error.
-fn zero_area(
+/// Zero-area triangles are an error, or dropped with a warning when `drop`; repeated ones
+/// ([`crate::Mesh::repeated_triangles`]) are dropped with a warning; an object without
+/// triangles is an error.
+fn drop_degenerate_triangles(
     o: &mut Object,
     drop: bool,
     who: &str,
@@ -198,6 +201,15 @@ fn zero_area(
             degenerate.len()
         ));
         o.mesh.remove_triangles(&degenerate);
+    }
+    let repeated = o.mesh.repeated_triangles();
+    if !repeated.is_empty() {
+        warnings.push(format!(
+            "{who}: dropped {} repeated triangle(s) (the corners of an earlier one, facing the \
+             same way: one surface lit as many would count its light again for each)",
+            repeated.len()
+        ));
+        o.mesh.remove_triangles(&repeated);
     }
     if o.mesh.triangles.is_empty() {
         return Err("has no triangles".into());
