@@ -108,3 +108,50 @@ fn a_flat_floor_is_seen_from_above() {
     assert!(eye.y > 0.1, "eye {eye} level with the floor");
     assert!(forward.dot(Vec3::NEG_Y) > 0.3, "looks along {forward}");
 }
+
+/// A room of separate walls open on one side (an OBJ of the Cornell box: floor, ceiling,
+/// back and side walls, open towards -Z) is seen through its opening: from +Z the camera
+/// looked through the back of the far wall and saw neither the ceiling nor the light. The
+/// same walls facing outward are a model, framed from its front, +Z.
+#[test]
+fn a_room_of_separate_walls_is_seen_through_its_opening() {
+    let walls = |inward: bool| {
+        let room = box_mesh(Vec3::splat(2.0), inward);
+        // The box's 6 faces (4 corners and 2 triangles each) as 6 objects, the -Z one left
+        // out.
+        let objects = (0..6).filter_map(|f| {
+            let positions = room.positions[4 * f..4 * f + 4].to_vec();
+            let base = 4 * f as u32;
+            let triangles = (room.triangles[2 * f..2 * f + 2].iter())
+                .map(|t| t.map(|i| i - base))
+                .collect();
+            let mesh = shrad_scene::Mesh::new(positions, triangles);
+            let open = mesh.positions.iter().all(|p| p.z < -1.9);
+            let mut o = Object::new(
+                format!("wall{f}"),
+                mesh,
+                Material::diffuse(Vec3::splat(0.8)),
+            );
+            o.role = Some(Role::Boundary);
+            (!open).then_some(o)
+        });
+        Scene {
+            objects: objects.collect(),
+            ..Default::default()
+        }
+    };
+    let eye = |s: &Scene| s.camera_or_default().world_from_camera.translation;
+    let room = walls(true);
+    assert_eq!(room.objects.len(), 5);
+    let at = eye(&room);
+    assert!(
+        at.z < -2.0 && at.y > 0.0,
+        "the eye {at}: not before the opening"
+    );
+    let model = walls(false);
+    let at = eye(&model);
+    assert!(
+        at.z > 2.0 && at.y > 0.0,
+        "the eye {at}: not before the front"
+    );
+}

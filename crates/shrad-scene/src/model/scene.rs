@@ -42,12 +42,17 @@ impl Camera {
     /// floor or table top (y up) is seen from above rather than edge-on. The box's
     /// bounding sphere fills the view's height.
     pub fn framing(lo: Vec3, hi: Vec3) -> Self {
+        Camera::framing_from(lo, hi, Vec3::Z)
+    }
+
+    /// [`Camera::framing`] from the `side` (a horizontal unit vector) instead of +Z.
+    pub fn framing_from(lo: Vec3, hi: Vec3, side: Vec3) -> Self {
         let centre = 0.5 * (lo + hi);
         let radius = 0.5 * (hi - lo).length();
         let yfov = 40f32.to_radians();
         // The distance at which the sphere fits the field of view exactly.
         let dist = (radius / (0.5 * yfov).sin()).max(1e-6);
-        let towards_eye = Vec3::new(0.0, 0.5, 1.0).normalize();
+        let towards_eye = (side + Vec3::new(0.0, 0.5, 0.0)).normalize();
         Camera::look_at(centre + towards_eye * dist, centre, yfov)
     }
 }
@@ -174,9 +179,42 @@ impl Scene {
                 let eye = Vec3::new(centre.x, lo.y + 0.55 * ext.y, lo.z + 0.03 * ext.z);
                 Camera::look_at(eye, centre, 60f32.to_radians())
             } else {
-                Camera::framing(lo, hi)
+                Camera::framing_from(lo, hi, self.most_seen_side())
             }
         })
+    }
+
+    /// The side (+Z, -Z, +X or -X) from which a camera raised as [`Camera::framing`]'s sees
+    /// the most of the faces' fronts less their backs (a back turned to it is a surface it
+    /// looks through): +Z (glTF's front) unless another side shows a tenth of the scene's
+    /// area more. A room of separate walls open on one side (an OBJ of the Cornell box, open
+    /// towards -Z) is seen through its opening, not through the back of a wall; a closed
+    /// object or room shows as much from every side and stays framed from +Z.
+    fn most_seen_side(&self) -> Vec3 {
+        let seen = |side: Vec3| {
+            let eye = (side + Vec3::new(0.0, 0.5, 0.0)).normalize();
+            (self.objects.iter())
+                .map(|o| area_towards(o, eye))
+                .sum::<f32>()
+        };
+        let area: f32 = (self.objects.iter())
+            .map(|o| {
+                o.mesh.area()
+                    * o.world_from_object
+                        .matrix3
+                        .determinant()
+                        .abs()
+                        .cbrt()
+                        .powi(2)
+            })
+            .sum();
+        let front = seen(Vec3::Z);
+        [Vec3::NEG_Z, Vec3::X, Vec3::NEG_X]
+            .into_iter()
+            .map(|side| (side, seen(side)))
+            .filter(|&(_, seen)| seen > front + 0.1 * area)
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map_or(Vec3::Z, |(side, _)| side)
     }
 
     /// Length of the longest animation, the camera's included (0 for a static scene).
@@ -242,4 +280,23 @@ pub(crate) fn faces_towards(o: &crate::Object, centre: Vec3) -> bool {
         })
         .sum();
     towards > 0.0
+}
+
+/// Object `o`'s area as seen from far along `eye` (a unit vector towards the eye): each
+/// triangle's area times the cosine of its front's normal with `eye`, negative where its
+/// back is turned to the eye (positive both ways for a double-sided material).
+fn area_towards(o: &crate::Object, eye: Vec3) -> f32 {
+    let m = o.world_from_object;
+    let side = m.matrix3.determinant().signum();
+    let p = |i: u32| m.transform_point3(o.mesh.positions[i as usize]);
+    (o.mesh.triangles.iter())
+        .map(|t| {
+            let [a, b, c] = t.map(p);
+            let seen = 0.5 * ((b - a).cross(c - a) * side).dot(eye);
+            match o.material.double_sided {
+                true => seen.abs(),
+                false => seen,
+            }
+        })
+        .sum()
 }
