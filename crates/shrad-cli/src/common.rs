@@ -216,3 +216,26 @@ pub fn print_energy(e: &shrad::energy::EnergyBalance, escaped: Option<f64>) {
         e.reflected_bound
     );
 }
+
+/// Whether two output paths name one file (as written, or once their folders are resolved).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    let resolved = |p: &Path| {
+        let dir = p.parent().filter(|d| !d.as_os_str().is_empty());
+        let dir = std::fs::canonicalize(dir.unwrap_or(Path::new("."))).ok()?;
+        Some(dir.join(p.file_name()?))
+    };
+    a == b || resolved(a).is_some_and(|a| resolved(b) == Some(a))
+}
+
+/// Refuse an output that is the scene file being read (`scene` as given: a built-in name
+/// is no file): `render x.obj -o x.obj` wrote its PNG over the scene, exit 0.
+pub fn refuse_overwriting_scene(flag: &str, output: &Path, scene: &str) -> Result<()> {
+    let input = Path::new(scene);
+    if input.is_file() && same_file(output, input) {
+        bail!(
+            "{flag} {}: that is the scene file being read; write to another name",
+            output.display()
+        );
+    }
+    Ok(())
+}

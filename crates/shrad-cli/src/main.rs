@@ -84,8 +84,25 @@ fn run(command: Command) -> Result<()> {
     }
 }
 
+/// On Ctrl-C or SIGTERM, remove the outputs' temporary and staged files before exiting
+/// (130, as a shell reports an interrupt): a bake's sequence is all or nothing, stopped
+/// too. The viewer handles its own signals (it stops its server).
+fn remove_unfinished_on_signal() {
+    let handler = || {
+        shrad_scene::remove_unfinished();
+        std::process::exit(130);
+    };
+    if let Err(e) = ctrlc::set_handler(handler) {
+        eprintln!("warning: no Ctrl-C handler ({e}): a stopped command may leave temporary files");
+    }
+}
+
 fn main() -> ExitCode {
-    match run(Cli::parse().command) {
+    let command = Cli::parse().command;
+    if !matches!(command, Command::View(_)) {
+        remove_unfinished_on_signal();
+    }
+    match run(command) {
         Ok(()) if say::failed() => ExitCode::FAILURE,
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

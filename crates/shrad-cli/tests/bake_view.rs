@@ -103,6 +103,142 @@ fn bake_bad_input_fails_cleanly_and_writes_nothing() {
     );
 }
 
+/// `bake` of `scene` (200 patches) into `out`, which succeeds.
+fn bake_ok(scene: &str, out: &std::path::Path) {
+    let o = shrad(&[
+        "bake",
+        "-q",
+        scene,
+        "--patches",
+        "200",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// What a user's pass found (2026-12-07): the scene read overwritten by its own bake, a
+/// folder at the probes' name that failed after the rest was written, a lightmap texel
+/// larger than the scene (a black atlas, exit 0); each refused before anything is written.
+#[test]
+fn bake_refuses_what_would_overwrite_the_scene_or_leave_part_of_its_outputs() {
+    let dir = temp_dir("overwrite");
+    let scene = dir.join("room.gltf");
+    bake_ok("cornell", &scene);
+    let before = std::fs::read(&scene).unwrap();
+    let o = shrad(&[
+        "bake",
+        "-q",
+        scene.to_str().unwrap(),
+        "--patches",
+        "200",
+        "-o",
+        scene.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("the scene file being read"), "{stderr}");
+    assert_eq!(
+        std::fs::read(&scene).unwrap(),
+        before,
+        "the scene was overwritten"
+    );
+
+    let dir = temp_dir("probes-folder");
+    std::fs::create_dir(dir.join("c.probes.json")).unwrap();
+    let out = dir.join("c.glb");
+    let o = shrad(&[
+        "bake",
+        "-q",
+        "cornell",
+        "--patches",
+        "200",
+        "--solver",
+        "dispersive",
+        "--probes",
+        "corners",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("c.probes.json would be written, and is a folder"),
+        "{stderr}"
+    );
+    assert!(!out.exists(), "the bake was left without its probes");
+
+    let dir = temp_dir("huge-texel");
+    let out = dir.join("c.glb");
+    let out = out.to_str().unwrap();
+    bake_fails(
+        &dir,
+        &["cornell", "-o", out, "--lightmap", "--texel-size", "1e30"],
+        "larger than the largest chart",
+    );
+}
+
+/// A `.gltf`'s buffer is named by a URI: a file name with `%`, `#` or a space is
+/// percent-encoded, so the bake reads back (written raw, `50%.gltf`'s `50%.bin` did not).
+#[test]
+fn a_baked_gltfs_buffer_uri_is_percent_encoded() {
+    let dir = temp_dir("uri");
+    let out = dir.join("50% #1.gltf");
+    bake_ok("cornell", &out);
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.contains("\"uri\":\"50%25%20%231.bin\""), "{text}");
+    assert!(dir.join("50% #1.bin").is_file());
+    let o = shrad(&["info", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// Ctrl-C during a sequence's bake removes the files it had staged: exit 130, nothing left
+/// (the hidden `.c_0000.glb.staged-PID` files stayed).
+#[test]
+fn an_interrupted_sequence_leaves_no_file() {
+    let dir = temp_dir("interrupted");
+    let out = dir.join("c.glb");
+    let scene = common::repo().join("scenes/moving_box.toml");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_shrad"))
+        .args([
+            "bake",
+            "-q",
+            scene.to_str().unwrap(),
+            "--patches",
+            "2000",
+            "--solver",
+            "dispersive",
+            "--frames",
+            "2000",
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Wait for the first staged file (the solve before it takes a second or so).
+    let started = std::time::Instant::now();
+    while files_in(&dir).is_empty() {
+        assert!(
+            started.elapsed().as_secs() < 120,
+            "no file staged in 2 minutes"
+        );
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the bake ended before it was stopped"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let pid = child.id().to_string();
+    let kill = std::process::Command::new("kill")
+        .args(["-INT", &pid])
+        .status();
+    assert!(kill.unwrap().success());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130));
+    assert!(files_in(&dir).is_empty(), "left: {:?}", files_in(&dir));
+}
+
 #[test]
 fn bake_probes_corners_writes_them_in_three_js_order_beside_the_file() {
     let (dir, _, o) = bake_cornell("probes", &["--probes", "corners"]);

@@ -900,3 +900,36 @@ fn docs_options_md_is_the_output_of_shrad_options() {
         "docs/options.md is out of date: regenerate it with the command written in it"
     );
 }
+
+/// `render x.obj -o x.obj` wrote its PNG over the scene (exit 0, with a warning about the
+/// extension); now refused before the solve, the scene as it was.
+#[test]
+fn render_refuses_to_write_over_the_scene_it_reads() {
+    let dir = temp_dir("render-over-scene");
+    let scene = dir.join("x.obj");
+    std::fs::copy(repo().join("scenes/cornell.obj"), &scene).unwrap();
+    std::fs::copy(repo().join("scenes/cornell.mtl"), dir.join("cornell.mtl")).unwrap();
+    let before = std::fs::read(&scene).unwrap();
+    for flag in ["-o", "--hdr", "--export-patches"] {
+        let o = shrad(&[
+            "render",
+            "-q",
+            scene.to_str().unwrap(),
+            "--patches",
+            "200",
+            flag,
+            scene.to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{flag}: {stderr}");
+        assert!(
+            stderr.contains("the scene file being read"),
+            "{flag}: {stderr}"
+        );
+        assert_eq!(
+            std::fs::read(&scene).unwrap(),
+            before,
+            "{flag}: the scene was overwritten"
+        );
+    }
+}

@@ -5,6 +5,42 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+/// Every temporary and staged file this process is writing or holds, for
+/// [`remove_unfinished`] when it is stopped by a signal (Ctrl-C in a long bake left the
+/// staged files of its sequence, hidden, beside the outputs).
+static UNFINISHED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// A temporary or staged file, listed in [`UNFINISHED`] while it lives.
+#[derive(Debug)]
+struct Unfinished(PathBuf);
+
+impl Unfinished {
+    fn new(path: PathBuf) -> Unfinished {
+        let mut list = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
+        list.push(path.clone());
+        Unfinished(path)
+    }
+}
+
+impl Drop for Unfinished {
+    fn drop(&mut self) {
+        let mut list = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(k) = list.iter().rposition(|p| *p == self.0) {
+            list.swap_remove(k);
+        }
+    }
+}
+
+/// Remove every temporary and staged file of outputs not yet finished: what a command
+/// stopped by a signal calls before it exits, so that no part of an output stays.
+pub fn remove_unfinished() {
+    let list = UNFINISHED.lock().unwrap_or_else(|e| e.into_inner());
+    for path in list.iter() {
+        let _ = std::fs::remove_file(path);
+    }
+}
 
 /// A file that could not be written; nothing was left behind at `path` or beside it.
 #[derive(Debug, thiserror::Error)]
@@ -58,8 +94,10 @@ pub fn write_atomic(
         true => copy_into(tmp, path),
         false => std::fs::rename(tmp, path),
     };
+    let listed = Unfinished::new(tmp.clone());
     let result = write(&tmp).and_then(|()| put(&tmp).map_err(|e| e.to_string()));
     let _ = std::fs::remove_file(&tmp);
+    drop(listed);
     result.map_err(fail)
 }
 
@@ -96,6 +134,8 @@ pub fn staged_path(dest: &Path) -> PathBuf {
 pub struct StagedFiles {
     /// (staged name, destination), in staging order.
     files: Vec<(PathBuf, PathBuf)>,
+    /// The staged names, listed for [`remove_unfinished`] until committed or removed.
+    listed: Vec<Unfinished>,
 }
 
 impl StagedFiles {
@@ -116,6 +156,7 @@ impl StagedFiles {
             path: dest.to_path_buf(),
             message: e.message,
         })?;
+        self.listed.push(Unfinished::new(staged.clone()));
         self.files.push((staged, dest.to_path_buf()));
         Ok(())
     }

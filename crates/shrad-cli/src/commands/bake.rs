@@ -14,7 +14,9 @@ use shrad::lightmap::{LightmapFormat, LightmapOptions};
 use shrad_scene::Scene;
 
 use crate::commands::render::solve;
-use crate::common::{build_world, check_positive, progress_for, SceneArgs};
+use crate::common::{
+    build_world, check_positive, progress_for, refuse_overwriting_scene, SceneArgs,
+};
 use crate::settings::FileSettings;
 use crate::solver_args::SolverArgs;
 
@@ -120,6 +122,23 @@ fn check(args: &BakeArgs, scene: &Scene) -> Result<()> {
             out.display(),
             folder.display()
         );
+    }
+    // The file, the `.bin` beside a `.gltf`, the lightmap and the probes.
+    for written in ["", "bin", "lightmap.exr", "probes.json"] {
+        let path = match written {
+            "" => out.clone(),
+            ext => out.with_extension(ext),
+        };
+        refuse_overwriting_scene("-o", &path, &args.scene.scene)?;
+        // (The probes are written after the rest is in place: a folder at their name
+        // failed there and left the rest.)
+        if path.is_dir() {
+            bail!(
+                "-o {}: {} would be written, and is a folder",
+                out.display(),
+                path.display()
+            );
+        }
     }
     if let Some(n) = args.frames.filter(|&n| n > 1) {
         if scene.duration() <= 0.0 {

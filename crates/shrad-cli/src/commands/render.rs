@@ -14,7 +14,10 @@ use shrad::solver::SolverChoice;
 use shrad::{NoProgress, Progress, World};
 use shrad_scene::Scene;
 
-use crate::common::{build_world, check_positive, print_energy, progress_for, SceneArgs};
+use crate::common::{
+    build_world, check_positive, print_energy, progress_for, refuse_overwriting_scene, same_file,
+    SceneArgs,
+};
 use crate::settings::FileSettings;
 use crate::solver_args::SolverArgs;
 
@@ -138,6 +141,7 @@ fn check_outputs(args: &RenderArgs) -> Result<()> {
                 );
             }
         }
+        refuse_overwriting_scene(flag, path, &args.scene.scene)?;
         if let Some((other, _, _)) = given[..k].iter().find(|(_, p, _)| same_file(p, path)) {
             bail!("{flag} {} is also {other}'s output", path.display());
         }
@@ -151,16 +155,6 @@ fn check_outputs(args: &RenderArgs) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// Whether two output paths name one file (as written, or once their folders are resolved).
-fn same_file(a: &Path, b: &Path) -> bool {
-    let resolved = |p: &Path| {
-        let dir = p.parent().filter(|d| !d.as_os_str().is_empty());
-        let dir = std::fs::canonicalize(dir.unwrap_or(Path::new("."))).ok()?;
-        Some(dir.join(p.file_name()?))
-    };
-    a == b || resolved(a).is_some_and(|a| resolved(b) == Some(a))
 }
 
 /// Run the frames of a solve on `engine` and report them unless `quiet` (also `bake`'s).

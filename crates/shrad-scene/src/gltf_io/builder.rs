@@ -150,7 +150,7 @@ impl GltfBuffer {
                     base64::encode(&self.bin)
                 ));
             }
-            BufferAt::File(name) => buffer["uri"] = json!(name),
+            BufferAt::File(name) => buffer["uri"] = json!(file_uri(name)),
         }
         FinishedBuffer {
             accessors: Value::Array(self.accessors),
@@ -161,8 +161,31 @@ impl GltfBuffer {
     }
 }
 
+/// A file name as a relative URI (RFC 3986): every byte but the unreserved ones
+/// percent-encoded, so that `50%.bin`, `a#1.bin` or `my file.bin` name themselves (written
+/// raw, shrad's own reader, the validator and three.js read `50%.bin` as a broken escape
+/// and `a#1.bin` as `a` with a fragment).
+pub(crate) fn file_uri(name: &str) -> String {
+    name.bytes()
+        .map(|b| match b {
+            b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'-' | b'.' | b'_' | b'~' => {
+                (b as char).to_string()
+            }
+            _ => format!("%{b:02X}"),
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn file_names_are_percent_encoded_as_uris() {
+        assert_eq!(file_uri("x.bin"), "x.bin");
+        assert_eq!(file_uri("50%.bin"), "50%25.bin");
+        assert_eq!(file_uri("a#1 b.bin"), "a%231%20b.bin");
+        assert_eq!(file_uri("é.bin"), "%C3%A9.bin");
+    }
+
     use super::*;
 
     #[test]
