@@ -227,6 +227,28 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
     a == b || resolved(a).is_some_and(|a| resolved(b) == Some(a))
 }
 
+/// Refuse an output whose folder cannot be written (a read-only folder, `/proc`), before
+/// the solve: a file is made there and removed. A device or pipe is written into instead.
+pub fn check_writable(flag: &str, output: &Path) -> Result<()> {
+    if std::fs::metadata(output).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+        return Ok(());
+    }
+    let dir = output.parent().filter(|d| !d.as_os_str().is_empty());
+    let dir = dir.unwrap_or(Path::new("."));
+    let probe = dir.join(format!(".shrad-can-write-{}", std::process::id()));
+    match std::fs::File::create(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => bail!(
+            "{flag} {}: cannot write in {}: {e}",
+            output.display(),
+            dir.display()
+        ),
+    }
+}
+
 /// Refuse an output that is the scene file being read (`scene` as given: a built-in name
 /// is no file): `render x.obj -o x.obj` wrote its PNG over the scene, exit 0.
 pub fn refuse_overwriting_scene(flag: &str, output: &Path, scene: &str) -> Result<()> {

@@ -95,6 +95,19 @@ fn bake_bad_input_fails_cleanly_and_writes_nothing() {
         &["cornell", "-o", out, "--exposure", "-1"],
         "--exposure",
     );
+    // --passes is a sequence's (it was ignored without --frames), at most 1000.
+    bake_fails(&dir, &["cornell", "-o", out, "--passes", "3"], "--frames");
+    bake_fails(
+        &dir,
+        &["cornell", "-o", out, "--frames", "2", "--passes", "5000"],
+        "--passes",
+    );
+    // A folder that cannot be written is found before the solve.
+    bake_fails(
+        &dir,
+        &["cornell", "-o", "/proc/x.glb"],
+        "cannot write in /proc",
+    );
     // The reference (bake's default) has no per-object probes: refused before solving.
     bake_fails(
         &dir,

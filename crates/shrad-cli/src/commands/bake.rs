@@ -15,7 +15,7 @@ use shrad_scene::Scene;
 
 use crate::commands::render::solve;
 use crate::common::{
-    build_world, check_positive, progress_for, refuse_overwriting_scene, SceneArgs,
+    build_world, check_positive, check_writable, progress_for, refuse_overwriting_scene, SceneArgs,
 };
 use crate::settings::FileSettings;
 use crate::solver_args::SolverArgs;
@@ -41,8 +41,13 @@ pub struct BakeArgs {
     frames: Option<u64>,
     /// With --frames: passes over the objects before each file (every object updated this
     /// many times), after the first pose has converged as `render` converges.
-    #[arg(long, default_value_t = BakeOptions::default().passes)]
-    passes: usize,
+    #[arg(
+        long,
+        requires = "frames",
+        default_value_t = BakeOptions::default().passes as u64,
+        value_parser = clap::value_parser!(u64).range(0..=1000)
+    )]
+    passes: u64,
     /// Display scale of COLOR_0 (clamp(exposure * B / pi, 0, 1)) [default: auto, as a PNG's:
     /// the 99th percentile of non-light luminance to 0.9, from the first file for them all].
     #[arg(long, allow_negative_numbers = true)]
@@ -123,6 +128,7 @@ fn check(args: &BakeArgs, scene: &Scene) -> Result<()> {
             folder.display()
         );
     }
+    check_writable("-o", out)?;
     // The file, the `.bin` beside a `.gltf`, the lightmap and the probes.
     for written in ["", "bin", "lightmap.exr", "probes.json"] {
         let path = match written {
@@ -159,6 +165,9 @@ fn write_probes(engine: &Engine, output: &Path, quiet: bool) -> Result<()> {
             engine.solver_choice().name()
         );
     };
+    if probes.is_empty() {
+        eprintln!("warning: --probes corners: the scene has no interior object to probe");
+    }
     let path = output.with_extension("probes.json");
     let text = shrad::probe_export::to_json_text(engine, &probes);
     shrad_scene::write_atomic(&path, |tmp| {
@@ -168,6 +177,18 @@ fn write_probes(engine: &Engine, output: &Path, quiet: bool) -> Result<()> {
         say!("wrote {}: {} probes, 3 bands", path.display(), probes.len());
     }
     Ok(())
+}
+
+/// A longer sequence baked at `output`'s names before left its later files: say so, they
+/// do not belong to these `n` frames.
+fn warn_of_earlier_frames(output: &Path, n: usize) {
+    let next = shrad::bake::frame_path(output, n);
+    if next.is_file() {
+        eprintln!(
+            "warning: {} and any after it are from an earlier bake, not of these {n} frames",
+            next.display()
+        );
+    }
 }
 
 /// Solve, then write the file or the sequence.
@@ -213,7 +234,11 @@ pub fn run(args: BakeArgs, scene: Scene, file: &FileSettings) -> Result<()> {
         // The engine is at --time already.
         time: None,
         frames,
-        passes: if frames.is_some() { args.passes } else { 0 },
+        passes: if frames.is_some() {
+            args.passes as usize
+        } else {
+            0
+        },
         exposure: args.exposure,
     };
     let progress = progress_for(quiet);
@@ -243,6 +268,9 @@ pub fn run(args: BakeArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     }
     if args.probes.is_some() {
         write_probes(&engine, &args.output, quiet)?;
+    }
+    if let Some(n) = frames {
+        warn_of_earlier_frames(&args.output, n);
     }
     if !quiet {
         for b in &baked {

@@ -15,8 +15,8 @@ use shrad::{NoProgress, Progress, World};
 use shrad_scene::Scene;
 
 use crate::common::{
-    build_world, check_positive, print_energy, progress_for, refuse_overwriting_scene, same_file,
-    SceneArgs,
+    build_world, check_positive, check_writable, print_energy, progress_for,
+    refuse_overwriting_scene, same_file, SceneArgs,
 };
 use crate::settings::FileSettings;
 use crate::solver_args::SolverArgs;
@@ -142,6 +142,7 @@ fn check_outputs(args: &RenderArgs) -> Result<()> {
             }
         }
         refuse_overwriting_scene(flag, path, &args.scene.scene)?;
+        check_writable(flag, path)?;
         if let Some((other, _, _)) = given[..k].iter().find(|(_, p, _)| same_file(p, path)) {
             bail!("{flag} {} is also {other}'s output", path.display());
         }
