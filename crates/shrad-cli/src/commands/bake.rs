@@ -36,7 +36,7 @@ pub struct BakeArgs {
     /// Bake the animation as N files evenly over [0, duration]: OUT_0000.glb, OUT_0001.glb...
     /// (glTF has no standard per-frame vertex colour; a file per frame shows everywhere).
     /// All or nothing: the files are renamed into place once all are written, so a bake
-    /// that fails partway leaves none of them.
+    /// that fails partway, or is stopped (Ctrl-C), leaves none of them.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=100_000))]
     frames: Option<u64>,
     /// With --frames: passes over the objects before each file (every object updated this
