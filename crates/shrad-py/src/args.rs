@@ -138,6 +138,18 @@ pub fn passes(passes: i64) -> PyResult<usize> {
         })
 }
 
+/// `frames` of a sequence when it is in `1..=MAX_FRAMES` (a negative count was pyo3's
+/// "can't convert negative int to unsigned", naming nothing).
+pub fn frames(frames: i64) -> PyResult<usize> {
+    let max = shrad::limits::MAX_FRAMES;
+    usize::try_from(frames)
+        .ok()
+        .filter(|n| (1..=max).contains(n))
+        .ok_or_else(|| {
+            PyValueError::new_err(format!("frames must be between 1 and {max}, got {frames}"))
+        })
+}
+
 /// A picture's `width`, `height` and `spp` as the library takes them: a negative one is
 /// the library's size error with the numbers as given, as is a side beyond its limit.
 pub fn image_size(width: i64, height: i64, spp: i64) -> PyResult<(u32, u32, u32)> {

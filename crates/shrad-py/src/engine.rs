@@ -528,7 +528,12 @@ impl PyEngine {
     /// Ctrl-C (KeyboardInterrupt) stops the reference solve.
     fn error<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let e = self.with_stoppable(py, |e, stop| e.error_with_progress(stop))?;
-        crate::to_py(py, &e)
+        // Built here, not through JSON: JSON has no NaN, and a role without patches was None.
+        let dict = PyDict::new(py);
+        dict.set_item("overall", e.overall)?;
+        dict.set_item("boundary", e.boundary)?;
+        dict.set_item("interior", e.interior)?;
+        Ok(dict.into_any())
     }
 
     /// Write the current light (no stepping) as glTF: ``.glb``, or ``.gltf`` with a ``.bin``
@@ -562,14 +567,14 @@ impl PyEngine {
         py: Python<'py>,
         path: std::path::PathBuf,
         time: Option<f32>,
-        frames: Option<usize>,
+        frames: Option<i64>,
         passes: i64,
         exposure: Option<f32>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let passes = args::passes(passes)?;
         let options = shrad::bake::BakeOptions {
             time,
-            frames,
+            frames: frames.map(args::frames).transpose()?,
             passes,
             exposure,
         };

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import shrad
+from conftest import room_dict
 
 
 def test_passes_are_bounded_not_an_abort(cornell, tmp_path):
@@ -25,6 +26,47 @@ def test_passes_are_bounded_not_an_abort(cornell, tmp_path):
     assert not (tmp_path / "out.glb").exists()
     assert e.frames == 0
     assert e.frames_to_converge(1000) == 1000 * e.frames_to_converge(1)
+
+
+def test_a_sequences_frames_are_bounded_and_named(tmp_path):
+    e = shrad.Engine(shrad.load_dict(room_dict(patches=600, keyframes=True)))
+    # frames=10**12 asked the allocator for 4 TB of frame times and aborted the process;
+    # -1 was pyo3's "can't convert negative int to unsigned", naming nothing.
+    for frames in [10**12, 100_001, 0, -1]:
+        with pytest.raises(ValueError, match=f"frames must be between 1 and 100000, got {frames}"):
+            e.bake(tmp_path / "out.glb", frames=frames)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_error_is_nan_where_a_role_has_no_patches_and_finite_at_the_brightest(cornell):
+    # A scene without interior objects: NaN, as documented (JSON made it None).
+    walls = shrad.load_dict({"objects": [
+        {"name": "room", "shape": "box", "size": [2, 2, 2], "inward": True,
+         "role": "boundary", "reflectance": [0.5, 0.5, 0.5]},
+        {"name": "lamp", "shape": "quad", "emission": [1, 1, 1],
+         "corners": [[-0.2, 0.99, -0.2], [0.2, 0.99, -0.2], [0.2, 0.99, 0.2], [-0.2, 0.99, 0.2]]},
+    ]}, patches=300)
+    e = shrad.Engine(walls, solver="dispersive")
+    e.step()
+    err = e.error()
+    assert isinstance(err["interior"], float) and np.isnan(err["interior"])
+    assert np.isfinite(err["overall"])
+    # The brightest emission a solve holds: the error's squares overflowed 32-bit floats.
+    e = shrad.Engine(cornell, solver="dispersive")
+    e.set_emission("light", [1e20] * 3)
+    e.step()
+    err = e.error()
+    assert all(np.isfinite(err[k]) for k in ("overall", "boundary", "interior")), err
+
+
+def test_a_png_of_a_picture_that_is_not_finite_is_refused(tmp_path):
+    img = np.full((4, 4, 3), 0.5, np.float32)
+    img[1, 2, 0] = np.inf
+    # One infinite pixel made the exposure NaN and the whole PNG black, silently.
+    for tonemap in ["exposure", "minmax"]:
+        with pytest.raises(ValueError, match=r"pixel \(2, 1\) is \[inf"):
+            shrad.write_png(tmp_path / "a.png", img, tonemap=tonemap)
+    assert list(tmp_path.iterdir()) == []
 
 
 class Interrupted(Exception):

@@ -107,6 +107,19 @@ impl From<shrad_scene::WriteError> for Error {
 
 /// Write a PNG.
 pub fn write_png(image: &Image, path: &Path, tonemap: Tonemap) -> Result<(), Error> {
+    // One NaN or infinity made the exposure (or the min-max) NaN, and the whole picture
+    // black, silently.
+    if let Some(k) = image.pixels.iter().position(|p| !p.is_finite()) {
+        let w = image.width.max(1) as usize;
+        return Err(Error::Invalid(format!(
+            "{}: pixel ({}, {}) is {}: a PNG's tone mapping needs finite radiance (an EXR \
+             keeps it as it is)",
+            path.display(),
+            k % w,
+            k / w,
+            image.pixels[k]
+        )));
+    }
     let rgb = to_rgb8(image, tonemap);
     write_atomic(path, |tmp| {
         image::save_buffer_with_format(
@@ -187,4 +200,32 @@ pub fn write_gif(
         Ok(())
     })
     .map_err(Error::from)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One pixel that is not finite is an error naming it, and nothing is written (it made
+    /// the exposure NaN and the whole PNG black).
+    #[test]
+    fn a_png_of_a_pixel_that_is_not_finite_is_refused() {
+        let mut pixels = vec![Vec3::splat(0.5); 12];
+        pixels[7] = Vec3::new(f32::NAN, 0.0, 0.0);
+        let image = Image {
+            width: 4,
+            height: 3,
+            pixels,
+            emitter: vec![false; 12],
+        };
+        let dir = std::env::temp_dir().join(format!("shrad-png-nan-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("nan.png");
+        for tonemap in [Tonemap::Exposure(None), Tonemap::MinMax] {
+            let e = write_png(&image, &path, tonemap).unwrap_err().to_string();
+            assert!(e.contains("pixel (3, 1) is [NaN"), "{e}");
+        }
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

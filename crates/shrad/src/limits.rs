@@ -19,6 +19,9 @@ pub const BYTES_PER_SAMPLE: u64 = 64;
 /// The longest side of a picture, in pixels, for every command and front end (beyond it a
 /// picture is a mistake before it is a memory problem).
 pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// The most frames a sequence (a bake's files, an animation's pictures) may have: one a
+/// second for a day and more, and each frame's time and statistics kept within reach.
+pub const MAX_FRAMES: usize = 100_000;
 /// Patch ids are `u32`, and one value marks "no patch".
 pub const MAX_PATCHES: u64 = u32::MAX as u64 - 1;
 

@@ -29,13 +29,33 @@ pub fn relative_error(patches: &Patches, radiosity: &[Vec3], reference: &[Vec3])
             Role::Light => continue,
         };
         let a = patches.area[i] as f64;
-        num[k] += a * (radiosity[i] - reference[i]).length_squared() as f64;
-        den[k] += a * reference[i].length_squared() as f64;
+        // In f64: a radiosity of 1e20 (the most a solve holds) squares past f32's range.
+        num[k] += a * (radiosity[i] - reference[i]).as_dvec3().length_squared();
+        den[k] += a * reference[i].as_dvec3().length_squared();
     }
     let ratio = |n: f64, d: f64| if d > 0.0 { (n / d).sqrt() } else { f64::NAN };
     RelativeError {
         overall: ratio(num[0] + num[1], den[0] + den[1]),
         boundary: ratio(num[0], den[0]),
         interior: ratio(num[1], den[1]),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// At the brightest radiosity a solve holds (1e20) the error is finite: its squares
+    /// (1e40) overflowed 32-bit floats and it was NaN.
+    #[test]
+    fn the_error_of_the_brightest_light_is_finite() {
+        let scene = shrad_scene::cornell_box();
+        let patches = Patches::build(&scene, crate::PatchSizing::Count(300));
+        let reference = vec![Vec3::splat(1e20); patches.len()];
+        let radiosity = vec![Vec3::splat(1.1e20); patches.len()];
+        let e = relative_error(&patches, &radiosity, &reference);
+        for x in [e.overall, e.boundary, e.interior] {
+            assert!((x - 0.1).abs() < 1e-6, "{e:?}");
+        }
     }
 }

@@ -211,7 +211,12 @@ pub fn bake_files(
 fn times(engine: &Engine, options: &BakeOptions) -> Result<Vec<f32>, Error> {
     let n = match options.frames {
         None => return Ok(vec![options.time.unwrap_or(engine.world().time)]),
-        Some(0) => return Err(Error::Invalid("frames must be at least 1".into())),
+        Some(n) if !(1..=crate::limits::MAX_FRAMES).contains(&n) => {
+            return Err(Error::Invalid(format!(
+                "frames must be between 1 and {}, got {n}",
+                crate::limits::MAX_FRAMES
+            )))
+        }
         Some(_) if options.time.is_some() => {
             return Err(Error::Invalid(
                 "give a time or a number of frames, not both".into(),
@@ -227,7 +232,8 @@ fn times(engine: &Engine, options: &BakeOptions) -> Result<Vec<f32>, Error> {
         )));
     }
     Ok((0..n)
-        .map(|i| duration * i as f32 / (n.max(2) - 1) as f32)
+        // The fraction first: `duration * i` overflowed for an animation near f32's end.
+        .map(|i| duration * (i as f32 / (n.max(2) - 1) as f32))
         .collect())
 }
 
