@@ -1801,6 +1801,18 @@ fn coordinates_too_large_for_f32_are_refused_saying_so() {
             &["world coordinates reach", "scale the scene down"],
         );
     }
+    // Nor so wide that a triangle's area overflows, though its coordinates are in range
+    // (a room of side 1e10 had infinite areas: "patch size inf").
+    let root = quad_with(|v| v["nodes"][0]["scale"] = json!([1e10, 1e10, 1e10]));
+    assert_refused(
+        &dir,
+        "wide.gltf",
+        &root,
+        &[
+            "world size is 1.4e10, beyond the 1e9",
+            "scale the scene down",
+        ],
+    );
     // Nor too small: its areas would vanish.
     let root = quad_with(|v| v["nodes"][0]["scale"] = json!([1e-30, 1e-30, 1e-30]));
     assert_refused(

@@ -88,6 +88,12 @@ fn geometry_problem(o: &Object) -> Option<String> {
              32-bit arithmetic of its areas and distances can hold: scale the scene down"
         ));
     }
+    if size > MAX_SIZE {
+        return Some(format!(
+            "its world size is {size:.1e}, beyond the {MAX_SIZE:.0e} over which 32-bit \
+             arithmetic of its triangles' areas overflows: scale the scene down"
+        ));
+    }
     None
 }
 
@@ -108,10 +114,17 @@ pub fn placement_problem(world_from_local: glam::Affine3A, local: Option<Aabb>) 
     }
     let world = local.map(|b| b.transformed(m))?;
     let reach = world.min.abs().max(world.max.abs()).max_element();
-    (reach.is_nan() || reach > MAX_COORDINATE).then(|| {
-        format!(
+    if reach.is_nan() || reach > MAX_COORDINATE {
+        return Some(format!(
             "it would reach world coordinate {reach:.1e}, beyond the {MAX_COORDINATE:.0e} that \
              32-bit arithmetic of its areas and distances can hold"
+        ));
+    }
+    let size = world.diagonal();
+    (size > MAX_SIZE).then(|| {
+        format!(
+            "it would be {size:.1e} across, beyond the {MAX_SIZE:.0e} over which 32-bit \
+             arithmetic of its triangles' areas overflows"
         )
     })
 }
@@ -120,6 +133,12 @@ pub fn placement_problem(world_from_local: glam::Affine3A, local: Option<Aabb>) 
 /// 1e24) stay far from the 3.4e38 where 32-bit floats overflow (a node scaled by 1e30 made
 /// every area infinite, and the first error was about an infinite patch size).
 pub const MAX_COORDINATE: f32 = 1e12;
+
+/// The largest world size (box diagonal) an object may have: a triangle's area is half the
+/// length of a cross product, whose square (edges to the fourth power) overflows 32-bit
+/// floats past edges of about 4e9 (a room of side 1e10 had infinite areas, and the first
+/// error was about an infinite patch size; one of 1e11 solved to NaN errors).
+pub(crate) const MAX_SIZE: f32 = 1e9;
 
 /// The smallest world size (box diagonal) an object may have: its patches' areas (down to
 /// about 1e-24) stay far from the 1e-38 below which 32-bit floats lose them (a node scaled
