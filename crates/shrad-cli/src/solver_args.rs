@@ -93,7 +93,8 @@ pub struct SolverArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
     /// Rays per patch of the reference: the reference solver's (`--set rays_per_patch=N`)
-    /// and the reference that `--compare` and `--error-every` measure against.
+    /// and the reference any error is measured against (render's `--compare`, animate's
+    /// `--error-every`, the viewer's error button).
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub rays_per_patch: Option<String>,
     /// Direct-light samples of the reference, as `--rays-per-patch`.
