@@ -227,8 +227,9 @@ impl Dispersive {
     }
 
     /// Store the wall gathers of rows `ks`: as they are, or with `wall_smoothing` each
-    /// averaged over its patch's neighbourhood (area weighted) from the latest gathers of
-    /// the neighbours (rows outside this frame's window keep their last gather).
+    /// averaged over its patch's neighbourhood (area weighted, each neighbour by
+    /// [`step_weight`]) from the latest gathers of the neighbours (rows outside this frame's
+    /// window keep their last gather).
     fn store_wall(&mut self, ks: &[usize], wall: Vec<Vec3>, p: &crate::Patches) {
         for &k in ks {
             self.touched.patch(self.boundary_patches[k] as usize);
@@ -247,12 +248,16 @@ impl Dispersive {
             .par_iter()
             .map(|&k| {
                 let j = self.boundary_patches[k] as usize;
-                let sum: Vec3 = near
-                    .of(j)
-                    .iter()
-                    .map(|&i| gathered[i as usize] * p.area[i as usize])
-                    .sum();
-                sum * near.inv_area[j]
+                let own = gathered[j].element_sum();
+                let (sum, weight) = (near.of(j).iter()).fold((Vec3::ZERO, 0.0), |(s, w), &i| {
+                    let g = gathered[i as usize];
+                    let a = p.area[i as usize] * step_weight(own, g.element_sum());
+                    (s + g * a, w + a)
+                });
+                match weight > 0.0 {
+                    true => sum / weight,
+                    false => gathered[j],
+                }
             })
             .collect();
         for (&k, w) in ks.iter().zip(smoothed) {
@@ -425,4 +430,17 @@ impl Dispersive {
 pub(super) struct WallGather {
     ks: Vec<usize>,
     wall: Vec<Vec3>,
+}
+
+/// How much a neighbour whose wall light is `theirs` counts in the average of a patch whose
+/// own is `own` (`wall_smoothing`): fully while the two are within a factor of 2 (the noise
+/// of a few-ray row, the blotches, is +60-100 %), not at all from a factor of 4 (a step that
+/// is there: the floor under a glowing quad 1 unit above it holds 5 times its neighbours').
+fn step_weight(own: f32, theirs: f32) -> f32 {
+    let (lo, hi) = (own.min(theirs), own.max(theirs));
+    if hi <= 0.0 {
+        return 1.0;
+    }
+    let ratio = hi / lo.max(hi * 1e-6);
+    ((4.0 - ratio) / 2.0).clamp(0.0, 1.0)
 }

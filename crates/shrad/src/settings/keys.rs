@@ -203,7 +203,7 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
     ),
     flag(
         "wall_smoothing",
-        "average each boundary patch's wall-exchange irradiance over its edge neighbours, against the rays' noise (blotches under bright small patches)",
+        "average each boundary patch's wall-exchange irradiance over its edge neighbours within a factor of 2 of it (fading out by 4: a real step stays), against the rays' noise (blotches under bright small patches)",
     ),
     float(
         "sleep_tolerance",
