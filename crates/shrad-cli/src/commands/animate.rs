@@ -268,7 +268,7 @@ pub fn run(args: AnimateArgs, scene: Scene, file: &FileSettings) -> Result<()> {
         match mp4 {
             Ok(path) => eprintln!("wrote {}", path.display()),
             Err(e) => {
-                eprintln!("no MP4 ({e}; is ffmpeg installed?): the GIF and PNG frames are there")
+                eprintln!("no MP4 ({e}): the GIF and PNG frames are there")
             }
         }
         eprintln!(
@@ -331,7 +331,10 @@ fn write_mp4(args: &AnimateArgs) -> Result<PathBuf, String> {
             // ffmpeg reads commands from stdin: it would eat the input of a calling script.
             .stdin(std::process::Stdio::null())
             .status()
-            .map_err(|e| e.to_string())?;
+            .map_err(|e| match e.kind() {
+                std::io::ErrorKind::NotFound => "ffmpeg is not installed".to_string(),
+                _ => format!("ffmpeg did not start: {e}"),
+            })?;
         if status.success() {
             Ok(())
         } else {
