@@ -131,6 +131,28 @@ pub fn check_image_within(width: u32, height: u32, spp: u32, budget: u64) -> Res
     Ok(())
 }
 
+/// Bytes a lightmap bake holds per texel of its atlas at its peak (the texels' patches,
+/// samples and light, the EXR's and PNGs' pixels): measured with `/usr/bin/time -f %M` on
+/// the Cornell box (2026-12-07), 0.47 GB at 2048^2 and 1.6 GB at 4096^2, i.e. about 90
+/// bytes a texel over the solve's own.
+const LIGHTMAP_TEXEL_BYTES: u64 = 96;
+
+/// Refuse a lightmap atlas of `width` x `height` texels that needs more memory than is
+/// available (16384^2, in range, needed about 24 GiB).
+pub fn check_lightmap(width: u32, height: u32) -> Result<(), Error> {
+    let need = (width as u64 * height as u64).saturating_mul(LIGHTMAP_TEXEL_BYTES);
+    let budget = available_bytes();
+    if need <= budget {
+        return Ok(());
+    }
+    Err(Error::Invalid(format!(
+        "a lightmap atlas of {width}x{height} texels needs about {} of memory ({} \
+         available): give a smaller resolution or a larger texel size",
+        gib(need),
+        gib(budget)
+    )))
+}
+
 /// Bytes the probes' cube maps cost at their peak, per texel of a face resolution's 6 res^2:
 /// `CUBE_TEXEL_BYTES` plus `COEFF_TEXEL_BYTES` per SH coefficient for the probes' camera
 /// (its directions, the capture's rays and hits, and the projector's weights, with the

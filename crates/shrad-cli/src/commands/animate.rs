@@ -65,16 +65,16 @@ pub struct AnimateArgs {
 fn frame_count(args: &AnimateArgs, scene: &Scene) -> Result<usize> {
     check_positive("--fps", args.fps)?;
     // The whole animation by default: frame f shows f / fps, the last one its end.
-    // The whole animation by default: frame f shows f / fps, the last one its end.
+    let max = shrad::limits::MAX_FRAMES;
     let frames = match args.frames {
         Some(frames) => frames,
         None => {
             let d = f64::from(scene.duration());
             let whole = (d * f64::from(args.fps) - 1e-3).ceil() + 1.0;
-            if d > 0.0 && (whole.is_nan() || whole > 100_000.0) {
+            if d > 0.0 && (whole.is_nan() || whole > max as f64) {
                 bail!(
                     "{}: its animation lasts {d:.3e} s, {whole:.3e} frames at --fps {:.3e}: more than \
-                     100000; give --frames (or a lower --fps) to play part of it",
+                     {max}; give --frames (or a lower --fps) to play part of it",
                     scene.source,
                     args.fps
                 );
@@ -86,8 +86,8 @@ fn frame_count(args: &AnimateArgs, scene: &Scene) -> Result<usize> {
             }
         }
     };
-    if frames == 0 || frames > 100_000 {
-        bail!("--frames must be between 1 and 100000, got {frames}");
+    if frames == 0 || frames > max {
+        bail!("--frames must be between 1 and {max}, got {frames}");
     }
     if let Some(e) = args.exposure {
         check_positive("--exposure", e)?;

@@ -37,7 +37,7 @@ pub struct BakeArgs {
     /// (glTF has no standard per-frame vertex colour; a file per frame shows everywhere).
     /// All or nothing: the files are renamed into place once all are written, so a bake
     /// that fails partway, or is stopped (Ctrl-C), leaves none of them.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=shrad::limits::MAX_FRAMES as u64))]
     frames: Option<u64>,
     /// With --frames: passes over the objects before each file (every object updated this
     /// many times), after the first pose has converged as `render` converges.

@@ -108,8 +108,9 @@ fn check_picture(args: &RenderArgs) -> Result<()> {
             args.time
         );
     }
-    if let Some(frames) = args.frames.filter(|f| !(1..=100_000).contains(f)) {
-        bail!("--frames must be between 1 and 100000, got {frames}");
+    let max = shrad::limits::MAX_FRAMES;
+    if let Some(frames) = args.frames.filter(|f| !(1..=max).contains(f)) {
+        bail!("--frames must be between 1 and {max}, got {frames}");
     }
     check_outputs(args)
 }

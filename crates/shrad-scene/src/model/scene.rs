@@ -197,17 +197,7 @@ impl Scene {
                 .map(|o| area_towards(o, eye))
                 .sum::<f32>()
         };
-        let area: f32 = (self.objects.iter())
-            .map(|o| {
-                o.mesh.area()
-                    * o.world_from_object
-                        .matrix3
-                        .determinant()
-                        .abs()
-                        .cbrt()
-                        .powi(2)
-            })
-            .sum();
+        let area: f32 = self.objects.iter().map(world_area).sum();
         let front = seen(Vec3::Z);
         [Vec3::NEG_Z, Vec3::X, Vec3::NEG_X]
             .into_iter()
@@ -262,41 +252,46 @@ pub(crate) fn holds(o: &crate::Object, point: Vec3) -> bool {
 }
 
 /// Whether object `o`'s faces look, on the whole (weighted by area), towards `centre`: a
-/// room seen from inside rather than a closed object seen from outside. Its front is
-/// counter-clockwise in its own frame, so a mirroring transform turns it.
+/// room seen from inside rather than a closed object seen from outside.
 pub(crate) fn faces_towards(o: &crate::Object, centre: Vec3) -> bool {
-    let m = o.world_from_object;
-    let side = if m.matrix3.determinant() < 0.0 {
-        -1.0
-    } else {
-        1.0
-    };
-    let world = o.mesh.transformed(m);
-    let towards: f32 = (world.triangles.iter())
-        .map(|t| {
-            let [a, b, c] = t.map(|i| world.positions[i as usize]);
-            // Twice the area along the front normal, against the way to the centre.
-            ((b - a).cross(c - a) * side).dot(centre - (a + b + c) / 3.0)
-        })
+    // Twice the area along the front normal, against the way to the centre.
+    let towards: f32 = front_triangles(o)
+        .map(|(twice_area, [a, b, c])| twice_area.dot(centre - (a + b + c) / 3.0))
         .sum();
     towards > 0.0
+}
+
+/// Object `o`'s triangles in the world: each one's normal scaled by twice its area, towards
+/// its front (counter-clockwise in its own frame, so a mirroring transform turns it), and its
+/// corners.
+fn front_triangles(o: &crate::Object) -> impl Iterator<Item = (Vec3, [Vec3; 3])> + '_ {
+    let m = o.world_from_object;
+    let side = m.matrix3.determinant().signum();
+    let p = move |i: u32| m.transform_point3(o.mesh.positions[i as usize]);
+    (o.mesh.triangles.iter()).map(move |t| {
+        let [a, b, c] = t.map(p);
+        ((b - a).cross(c - a) * side, [a, b, c])
+    })
 }
 
 /// Object `o`'s area as seen from far along `eye` (a unit vector towards the eye): each
 /// triangle's area times the cosine of its front's normal with `eye`, negative where its
 /// back is turned to the eye (positive both ways for a double-sided material).
 fn area_towards(o: &crate::Object, eye: Vec3) -> f32 {
-    let m = o.world_from_object;
-    let side = m.matrix3.determinant().signum();
-    let p = |i: u32| m.transform_point3(o.mesh.positions[i as usize]);
-    (o.mesh.triangles.iter())
-        .map(|t| {
-            let [a, b, c] = t.map(p);
-            let seen = 0.5 * ((b - a).cross(c - a) * side).dot(eye);
+    front_triangles(o)
+        .map(|(twice_area, _)| {
+            let seen = 0.5 * twice_area.dot(eye);
             match o.material.double_sided {
                 true => seen.abs(),
                 false => seen,
             }
         })
+        .sum()
+}
+
+/// Object `o`'s area in the world.
+fn world_area(o: &crate::Object) -> f32 {
+    front_triangles(o)
+        .map(|(twice_area, _)| 0.5 * twice_area.length())
         .sum()
 }

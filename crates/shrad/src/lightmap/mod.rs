@@ -233,12 +233,6 @@ pub fn layout(world: &World, options: &LightmapOptions) -> Result<Layout, Error>
     })
 }
 
-/// Bytes a lightmap bake holds per texel of its atlas at its peak (the texels' patches,
-/// samples and light, the EXR's and PNGs' pixels): measured with `/usr/bin/time -f %M` on
-/// the Cornell box (2026-12-07), 0.47 GB at 2048^2 and 1.6 GB at 4096^2, i.e. about 90
-/// bytes a texel over the solve's own.
-const LIGHTMAP_TEXEL_BYTES: u64 = 96;
-
 /// An atlas that can be baked: a texel no larger than the largest chart (else no texel's
 /// centre falls on a patch and the lightmap is black), and texels the memory holds.
 fn check_atlas(charts: &[Chart], texel: f32, width: u32, height: u32) -> Result<(), Error> {
@@ -251,17 +245,7 @@ fn check_atlas(charts: &[Chart], texel: f32, width: u32, height: u32) -> Result<
              ({largest:.3e} across): no texel would fall on a patch; give a smaller texel size"
         )));
     }
-    let need = (width as u64 * height as u64).saturating_mul(LIGHTMAP_TEXEL_BYTES);
-    let available = crate::limits::available_bytes();
-    if need > available {
-        return Err(Error::Invalid(format!(
-            "a lightmap atlas of {width}x{height} texels needs about {:.1} GiB of memory \
-             ({:.1} GiB available): give a smaller resolution or a larger texel size",
-            need as f64 / (1u64 << 30) as f64,
-            available as f64 / (1u64 << 30) as f64
-        )));
-    }
-    Ok(())
+    crate::limits::check_lightmap(width, height)
 }
 
 /// Pack at `texel` into a near-square atlas: places, width and height (multiples of 4).
