@@ -30,14 +30,11 @@ pub(crate) fn to_py_err(e: shrad::Error) -> PyErr {
     match e {
         shrad::Error::Scene(SceneError::Io { source, .. }) => {
             // The OS's reason after the file ("cornell.glb: cannot read file: No such file").
-            PyOSError::new_err(format!("{message}: {source}"))
+            os_error(source.kind(), format!("{message}: {source}"))
         }
-        // A file the scene names (a glTF's .bin): the message names both and the reason.
-        shrad::Error::Scene(SceneError::Unreadable { kind, .. }) => match kind {
-            std::io::ErrorKind::NotFound => PyFileNotFoundError::new_err(message),
-            std::io::ErrorKind::PermissionDenied => PyPermissionError::new_err(message),
-            _ => PyOSError::new_err(message),
-        },
+        // A file the scene names (a glTF's .bin, a scene file's mesh or sky): the message
+        // names both and the reason.
+        shrad::Error::Scene(SceneError::Unreadable { kind, .. }) => os_error(kind, message),
         // A file that cannot be written, however it was reached: the message names it
         // ("out.glb: cannot write: ...").
         shrad::Error::Scene(SceneError::Write(_))
@@ -49,6 +46,15 @@ pub(crate) fn to_py_err(e: shrad::Error) -> PyErr {
         // What `stop::interruptible` asked for after a signal handler raised; it raises that
         // handler's exception, so this one is seen only if the library stops by itself.
         shrad::Error::Interrupted => PyKeyboardInterrupt::new_err(message),
+    }
+}
+
+/// The `OSError` subclass Python's own `open` raises for `kind`.
+fn os_error(kind: std::io::ErrorKind, message: String) -> PyErr {
+    match kind {
+        std::io::ErrorKind::NotFound => PyFileNotFoundError::new_err(message),
+        std::io::ErrorKind::PermissionDenied => PyPermissionError::new_err(message),
+        _ => PyOSError::new_err(message),
     }
 }
 

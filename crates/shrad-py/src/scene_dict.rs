@@ -17,7 +17,7 @@ use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use shrad::scene::scene_def::{
     from_value, CameraDef, EnvironmentDef, ObjectDef, SceneBuilder, SettingsDef, Table, Value,
 };
-use shrad::scene::{Mesh, Scene};
+use shrad::scene::Mesh;
 
 use crate::arrays;
 use crate::scene::{sizing, PyScene};
@@ -78,7 +78,15 @@ pub fn load_dict(
         "the scene",
     )
     .map_err(fail)?;
-    let mut scene = build(definition, &source).map_err(fail)?;
+    // A file the dict names that cannot be read is an `OSError` naming it, as `load` gives.
+    let mut builder = SceneBuilder::new(&source, Path::new(""));
+    let mut scene = match build(definition, &mut builder) {
+        Ok(()) => builder.finish(),
+        Err(m) => {
+            let e = builder.error(Path::new(&source), m);
+            return Err(crate::to_py_err(e.into()));
+        }
+    };
     shrad::scene::infer_roles(&mut scene);
     shrad::scene::warn_faces_turned_away(&mut scene);
     scene
@@ -91,10 +99,9 @@ pub fn load_dict(
     })
 }
 
-/// The dict's settings, camera and objects through the scene definition's builder.
-fn build(definition: &Bound<'_, PyDict>, source: &str) -> Result<Scene, String> {
-    // Files named in the dict are found from the working directory, as Python opens files.
-    let mut builder = SceneBuilder::new(source, Path::new(""));
+/// The dict's settings, camera and objects through the scene definition's `builder`
+/// (files named in the dict are found from the working directory, as Python opens files).
+fn build(definition: &Bound<'_, PyDict>, builder: &mut SceneBuilder) -> Result<(), String> {
     if let Some(s) = present(definition, "settings")? {
         let at = |m: String| format!("settings: {m}");
         let def: SettingsDef = from_value(to_value(&s).map_err(at)?).map_err(at)?;
@@ -133,7 +140,7 @@ fn build(definition: &Bound<'_, PyDict>, source: &str) -> Result<Scene, String> 
         let def = object_def(&o).map_err(at)?;
         builder.object(i, def).map_err(at)?;
     }
-    Ok(builder.finish())
+    Ok(())
 }
 
 /// The sky `Engine.set_sky` takes: a uniform `radiance` or a map `file`; neither, none.
@@ -148,9 +155,9 @@ pub fn environment(
         (Some(_), Some(_)) => return Err(PyValueError::new_err("give radiance or file, not both")),
         (None, None) => return Ok(None),
         (Some(r), None) => Environment::uniform(r.into()),
-        (None, Some(f)) => Environment::from_map(
-            EnvMap::load(&f).map_err(|e| PyValueError::new_err(e.to_string()))?,
-        ),
+        (None, Some(f)) => {
+            Environment::from_map(EnvMap::load(&f).map_err(|e| crate::to_py_err(e.into()))?)
+        }
     };
     env.rotate_deg = rotate_deg;
     env.scale = scale;

@@ -367,6 +367,29 @@ def test_missing_file_is_oserror_naming_it(tmp_path):
         shrad.load("no_such_builtin")
 
 
+def test_a_file_a_dict_names_that_is_missing_is_file_not_found(tmp_path):
+    # The same error `load` gives for the file itself: an OSError naming the object and the
+    # file, not a ValueError about the dict.
+    scene = room_dict()
+    scene["objects"].append({"name": "chair", "shape": "mesh", "file": str(tmp_path / "chair.obj")})
+    with pytest.raises(FileNotFoundError, match=r"object 3 'chair'.*chair\.obj"):
+        shrad.load_dict(scene)
+    scene = room_dict()
+    scene["environment"] = {"file": str(tmp_path / "sky.hdr")}
+    with pytest.raises(FileNotFoundError, match=r"environment.*sky\.hdr"):
+        shrad.load_dict(scene)
+    e = shrad.Engine(shrad.load_dict(room_dict(patches=300)), solver="dispersive")
+    with pytest.raises(FileNotFoundError, match=r"sky\.hdr"):
+        e.set_sky(file=tmp_path / "sky.hdr")
+    # A file that is there but wrong is still a ValueError.
+    (tmp_path / "chair.obj").write_text("f 1 2 3\n")
+    scene = room_dict()
+    scene["objects"].append({"name": "chair", "shape": "mesh", "file": str(tmp_path / "chair.obj")})
+    with pytest.raises(ValueError, match=r"chair\.obj") as info:
+        shrad.load_dict(scene)
+    assert not isinstance(info.value, OSError)
+
+
 def test_bad_file_content_is_value_error_naming_it(tmp_path):
     bad = tmp_path / "broken.toml"
     bad.write_text("[[object]]\nshape = 'box'\nsize = [1, -1, 1]\n")

@@ -16,8 +16,9 @@ on every run):
 
 Measured (shrad at 5000 patches, flat shading, 64 spp; Mitsuba 3.9.1 scalar_rgb):
 Mitsuba's own noise 0.51 % RMSE; the reference 0.98 % RMSE, object ratios 0.988 to 1.002;
-the dispersive default 2.36 % RMSE, the walls' ratios 0.993 to 1.012 and the blocks' 1.033
-to 1.093 (its light on the blocks' visible faces is too bright). Before 2026-12-03 it
+the dispersive default 1.43 % RMSE (2026-12-07; 2.36 % on 2026-12-03, when the walls' ratios
+were 0.993 to 1.012 and the blocks' 1.033 to 1.093: its light on the blocks' visible faces
+was too bright, docs/results.md §6). Before 2026-12-03 it
 measured 5.1-5.9 % and 0.91-1.0: `converge()` stopped after two passes (four frames), before
 the wall exchange's light had settled, so every surface was 5-10 % dark. A 5 % lower reflectance of one wall or block in
 Mitsuba moves that object's ratio for the reference to 1.047-1.058 and the RMSE of the back

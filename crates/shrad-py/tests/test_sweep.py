@@ -59,7 +59,7 @@ def test_a_failing_shot_is_named():
     with pytest.raises(shrad.ShotError, match=r"shot 1 'too-many-bands': ValueError: .*bands"):
         shrad.sweep(bad)
     with concurrent.futures.ThreadPoolExecutor(2) as pool:
-        with pytest.raises(shrad.ShotError, match=r"shot 1 \(nope.glb, dispersive/default\): OSError: nope.glb"):
+        with pytest.raises(shrad.ShotError, match=r"shot 1 \(nope.glb, dispersive/default\): FileNotFoundError: nope.glb"):
             shrad.sweep([shots()[0], shrad.Shot("nope.glb")], executor=pool, timeout=120)
     with pytest.raises(TypeError, match="shot 0 is a dict"):
         shrad.sweep([{"scene": "cornell"}])

@@ -66,7 +66,7 @@ pub(crate) fn read_nested(path: &Path, depth: usize) -> Result<Scene, SceneError
     if let Some(e) = &def.environment {
         builder
             .environment(e)
-            .map_err(|m| SceneError::invalid(path, format!("[environment]: {m}")))?;
+            .map_err(|m| builder.error(path, format!("[environment]: {m}")))?;
     }
     if def.object.is_empty() {
         return Err(SceneError::invalid(path, "no [[object]] in the scene file"));
@@ -78,9 +78,9 @@ pub(crate) fn read_nested(path: &Path, depth: usize) -> Result<Scene, SceneError
             Some(n) => format!("object {i} '{n}' (line {line})"),
             None => format!("object {i} (line {line})"),
         };
-        builder
-            .object(i, o)
-            .map_err(|m| SceneError::invalid(path, format!("{label}: {m}")))?;
+        if let Err(m) = builder.object(i, o) {
+            return Err(builder.error(path, format!("{label}: {m}")));
+        }
     }
     let mut scene = builder.finish();
     for (i, spanned) in def.lights.iter().enumerate() {

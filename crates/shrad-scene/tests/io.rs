@@ -631,15 +631,24 @@ fn toml_errors_name_file_object_and_key() {
         "missing_mesh.toml",
         &format!("{GOOD_OBJECT}\n[[object]]\nshape = \"mesh\"\nfile = \"nowhere.glb\"\n"),
     );
-    let msg = load(&p, &opts())
-        .err()
-        .map(|e| e.to_string())
-        .unwrap_or_default();
+    let err = load(&p, &opts()).err();
+    let msg = err.as_ref().map(|e| e.to_string()).unwrap_or_default();
     assert!(
         msg.contains("missing_mesh.toml")
             && msg.contains("nowhere.glb")
             && msg.contains("cannot read file: No such file"),
         "{msg}"
+    );
+    // And it stays a file that is not there (Python's FileNotFoundError), not a bad scene.
+    assert!(
+        matches!(
+            err,
+            Some(SceneError::Unreadable {
+                kind: std::io::ErrorKind::NotFound,
+                ..
+            })
+        ),
+        "{err:?}"
     );
     // Filter that matches nothing.
     let cornell = scenes_dir().join("cornell.gltf");

@@ -7,7 +7,7 @@ use super::object::Common;
 use super::{ObjectDef, SceneBuilder};
 use crate::gltf_io::PartNames;
 use crate::load::{format_of, read_any, Format};
-use crate::{Material, Object, Scene};
+use crate::{Material, Object, Scene, SceneError};
 
 /// Scene files including scene files stop here (an include cycle).
 const MAX_DEPTH: usize = 8;
@@ -19,7 +19,10 @@ pub(super) fn parts(
     file: &str,
 ) -> Result<Vec<Object>, String> {
     let file_path: PathBuf = builder.base_dir.join(file);
-    let (sub, names) = read_file(&file_path, file, o, builder.depth)?;
+    let (sub, names) = match read_file(&file_path, file, o, builder.depth)? {
+        Ok(read) => read,
+        Err(e) => return Err(builder.nested_error(&e)),
+    };
     // A warning is named by the file it is about; the OBJ reader's already are.
     let named = format!("{}: ", file_path.display());
     for w in &sub.warnings {
@@ -60,13 +63,14 @@ pub(super) fn parts(
         .collect())
 }
 
-/// The file's scene and each object's node and mesh names.
+/// The file's scene and each object's node and mesh names, or the file's error (inside:
+/// kept whole for its kind); the definition's own errors outside.
 fn read_file(
     file_path: &Path,
     file: &str,
     o: &ObjectDef,
     depth: usize,
-) -> Result<(Scene, Vec<PartNames>), String> {
+) -> Result<Result<(Scene, Vec<PartNames>), SceneError>, String> {
     if depth >= MAX_DEPTH {
         return Err(format!(
             "'{file}': scene files nested too deeply (include cycle?)"
@@ -79,25 +83,15 @@ fn read_file(
         ));
     }
     if format == Some(Format::Toml) {
-        let sub =
-            crate::scene_file::read_nested(file_path, depth + 1).map_err(|e| with_causes(&e))?;
-        let n = sub.objects.len();
-        Ok((sub, vec![Default::default(); n]))
+        Ok(
+            crate::scene_file::read_nested(file_path, depth + 1).map(|sub| {
+                let n = sub.objects.len();
+                (sub, vec![Default::default(); n])
+            }),
+        )
     } else {
-        read_any(file_path, o.animation.as_deref()).map_err(|e| with_causes(&e))
+        Ok(read_any(file_path, o.animation.as_deref()))
     }
-}
-
-/// An error's message with its causes (`cannot read file: No such file or directory`): the
-/// nested file's error becomes part of a message, where its cause would be lost.
-fn with_causes(e: &dyn std::error::Error) -> String {
-    let mut message = e.to_string();
-    let mut cause = e.source();
-    while let Some(c) = cause {
-        message = format!("{message}: {c}");
-        cause = c.source();
-    }
-    message
 }
 
 /// Does the part pass the definition's `node` and `mesh` filters?

@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use serde::de::DeserializeOwned;
 use serde::Deserialize;
 
-use crate::{Camera, Mesh, Role, Scene, SceneSettings};
+use crate::{Camera, Mesh, Role, Scene, SceneError, SceneSettings};
 
 /// The value tree a definition is read from; what a front end other than the TOML file
 /// (Python's dicts) converts its data into.
@@ -220,6 +220,9 @@ pub struct SceneBuilder {
     base_dir: PathBuf,
     depth: usize,
     shape_triangles: usize,
+    /// Why a file a definition names could not be read, when that was the error: the
+    /// message is a definition's (`object 2 'chair': ...`), the error a file's.
+    unreadable: Option<std::io::ErrorKind>,
 }
 
 impl SceneBuilder {
@@ -238,7 +241,33 @@ impl SceneBuilder {
             base_dir: base_dir.to_path_buf(),
             depth,
             shape_triangles: 0,
+            unreadable: None,
         }
+    }
+
+    /// The error for a definition of the scene file `path` that failed with `message`: a
+    /// file it names that could not be read stays an unreadable file (not found, permission
+    /// denied: Python's `OSError`), anything else is an invalid scene.
+    pub fn error(&self, path: &Path, message: String) -> SceneError {
+        match self.unreadable {
+            Some(kind) => SceneError::Unreadable {
+                path: path.to_path_buf(),
+                message,
+                kind,
+            },
+            None => SceneError::invalid(path, message),
+        }
+    }
+
+    /// A file a definition names failed to read with `e`: its message with its causes, and
+    /// its kind kept for [`SceneBuilder::error`] when it is the file's OS error.
+    fn nested_error(&mut self, e: &SceneError) -> String {
+        self.unreadable = match e {
+            SceneError::Io { source, .. } => Some(source.kind()),
+            SceneError::Unreadable { kind, .. } => Some(*kind),
+            _ => None,
+        };
+        with_causes(e)
     }
 
     /// Set the camera.
@@ -300,7 +329,8 @@ impl SceneBuilder {
             (Some(r), None) => crate::Environment::uniform(glam::Vec3::from_array(*r)),
             (None, Some(f)) => {
                 let path = self.base_dir.join(f);
-                let map = crate::EnvMap::load(&path).map_err(|e| format!("file: {e}"))?;
+                let map = crate::EnvMap::load(&path)
+                    .map_err(|e| format!("file: {}", self.nested_error(&e)))?;
                 crate::Environment::from_map(map)
             }
         };
@@ -354,6 +384,18 @@ impl SceneBuilder {
     pub fn finish(self) -> Scene {
         self.scene
     }
+}
+
+/// An error's message with its causes (`cannot read file: No such file or directory`): the
+/// nested file's error becomes part of a message, where its cause would be lost.
+fn with_causes(e: &dyn std::error::Error) -> String {
+    let mut message = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        message = format!("{message}: {c}");
+        cause = c.source();
+    }
+    message
 }
 
 #[cfg(test)]
