@@ -1821,6 +1821,20 @@ fn coordinates_too_large_for_f32_are_refused_saying_so() {
         &root,
         &["world size is", "scale the scene up"],
     );
+    // A corner that far in the buffer itself is refused the same way (its triangles were
+    // dropped as of zero area, beside the mesh's size, and the scene loaded empty).
+    for (name, far) in [("far13.gltf", 1e13f32), ("far37.gltf", 1e37)] {
+        let root = quad_with(|v| {
+            let mut bin = quad_bin();
+            bin[36..40].copy_from_slice(&far.to_le_bytes());
+            v["accessors"][0]["max"] = json!([far, 0.0, 1.0]);
+            v["buffers"][0]["uri"] = json!(format!(
+                "data:application/octet-stream;base64,{}",
+                b64(&bin)
+            ));
+        });
+        assert_refused(&dir, name, &root, &["world coordinates reach"]);
+    }
     // A kilometre-wide scene in millimetres is fine.
     let root = quad_with(|v| v["nodes"][0]["scale"] = json!([1e6, 1e6, 1e6]));
     let p = write_json(&dir, "mm.gltf", &root);

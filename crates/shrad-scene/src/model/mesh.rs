@@ -2,6 +2,10 @@
 
 use glam::{Affine3A, Vec2, Vec3};
 
+/// Units of rounding a triangle's area may be off by and still be zero
+/// ([`Mesh::zero_area_triangles`]).
+const ROUNDING: f32 = 4.0 * f32::EPSILON;
+
 /// An indexed triangle mesh in the object's own (rest) frame.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
@@ -32,16 +36,33 @@ impl Mesh {
         let [a, b, c] = self.triangles[t].map(|i| self.positions[i as usize]);
         0.5 * (b - a).cross(c - a).length()
     }
-    /// The triangles whose area is zero or negligible (at most 1e-10 of the square of the
-    /// mesh's bounding-box diagonal, or not finite), in increasing order.
+    /// The triangles whose area is zero as far as `f32` can tell, or not a number, in
+    /// increasing order: at most what rounding can make of its area
+    /// ([`Mesh::rounding_area`]). Each triangle is judged by its own size and place, not
+    /// the mesh's: a 1 m quad beside a 200 km ground in one mesh was dropped when the floor
+    /// was 1e-10 of the mesh's diagonal squared, as was a box with one stray vertex far
+    /// away. A triangle under the floor has no direction but its rounding's (its normal is
+    /// noise). One with a corner that is not a number is zero too.
     pub fn zero_area_triangles(&self) -> Vec<usize> {
-        let scale = self.bounds().map_or(0.0, |b| b.diagonal());
-        let eps = 1e-10 * scale * scale;
         (0..self.triangles.len())
             .filter(|&t| {
-                self.triangle_area(t).partial_cmp(&eps) != Some(std::cmp::Ordering::Greater)
+                // Beyond f32's range (corners past about 1e19) is not zero: it is kept for
+                // the check of the scene's reach to refuse, naming the object.
+                let (area, floor) = (self.triangle_area(t), self.rounding_area(t));
+                area.is_nan() || (floor.is_finite() && area <= floor)
             })
             .collect()
+    }
+
+    /// The most [`Mesh::triangle_area`] can be off by for triangle `t` from rounding:
+    /// each edge's components by up to `f32::EPSILON` of the largest coordinate of its two
+    /// ends, the cross product by `f32::EPSILON` of the edges' product; with margin, 4
+    /// units of rounding ([`ROUNDING`]).
+    fn rounding_area(&self, t: usize) -> f32 {
+        let [a, b, c] = self.triangles[t].map(|i| self.positions[i as usize]);
+        let (ab, ac) = ((b - a).length(), (c - a).length());
+        let reach = |p: Vec3, q: Vec3| p.abs().max(q.abs()).max_element();
+        ROUNDING * (reach(a, b) * ac + ab * reach(a, c) + ab * ac)
     }
     /// The triangles with the same three corners, facing the same way, as an earlier one
     /// (bit for bit; in increasing order). Such a copy is the same surface twice: it
@@ -194,6 +215,47 @@ mod tests {
         ];
         let m = Mesh::new(p, t);
         assert_eq!(m.repeated_triangles(), vec![1, 3, 5]);
+    }
+
+    #[test]
+    fn zero_area_is_judged_by_each_triangle_own_size_and_place() {
+        // A 200 km ground and a 1 m quad in one mesh: both kept (the quad was dropped when
+        // the floor was the mesh's diagonal squared x 1e-10).
+        let (w, p) = (1e5, [Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.0)]);
+        let mut positions = vec![
+            Vec3::new(-w, 0.0, -w),
+            Vec3::new(w, 0.0, -w),
+            Vec3::new(w, 0.0, w),
+            Vec3::new(-w, 0.0, w),
+        ];
+        positions.extend([p[0], p[1], p[1] + Vec3::Z, p[0] + Vec3::Z]);
+        let mut m = Mesh::new(positions, vec![[0, 2, 1], [0, 3, 2], [4, 6, 5], [4, 7, 6]]);
+        assert!(m.zero_area_triangles().is_empty());
+        // Corners on one line (up to rounding), near and far from the origin; a sliver whose
+        // height is below what rounding leaves at its place; a NaN corner: all zero.
+        let far = Vec3::splat(1e5);
+        let line = |o: Vec3| {
+            [
+                o,
+                o + Vec3::new(1.0, 2.0, 3.0),
+                o + Vec3::new(3.0, 6.0, 9.0),
+            ]
+        };
+        let sliver = [far, far + Vec3::X, far + Vec3::X * 0.5 + Vec3::Y * 1e-3];
+        let mut add = |corners: [Vec3; 3]| {
+            let n = m.positions.len() as u32;
+            m.positions.extend(corners);
+            m.triangles.push([n, n + 1, n + 2]);
+        };
+        add(line(Vec3::new(0.1, 0.2, 0.3)));
+        add(line(far));
+        add(sliver);
+        add([Vec3::ZERO, Vec3::X, Vec3::NAN]);
+        // A small but well-formed triangle far out is not zero, nor one that reaches far.
+        add([far, far + Vec3::X * 0.5, far + Vec3::Y * 0.5]);
+        add([Vec3::ZERO, Vec3::X * 1e13, Vec3::Y]);
+        add([Vec3::ZERO, Vec3::X * 1e37, Vec3::Y]);
+        assert_eq!(m.zero_area_triangles(), vec![4, 5, 6, 7]);
     }
 
     #[test]
