@@ -83,6 +83,21 @@ fn patch_count_target_is_met() {
     assert!((n - 20_000.0).abs() < 0.1 * 20_000.0, "{n}");
 }
 
+/// Long slivers are cut into far more cells than their area says: a unit box with one
+/// vertex pulled 1000 away asked 3,000 patches and got 119,031 (the bisection's bracket was
+/// fixed around the area's size).
+#[test]
+fn patch_count_target_is_met_with_long_slivers() {
+    let mut scene = shrad_scene::cornell_box();
+    scene.objects.truncate(1);
+    let mesh = &mut scene.objects[0].mesh;
+    let far = mesh.positions[0] + glam::Vec3::new(-1000.0 * 556.0, 0.0, 0.0);
+    mesh.positions[0] = far;
+    let patches = Patches::build(&scene, PatchSizing::Count(3_000));
+    let n = patches.len() as f32;
+    assert!((n - 3_000.0).abs() < 0.1 * 3_000.0, "{n}");
+}
+
 #[test]
 fn triangles_subdivide_with_area_kept() {
     let mut scene = shrad_scene::room(&Default::default());
