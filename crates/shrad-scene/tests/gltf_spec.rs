@@ -979,6 +979,11 @@ fn buffers_data_uris_and_glb_chunks() {
         &patched("type.glb", 16, 0x1234_5678),
         &["GLB: the first chunk is of type 0x12345678"],
     );
+    // Another magic number: said so, not "invalid glTF: JSON: expected value".
+    refused_file(
+        &patched("magic.glb", 0, u32::from_le_bytes(*b"gLTF")),
+        &["not a GLB file: it starts with \"gLTF\""],
+    );
     // Cut anywhere: an error, never a panic.
     for n in 0..bytes.len() {
         let p = dir.join("cut.glb");
