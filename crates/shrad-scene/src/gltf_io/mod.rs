@@ -313,6 +313,22 @@ fn read_animations(
     Ok(animations)
 }
 
+/// The glTF's JSON (`json_bytes`, the whole file's `bytes` or a GLB's chunk), or what is
+/// wrong with it: a `.glb` that is not JSON either is said not to be a GLB, with the bytes
+/// it starts with.
+fn parse_json(path: &Path, bytes: &[u8], json_bytes: &[u8]) -> Result<Value, String> {
+    serde_json::from_slice(json_bytes).map_err(|e| {
+        let glb = path.extension().is_some_and(|x| x.eq_ignore_ascii_case("glb"));
+        match (glb, !bytes.starts_with(b"glTF")) {
+            (true, true) => format!(
+                "not a GLB file: it starts with {:?}, where a GLB starts with \"glTF\" (and it is not glTF JSON either: {e})",
+                String::from_utf8_lossy(&bytes[..bytes.len().min(4)])
+            ),
+            _ => format!("invalid glTF: JSON: {e}"),
+        }
+    })
+}
+
 fn read_bytes(
     path: &Path,
     bytes: &[u8],
@@ -327,17 +343,7 @@ fn read_bytes(
     } else {
         (bytes, None)
     };
-    let mut value: Value = serde_json::from_slice(json_bytes).map_err(|e| {
-        // A `.glb` that is not JSON either: say what its first bytes should have been.
-        let glb = path.extension().is_some_and(|x| x.eq_ignore_ascii_case("glb"));
-        bad(match (glb, !bytes.starts_with(b"glTF")) {
-            (true, true) => format!(
-                "not a GLB file: it starts with {:?}, where a GLB starts with \"glTF\" (and it is not glTF JSON either: {e})",
-                String::from_utf8_lossy(&bytes[..bytes.len().min(4)])
-            ),
-            _ => format!("invalid glTF: JSON: {e}"),
-        })
-    })?;
+    let mut value = parse_json(path, bytes, json_bytes).map_err(bad)?;
     integral_floats_to_integers(&mut value);
     validate::check_json(&value, blob.map(<[u8]>::len), &mut warnings).map_err(bad)?;
     let file_lights = lights::read(&value, &mut warnings).map_err(bad)?;
