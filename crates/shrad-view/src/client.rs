@@ -215,19 +215,14 @@ pub async fn refuse(mut socket: WebSocket, message: String) {
 pub async fn serve(socket: WebSocket, app: Arc<App>, seat: Seat) {
     let sub = Subscription::new(app.shared.clone(), seat);
     let (mut sink, mut stream) = socket.split();
-    if sink
-        .send(Message::Text(app.intro.scene.clone().into()))
-        .await
-        .is_err()
-        || sink
-            .send(Message::Binary(app.intro.geometry.clone()))
-            .await
-            .is_err()
-    {
-        return;
-    }
-    if let Some(sky) = &app.intro.sky {
-        if sink.send(Message::Binary(sky.clone())).await.is_err() {
+    let limit = send_limit(&app);
+    let intro = [
+        Some(Message::Text(app.intro.scene.clone().into())),
+        Some(Message::Binary(app.intro.geometry.clone())),
+        app.intro.sky.clone().map(Message::Binary),
+    ];
+    for m in intro.into_iter().flatten() {
+        if send_within(&mut sink, m, limit).await.is_none() {
             return;
         }
     }
@@ -241,18 +236,46 @@ pub async fn serve(socket: WebSocket, app: Arc<App>, seat: Seat) {
         c = read(&mut stream, &app, &sub, &flow, &reply_tx) => c,
         c = write(&mut sink, &app, &sub, &flow, replies) => c,
     };
-    match close {
-        Some(frame) => {
-            let _ = sink.send(Message::Close(Some(frame))).await;
+    // Not waited for longer than a send: a client that reads nothing never takes it.
+    let _ = tokio::time::timeout(limit, async {
+        match close {
+            Some(frame) => {
+                let _ = sink.send(Message::Close(Some(frame))).await;
+            }
+            // The client closed (or went): the close it sent is answered as the closing
+            // handshake asks (a client saw 1006, an abnormal closure, when it was not).
+            None => {
+                let _ = sink.close().await;
+            }
         }
-        // The client closed (or went): the close it sent is answered as the closing
-        // handshake asks (a client saw 1006, an abnormal closure, when it was not).
-        None => {
-            let _ = sink.close().await;
-        }
-    }
+    })
+    .await;
     drop(sub);
     app.shared.inbox.refresh();
+}
+
+/// How long one message may take to go: three keepalive periods, as long as a client may
+/// leave the pings unanswered. A client that sends and never reads filled its socket, and
+/// the send that waited for room held its seat (and the steering) for as long as it stayed
+/// connected: the keepalive's check runs between sends.
+fn send_limit(app: &App) -> std::time::Duration {
+    3 * app.access.options().keepalive
+}
+
+/// The slowest link a large message is given time for, on top of [`send_limit`] (bytes/s):
+/// each MB of a scene's geometry may take 16 s more.
+const SLOWEST_LINK: f64 = 64.0 * 1024.0;
+
+/// Send `m`, unless it cannot go within `limit` ([`send_limit`]) and the time its size
+/// takes at [`SLOWEST_LINK`]; `None` when it did not go (the client is gone, or reads
+/// nothing).
+async fn send_within(
+    sink: &mut SplitSink<WebSocket, Message>,
+    m: Message,
+    limit: std::time::Duration,
+) -> Option<()> {
+    let limit = limit + std::time::Duration::from_secs_f64(size(&m) as f64 / SLOWEST_LINK);
+    tokio::time::timeout(limit, sink.send(m)).await.ok()?.ok()
 }
 
 /// Read the client's messages until it leaves; the close frame to send, if any.
@@ -312,6 +335,7 @@ async fn write(
     let mut sent = Sent::default();
     let period = app.access.options().keepalive;
     let mut keepalive = tokio::time::interval_at(tokio::time::Instant::now() + period, period);
+    let limit = send_limit(app);
     // A frame may be out that this client has not had.
     let mut newer = true;
     loop {
@@ -327,7 +351,7 @@ async fn write(
                     in_flight.sent(size(&m));
                     // Counted before it goes: the client may acknowledge it at once.
                     flow.sent.fetch_add(1, Ordering::Release);
-                    sink.send(m).await.ok()?;
+                    send_within(sink, m, limit).await?;
                 }
                 sent = next;
                 newer = false;
@@ -338,7 +362,7 @@ async fn write(
             // that has the change, and the page learns from the reply which frame that is.
             biased;
             Some(reply) = replies.recv() => {
-                sink.send(Message::Text(reply.into())).await.ok()?;
+                send_within(sink, Message::Text(reply.into()), limit).await?;
             }
             _ = flow.wake.notified() => {}
             changed = frames.changed(), if !newer => {
@@ -352,7 +376,7 @@ async fn write(
                 if flow.silent.fetch_add(1, Ordering::AcqRel) >= 3 {
                     return Some(CloseFrame { code: 1001, reason: "no answer to pings".into() });
                 }
-                sink.send(Message::Ping(Default::default())).await.ok()?;
+                send_within(sink, Message::Ping(Default::default()), limit).await?;
             }
         }
     }

@@ -13,8 +13,8 @@ use axum::middleware::{self, Next};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use axum::Router;
-use hyper_util::rt::{TokioExecutor, TokioIo, TokioTimer};
-use hyper_util::server::conn::auto::Builder;
+use hyper::server::conn::http1::Builder;
+use hyper_util::rt::{TokioIo, TokioTimer};
 use hyper_util::service::TowerToHyperService;
 use tokio::sync::{watch, OwnedSemaphorePermit, Semaphore};
 use tokio::task::JoinSet;
@@ -88,12 +88,18 @@ async fn serve_connection(
     mut stop: watch::Receiver<bool>,
     _place: OwnedSemaphorePermit,
 ) {
-    let mut builder = Builder::new(TokioExecutor::new());
+    // HTTP/1 only (a browser speaks it to a plain-HTTP server, and upgrades it to the
+    // WebSocket): hyper-util's `auto` builder first waited, without a timeout, for the bytes
+    // that tell HTTP/1 from HTTP/2, so a connection that sent nothing (or only HTTP/2's
+    // preface) was never closed, and 520 of them made the server unreachable. hyper's own
+    // HTTP/1 connection starts the header timeout at once.
+    let mut builder = Builder::new();
     builder
-        .http1()
         .timer(TokioTimer::new())
         .header_read_timeout(HEADER_TIMEOUT);
-    let connection = builder.serve_connection_with_upgrades(TokioIo::new(socket), service);
+    let connection = builder
+        .serve_connection(TokioIo::new(socket), service)
+        .with_upgrades();
     let mut connection = std::pin::pin!(connection);
     tokio::select! {
         _ = connection.as_mut() => return,

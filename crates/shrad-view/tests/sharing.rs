@@ -363,6 +363,52 @@ fn a_solver_switch_runs_beside_the_frames_and_keeps_a_move_sent_while_it_precomp
     s.stop().unwrap();
 }
 
+/// A client that sends and never reads (a ping after another until its socket is full) is
+/// closed after a few keepalive periods too, and its seat and steering go to the next: the
+/// send that waited for room in its socket held them as long as it stayed connected (over 4
+/// minutes when tried), as the keepalive's check runs between sends.
+#[test]
+fn a_client_that_sends_and_never_reads_loses_its_seat() {
+    use futures_util::SinkExt;
+    let s = server_with(AccessOptions {
+        max_clients: 1,
+        keepalive: Duration::from_millis(500),
+        ..AccessOptions::default()
+    });
+    runtime().block_on(async {
+        let mut flood = connect_raw(&s).await;
+        // Until a send has waited a second: both sockets are full.
+        let mut sent = 0u64;
+        let message =
+            |id: u64| Message::Text(json!({"v": 1, "type": "ping", "id": id}).to_string().into());
+        loop {
+            let send = tokio::time::timeout(Duration::from_secs(1), flood.send(message(sent)));
+            match send.await {
+                Ok(Ok(())) => sent += 1,
+                Ok(Err(_)) | Err(_) => break,
+            }
+            assert!(sent < 10_000_000, "the server read everything");
+        }
+        // The seat comes free while the flood stays connected.
+        let deadline = Instant::now() + Duration::from_secs(60);
+        let mut d = loop {
+            let mut d = connect(&s).await;
+            match tokio::time::timeout(Duration::from_secs(30), d.next()).await {
+                Ok(Some(Ok(Message::Text(t)))) if t.as_str().contains("\"scene\"") => break d,
+                _ => assert!(
+                    Instant::now() < deadline,
+                    "the flood kept the seat ({sent} sent)"
+                ),
+            }
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        };
+        assert_eq!(next_of_type(&mut d, "role").await["role"], "steer");
+        ping(&mut d, 1).await;
+        drop(flood);
+    });
+    s.stop().unwrap();
+}
+
 /// A client that answers no ping (connected, then never reading: a vanished peer) is closed
 /// after a few keepalive periods and its seat is free again; a client that reads answers
 /// the pings by itself and keeps its seat however long it stays silent.
