@@ -34,10 +34,20 @@ pub fn set_option(engine: &mut Engine, key: &str, value: &str) -> Result<Value, 
 
 /// The largest values the viewer takes for the settings that make a frame or its rebuild
 /// cost seconds and gigabytes (one `set_option` of `cube_res` 2048 held 4-10 GB and made
-/// every frame take 10 s for every client); `shrad render --set` takes the library's whole
-/// range.
-pub const INTERACTIVE_MAX: [(&str, u64); 3] =
-    [("cube_res", 256), ("emitter_res", 256), ("per_axis", 8)];
+/// every frame take 10 s for every client; `direct_samples` 65536 blocked every client for
+/// 6.5 s and made each move 0.7 s on a 2,000-patch box, `near_rays` 65536 took 665 MB):
+/// about 16x the defaults' rays. `shrad render --set` takes the library's whole range.
+pub const INTERACTIVE_MAX: [(&str, u64); 9] = [
+    ("cube_res", 256),
+    ("emitter_res", 256),
+    ("per_axis", 8),
+    ("wall_rays", 1024),
+    ("direct_samples", 1024),
+    ("self_shadow_rays", 1024),
+    ("near_rays", 1024),
+    ("contact_rays", 256),
+    ("rays_per_patch", 4096),
+];
 
 /// Refuse a value of `key` beyond [`INTERACTIVE_MAX`] (what is not a number is the
 /// settings' own check's to refuse).
