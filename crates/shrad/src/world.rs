@@ -391,11 +391,20 @@ impl World {
     ) -> Result<bool, Error> {
         let name = self.object_label(o)?;
         let m = world_from_object;
+        // Singular relative to its own scale, as a scene file's transform is judged: a uniform
+        // scale of 1e-4 (determinant 1e-12) was refused here.
         if !(m.matrix3.is_finite() && m.translation.is_finite())
-            || m.matrix3.determinant().abs() < 1e-12
+            || shrad_scene::is_singular(&glam::Mat3::from(m.matrix3))
         {
+            let columns = [
+                m.matrix3.x_axis,
+                m.matrix3.y_axis,
+                m.matrix3.z_axis,
+                m.translation,
+            ]
+            .map(|c| c.to_array());
             return Err(Error::Invalid(format!(
-                "{name}: transform {m:?} is not finite or is singular"
+                "{name}: transform is not finite or is singular (its columns: {columns:?})"
             )));
         }
         let xf = self.patches.local_transform_for(o, m);

@@ -89,3 +89,25 @@ fn converge_by_steps_what_converge_does_and_stops_at_an_error() {
     assert_eq!(stop.err(), Some("stop"));
     assert_eq!((stepped, c.frames()), (3, 3));
 }
+
+/// A transform is singular relative to its own scale, as a scene file's is judged: a block
+/// shrunk to 1e-4 (determinant 1e-12) is a move (it was refused as singular), a flat one is
+/// refused with its columns in the message (not Rust's debug text of the matrix).
+#[test]
+fn a_tiny_scale_is_a_move_and_a_flat_one_an_error_that_shows_it() {
+    let scene = shrad::scene::cornell_box();
+    let choice = SolverChoice::Dispersive(DispersiveOptions::improved());
+    let mut e = Engine::new(scene, PatchSizing::Count(600), Backend::Auto, choice).unwrap();
+    let block = e.object("short_block").unwrap();
+    let rest = e.transform(block);
+    let tiny = rest * Affine3A::from_scale(Vec3::splat(1e-4));
+    e.set_transform(block, tiny).unwrap();
+    let flat = rest * Affine3A::from_scale(Vec3::new(1.0, 0.0, 1.0));
+    let message = e.set_transform(block, flat).unwrap_err().to_string();
+    assert!(
+        message.contains("singular")
+            && message.contains("its columns: [[")
+            && !message.contains("Affine3A"),
+        "{message}"
+    );
+}

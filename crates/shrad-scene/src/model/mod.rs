@@ -26,5 +26,6 @@ pub use object::{Object, Role};
 pub use property_tracks::{LightTracks, MaterialTracks};
 pub(crate) use scene::{faces_towards, holds};
 pub use scene::{Camera, Scene, SceneSettings};
-pub(crate) use validate::is_singular;
-pub use validate::{emission_problem, placement_problem, MAX_COORDINATE, MAX_RADIANCE};
+pub use validate::{
+    emission_problem, is_singular, placement_problem, MAX_COORDINATE, MAX_RADIANCE,
+};

@@ -288,7 +288,7 @@ pub fn emission_problem(e: glam::Vec3) -> Option<String> {
 /// scale: a determinant that is tiny beside the product of its columns' lengths. (An
 /// absolute bound on the determinant refused a scene modelled in micrometres.)
 /// (In f64: a scale of 1e30 is finite, its cube is not in f32.)
-pub(crate) fn is_singular(m: &glam::Mat3) -> bool {
+pub fn is_singular(m: &glam::Mat3) -> bool {
     let m = m.as_dmat3();
     let scale = m.x_axis.length() * m.y_axis.length() * m.z_axis.length();
     !(m.determinant().abs() > 1e-6 * scale && scale > 0.0)
