@@ -270,6 +270,27 @@ pub fn parse(text: &str) -> Result<Envelope, Refused> {
     Ok(Envelope { id, request })
 }
 
+/// `x` as the engine's 32-bit float, or an error naming `what` when it is beyond their
+/// range (1e39 became `inf`, and the engine's error said the client sent "inf").
+pub fn single(x: f64, what: &str) -> Result<f32, String> {
+    match x.abs() <= f64::from(f32::MAX) || x.is_nan() {
+        true => Ok(x as f32),
+        false => Err(format!(
+            "{what} {x:e} is beyond the range of 32-bit floats (at most {:.1e})",
+            f32::MAX
+        )),
+    }
+}
+
+/// `single` of each of three numbers.
+pub fn single3(c: [f64; 3], what: &str) -> Result<glam::Vec3, String> {
+    Ok(glam::Vec3::new(
+        single(c[0], what)?,
+        single(c[1], what)?,
+        single(c[2], what)?,
+    ))
+}
+
 /// The world-from-object affine map of a 16-number column-major matrix; an error unless its
 /// last row is 0 0 0 1 and every number is finite.
 pub fn affine_from_columns(m: &[f64]) -> Result<Affine3A, String> {
@@ -429,6 +450,19 @@ pub fn geometry(mesh: &DisplayMesh) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A number beyond `f32`'s range is refused as the number the client sent (it became
+    /// `inf`, and the message said the client sent "inf"); the largest `f32` passes, and a
+    /// NaN is left for the engine's checks.
+    #[test]
+    fn numbers_beyond_f32_are_refused_as_sent() {
+        let e = single(1e39, "intensity").unwrap_err();
+        assert!(e.contains("intensity 1e39") && e.contains("32-bit"), "{e}");
+        let e = single3([0.5, -1e300, 0.5], "reflectance").unwrap_err();
+        assert!(e.contains("reflectance -1e300"), "{e}");
+        assert_eq!(single(f64::from(f32::MAX), "x"), Ok(f32::MAX));
+        assert!(single(f64::NAN, "x").unwrap().is_nan());
+    }
 
     #[test]
     fn envelope_and_errors() {

@@ -4,7 +4,6 @@
 use std::sync::atomic::Ordering;
 use std::time::Instant;
 
-use glam::Vec3;
 use serde_json::{json, Value};
 use shrad::scene::Role;
 
@@ -126,7 +125,8 @@ impl EngineLoop {
                 } else {
                     t.max(0.0)
                 };
-                self.engine.set_time(t as f32).map_err(|e| e.to_string())?;
+                let t = protocol::single(t, "time")?;
+                self.engine.set_time(t).map_err(|e| e.to_string())?;
                 self.changed();
                 Ok(json!({ "time": self.engine.time() }))
             }
@@ -179,11 +179,10 @@ impl EngineLoop {
     /// A surface's emission or reflectance (the engine checks the values and names the
     /// object in its error).
     fn set_surface(&mut self, request: Request) -> Result<Value, String> {
-        let rgb = |c: [f64; 3]| Vec3::from_array(c.map(|x| x as f32));
         match request {
             Request::SetEmission { object, radiance } => {
                 let o = self.object(&object)?;
-                let l = rgb(radiance);
+                let l = protocol::single3(radiance, "radiance")?;
                 if !l.is_finite() {
                     return Err(format!("radiance {radiance:?} is not finite"));
                 }
@@ -194,7 +193,7 @@ impl EngineLoop {
                 reflectance,
             } => {
                 let o = self.object(&object)?;
-                let rho = rgb(reflectance);
+                let rho = protocol::single3(reflectance, "reflectance")?;
                 self.engine
                     .set_reflectance(o, rho)
                     .map_err(|e| e.to_string())?;
@@ -229,9 +228,10 @@ impl EngineLoop {
             } => {
                 let l = self.light(&light)?;
                 let m = self.engine.light_transform(l).map_err(|e| e.to_string())?;
-                let c = Vec3::new(color[0] as f32, color[1] as f32, color[2] as f32);
+                let c = protocol::single3(color, "color")?;
+                let intensity = protocol::single(intensity, "intensity")?;
                 self.engine
-                    .set_light(l, m, c, intensity as f32)
+                    .set_light(l, m, c, intensity)
                     .map_err(|e| e.to_string())?;
                 self.changed();
                 Ok(json!({}))
