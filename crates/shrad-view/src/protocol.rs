@@ -45,7 +45,10 @@ pub const KIND_SKY: u8 = 3;
 
 /// How a request names an object or a punctual light: its index, or its name.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(untagged)]
+#[serde(
+    untagged,
+    expecting = "an index (a non-negative integer) or a name (a string)"
+)]
 pub enum ObjectRef {
     /// Scene index.
     Index(usize),
@@ -454,6 +457,21 @@ mod tests {
     /// A number beyond `f32`'s range is refused as the number the client sent (it became
     /// `inf`, and the message said the client sent "inf"); the largest `f32` passes, and a
     /// NaN is left for the engine's checks.
+    /// An object named by neither an index nor a name is told which it may be (it was "data
+    /// did not match any variant of untagged enum ObjectRef").
+    #[test]
+    fn an_object_reference_that_is_neither_says_what_it_may_be() {
+        for object in ["-1", "1.5", "null", "[1]"] {
+            let m =
+                format!(r#"{{"v":1,"type":"set_emission","object":{object},"radiance":[1,1,1]}}"#);
+            let e = parse(&m).map(|_| ()).unwrap_err().message;
+            assert!(
+                e.contains("an index (a non-negative integer) or a name"),
+                "{object}: {e}"
+            );
+        }
+    }
+
     #[test]
     fn numbers_beyond_f32_are_refused_as_sent() {
         let e = single(1e39, "intensity").unwrap_err();
