@@ -166,14 +166,26 @@ async fn token_check(State(app): State<Arc<App>>, request: Request, next: Next) 
 /// Whether a `Host` header (a name or address, with or without a port) names this machine
 /// by loopback: `localhost`, `127.x.x.x` or `[::1]`.
 fn is_loopback_host(host: &str) -> bool {
-    let name = match host.strip_prefix('[') {
-        Some(v6) => v6.split_once(']').map_or(v6, |(a, _)| a),
-        None => host.rsplit_once(':').map_or(host, |(a, _)| a),
+    // The name, then nothing or a port (digits only: "127.0.0.1:80@evil.com" passed).
+    let (name, port) = match host.strip_prefix('[') {
+        Some(v6) => match v6.split_once(']') {
+            Some((a, rest)) => (a, rest),
+            None => return false,
+        },
+        None => match host.rsplit_once(':') {
+            Some((a, _)) => (a, &host[a.len()..]),
+            None => (host, ""),
+        },
     };
-    name.eq_ignore_ascii_case("localhost")
-        || name
-            .parse::<std::net::IpAddr>()
-            .is_ok_and(|ip| ip.is_loopback())
+    let port_ok = match port.strip_prefix(':') {
+        Some(digits) => !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit()),
+        None => port.is_empty(),
+    };
+    port_ok
+        && (name.eq_ignore_ascii_case("localhost")
+            || name
+                .parse::<std::net::IpAddr>()
+                .is_ok_and(|ip| ip.is_loopback()))
 }
 
 /// A file of the page: `/` is `web/src/index.html`, `/vendor/three/...` is three.js's
@@ -295,6 +307,12 @@ mod tests {
             "localhost.evil.com",
             "",
             "127.0.0.1.evil.com:80",
+            // A port that is not one (a browser never sends these; a script may).
+            "127.0.0.1:18777@evil.com",
+            "localhost:",
+            "[::1]x",
+            "[::1]:9@evil.com",
+            "[::1",
         ] {
             assert!(!is_loopback_host(no), "{no}");
         }

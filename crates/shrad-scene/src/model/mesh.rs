@@ -38,7 +38,7 @@ impl Mesh {
     }
     /// The triangles whose area is zero as far as `f32` can tell, or not a number, in
     /// increasing order: at most what rounding can make of its area
-    /// ([`Mesh::rounding_area`]). Each triangle is judged by its own size and place, not
+    /// (`Mesh::rounding_area`). Each triangle is judged by its own size and place, not
     /// the mesh's: a 1 m quad beside a 200 km ground in one mesh was dropped when the floor
     /// was 1e-10 of the mesh's diagonal squared, as was a box with one stray vertex far
     /// away. A triangle under the floor has no direction but its rounding's (its normal is
