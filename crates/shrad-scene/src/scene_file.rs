@@ -5,7 +5,7 @@
 //! the TOML syntax: parsing, `[[object]]` and line numbers in errors; and punctual lights
 //! (`[[lights]]`, `scene_lights.rs`), which `load_dict` does not take yet.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
@@ -35,11 +35,12 @@ fn line_of(text: &str, pos: usize) -> usize {
 
 /// Read a scene file (no role inference or validation; that is [`crate::load()`]'s job).
 pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
-    read_nested(path, 0)
+    read_nested(path, &[])
 }
 
-/// [`read`] for a file included `depth` scene files deep.
-pub(crate) fn read_nested(path: &Path, depth: usize) -> Result<Scene, SceneError> {
+/// [`read`] for a file that the scene files `including` include (outermost first; their
+/// canonical paths).
+pub(crate) fn read_nested(path: &Path, including: &[PathBuf]) -> Result<Scene, SceneError> {
     let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
         path: path.to_path_buf(),
         source,
@@ -47,7 +48,9 @@ pub(crate) fn read_nested(path: &Path, depth: usize) -> Result<Scene, SceneError
     let def: FileDef = toml::from_str(&text)
         .map_err(|e| SceneError::invalid(path, e.to_string().trim_end().to_string()))?;
     let base_dir = path.parent().unwrap_or(Path::new("."));
-    let mut builder = SceneBuilder::nested(path.display().to_string(), base_dir, depth);
+    let mut chain = including.to_vec();
+    chain.push(std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()));
+    let mut builder = SceneBuilder::nested(path.display().to_string(), base_dir, chain);
     if let Some(c) = &def.camera {
         builder
             .camera(c)

@@ -650,6 +650,20 @@ fn toml_errors_name_file_object_and_key() {
         ),
         "{err:?}"
     );
+    // A file that includes itself, and two that include each other: the cycle named once
+    // (each turn had wrapped the next one's message, nine times over).
+    let include = |name: &str| format!("[[object]]\nshape = \"mesh\"\nfile = \"{name}\"\n");
+    let p = write_toml(&dir, "self.toml", &include("self.toml"));
+    let a = write_toml(&dir, "a.toml", &include("b.toml"));
+    write_toml(&dir, "b.toml", &include("a.toml"));
+    for (p, turns) in [(&p, 1), (&a, 2)] {
+        let msg = load(p, &opts())
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(msg.contains("an include cycle"), "{msg}");
+        assert_eq!(msg.matches("object 0 (line 1)").count(), turns, "{msg}");
+    }
     // Filter that matches nothing.
     let cornell = scenes_dir().join("cornell.gltf");
     let p = write_toml(

@@ -9,7 +9,7 @@ use crate::gltf_io::PartNames;
 use crate::load::{format_of, read_any, Format};
 use crate::{Material, Object, Scene, SceneError};
 
-/// Scene files including scene files stop here (an include cycle).
+/// Scene files including scene files stop this deep (a cycle is refused before).
 const MAX_DEPTH: usize = 8;
 
 pub(super) fn parts(
@@ -19,7 +19,7 @@ pub(super) fn parts(
     file: &str,
 ) -> Result<Vec<Object>, String> {
     let file_path: PathBuf = builder.base_dir.join(file);
-    let (sub, names) = match read_file(&file_path, file, o, builder.depth)? {
+    let (sub, names) = match read_file(&file_path, file, o, &builder.including)? {
         Ok(read) => read,
         Err(e) => return Err(builder.nested_error(&e)),
     };
@@ -69,11 +69,23 @@ fn read_file(
     file_path: &Path,
     file: &str,
     o: &ObjectDef,
-    depth: usize,
+    including: &[PathBuf],
 ) -> Result<Result<(Scene, Vec<PartNames>), SceneError>, String> {
-    if depth >= MAX_DEPTH {
+    // A cycle is named at its first turn (each turn's message had wrapped the next one's,
+    // nine times over, before "nested too deeply").
+    let canonical = std::fs::canonicalize(file_path).ok();
+    if let Some(k) = including.iter().position(|p| Some(p) == canonical.as_ref()) {
+        let cycle: Vec<String> = (including[k..].iter().chain([&including[k]]))
+            .map(|p| p.display().to_string())
+            .collect();
         return Err(format!(
-            "'{file}': scene files nested too deeply (include cycle?)"
+            "'{file}' is a scene file being read already: an include cycle ({})",
+            cycle.join(" -> ")
+        ));
+    }
+    if including.len() >= MAX_DEPTH {
+        return Err(format!(
+            "'{file}': scene files nested more than {MAX_DEPTH} deep"
         ));
     }
     let format = format_of(file_path).ok();
@@ -84,7 +96,7 @@ fn read_file(
     }
     if format == Some(Format::Toml) {
         Ok(
-            crate::scene_file::read_nested(file_path, depth + 1).map(|sub| {
+            crate::scene_file::read_nested(file_path, including).map(|sub| {
                 let n = sub.objects.len();
                 (sub, vec![Default::default(); n])
             }),

@@ -218,7 +218,9 @@ const MAX_SHAPE_TRIANGLES: usize = 16 * 261_120;
 pub struct SceneBuilder {
     scene: Scene,
     base_dir: PathBuf,
-    depth: usize,
+    /// The scene files being read, outermost first, this one last (canonical paths): a
+    /// file that includes one of them is a cycle.
+    including: Vec<PathBuf>,
     shape_triangles: usize,
     /// Why a file a definition names could not be read, when that was the error: the
     /// message is a definition's (`object 2 'chair': ...`), the error a file's.
@@ -228,18 +230,23 @@ pub struct SceneBuilder {
 impl SceneBuilder {
     /// An empty scene named `source` whose mesh files are found relative to `base_dir`.
     pub fn new(source: impl Into<String>, base_dir: &Path) -> SceneBuilder {
-        SceneBuilder::nested(source, base_dir, 0)
+        SceneBuilder::nested(source, base_dir, Vec::new())
     }
 
-    /// [`SceneBuilder::new`] for a scene file included `depth` files deep.
-    pub(crate) fn nested(source: impl Into<String>, base_dir: &Path, depth: usize) -> Self {
+    /// [`SceneBuilder::new`] for a scene file, read inside the scene files `including`
+    /// (outermost first, itself last).
+    pub(crate) fn nested(
+        source: impl Into<String>,
+        base_dir: &Path,
+        including: Vec<PathBuf>,
+    ) -> Self {
         SceneBuilder {
             scene: Scene {
                 source: source.into(),
                 ..Default::default()
             },
             base_dir: base_dir.to_path_buf(),
-            depth,
+            including,
             shape_triangles: 0,
             unreadable: None,
         }
