@@ -171,3 +171,54 @@ pub fn image_size(width: i64, height: i64, spp: i64) -> PyResult<(u32, u32, u32)
         u32::try_from(spp).unwrap_or(u32::MAX),
     ))
 }
+
+/// `Engine.bake`'s lightmap arguments as the library's options (`None`: no lightmap); the
+/// layout's arguments without `lightmap=True` are a mistake, not silently ignored.
+pub fn lightmap(
+    wanted: bool,
+    (texel_size, resolution, format): (Option<f32>, Option<i64>, Option<&str>),
+) -> PyResult<Option<shrad::lightmap::LightmapOptions>> {
+    use shrad::lightmap::{LightmapFormat, LightmapOptions};
+    if !wanted {
+        let given = [
+            ("texel_size", texel_size.is_some()),
+            ("lightmap_res", resolution.is_some()),
+            ("lightmap_format", format.is_some()),
+        ];
+        return match given.iter().find(|(_, g)| *g) {
+            Some((name, _)) => Err(PyValueError::new_err(format!(
+                "{name} applies to a lightmap: add lightmap=True"
+            ))),
+            None => Ok(None),
+        };
+    }
+    if texel_size.is_some() && resolution.is_some() {
+        return Err(PyValueError::new_err(
+            "give texel_size or lightmap_res, not both (one sets the other)",
+        ));
+    }
+    let max = shrad::limits::MAX_IMAGE_SIDE;
+    let resolution = match resolution {
+        Some(n) => Some(
+            u32::try_from(n)
+                .ok()
+                .filter(|n| (8..=max).contains(n))
+                .ok_or_else(|| {
+                    PyValueError::new_err(format!(
+                        "lightmap_res {n}: the atlas's side must be 8 to {max} texels"
+                    ))
+                })?,
+        ),
+        None => None,
+    };
+    let options = LightmapOptions {
+        texel_size,
+        resolution,
+        format: LightmapFormat::from_name(format.unwrap_or("exr")).map_err(crate::to_py_err)?,
+        ..LightmapOptions::default()
+    };
+    if let Some(why) = options.problem() {
+        return Err(PyValueError::new_err(format!("texel_size: {why}")));
+    }
+    Ok(Some(options))
+}

@@ -2,7 +2,7 @@
 //! works (building, stepping, rendering, the reference solve of `error()`, the bake) runs
 //! with the GIL released, so other Python threads go on, and two engines solve in parallel.
 
-use std::sync::{Mutex, MutexGuard};
+use std::sync::Mutex;
 
 use glam::Vec3;
 use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike2, PyArrayMethods};
@@ -15,8 +15,9 @@ use shrad::render::{RenderOptions, Shading};
 use crate::args::{self, ObjRef};
 use crate::arrays;
 use crate::scene::PyScene;
-use crate::stop::Stop;
 use crate::to_py_err;
+
+mod locking;
 
 /// The live engine over one scene: a patched world and one solver.
 ///
@@ -40,80 +41,6 @@ pub struct PyEngine {
     inner: Mutex<Engine>,
     /// The engine's own worker threads (`threads=`), else rayon's global pool.
     pool: Option<rayon::ThreadPool>,
-}
-
-impl PyEngine {
-    /// Run `f` on the engine with the GIL released.
-    /// The lock is taken on the calling thread, outside the engine's own pool: a thread that
-    /// waits for it inside the pool held one of the pool's workers, and with `threads=2` a
-    /// second Python thread's call during a frame hung both for good.
-    fn with<T: Send>(&self, py: Python<'_>, f: impl FnOnce(&mut Engine) -> T + Send) -> T {
-        py.detach(|| {
-            let mut guard = self.lock();
-            let e: &mut Engine = &mut guard;
-            self.on_pool(|| f(e))
-        })
-    }
-
-    /// [`PyEngine::with`] for long work that Ctrl-C stops ([`crate::stop`]): `f` runs on a
-    /// thread of its own with the progress to hand the library, the engine locked there
-    /// (outside the pool, as in `with`).
-    fn with_stoppable<T: Send>(
-        &self,
-        py: Python<'_>,
-        f: impl FnOnce(&mut Engine, &Stop) -> Result<T, shrad::Error> + Send,
-    ) -> PyResult<T> {
-        crate::stop::interruptible(py, |stop| {
-            let mut guard = self.lock();
-            let e: &mut Engine = &mut guard;
-            self.on_pool(|| f(e, stop))
-        })
-    }
-
-    /// Run `f` in the engine's own thread pool, if it has one.
-    fn on_pool<T: Send>(&self, f: impl FnOnce() -> T + Send) -> T {
-        match &self.pool {
-            Some(pool) => pool.install(f),
-            None => f(),
-        }
-    }
-
-    fn lock(&self) -> MutexGuard<'_, Engine> {
-        // A panic inside the library (a bug) poisons the lock; the engine's state is still
-        // whole (every mutation validates first, and a frame that panics has its solver
-        // built again: `Engine::try_step_with_progress`), so go on with it.
-        self.inner.lock().unwrap_or_else(|e| e.into_inner())
-    }
-
-    /// `Engine::converge` with the GIL released, taking it back between frames to run the
-    /// Python signal handlers on the calling thread (the library's loop alone would hold
-    /// Ctrl-C back until the last frame): `Engine::converge_by` with a step that checks them.
-    /// The engine stays locked throughout, so another thread's calls wait for the end as
-    /// before (no deadlock: every call releases the GIL before it waits for the lock).
-    fn converge_interruptible(
-        &self,
-        py: Python<'_>,
-        passes: usize,
-    ) -> PyResult<Vec<shrad::frame::FrameStats>> {
-        py.detach(|| {
-            let mut guard = self.lock();
-            guard.converge_by(passes, |e| {
-                let stats = self.on_pool(|| e.step());
-                Python::attach(|py| py.check_signals())?;
-                Ok(stats)
-            })
-        })
-    }
-
-    fn object(&self, py: Python<'_>, obj: &ObjRef) -> PyResult<usize> {
-        match obj {
-            ObjRef::Index(i) => {
-                let n = self.with(py, |e| e.world().scene.objects.len());
-                ObjRef::index_within(*i, n, "object")
-            }
-            ObjRef::Name(name) => self.with(py, |e| e.object(name)).map_err(to_py_err),
-        }
-    }
 }
 
 #[pymethods]
@@ -561,7 +488,17 @@ impl PyEngine {
     /// ``out_0000.glb``, ``out_0001.glb``, ...), each a whole scene at its pose, at the first
     /// file's exposure. Returns one dict per file. Ctrl-C (KeyboardInterrupt) stops it
     /// before any file is in place, the engine whole at the frame it reached.
-    #[pyo3(signature = (path, *, time=None, frames=None, passes=2, exposure=None))]
+    /// ``lightmap=True`` writes the light into a lightmap as ``shrad bake --lightmap`` does:
+    /// a texture atlas over ``TEXCOORD_1`` inside the glTF, and beside it ``OUT.lightmap.exr``
+    /// (linear, ``E / pi``) or with ``lightmap_format="rgbm"`` an RGBM ``OUT.lightmap.png``;
+    /// its texel edge ``texel_size`` (scene units) or the atlas's side ``lightmap_res``
+    /// (texels, 8 to 16384; 1024 when neither is given). Each dict then names its
+    /// ``lightmap_file``.
+    #[pyo3(signature = (
+        path, *, time=None, frames=None, passes=2, exposure=None,
+        lightmap=false, texel_size=None, lightmap_res=None, lightmap_format=None
+    ))]
+    #[allow(clippy::too_many_arguments)] // Python's keyword arguments, as the CLI's flags
     fn bake<'py>(
         &self,
         py: Python<'py>,
@@ -570,6 +507,10 @@ impl PyEngine {
         frames: Option<i64>,
         passes: i64,
         exposure: Option<f32>,
+        lightmap: bool,
+        texel_size: Option<f32>,
+        lightmap_res: Option<i64>,
+        lightmap_format: Option<String>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let passes = args::passes(passes)?;
         let options = shrad::bake::BakeOptions {
@@ -578,8 +519,11 @@ impl PyEngine {
             passes,
             exposure,
         };
-        let baked = self.with_stoppable(py, |e, stop| {
-            shrad::bake::bake_with_progress(e, &path, &options, stop)
+        let layout = (texel_size, lightmap_res, lightmap_format.as_deref());
+        let lightmap = args::lightmap(lightmap, layout)?;
+        let baked = self.with_stoppable(py, |e, stop| match &lightmap {
+            Some(l) => shrad::lightmap::bake_with_progress(e, &path, &options, l, stop),
+            None => shrad::bake::bake_with_progress(e, &path, &options, stop),
         })?;
         crate::to_py(py, &baked)
     }

@@ -79,6 +79,35 @@ def test_an_animation_bakes_as_a_sequence(tmp_path):
     assert all(r["validator"]["errors"] == 0 for r in results)
 
 
+def test_a_lightmap_bake_from_python(lit, tmp_path):
+    # What `shrad bake --lightmap` writes: the atlas inside the glTF (valid, three.js loads
+    # its uv1 and maps) and beside it, at the side asked for, in the format asked for.
+    baked = lit.bake(tmp_path / "lm.glb", passes=0, lightmap=True, lightmap_res=128)
+    assert baked[0]["lightmap_file"].startswith("lm.lightmap.exr"), baked
+    atlas = shrad.read_exr(tmp_path / "lm.lightmap.exr")
+    assert atlas.shape == (128, 128, 3) and np.isfinite(atlas).all()
+    lit_texels = (atlas.max(axis=2) > 0).mean()
+    assert 0.3 < lit_texels <= 1.0, lit_texels  # the charts fill the atlas (dilated)
+    for r in node_check(tmp_path / "lm.glb"):
+        assert r["validator"]["errors"] == 0, r["validator"]["messages"]
+    rgbm = lit.bake(tmp_path / "rgbm.glb", passes=0, lightmap=True, texel_size=40.0, lightmap_format="rgbm")
+    assert rgbm[0]["lightmap_file"].startswith("rgbm.lightmap.png"), rgbm
+    assert (tmp_path / "rgbm.lightmap.png").is_file() and not (tmp_path / "rgbm.lightmap.exr").exists()
+    # The layout's arguments without a lightmap, or out of range: said, nothing written.
+    before = sorted(tmp_path.iterdir())
+    with pytest.raises(ValueError, match="lightmap_res applies to a lightmap: add lightmap=True"):
+        lit.bake(tmp_path / "x.glb", lightmap_res=128)
+    with pytest.raises(ValueError, match="lightmap_res 4: the atlas's side must be 8 to 16384"):
+        lit.bake(tmp_path / "x.glb", lightmap=True, lightmap_res=4)
+    with pytest.raises(ValueError, match="texel size must be a positive number"):
+        lit.bake(tmp_path / "x.glb", lightmap=True, texel_size=-1.0)
+    with pytest.raises(ValueError, match="unknown lightmap format 'png'"):
+        lit.bake(tmp_path / "x.glb", lightmap=True, lightmap_format="png")
+    with pytest.raises(ValueError, match="not both"):
+        lit.bake(tmp_path / "x.glb", lightmap=True, texel_size=1.0, lightmap_res=64)
+    assert sorted(tmp_path.iterdir()) == before
+
+
 def test_bad_bake_paths_raise(lit, tmp_path):
     with pytest.raises(OSError, match=r"x\.png.*\.glb"):
         lit.export_gltf(tmp_path / "x.png")

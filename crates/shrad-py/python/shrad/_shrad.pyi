@@ -135,6 +135,10 @@ class Engine:
         frames: int | None = None,
         passes: int = 2,
         exposure: float | None = None,
+        lightmap: bool = False,
+        texel_size: float | None = None,
+        lightmap_res: int | None = None,
+        lightmap_format: str | None = None,
     ) -> list[dict[str, Any]]: ...
 
 def load(

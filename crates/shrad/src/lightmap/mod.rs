@@ -39,6 +39,9 @@ pub fn bake_with_progress(
     lightmap: &LightmapOptions,
     progress: &dyn crate::Progress,
 ) -> Result<Vec<crate::bake::Baked>, Error> {
+    if let Some(why) = lightmap.problem() {
+        return Err(Error::Invalid(format!("lightmap: {why}")));
+    }
     crate::bake::bake_files(
         engine,
         path,
@@ -95,6 +98,24 @@ impl LightmapFormat {
                 "unknown lightmap format '{name}': use exr or rgbm"
             ))),
         }
+    }
+}
+
+impl LightmapOptions {
+    /// What is wrong with these options, if anything: a texel size that is not a positive
+    /// number, an atlas side outside 8 to [`crate::limits::MAX_IMAGE_SIDE`] texels. (Every
+    /// front end's own check, by its own names, comes first: `--texel-size`, `texel_size`.)
+    pub fn problem(&self) -> Option<String> {
+        if let Some(m) = self.texel_size.filter(|m| !(m.is_finite() && *m > 0.0)) {
+            return Some(format!("the texel size must be a positive number, got {m}"));
+        }
+        let max = crate::limits::MAX_IMAGE_SIDE;
+        if let Some(n) = self.resolution.filter(|n| !(8..=max).contains(n)) {
+            return Some(format!(
+                "the atlas's side must be 8 to {max} texels, got {n}"
+            ));
+        }
+        None
     }
 }
 
