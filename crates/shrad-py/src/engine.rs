@@ -373,6 +373,37 @@ impl PyEngine {
         Ok(d)
     }
 
+    /// Write ``probes()`` as JSON at ``path``: the file ``shrad bake --probes corners``
+    /// writes beside its glTF (``format: "shrad-probes"``; docs/python.md). Returns
+    /// ``{"path", "probes"}``. A ValueError for solvers without per-object probes; an
+    /// OSError naming the file when it cannot be written (nothing is left behind).
+    fn export_probes<'py>(
+        &self,
+        py: Python<'py>,
+        path: std::path::PathBuf,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        use shrad::probe_export::{corner_probes, to_json_text};
+        let (json, solver) = self.with(py, |e| {
+            let json = corner_probes(e).map(|p| (to_json_text(e, &p), p.len()));
+            (json, e.solver_choice().name())
+        });
+        let (text, n) = json.ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "export_probes: the {solver} solver has no per-object probes (use the dispersive solver)"
+            ))
+        })?;
+        py.detach(|| {
+            shrad::scene::write_atomic(&path, |tmp| {
+                std::fs::write(tmp, &text).map_err(|e| e.to_string())
+            })
+        })
+        .map_err(|e| to_py_err(shrad::scene::SceneError::Write(e).into()))?;
+        let d = PyDict::new(py);
+        d.set_item("path", path)?;
+        d.set_item("probes", n)?;
+        Ok(d)
+    }
+
     /// World-space unit normal of every patch: (N, 3) float32.
     #[getter]
     fn normals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {

@@ -1,6 +1,8 @@
 """Probes for dynamic objects (issue 19, item 2): the dispersive solver's corner probes as
 numpy arrays, in three.js's LightProbe coefficient order."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -51,7 +53,32 @@ def test_probes_are_arrays_in_three_js_order(cornell):
     assert lit >= 8
 
 
-def test_a_solver_without_probes_says_so(cornell):
+def test_export_probes_writes_what_probes_returns(cornell, tmp_path):
+    # The JSON `shrad bake --probes corners` writes, from Python: the same probes, in the
+    # same order, as the arrays.
+    e = shrad.Engine(cornell, solver="dispersive", preset="default")
+    e.converge(1)
+    p = e.probes()
+    written = e.export_probes(tmp_path / "box.probes.json")
+    assert written["probes"] == len(p["positions"]) == 16
+    doc = json.loads((tmp_path / "box.probes.json").read_text())
+    assert doc["format"] == "shrad-probes" and doc["version"] == 1
+    probes = doc["probes"]
+    assert [q["corner"] for q in probes] == p["corners"].tolist()
+    assert [q["object_index"] for q in probes] == p["objects"].tolist()
+    np.testing.assert_allclose([q["position"] for q in probes], p["positions"], rtol=1e-6)
+    np.testing.assert_allclose([q["coefficients"] for q in probes], p["sh"], rtol=1e-5, atol=1e-9)
+    np.testing.assert_allclose(
+        [q["irradiance_coefficients"] for q in probes], p["irradiance_sh"], rtol=1e-5, atol=1e-9
+    )
+    with pytest.raises(OSError, match="does not exist"):
+        e.export_probes(tmp_path / "no" / "p.json")
+
+
+def test_a_solver_without_probes_says_so(cornell, tmp_path):
     e = shrad.Engine(cornell, solver="grid")
     with pytest.raises(ValueError, match="no per-object probes"):
         e.probes()
+    with pytest.raises(ValueError, match="export_probes: the grid solver has no per-object probes"):
+        e.export_probes(tmp_path / "p.json")
+    assert not list(tmp_path.iterdir())
