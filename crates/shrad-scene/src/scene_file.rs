@@ -35,12 +35,13 @@ fn line_of(text: &str, pos: usize) -> usize {
 
 /// Read a scene file (no role inference or validation; that is [`crate::load()`]'s job).
 pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
-    read_nested(path, &[])
+    let canonical = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    read_nested(path, vec![canonical])
 }
 
-/// [`read`] for a file that the scene files `including` include (outermost first; their
-/// canonical paths).
-pub(crate) fn read_nested(path: &Path, including: &[PathBuf]) -> Result<Scene, SceneError> {
+/// [`read`] for a file read inside the scene files `chain` (their canonical paths,
+/// outermost first, this file's last).
+pub(crate) fn read_nested(path: &Path, chain: Vec<PathBuf>) -> Result<Scene, SceneError> {
     let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
         path: path.to_path_buf(),
         source,
@@ -48,8 +49,6 @@ pub(crate) fn read_nested(path: &Path, including: &[PathBuf]) -> Result<Scene, S
     let def: FileDef = toml::from_str(&text)
         .map_err(|e| SceneError::invalid(path, e.to_string().trim_end().to_string()))?;
     let base_dir = path.parent().unwrap_or(Path::new("."));
-    let mut chain = including.to_vec();
-    chain.push(std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()));
     let mut builder = SceneBuilder::nested(path.display().to_string(), base_dir, chain);
     if let Some(c) = &def.camera {
         builder

@@ -8,7 +8,7 @@
 use std::time::{Duration, Instant};
 
 use serde_json::{json, Value};
-use shrad_view::AccessOptions;
+use shrad_view::{AccessOptions, Server};
 use tokio_tungstenite::tungstenite::{self, Message};
 
 use crate::common;
@@ -363,6 +363,30 @@ fn a_solver_switch_runs_beside_the_frames_and_keeps_a_move_sent_while_it_precomp
     s.stop().unwrap();
 }
 
+/// A server of one seat whose clients are pinged every 0.5 s: long enough that a loaded
+/// machine (the suite's other tests) cannot starve a reading client of four periods (2 s).
+fn one_seat_server() -> Server {
+    server_with(AccessOptions {
+        max_clients: 1,
+        keepalive: Duration::from_millis(500),
+        ..AccessOptions::default()
+    })
+}
+
+/// A client that gets the seat (its `scene` message) once the one holding it is closed,
+/// trying until `within` has passed; `kept` says who kept it when it does not come free.
+async fn take_the_seat(s: &Server, within: Duration, kept: &str) -> Ws {
+    let deadline = Instant::now() + within;
+    loop {
+        let mut d = connect(s).await;
+        match tokio::time::timeout(Duration::from_secs(30), d.next()).await {
+            Ok(Some(Ok(Message::Text(t)))) if t.as_str().contains("\"scene\"") => return d,
+            _ => assert!(Instant::now() < deadline, "{kept} kept the seat"),
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
 /// A client that sends and never reads (a ping after another until its socket is full) is
 /// closed after a few keepalive periods too, and its seat and steering go to the next: the
 /// send that waited for room in its socket held them as long as it stayed connected (over 4
@@ -370,11 +394,7 @@ fn a_solver_switch_runs_beside_the_frames_and_keeps_a_move_sent_while_it_precomp
 #[test]
 fn a_client_that_sends_and_never_reads_loses_its_seat() {
     use futures_util::SinkExt;
-    let s = server_with(AccessOptions {
-        max_clients: 1,
-        keepalive: Duration::from_millis(500),
-        ..AccessOptions::default()
-    });
+    let s = one_seat_server();
     runtime().block_on(async {
         let mut flood = connect_raw(&s).await;
         // Until a send has waited a second: both sockets are full.
@@ -390,18 +410,8 @@ fn a_client_that_sends_and_never_reads_loses_its_seat() {
             assert!(sent < 10_000_000, "the server read everything");
         }
         // The seat comes free while the flood stays connected.
-        let deadline = Instant::now() + Duration::from_secs(60);
-        let mut d = loop {
-            let mut d = connect(&s).await;
-            match tokio::time::timeout(Duration::from_secs(30), d.next()).await {
-                Ok(Some(Ok(Message::Text(t)))) if t.as_str().contains("\"scene\"") => break d,
-                _ => assert!(
-                    Instant::now() < deadline,
-                    "the flood kept the seat ({sent} sent)"
-                ),
-            }
-            tokio::time::sleep(Duration::from_millis(100)).await;
-        };
+        let flood_of = format!("the flood ({sent} sent)");
+        let mut d = take_the_seat(&s, Duration::from_secs(60), &flood_of).await;
         assert_eq!(next_of_type(&mut d, "role").await["role"], "steer");
         ping(&mut d, 1).await;
         drop(flood);
@@ -414,24 +424,10 @@ fn a_client_that_sends_and_never_reads_loses_its_seat() {
 /// the pings by itself and keeps its seat however long it stays silent.
 #[test]
 fn a_client_that_answers_no_ping_is_closed_and_its_seat_freed() {
-    let s = server_with(AccessOptions {
-        max_clients: 1,
-        // Long enough that a loaded machine (the suite's other tests) cannot starve the
-        // reading client of four periods: 2 s.
-        keepalive: Duration::from_millis(500),
-        ..AccessOptions::default()
-    });
+    let s = one_seat_server();
     runtime().block_on(async {
         let silent = connect_raw(&s).await;
-        let deadline = Instant::now() + Duration::from_secs(30);
-        let mut d = loop {
-            let mut d = connect(&s).await;
-            match tokio::time::timeout(Duration::from_secs(30), d.next()).await {
-                Ok(Some(Ok(Message::Text(t)))) if t.as_str().contains("\"scene\"") => break d,
-                _ => assert!(Instant::now() < deadline, "the silent client kept the seat"),
-            }
-            tokio::time::sleep(Duration::from_millis(100)).await;
-        };
+        let mut d = take_the_seat(&s, Duration::from_secs(30), "the silent client").await;
         // Twelve periods, reading (and so answering the pings) but sending nothing.
         let until = Instant::now() + Duration::from_secs(6);
         while Instant::now() < until {

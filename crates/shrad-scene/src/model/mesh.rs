@@ -38,7 +38,7 @@ impl Mesh {
     }
     /// The triangles whose area is zero as far as `f32` can tell, or not a number, in
     /// increasing order: at most what rounding can make of its area
-    /// (`Mesh::rounding_area`). Each triangle is judged by its own size and place, not
+    /// (`Mesh::area_and_rounding`). Each triangle is judged by its own size and place, not
     /// the mesh's: a 1 m quad beside a 200 km ground in one mesh was dropped when the floor
     /// was 1e-10 of the mesh's diagonal squared, as was a box with one stray vertex far
     /// away. A triangle under the floor has no direction but its rounding's (its normal is
@@ -48,21 +48,26 @@ impl Mesh {
             .filter(|&t| {
                 // Beyond f32's range (corners past about 1e19) is not zero: it is kept for
                 // the check of the scene's reach to refuse, naming the object.
-                let (area, floor) = (self.triangle_area(t), self.rounding_area(t));
+                let (area, floor) = self.area_and_rounding(t);
                 area.is_nan() || (floor.is_finite() && area <= floor)
             })
             .collect()
     }
 
-    /// The most [`Mesh::triangle_area`] can be off by for triangle `t` from rounding:
+    /// [`Mesh::triangle_area`] of triangle `t`, and the most rounding can make it off by:
     /// each edge's components by up to `f32::EPSILON` of the largest coordinate of its two
     /// ends, the cross product by `f32::EPSILON` of the edges' product; with margin, 4
     /// units of rounding ([`ROUNDING`]).
-    fn rounding_area(&self, t: usize) -> f32 {
+    fn area_and_rounding(&self, t: usize) -> (f32, f32) {
         let [a, b, c] = self.triangles[t].map(|i| self.positions[i as usize]);
-        let (ab, ac) = ((b - a).length(), (c - a).length());
+        let (e1, e2) = (b - a, c - a);
+        let (ab, ac) = (e1.length(), e2.length());
         let reach = |p: Vec3, q: Vec3| p.abs().max(q.abs()).max_element();
-        ROUNDING * (reach(a, b) * ac + ab * reach(a, c) + ab * ac)
+        let area = 0.5 * e1.cross(e2).length();
+        (
+            area,
+            ROUNDING * (reach(a, b) * ac + ab * reach(a, c) + ab * ac),
+        )
     }
     /// The triangles with the same three corners, facing the same way, as an earlier one
     /// (bit for bit; in increasing order). Such a copy is the same surface twice: it

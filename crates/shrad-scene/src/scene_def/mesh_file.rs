@@ -95,12 +95,12 @@ fn read_file(
         ));
     }
     if format == Some(Format::Toml) {
-        Ok(
-            crate::scene_file::read_nested(file_path, including).map(|sub| {
-                let n = sub.objects.len();
-                (sub, vec![Default::default(); n])
-            }),
-        )
+        let mut chain = including.to_vec();
+        chain.push(canonical.unwrap_or_else(|| file_path.to_path_buf()));
+        Ok(crate::scene_file::read_nested(file_path, chain).map(|sub| {
+            let n = sub.objects.len();
+            (sub, vec![Default::default(); n])
+        }))
     } else {
         Ok(read_any(file_path, o.animation.as_deref()))
     }
