@@ -34,6 +34,11 @@ const CALM: f64 = 2e-4;
 /// The frames after a drag (or any change) stops that run under a budget
 /// (`EngineLoop::step_engine`): enough for a mover's full update at rest to be prepared.
 const SETTLE_FRAMES: usize = 60;
+/// Stepped continuously (`run`), a frame in which everything slept is followed by the next
+/// no sooner than this, unless a request comes: a settled scene's empty frames at a
+/// display's rate, not as fast as a core allows (80k a second were seen, a core spent on
+/// nothing, and the binary header's u32 frame number would have wrapped within a day).
+const ASLEEP_FRAME_PERIOD: Duration = Duration::from_millis(16);
 
 /// The budget of the frames after a change stops (`EngineLoop::step_engine`): twice what a
 /// frame cost while it went on (`drag_ms`), within 8-50 ms.
@@ -123,6 +128,8 @@ pub struct EngineLoop {
     playing: bool,
     speed: f64,
     continuous: bool,
+    /// The last frame did nothing: everything slept (`DispersiveStats::asleep`).
+    asleep: bool,
     /// Frames since anything changed (the engine idles once the scene has converged).
     quiet_frames: usize,
     /// Consecutive frames whose radiosity changed by less than [`CALM`].
@@ -171,6 +178,7 @@ impl EngineLoop {
             playing: false,
             speed: 1.0,
             continuous: false,
+            asleep: false,
             quiet_frames: 0,
             calm_frames: 0,
             drag_ms: 0.0,
@@ -226,6 +234,9 @@ impl EngineLoop {
                     continue;
                 }
                 batch
+            } else if self.asleep && !self.playing {
+                // Stepped continuously, but the last frame found nothing to do.
+                self.shared.inbox.wait(ASLEEP_FRAME_PERIOD)
             } else {
                 self.shared.inbox.take()
             };
@@ -239,6 +250,7 @@ impl EngineLoop {
                 self.loop_ms = start.duration_since(t).as_secs_f64() * 1e3;
             }
             let stats = self.step_engine();
+            self.asleep = stats.dispersive().is_some_and(|d| d.asleep);
             self.quiet_frames += 1;
             self.note_change_of_radiosity();
             self.publish(Some(&stats));

@@ -278,6 +278,49 @@ fn a_client_that_never_reads_does_not_stall_the_engine() {
     s.stop().unwrap();
 }
 
+/// The `frame` number of the next `frame` message, and whether everything slept in it.
+async fn frame_number_and_asleep(ws: &mut Ws) -> (u64, bool) {
+    let m = frame_message(ws).await;
+    (
+        m["frame"].as_u64().unwrap(),
+        m["stats"]["solver"]["asleep"] == true,
+    )
+}
+
+#[test]
+fn a_settled_scene_stepped_continuously_steps_at_a_display_rate_not_as_fast_as_it_can() {
+    let s = server();
+    runtime().block_on(async {
+        let mut ws = connect(&s).await;
+        keep_stepping(&mut ws).await;
+        // Until every object sleeps (the Cornell box at 2,000 patches: within a few hundred
+        // frames).
+        let deadline = Instant::now() + Duration::from_secs(120);
+        while !frame_number_and_asleep(&mut ws).await.1 {
+            assert!(Instant::now() < deadline, "the scene never slept");
+        }
+        // Then a second of its frames (no request is sent: a request would wake it).
+        let (first, _) = frame_number_and_asleep(&mut ws).await;
+        let start = Instant::now();
+        let mut last = first;
+        while start.elapsed() < Duration::from_secs(1) {
+            let (f, asleep) = frame_number_and_asleep(&mut ws).await;
+            assert!(asleep, "frame {f} woke with nothing changed");
+            last = f;
+        }
+        let steps = last - first;
+        // At most one empty frame per 16 ms (63 a second) and the frame after a wake; stepped
+        // as fast as a core allows, thousands.
+        assert!(
+            steps <= 70,
+            "{steps} empty frames in {:.2} s",
+            start.elapsed().as_secs_f64()
+        );
+        assert!(steps > 0, "stepping continuously, the engine stopped");
+    });
+    s.stop().unwrap();
+}
+
 #[test]
 fn five_hundred_moves_sent_as_fast_as_possible_leave_one_pending_and_the_last_applied_within_two_frames(
 ) {
