@@ -390,24 +390,13 @@ impl World {
         world_from_object: glam::Affine3A,
     ) -> Result<bool, Error> {
         let name = self.object_label(o)?;
-        let m = world_from_object;
-        // Singular relative to its own scale, as a scene file's transform is judged: a uniform
-        // scale of 1e-4 (determinant 1e-12) was refused here.
-        if !(m.matrix3.is_finite() && m.translation.is_finite())
-            || shrad_scene::is_singular(&glam::Mat3::from(m.matrix3))
-        {
-            let columns = [
-                m.matrix3.x_axis,
-                m.matrix3.y_axis,
-                m.matrix3.z_axis,
-                m.translation,
-            ]
-            .map(|c| c.to_array());
-            return Err(Error::Invalid(format!(
-                "{name}: transform is not finite or is singular (its columns: {columns:?})"
-            )));
+        // Judged as a scene file's transform is (`transform_problem`: singular relative to
+        // its own scale; a uniform scale of 1e-4 was refused here), and named as the caller
+        // gave it, before it is composed with the object's local frame.
+        if let Some(why) = shrad_scene::transform_problem(world_from_object) {
+            return Err(Error::Invalid(format!("{name}: {why}")));
         }
-        let xf = self.patches.local_transform_for(o, m);
+        let xf = self.patches.local_transform_for(o, world_from_object);
         if let Some(why) = shrad_scene::placement_problem(xf, self.patches.shape_bounds(o)) {
             return Err(Error::Invalid(format!("{name}: {why}")));
         }

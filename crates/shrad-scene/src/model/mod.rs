@@ -27,5 +27,6 @@ pub use property_tracks::{LightTracks, MaterialTracks};
 pub(crate) use scene::{faces_towards, holds};
 pub use scene::{Camera, Scene, SceneSettings};
 pub use validate::{
-    emission_problem, is_singular, placement_problem, MAX_COORDINATE, MAX_RADIANCE,
+    emission_problem, is_singular, placement_problem, transform_problem, MAX_COORDINATE,
+    MAX_RADIANCE,
 };

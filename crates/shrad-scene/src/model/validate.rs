@@ -66,15 +66,11 @@ fn geometry_problem(o: &Object) -> Option<String> {
             o.mesh.triangles[t]
         ));
     }
-    let m = o.world_from_object;
-    if !(m.matrix3.is_finite() && m.translation.is_finite())
-        || is_singular(&glam::Mat3::from(m.matrix3))
-    {
-        return Some("transform is not finite or is singular".into());
+    if let Some(why) = transform_problem(o.world_from_object) {
+        return Some(why);
     }
-    // One pass over the vertices for both bounds.
+    // One pass over the vertices for the size and the reach (no vertex: size 0).
     let bounds = o.world_bounds();
-    let reach = bounds.map_or(0.0, |b| b.min.abs().max(b.max.abs()).max_element());
     let size = bounds.map_or(0.0, |b| b.diagonal());
     if size < MIN_SIZE {
         return Some(format!(
@@ -82,19 +78,7 @@ fn geometry_problem(o: &Object) -> Option<String> {
              arithmetic of its areas loses them: scale the scene up"
         ));
     }
-    if reach.is_nan() || reach > MAX_COORDINATE {
-        return Some(format!(
-            "its world coordinates reach {reach:.1e}, beyond the {MAX_COORDINATE:.0e} that \
-             32-bit arithmetic of its areas and distances can hold: scale the scene down"
-        ));
-    }
-    if size > MAX_SIZE {
-        return Some(format!(
-            "its world size is {size:.1e}, beyond the {MAX_SIZE:.0e} over which 32-bit \
-             arithmetic of its triangles' areas overflows: scale the scene down"
-        ));
-    }
-    None
+    extent_problem(bounds?).map(|why| format!("{why}: scale the scene down"))
 }
 
 /// What makes `world_from_local` no place for a shape whose vertices span `local` (in its
@@ -103,27 +87,50 @@ fn geometry_problem(o: &Object) -> Option<String> {
 /// `set_transform`, is checked by it before anything moves: such a pose made the visibility
 /// backend abort (Embree's assertion on a ray that is not valid), not fail.
 pub fn placement_problem(world_from_local: glam::Affine3A, local: Option<Aabb>) -> Option<String> {
-    let m = world_from_local;
+    transform_problem(world_from_local)
+        .or_else(|| extent_problem(local?.transformed(world_from_local)))
+}
+
+/// What is wrong with a transform, if anything: not finite, or flattening space (to a
+/// plane, a line or a point: [`is_singular`]). Its columns are named in the message.
+pub fn transform_problem(m: glam::Affine3A) -> Option<String> {
+    let columns = || {
+        [
+            m.matrix3.x_axis,
+            m.matrix3.y_axis,
+            m.matrix3.z_axis,
+            m.translation,
+        ]
+        .map(|c| c.to_array())
+    };
     if !(m.matrix3.is_finite() && m.translation.is_finite()) {
-        return Some(format!("transform {m:?} is not finite"));
-    }
-    if is_singular(&glam::Mat3::from(m.matrix3)) {
         return Some(format!(
-            "transform {m:?} is singular (it flattens the object)"
+            "transform is not finite (its columns: {:?})",
+            columns()
         ));
     }
-    let world = local.map(|b| b.transformed(m))?;
+    is_singular(&glam::Mat3::from(m.matrix3)).then(|| {
+        format!(
+            "transform is singular: it flattens the object (its columns: {:?})",
+            columns()
+        )
+    })
+}
+
+/// What is wrong with where `world` (a shape's bounds in the world) puts it, if anything:
+/// beyond [`MAX_COORDINATE`] from the origin, or wider than [`MAX_SIZE`].
+fn extent_problem(world: Aabb) -> Option<String> {
     let reach = world.min.abs().max(world.max.abs()).max_element();
     if reach.is_nan() || reach > MAX_COORDINATE {
         return Some(format!(
-            "it would reach world coordinate {reach:.1e}, beyond the {MAX_COORDINATE:.0e} that \
+            "its world coordinates reach {reach:.1e}, beyond the {MAX_COORDINATE:.0e} that \
              32-bit arithmetic of its areas and distances can hold"
         ));
     }
     let size = world.diagonal();
     (size > MAX_SIZE).then(|| {
         format!(
-            "it would be {size:.1e} across, beyond the {MAX_SIZE:.0e} over which 32-bit \
+            "its world size is {size:.1e}, beyond the {MAX_SIZE:.0e} over which 32-bit \
              arithmetic of its triangles' areas overflows"
         )
     })
@@ -292,4 +299,44 @@ pub fn is_singular(m: &glam::Mat3) -> bool {
     let m = m.as_dmat3();
     let scale = m.x_axis.length() * m.y_axis.length() * m.z_axis.length();
     !(m.determinant().abs() > 1e-6 * scale && scale > 0.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Affine3A, Vec3};
+
+    fn unit_box() -> Option<Aabb> {
+        Some(Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::ONE,
+        })
+    }
+
+    /// A pose an animation or a move would take is named by its columns, as a scene file's
+    /// transform is, never by Rust's debug text of the matrix.
+    #[test]
+    fn a_bad_placement_names_its_columns_and_says_what_is_wrong() {
+        let flat = Affine3A::from_scale(Vec3::new(1.0, 0.0, 1.0));
+        let why = placement_problem(flat, unit_box()).unwrap();
+        assert!(
+            why.contains("singular")
+                && why.contains("its columns: [[1.0, 0.0, 0.0], [0.0, 0.0, 0.0]")
+                && !why.contains("Affine3A"),
+            "{why}"
+        );
+        let nan = Affine3A::from_translation(Vec3::new(f32::NAN, 0.0, 0.0));
+        let why = placement_problem(nan, unit_box()).unwrap();
+        assert!(why.contains("not finite") && why.contains("NaN"), "{why}");
+        let far = Affine3A::from_translation(Vec3::splat(2.0 * MAX_COORDINATE));
+        let why = placement_problem(far, unit_box()).unwrap();
+        assert!(why.contains("world coordinates reach 2.0e12"), "{why}");
+        let wide = Affine3A::from_scale(Vec3::splat(MAX_SIZE));
+        let why = placement_problem(wide, unit_box()).unwrap();
+        assert!(why.contains("world size is 1.7e9"), "{why}");
+        // A small uniform scale is no problem, nor a shape without bounds.
+        let small = Affine3A::from_scale(Vec3::splat(1e-4));
+        assert_eq!(placement_problem(small, unit_box()), None);
+        assert_eq!(placement_problem(Affine3A::IDENTITY, None), None);
+    }
 }
