@@ -217,16 +217,6 @@ pub fn print_energy(e: &shrad::energy::EnergyBalance, escaped: Option<f64>) {
     );
 }
 
-/// Whether two output paths name one file (as written, or once their folders are resolved).
-pub fn same_file(a: &Path, b: &Path) -> bool {
-    let resolved = |p: &Path| {
-        let dir = p.parent().filter(|d| !d.as_os_str().is_empty());
-        let dir = std::fs::canonicalize(dir.unwrap_or(Path::new("."))).ok()?;
-        Some(dir.join(p.file_name()?))
-    };
-    a == b || resolved(a).is_some_and(|a| resolved(b) == Some(a))
-}
-
 /// Refuse an output whose folder cannot be written (a read-only folder, `/proc`), before
 /// the solve: a file is made there and removed. A device or pipe is written into instead.
 pub fn check_writable(flag: &str, output: &Path) -> Result<()> {
@@ -253,7 +243,7 @@ pub fn check_writable(flag: &str, output: &Path) -> Result<()> {
 /// is no file): `render x.obj -o x.obj` wrote its PNG over the scene, exit 0.
 pub fn refuse_overwriting_scene(flag: &str, output: &Path, scene: &str) -> Result<()> {
     let input = Path::new(scene);
-    if input.is_file() && same_file(output, input) {
+    if input.is_file() && shrad::scene::same_file(output, input) {
         bail!(
             "{flag} {}: that is the scene file being read; write to another name",
             output.display()

@@ -156,3 +156,18 @@ def test_blender_imports_the_bake_with_its_colours(lit, tmp_path):
     top = max(m["max_colour"] for m in r["meshes"])
     assert 0 < top <= 1.0 + 1e-6
     assert np.isfinite(top)
+
+
+def test_a_bake_over_the_scene_file_being_read_is_refused(lit, tmp_path):
+    # The engine that loaded room.glb baked over it; now an OSError names the file, and
+    # the scene file is as it was.
+    scene_file = tmp_path / "cornell.glb"
+    lit.export_gltf(scene_file)
+    before = scene_file.read_bytes()
+    e = shrad.Engine(shrad.load(scene_file, patches=600), solver="dispersive", preset="default")
+    for write in (e.export_gltf, e.bake, e.export_probes):
+        with pytest.raises(OSError, match=r"cornell\.glb: cannot write: that is the scene file being read"):
+            write(tmp_path / "." / "cornell.glb")
+    assert e.frames == 0
+    assert scene_file.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cornell.glb"]

@@ -35,7 +35,9 @@ pub use node_anim::{
 pub use obj_io::write_obj;
 pub use roles::{infer_roles, warn_faces_turned_away};
 pub use texture::{srgb_to_linear, Filter, Texture, TextureImage, UvTransform, Wrap};
-pub use write_atomic::{remove_unfinished, staged_path, write_atomic, StagedFiles, WriteError};
+pub use write_atomic::{
+    remove_unfinished, same_file, staged_path, write_atomic, StagedFiles, WriteError,
+};
 
 /// A fresh empty folder `shrad-NAME-PID` in the temporary directory, for unit tests.
 #[cfg(test)]

@@ -7,6 +7,16 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
+/// Whether two output paths name one file (as written, or once their folders are resolved).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    let resolved = |p: &Path| {
+        let dir = p.parent().filter(|d| !d.as_os_str().is_empty());
+        let dir = std::fs::canonicalize(dir.unwrap_or(Path::new("."))).ok()?;
+        Some(dir.join(p.file_name()?))
+    };
+    a == b || resolved(a).is_some_and(|a| resolved(b) == Some(a))
+}
+
 /// Every temporary and staged file this process is writing or holds, for
 /// [`remove_unfinished`] when it is stopped by a signal (Ctrl-C in a long bake left the
 /// staged files of its sequence, hidden, beside the outputs).

@@ -252,3 +252,37 @@ fn gltf_with_bin_and_bad_paths() {
         Path::new("a/out_0007.glb")
     );
 }
+
+/// A bake or export over the file the engine's scene was read from is refused, before any
+/// solve, and the scene file is left as it was: the engine that loaded `room.glb` baked
+/// over it.
+#[test]
+fn a_bake_over_the_scene_file_being_read_is_refused_and_leaves_it_whole() {
+    let d = dir("over-scene");
+    let scene_file = d.join("cornell.glb");
+    shrad::scene::write_gltf(&shrad::scene::cornell_box(), &scene_file).unwrap();
+    let before = std::fs::read(&scene_file).unwrap();
+    let scene = shrad::scene::load(&scene_file, &Default::default()).unwrap();
+    let mut e = Engine::new(
+        scene,
+        PatchSizing::Count(600),
+        shrad::vis::Backend::Auto,
+        SolverChoice::preset("reference", "fast").unwrap(),
+    )
+    .unwrap();
+    // The same file named through another spelling of its folder.
+    let spelled = d.join(".").join("cornell.glb");
+    for path in [&scene_file, &spelled] {
+        let message = bake(&mut e, path, &BakeOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("the scene file being read"), "{message}");
+        let message = write_gltf(&e, path, None).unwrap_err().to_string();
+        assert!(message.contains("the scene file being read"), "{message}");
+    }
+    assert_eq!(e.frames(), 0, "the bake solved before it refused");
+    assert_eq!(std::fs::read(&scene_file).unwrap(), before);
+    // Another name beside it is written.
+    bake(&mut e, &d.join("baked.glb"), &BakeOptions::default()).unwrap();
+    assert_eq!(std::fs::read(&scene_file).unwrap(), before);
+}

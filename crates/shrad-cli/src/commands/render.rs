@@ -16,7 +16,7 @@ use shrad_scene::Scene;
 
 use crate::common::{
     build_world, check_positive, check_writable, print_energy, progress_for,
-    refuse_overwriting_scene, same_file, SceneArgs,
+    refuse_overwriting_scene, SceneArgs,
 };
 use crate::settings::FileSettings;
 use crate::solver_args::SolverArgs;
@@ -144,7 +144,10 @@ fn check_outputs(args: &RenderArgs) -> Result<()> {
         }
         refuse_overwriting_scene(flag, path, &args.scene.scene)?;
         check_writable(flag, path)?;
-        if let Some((other, _, _)) = given[..k].iter().find(|(_, p, _)| same_file(p, path)) {
+        if let Some((other, _, _)) = given[..k]
+            .iter()
+            .find(|(_, p, _)| shrad::scene::same_file(p, path))
+        {
             bail!("{flag} {} is also {other}'s output", path.display());
         }
         let has = path.extension().map(|e| e.to_string_lossy().to_lowercase());

@@ -148,6 +148,21 @@ fn nothing_to_bake(engine: &Engine) -> Result<(), Error> {
     Ok(())
 }
 
+/// Refuse to write `path` over the file the engine's scene was read from (a built-in scene
+/// or one built in memory is no file): `bake("room.gltf")` on the engine that loaded
+/// `room.gltf` replaced the user's scene with its bake. Every front end's writer of the
+/// engine's state calls it (the CLI's own check, before the solve, names its flag).
+pub fn refuse_overwriting_scene(engine: &Engine, path: &Path) -> Result<(), Error> {
+    let source = Path::new(&engine.world().scene.source);
+    if source.is_file() && shrad_scene::same_file(path, source) {
+        return Err(Error::Output(
+            path.into(),
+            "that is the scene file being read; write to another name".into(),
+        ));
+    }
+    Ok(())
+}
+
 /// Writes one file of a bake (the engine's state at `exposure`) to staged names.
 pub type StageFile<'a> = dyn Fn(&Engine, &Path, f32, &mut StagedFiles) -> Result<Baked, Error> + 'a;
 
@@ -166,6 +181,11 @@ pub fn bake_files(
     }
     nothing_to_bake(engine)?;
     let times = times(engine, options)?;
+    let file = |i: usize| match options.frames {
+        None => path.to_path_buf(),
+        Some(_) => frame_path(path, i),
+    };
+    (0..times.len()).try_for_each(|i| refuse_overwriting_scene(engine, &file(i)))?;
     let reference = matches!(engine.solver_choice(), SolverChoice::Reference(_));
     let (file_bar, step_bar): (&dyn Progress, &dyn Progress) = if reference {
         (&NoProgress, progress)
@@ -180,10 +200,7 @@ pub fn bake_files(
     let mut staged = StagedFiles::new();
     file_bar.begin("files", times.len() as u64);
     for (i, &t) in times.iter().enumerate() {
-        let file = match options.frames {
-            None => path.to_path_buf(),
-            Some(_) => frame_path(path, i),
-        };
+        let file = file(i);
         let written = engine.set_time(t).and_then(|()| {
             // Not `converge(0)`: the reference solves once whatever the passes, so a
             // state just solved would be solved again. A stop asked for ends the bake
@@ -294,6 +311,7 @@ pub fn auto_exposure(engine: &Engine) -> f32 {
 /// [`auto_exposure`]). The file (and its `.bin`) is written whole or not at all.
 pub fn write_gltf(engine: &Engine, path: &Path, exposure: Option<f32>) -> Result<Baked, Error> {
     nothing_to_bake(engine)?;
+    refuse_overwriting_scene(engine, path)?;
     let mut staged = StagedFiles::new();
     let baked = stage_gltf(engine, path, exposure, &mut staged)?;
     staged.commit()?;
