@@ -102,3 +102,61 @@ fn bad_lights_name_the_file_the_light_and_the_line() {
         );
     }
 }
+
+/// An emitting object's own `emission` (and `reflectance`) beside keys that start later is
+/// its value until then, a key at time 0: with one key at 2 s, the lamp shone the key's
+/// colour from the start and `shrad info` called it not animated.
+#[test]
+fn an_objects_own_emission_holds_until_its_first_key() {
+    let keyed = |interpolation: &str| {
+        write(
+            &format!("keys-{interpolation}.toml"),
+            &format!(
+                r#"
+[[object]]
+name = "lamp"
+shape = "quad"
+corners = [[-1, 2, -1], [1, 2, -1], [1, 2, 1], [-1, 2, 1]]
+emission = [10, 10, 10]
+reflectance = [0.5, 0.5, 0.5]
+interpolation = "{interpolation}"
+
+[[object.emission_key]]
+time = 2.0
+emission = [4, 12, 17]
+
+[[object.reflectance_key]]
+time = 2.0
+reflectance = [0.1, 0.2, 0.7]
+"#
+            ),
+        )
+    };
+    let scene = load(&keyed("step"), &LoadOptions::default()).unwrap();
+    let lamp = scene.objects.iter().find(|o| o.name == "lamp").unwrap();
+    assert!(lamp.is_animated());
+    for (t, e, r) in [
+        (0.0, Vec3::splat(10.0), Vec3::splat(0.5)),
+        (1.9, Vec3::splat(10.0), Vec3::splat(0.5)),
+        (2.1, Vec3::new(4.0, 12.0, 17.0), Vec3::new(0.1, 0.2, 0.7)),
+    ] {
+        let m = lamp.material_at(t);
+        assert_eq!((m.emitted_radiance, m.reflectance), (e, r), "at {t} s");
+    }
+    // Linear: from the object's own value at 0 to the key's at 2.
+    let scene = load(&keyed("linear"), &LoadOptions::default()).unwrap();
+    let lamp = scene.objects.iter().find(|o| o.name == "lamp").unwrap();
+    let m = lamp.material_at(1.0);
+    assert!(
+        (m.emitted_radiance - Vec3::new(7.0, 11.0, 13.5))
+            .abs()
+            .max_element()
+            < 1e-5
+    );
+    assert!(
+        (m.reflectance - Vec3::new(0.3, 0.35, 0.6))
+            .abs()
+            .max_element()
+            < 1e-5
+    );
+}

@@ -143,6 +143,33 @@ pub(super) fn animation(o: &ObjectDef) -> Result<Option<Animation>, String> {
     keys.sort_by(|a, b| a.time.total_cmp(&b.time));
     emission.sort_by(|a, b| a.time.total_cmp(&b.time));
     reflectance.sort_by(|a, b| a.time.total_cmp(&b.time));
+    // The object's own `emission` (or `reflectance`) beside keys that start after time 0 is
+    // its value at time 0, a key there: a lamp of `emission = [10, 10, 10]` with one key at
+    // 2 s shone the key's colour from the start, its own emission silently ignored.
+    if let (Some(e), Some(first)) = (o.emission, emission.first()) {
+        if first.time > 0.0 {
+            let emitted_radiance = Vec3::from(e);
+            emission.insert(
+                0,
+                EmissionKey {
+                    time: 0.0,
+                    emitted_radiance,
+                },
+            );
+        }
+    }
+    if let (Some(r), Some(first)) = (o.reflectance, reflectance.first()) {
+        if first.time > 0.0 {
+            let reflectance_at_0 = Vec3::from(r).min(Vec3::ONE);
+            reflectance.insert(
+                0,
+                ReflectanceKey {
+                    time: 0.0,
+                    reflectance: reflectance_at_0,
+                },
+            );
+        }
+    }
     Ok(Some(Animation {
         keys,
         emission,
