@@ -15,7 +15,7 @@ use std::time::Instant;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::direct::direct_irradiance;
+use crate::direct::direct_irradiance_independent;
 pub use crate::form_factors::{
     form_factor_rows, form_factors, form_factors_with, patch_rays, FormFactors,
 };
@@ -129,7 +129,9 @@ pub fn solve_parts(
     let t = Instant::now();
     progress.begin("direct light", 1);
     let punctual = crate::lights::punctual_irradiance_all(world, options.direct_samples);
-    let direct: Vec<Vec3> = direct_irradiance(world, &all, options.direct_samples)
+    // From shadow rays no solver casts: an error against the reference sees the solvers'
+    // sampling noise (`direct_irradiance_independent`).
+    let direct: Vec<Vec3> = direct_irradiance_independent(world, &all, options.direct_samples)
         .into_iter()
         .zip(&punctual)
         .map(|(a, b)| a + *b)

@@ -69,6 +69,9 @@ pub struct DirectCache {
     /// room's moving frame summed 340 receivers' 64 samples again: 0.24 ms of one thread's
     /// Step 1).
     weights: Vec<f32>,
+    /// Which sample stream the shadow rays are drawn from ([`sample_shift`]): 0 for the
+    /// solvers, [`INDEPENDENT_STREAM`] for the reference an error is measured against.
+    stream: u32,
     /// `[b]`: a sphere holding the shadow rays' origins of receivers `b * BLOCK ..` (their
     /// patches' centres), so that a mover far from a block's rays rejects the whole block.
     blocks: Vec<(Vec3, f32)>,
@@ -139,6 +142,17 @@ impl DirectCache {
     /// Compute the direct irradiance of `receivers` with `samples` shadow rays per
     /// (receiver, emitter).
     pub fn new(world: &World, receivers: Vec<u32>, samples: u32) -> DirectCache {
+        DirectCache::new_in_stream(world, receivers, samples, 0)
+    }
+
+    /// [`DirectCache::new`] with its shadow rays from sample stream `stream` (0: the
+    /// solvers'; [`super::INDEPENDENT_STREAM`]: the reference's).
+    pub fn new_in_stream(
+        world: &World,
+        receivers: Vec<u32>,
+        samples: u32,
+        stream: u32,
+    ) -> DirectCache {
         let ems = emitters(world);
         let samples = samples.max(1);
         let ne = ems.len();
@@ -156,6 +170,7 @@ impl DirectCache {
             shadow_rays_at_once: SHADOW_RAYS_AT_ONCE,
             ends: SampleEnds::new(world, receivers.len() * ne * samples as usize),
             weights: Vec::new(),
+            stream,
             blocks: receivers
                 .chunks(BLOCK)
                 .map(|b| block_sphere(world, b))
@@ -415,7 +430,7 @@ impl DirectCache {
                         true => this.held[k * ne + e],
                         false => {
                             let blocked = |j: u32| this.shadows.is_blocked(k * ne + e, j);
-                            let shift = sample_shift(i, em);
+                            let shift = sample_shift(i, em, this.stream);
                             visible_fraction(
                                 em,
                                 (x, n),
@@ -481,7 +496,7 @@ impl DirectCache {
                         }
                         let i = self.receivers[ks[c]] as usize;
                         let (x, n) = (p.centre[i], p.normal[i]);
-                        let shift = sample_shift(i, em);
+                        let shift = sample_shift(i, em, self.stream);
                         for j in 0..s {
                             (f[j], t[j], w[j]) =
                                 shadow_sample(em, x, n, shift, j as u32, samples, eps);
@@ -547,7 +562,8 @@ impl DirectCache {
             let blocked = |j: u32| self.shadows.is_blocked(set, j);
             let fraction = match self.weights.is_empty() {
                 true => {
-                    visible_fraction(em, (x, n), sample_shift(i, em), samples, world.eps, blocked)
+                    let shift = sample_shift(i, em, self.stream);
+                    visible_fraction(em, (x, n), shift, samples, world.eps, blocked)
                 }
                 false => {
                     let first = set * samples as usize;

@@ -160,6 +160,18 @@ pub fn direct_irradiance(world: &World, receivers: &[u32], samples: u32) -> Vec<
         .to_vec()
 }
 
+/// The sample stream of [`direct_irradiance_independent`].
+pub const INDEPENDENT_STREAM: u32 = 0x5eed_0001;
+
+/// [`direct_irradiance`] from shadow rays no solver casts (another stream of samples): the
+/// reference's, so that an error measured against it sees a solver's sampling noise. With
+/// the same rays, the dispersive default (16 samples) against `ReferenceOptions::fast`
+/// (16) read 0.23 % where the closed form says 1.85 % (a furnace with a sphere and a box).
+pub fn direct_irradiance_independent(world: &World, receivers: &[u32], samples: u32) -> Vec<Vec3> {
+    let cache = DirectCache::new_in_stream(world, receivers.to_vec(), samples, INDEPENDENT_STREAM);
+    cache.irradiance().to_vec()
+}
+
 /// The weighted fraction of the `samples` shadow rays from `at` (point, normal) to `em`
 /// that `blocked` says are clear.
 fn visible_fraction(
@@ -209,10 +221,15 @@ fn unoccluded_irradiance(em: &Emitter, x: Vec3, n: Vec3) -> f32 {
         .sum()
 }
 
-/// The toroidal shift of receiver `i`'s samples on emitter `em`: a function of the two
-/// alone, so a patch gets the same rays whichever list it is computed in.
-fn sample_shift(i: usize, em: &Emitter) -> (f32, f32) {
-    let seed = hash2(i as u32, em.object as u32 ^ 0x9e37_79b9);
+/// The toroidal shift of receiver `i`'s samples on emitter `em` in sample stream `stream`:
+/// a function of the three alone, so a patch gets the same rays whichever list it is
+/// computed in.
+fn sample_shift(i: usize, em: &Emitter, stream: u32) -> (f32, f32) {
+    let seed = hash2(
+        i as u32,
+        em.object as u32 ^ 0x9e37_79b9 ^ stream.wrapping_mul(0x85eb_ca6b),
+    );
+    // (Stream 0, the solvers', is the shift as it always was.)
     (unit(seed), unit(hash(seed)))
 }
 

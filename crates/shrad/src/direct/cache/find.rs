@@ -143,7 +143,7 @@ impl DirectCache {
         if !swept.spheres.iter().any(|&(bc, br)| cone.meets(bc, br)) {
             return;
         }
-        let shift = sample_shift(i, em);
+        let shift = sample_shift(i, em, self.stream);
         // 64 samples at a time: the blocked ones against the old boxes, the free ones
         // against the new, by their stored ends (a superset where they are quantised); the
         // exact segment of each found is re-traced (a ray re-traced that no box meets is
@@ -226,7 +226,7 @@ impl DirectCache {
                 if self.unoccluded[set] <= 0.0 || self.coarse[k] {
                     continue;
                 }
-                let shift = sample_shift(i as usize, em);
+                let shift = sample_shift(i as usize, em, self.stream);
                 for j in 0..samples {
                     let Some(end) = self.ends.exact(set * samples as usize + j as usize) else {
                         continue;
