@@ -64,8 +64,8 @@ fn run(command: Command) -> Result<()> {
             render::run(args, scene, &file)
         }
         Command::Info(args) => {
-            let (scene, _) = load(&args.scene)?;
-            info::run(args, scene)
+            let (scene, file) = load(&args.scene)?;
+            info::run(args, scene, &file)
         }
         Command::Animate(args) => {
             let (scene, file) = load(&args.scene)?;

@@ -77,8 +77,8 @@ impl Args for RemovedFlags {
     }
 }
 
-/// Settings of every solver.
-#[derive(Args, Clone)]
+/// Settings of every solver (`Default`: none given, as `shrad info` reads a file's).
+#[derive(Args, Clone, Default)]
 pub struct SolverArgs {
     /// Which solver computes the radiosity [default: the scene file's `solver`, else
     /// reference].

@@ -348,6 +348,59 @@ fn info_prints_roles() {
     }
 }
 
+/// `shrad info` checks the file's solver settings as a solve applies them, values too
+/// (`cube_res = 0` passed here and failed in `render`), names the sky, and keeps its
+/// table's columns (the role column lost its width).
+#[test]
+fn info_checks_the_settings_values_names_the_sky_and_keeps_its_columns() {
+    let dir = temp_dir("info-settings");
+    let floor = "[[object]]\nshape = \"quad\"\ncorners = [[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]]\n";
+    let bad = dir.join("bad.toml");
+    std::fs::write(
+        &bad,
+        format!("{floor}\n[settings.solver]\nsolver = \"dispersive\"\ncube_res = 0\n"),
+    )
+    .unwrap();
+    let o = shrad(&["info", bad.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("bad.toml: [settings.solver] cube_res = 0"),
+        "{err}"
+    );
+    let sky = dir.join("sky.toml");
+    std::fs::write(
+        &sky,
+        format!("{floor}\n[environment]\nradiance = [0.5, 0.6, 0.8]\n"),
+    )
+    .unwrap();
+    let o = shrad(&["info", sky.to_str().unwrap(), "--env-scale", "2"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        out.contains("sky: uniform, radiance 1.0000 1.2000 1.6000"),
+        "{out}"
+    );
+    // Every object row's triangle count ends where its header does.
+    let o = shrad(&["info", "cornell", "--patches", "500"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    let header = out.lines().find(|l| l.contains("triangles")).unwrap();
+    let end = header.find("triangles").unwrap() + "triangles".len();
+    let rows: Vec<&str> = out
+        .lines()
+        .skip_while(|l| !l.contains("triangles"))
+        .skip(1)
+        .collect();
+    assert!(rows.len() >= 8, "{out}");
+    for row in rows {
+        let before = &row[..end];
+        assert!(
+            before.ends_with(|c: char| c.is_ascii_digit()) && row[end..].starts_with(' '),
+            "a column moved:\n{header}\n{row}"
+        );
+    }
+}
+
 /// A reader that closes the pipe at once (`shrad info cornell | head -1`) ends the report,
 /// not the command: no panic, exit 0. A standard output that cannot be written (a full
 /// disk) is said and the command exits 1.

@@ -7,6 +7,8 @@ use shrad::PatchSizing;
 use shrad_scene::Scene;
 
 use crate::common::{sizing, SceneArgs};
+use crate::settings::FileSettings;
+use crate::solver_args::SolverArgs;
 
 /// Options of `shrad info`.
 #[derive(Args)]
@@ -103,10 +105,45 @@ fn print_lights(scene: &Scene) {
     }
 }
 
-/// Print the scene.
-pub fn run(args: InfoArgs, scene: Scene) -> Result<()> {
+/// The sky, with `--sky` / `--env` / `--env-rotate` / `--env-scale` applied.
+fn print_environment(scene: &Scene) {
+    let Some(env) = &scene.environment else {
+        return;
+    };
+    match &env.map {
+        Some(map) => say!(
+            "sky: map {} ({} x {} texels), rotated {} deg, scale {}",
+            map.path.display(),
+            map.width,
+            map.height,
+            env.rotate_deg,
+            env.scale
+        ),
+        None => {
+            let r = env.radiance * env.scale;
+            say!(
+                "sky: uniform, radiance {:.4} {:.4} {:.4} W/(m^2 sr)",
+                r.x,
+                r.y,
+                r.z
+            )
+        }
+    }
+}
+
+/// Print the scene. The file's `[settings.solver]` is checked as a solve would apply it,
+/// values too (`cube_res = 0` passed here and failed in `render`).
+pub fn run(args: InfoArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     let sizing = sizing(&args.scene, &scene)?;
+    let solver = SolverArgs::default().choice(file, false)?;
     say!("scene: {}", scene.source);
+    if file.solver.is_some() || file.preset.is_some() || !file.keys.is_empty() {
+        say!(
+            "solver: {} (preset {}), from the file's [settings.solver]",
+            solver.name(),
+            solver.preset_name().unwrap_or("custom")
+        );
+    }
     if let Some(shrad::scene::Aabb { min: lo, max: hi }) = scene.bounds() {
         say!(
             "bounds: [{:.3}, {:.3}, {:.3}] .. [{:.3}, {:.3}, {:.3}]",
@@ -127,6 +164,7 @@ pub fn run(args: InfoArgs, scene: Scene) -> Result<()> {
     }
     print_animations(&scene);
     print_lights(&scene);
+    print_environment(&scene);
     // The same memory check as a solve: a tiny --patch-size is an error, not an abort.
     let plan = shrad::Patches::plan(&scene, sizing);
     shrad::limits::check_patches(&scene, plan)?;

@@ -28,8 +28,10 @@ impl Role {
 }
 
 impl std::fmt::Display for Role {
+    /// Its name, padded as asked (`{:<9}`: `write_str` ignored the width and `shrad info`'s
+    /// table lost its columns).
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
+        f.pad(self.name())
     }
 }
 
