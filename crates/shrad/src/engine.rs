@@ -456,7 +456,7 @@ impl Engine {
     }
 
     /// Run the frames a static scene needs to converge: every object updated `passes` times,
-    /// and then, for the dispersive solver, frames until the light settles.
+    /// and then, for the dispersive solver and the grid, frames until the light settles.
     pub fn converge(&mut self, passes: usize) -> Vec<FrameStats> {
         self.converge_with_progress(passes, &NoProgress)
     }
@@ -484,7 +484,7 @@ impl Engine {
     /// [`Engine::converge`] with each frame stepped by `step`, whose error ends the run
     /// there (a front end's interruption: Python's Ctrl-C is seen between frames, on the
     /// calling thread). The frames a front end needs no copy of: [`Engine::frames_to_converge`],
-    /// then for the dispersive solver up to [`MAX_SETTLING_FRAMES`] until one changes the
+    /// then for the dispersive solver and the grid up to [`MAX_SETTLING_FRAMES`] until one changes the
     /// radiosity by at most [`SETTLED`] (relative, L1). The statistics grow a frame at a
     /// time (a count of frames far beyond what can be stepped allocates nothing up front).
     pub fn converge_by<E>(
@@ -496,7 +496,10 @@ impl Engine {
         for _ in 0..self.solver.frames_to_converge(passes) {
             stats.push(step(self)?);
         }
-        if !matches!(self.solver, Solver::Dispersive(_)) {
+        // The grid, too, gathers one bounce a frame: at its `passes` frames a closed box of
+        // reflectance 0.5 had 1.75 of its converged 2.0 (-12.5 %). The reference solves to
+        // convergence in its one frame.
+        if matches!(self.solver, Solver::Reference { .. }) {
             return Ok(stats);
         }
         let mut previous = self.radiosity().to_vec();

@@ -111,3 +111,41 @@ fn a_tiny_scale_is_a_move_and_a_flat_one_an_error_that_shows_it() {
         "{message}"
     );
 }
+
+/// `converge` settles the grid too (it gathers one bounce a frame): in a closed box whose
+/// every wall emits M = 1 and reflects 0.5, B = M / (1 - 0.5) = 2 everywhere (the white
+/// furnace). At its two frames the grid stood at 1.75.
+#[test]
+fn converge_settles_the_grid_in_a_white_furnace() {
+    use shrad::scene::{box_mesh, Material, Object, Role, Scene};
+    let mut material = Material::diffuse(Vec3::splat(0.5));
+    material.emitted_radiance = Vec3::splat(std::f32::consts::FRAC_1_PI);
+    let mut room = Object::new("room", box_mesh(Vec3::splat(0.5), true), material);
+    room.role = Some(Role::Boundary);
+    let scene = Scene {
+        source: "white furnace".into(),
+        objects: vec![room],
+        ..Default::default()
+    };
+    for solver in ["grid", "dispersive"] {
+        let choice = SolverChoice::preset(solver, "default").unwrap();
+        let mut e = Engine::new(
+            scene.clone(),
+            PatchSizing::Count(600),
+            Backend::Auto,
+            choice,
+        )
+        .unwrap();
+        e.converge(2);
+        let areas = &e.world().patches.area;
+        let total: f32 = areas.iter().sum();
+        let mean = (e.radiosity().iter().zip(areas))
+            .map(|(b, a)| b.x * a)
+            .sum::<f32>()
+            / total;
+        assert!(
+            (mean - 2.0).abs() < 0.01,
+            "{solver}: mean B {mean}, closed form 2"
+        );
+    }
+}
