@@ -90,6 +90,17 @@ pub(crate) fn read_nested(path: &Path, chain: Vec<PathBuf>) -> Result<Scene, Sce
         let light = crate::scene_lights::light(spanned.get_ref(), i)
             .and_then(|l| l.problem().map_or(Ok(l), Err))
             .map_err(|m| SceneError::invalid(path, format!("lights {i} (line {line}): {m}")))?;
+        // Unique, as objects' names are: `set_light("bulb")` changed the first of two.
+        if let Some(k) = scene
+            .lights
+            .iter()
+            .position(|l| !l.name.is_empty() && l.name == light.name)
+        {
+            return Err(SceneError::invalid(
+                path,
+                format!("lights {i} (line {line}): the name '{}' is already light {k}'s: names must be unique", light.name),
+            ));
+        }
         scene.lights.push(light);
     }
     Ok(scene)

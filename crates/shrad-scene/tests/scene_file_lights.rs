@@ -80,12 +80,25 @@ fn bad_lights_name_the_file_the_light_and_the_line() {
         (
             "cone.toml",
             "kind = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nintensity = 1\ninner_cone_deg = 40\nouter_cone_deg = 30",
-            "innerConeAngle",
+            // In the file's degrees (it was "innerConeAngle 0.6981317 must be less than
+            // outerConeAngle 0.5235988").
+            "the inner cone angle 40 deg must be less than the outer 30 deg",
         ),
         (
             "wide.toml",
             "kind = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nintensity = 1\nouter_cone_deg = 100",
-            "pi/2",
+            "the outer cone angle 100 deg is beyond 90 deg",
+        ),
+        (
+            "nancone.toml",
+            "kind = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nintensity = 1\nouter_cone_deg = nan",
+            "the cone angles must be finite",
+        ),
+        // As an object's coordinates: it loaded, and lit the floor 100 times too dimly.
+        (
+            "far.toml",
+            "kind = \"point\"\nposition = [1e13, 2, 0]\npower = 100",
+            "is beyond the 1e12",
         ),
         ("nodir.toml", "kind = \"directional\"\nirradiance = 1", "direction missing"),
         ("nopos.toml", "kind = \"point\"\npower = 1", "position missing"),
@@ -158,5 +171,20 @@ reflectance = [0.1, 0.2, 0.7]
             .abs()
             .max_element()
             < 1e-5
+    );
+}
+
+/// Two lights of one name are an error, as two objects of one name are: the second was kept
+/// and `set_light("bulb")` changed only the first.
+#[test]
+fn two_lights_of_one_name_are_refused() {
+    let bulb = "[[lights]]\nname = \"bulb\"\nkind = \"point\"\nposition = [0, 1, 0]\npower = 1\n";
+    let p = write("twice.toml", &format!("{bulb}\n{bulb}"));
+    let e = load(&p, &LoadOptions::default()).unwrap_err().to_string();
+    assert!(
+        e.contains("twice.toml")
+            && e.contains("lights 1 (line ")
+            && e.contains("the name 'bulb' is already light 0's"),
+        "{e}"
     );
 }

@@ -139,18 +139,30 @@ impl Light {
             outer_cone_angle: outer,
         } = self.kind
         {
-            if !(inner.is_finite() && inner >= 0.0) {
-                return Some(format!("innerConeAngle {inner} must be >= 0"));
-            }
-            // (outer is finite below: a NaN fails both tests.)
-            if inner >= outer || outer.is_nan() {
+            // In degrees, as a scene file writes them (a glTF file's radians are checked,
+            // by their own names, where it is read: `gltf_io/lights.rs`).
+            // (Three decimals, trimmed: 30 deg read back from radians is 30.000002.)
+            let deg = |a: f32| {
+                let text = format!("{:.3}", a.to_degrees());
+                text.trim_end_matches('0').trim_end_matches('.').to_string()
+            };
+            let (i, o) = (deg(inner), deg(outer));
+            if !(inner.is_finite() && outer.is_finite()) {
                 return Some(format!(
-                    "innerConeAngle {inner} must be less than outerConeAngle {outer}"
+                    "the cone angles must be finite (inner {i} deg, outer {o} deg)"
+                ));
+            }
+            if inner < 0.0 {
+                return Some(format!("the inner cone angle {i} deg must be >= 0"));
+            }
+            if inner >= outer {
+                return Some(format!(
+                    "the inner cone angle {i} deg must be less than the outer {o} deg"
                 ));
             }
             if outer > std::f32::consts::FRAC_PI_2 * (1.0 + 1e-6) {
                 return Some(format!(
-                    "outerConeAngle {outer} is beyond pi/2 (a spot light lights at most a hemisphere)"
+                    "the outer cone angle {o} deg is beyond 90 deg (a spot light lights at most a hemisphere)"
                 ));
             }
         }
@@ -160,6 +172,15 @@ impl Light {
         }
         if self.kind != LightKind::Point && Light::direction(&m).is_none() {
             return Some("its transform collapses its direction (-Z)".into());
+        }
+        // As an object's coordinates (`MAX_COORDINATE`): a lamp at 1e13 loaded and lit the
+        // floor 100 times too dimly (its irradiance below f32's normal numbers).
+        let p = Light::position(&m);
+        if self.kind != LightKind::Directional && p.abs().max_element() > crate::MAX_COORDINATE {
+            return Some(format!(
+                "its position {p} is beyond the {:.0e} that 32-bit arithmetic of distances can hold",
+                crate::MAX_COORDINATE
+            ));
         }
         None
     }
@@ -220,12 +241,12 @@ mod tests {
             inner_cone_angle: 0.5,
             outer_cone_angle: 0.5,
         };
-        assert!(l.problem().unwrap().contains("innerConeAngle"));
+        assert!(l.problem().unwrap().contains("must be less than the outer"));
         l.kind = LightKind::Spot {
             inner_cone_angle: 0.5,
             outer_cone_angle: 2.0,
         };
-        assert!(l.problem().unwrap().contains("pi/2"));
+        assert!(l.problem().unwrap().contains("beyond 90 deg"));
         l.kind = LightKind::Directional;
         l.world_from_light = Affine3A::from_scale(Vec3::ZERO);
         assert!(l.problem().unwrap().contains("direction"));
