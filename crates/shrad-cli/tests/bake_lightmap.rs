@@ -66,7 +66,7 @@ fn bake_lightmap_rgbm_writes_the_png_and_states_its_multiplier() {
     assert_eq!(names, ["c.glb", "c.lightmap.png"]);
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(
-        stdout.contains("lightmap c.lightmap.png (RGBM PNG: E / pi = rgb * a * "),
+        stdout.contains("c.lightmap.png (RGBM PNG: E / pi = rgb * a * "),
         "{stdout}"
     );
 }

@@ -283,7 +283,7 @@ impl PyEngine {
     }
 
     /// Step until a static scene has converged (every object updated ``passes`` times, 0 to
-    /// 1000, then, for the dispersive solver, until a frame changes the radiosity by less
+    /// 1000, then, for the dispersive solver and the grid, until a frame changes the radiosity by less
     /// than 1e-4); the statistics of every frame. Ctrl-C (KeyboardInterrupt) stops it
     /// between two frames, the engine whole.
     #[pyo3(signature = (passes=2))]
@@ -401,7 +401,8 @@ impl PyEngine {
         })
         .map_err(|e| to_py_err(shrad::scene::SceneError::Write(e).into()))?;
         let d = PyDict::new(py);
-        d.set_item("path", path)?;
+        // A str, as export_gltf's and bake's `path` (it was a PosixPath).
+        d.set_item("path", path.to_string_lossy())?;
         d.set_item("probes", n)?;
         Ok(d)
     }
@@ -526,7 +527,7 @@ impl PyEngine {
     /// (linear, ``E / pi``) or with ``lightmap_format="rgbm"`` an RGBM ``OUT.lightmap.png``;
     /// its texel edge ``texel_size`` (scene units) or the atlas's side ``lightmap_res``
     /// (texels, 8 to 16384; 1024 when neither is given). Each dict then names its
-    /// ``lightmap_file``.
+    /// ``lightmap_file`` (a path) and ``lightmap_encoding``.
     #[pyo3(signature = (
         path, *, time=None, frames=None, passes=2, exposure=None,
         lightmap=false, texel_size=None, lightmap_res=None, lightmap_format=None

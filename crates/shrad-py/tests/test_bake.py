@@ -83,7 +83,8 @@ def test_a_lightmap_bake_from_python(lit, tmp_path):
     # What `shrad bake --lightmap` writes: the atlas inside the glTF (valid, three.js loads
     # its uv1 and maps) and beside it, at the side asked for, in the format asked for.
     baked = lit.bake(tmp_path / "lm.glb", passes=0, lightmap=True, lightmap_res=128)
-    assert baked[0]["lightmap_file"].startswith("lm.lightmap.exr"), baked
+    assert baked[0]["lightmap_file"] == str(tmp_path / "lm.lightmap.exr"), baked
+    assert baked[0]["lightmap_encoding"] == "linear OpenEXR, E / pi", baked
     atlas = shrad.read_exr(tmp_path / "lm.lightmap.exr")
     assert atlas.shape == (128, 128, 3) and np.isfinite(atlas).all()
     lit_texels = (atlas.max(axis=2) > 0).mean()
@@ -91,7 +92,8 @@ def test_a_lightmap_bake_from_python(lit, tmp_path):
     for r in node_check(tmp_path / "lm.glb"):
         assert r["validator"]["errors"] == 0, r["validator"]["messages"]
     rgbm = lit.bake(tmp_path / "rgbm.glb", passes=0, lightmap=True, texel_size=40.0, lightmap_format="rgbm")
-    assert rgbm[0]["lightmap_file"].startswith("rgbm.lightmap.png"), rgbm
+    assert rgbm[0]["lightmap_file"] == str(tmp_path / "rgbm.lightmap.png"), rgbm
+    assert rgbm[0]["lightmap_encoding"].startswith("RGBM PNG: E / pi = rgb * a * "), rgbm
     assert (tmp_path / "rgbm.lightmap.png").is_file() and not (tmp_path / "rgbm.lightmap.exr").exists()
     # The layout's arguments without a lightmap, or out of range: said, nothing written.
     before = sorted(tmp_path.iterdir())

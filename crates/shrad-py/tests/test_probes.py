@@ -61,6 +61,7 @@ def test_export_probes_writes_what_probes_returns(cornell, tmp_path):
     p = e.probes()
     written = e.export_probes(tmp_path / "box.probes.json")
     assert written["probes"] == len(p["positions"]) == 16
+    assert written["path"] == str(tmp_path / "box.probes.json")
     doc = json.loads((tmp_path / "box.probes.json").read_text())
     assert doc["format"] == "shrad-probes" and doc["version"] == 1
     probes = doc["probes"]

@@ -283,8 +283,8 @@ pub fn run(args: BakeArgs, scene: Scene, file: &FileSettings) -> Result<()> {
                 b.triangles,
                 b.exposure
             );
-            if let Some(f) = &b.lightmap_file {
-                say!("  and its lightmap {f}");
+            if let (Some(f), Some(encoding)) = (&b.lightmap_file, &b.lightmap_encoding) {
+                say!("  and its lightmap {} ({encoding})", f.display());
             }
         }
         eprintln!("solved and baked in {:.2} s", t.elapsed().as_secs_f64());

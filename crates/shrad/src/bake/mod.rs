@@ -95,8 +95,11 @@ pub struct Baked {
     /// What the user should know about this file (a lightmap: an object's own UVs that
     /// could not be used).
     pub warnings: Vec<String>,
-    /// A lightmap's file beside it, described (`c.lightmap.exr (linear OpenEXR)`).
-    pub lightmap_file: Option<String>,
+    /// A lightmap's file beside it (`c.lightmap.exr`, in the folder of `path`).
+    pub lightmap_file: Option<PathBuf>,
+    /// What the lightmap's texels hold (`linear OpenEXR, E / pi`, or RGBM with its
+    /// multiplier).
+    pub lightmap_encoding: Option<String>,
 }
 
 /// The file of frame `frame` of a sequence: `out.glb` -> `out_0007.glb`.

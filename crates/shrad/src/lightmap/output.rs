@@ -343,12 +343,12 @@ pub fn stage(
     };
     let out = |e: String| Error::Output(path.into(), e);
     let beside = stage_beside(path, &texels, options.format, staged)?;
-    let lightmap_file = match (&beside["exr"], &beside["rgbm"]) {
-        (Value::String(exr), _) => format!("{exr} (linear OpenEXR, E / pi)"),
-        (_, rgbm) => format!(
-            "{} (RGBM PNG: E / pi = rgb * a * {})",
-            rgbm["file"].as_str().unwrap_or_default(),
-            rgbm["multiplier"]
+    // A path the caller can open (it was a description: "c.lightmap.exr (linear ...)").
+    let (name, encoding) = match (&beside["exr"], &beside["rgbm"]) {
+        (Value::String(exr), _) => (exr.clone(), "linear OpenEXR, E / pi".to_string()),
+        (_, rgbm) => (
+            rgbm["file"].as_str().unwrap_or_default().to_string(),
+            format!("RGBM PNG: E / pi = rgb * a * {}", rgbm["multiplier"]),
         ),
     };
     let (root, bin, mut baked) =
@@ -362,6 +362,7 @@ pub fn stage(
     }
     baked.path = path.to_path_buf();
     baked.warnings = layout.warnings;
-    baked.lightmap_file = Some(lightmap_file);
+    baked.lightmap_file = Some(path.with_file_name(name));
+    baked.lightmap_encoding = Some(encoding);
     Ok(baked)
 }
