@@ -87,8 +87,11 @@ pub fn load_dict(
             return Err(crate::to_py_err(e.into()));
         }
     };
+    // As `load` finishes a scene file (a dict's reflectance of 1 was refused, a file's
+    // read as 0.999).
     shrad::scene::infer_roles(&mut scene);
     shrad::scene::warn_faces_turned_away(&mut scene);
+    shrad::scene::clamp_reflectance(&mut scene);
     scene
         .validate(Path::new(&source), false)
         .map_err(|e| crate::to_py_err(e.into()))?;

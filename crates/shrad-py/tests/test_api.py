@@ -307,8 +307,9 @@ def test_a_toml_file_and_a_dict_make_the_same_scene(tmp_path):
     a, b = engines
     np.testing.assert_array_equal(a.centres, b.centres)
     np.testing.assert_array_equal(a.reflectance, b.reflectance)
-    # The ball's one reflectance key paints it from the start.
-    np.testing.assert_allclose(a.reflectance[a.object_ids == 2], [[0.1, 0.2, 0.7]] * int((a.object_ids == 2).sum()), rtol=1e-6)
+    # The ball's own reflectance holds until its one reflectance key (at 1 s, step keys):
+    # given both, the key painted it from the start and its own value was ignored.
+    np.testing.assert_allclose(a.reflectance[a.object_ids == 2], [[0.2, 0.6, 0.3]] * int((a.object_ids == 2).sum()), rtol=1e-6)
     np.testing.assert_array_equal(a.transform("ball"), b.transform("ball"))
     np.testing.assert_array_equal(a.radiosity, b.radiosity)
     # The same camera too: the scene's camera renders the same picture.
@@ -331,7 +332,7 @@ def test_a_toml_file_and_a_dict_make_the_same_scene(tmp_path):
         (lambda d: d["objects"][2].update(triangles=np.array([[0, 1, 2**64 - 1]], np.uint64)), "vertex index 18446744073709551615 out of range"),
         (lambda d: d["objects"][2].update(triangles=np.array([[0, 1, -1]])), "'triangles': triangle 0 has vertex index -1 out of range (24 vertices)"),
         (lambda d: d["objects"][1].update(emission=[-1, 0, 0]), "emission must be >= 0"),
-        (lambda d: d["objects"][2].update(reflectance=[1.5, 0, 0]), "reflectance"),
+        (lambda d: d["objects"][2].update(reflectance=[1.5, 0, 0]), "reflectance [1.5, 0, 0] must be within [0, 1]"),
         (lambda d: d["objects"][2].update(key=[{"time": math.inf}]), "key 0: time must be finite"),
         (lambda d: d.update(objects=[]), "no objects"),
     ],
@@ -470,3 +471,12 @@ def test_a_gltf_with_nothing_to_light_loads_empty_and_runs(tmp_path):
         with pytest.raises(ValueError, match="nothing to bake"):
             e.export_gltf(tmp_path / "out.glb")
     assert not (tmp_path / "out.glb").exists()
+
+
+def test_a_dicts_reflectance_of_one_is_read_as_a_files_is():
+    # A scene file's reflectance of 1 is read as 0.999 with a warning; the same dict was
+    # refused ("must be in [0, 1)").
+    d = room_dict()
+    d["objects"][2]["reflectance"] = [1.0, 0.5, 0.5]
+    scene = shrad.load_dict(d)
+    assert any("clamped to" in w for w in scene.warnings), scene.warnings

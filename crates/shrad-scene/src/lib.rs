@@ -27,7 +27,7 @@ pub use builtin::{box_mesh, builtin, builtin_names, cornell_box, quad, room, Roo
 pub use error::SceneError;
 pub use gltf_io::builder as gltf_builder;
 pub use gltf_io::write_gltf;
-pub use load::{load, LoadOptions};
+pub use load::{clamp_reflectance, load, LoadOptions};
 pub use model::*;
 pub use node_anim::{
     AnimationInfo, GraphNode, Interpolation, NodeAnimation, NodeGraph, NodeRest, Track, TrackValue,

@@ -76,7 +76,8 @@ fn finish(scene: &mut Scene, path: &Path, opts: &LoadOptions) -> Result<(), Scen
 }
 
 /// Clamp reflectance components >= 1 (common in exported files) to 0.999 with a warning.
-pub(crate) fn clamp_reflectance(scene: &mut Scene) {
+/// (A scene file's or a dict's own `reflectance` is at most 1: `scene_def`.)
+pub fn clamp_reflectance(scene: &mut Scene) {
     for (i, o) in scene.objects.iter_mut().enumerate() {
         let r = o.material.reflectance;
         if r.is_finite() && r.max_element() >= 1.0 {

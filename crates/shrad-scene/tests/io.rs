@@ -382,6 +382,34 @@ fn gltf_texture_is_averaged_and_emission_strength_applies() {
     );
 }
 
+/// A scene file's own reflectance is at most 1 (read as 0.999, with a warning), as a
+/// reflectance key's: 1.5, even 1e6, was clamped with a warning, and the same object in a
+/// Python dict refused.
+#[test]
+fn a_scene_files_reflectance_above_one_is_an_error_and_one_is_clamped() {
+    let dir = temp_dir("toml-reflectance");
+    let quad = "shape = \"quad\"\ncorners = [[0, 0, 0], [1, 0, 0], [1, 0, 1], [0, 0, 1]]";
+    let path = dir.join("bright.toml");
+    let body = format!("[[object]]\nname = \"floor\"\n{quad}\nreflectance = [1.5, 0.5, 0.5]\n");
+    std::fs::write(&path, body).unwrap();
+    let e = load(&path, &opts()).unwrap_err().to_string();
+    assert!(
+        e.contains("bright.toml")
+            && e.contains("'floor'")
+            && e.contains("reflectance [1.5, 0.5, 0.5] must be within [0, 1]"),
+        "{e}"
+    );
+    let body = format!("[[object]]\nname = \"floor\"\n{quad}\nreflectance = [1, 0.5, 0.5]\n");
+    std::fs::write(&path, body).unwrap();
+    let s = load(&path, &opts()).unwrap();
+    assert_eq!(s.objects[0].material.reflectance.x, 0.999);
+    assert!(
+        s.warnings.iter().any(|w| w.contains("clamped")),
+        "{:?}",
+        s.warnings
+    );
+}
+
 #[test]
 fn reflectance_one_is_clamped_with_a_warning() {
     let mut root = one_box_gltf();

@@ -110,8 +110,13 @@ fn common(o: &ObjectDef, index: usize) -> Result<Common, String> {
         .reflectance
         .map(|r| finite3(r, "reflectance"))
         .transpose()?;
-    if reflectance.is_some_and(|r| r.min_element() < 0.0) {
-        return Err("reflectance must be >= 0".into());
+    // As a reflectance key's: 1 is read as 0.999 (with a warning, `clamp_reflectance`), more
+    // is a mistake (a file's 1.5 was clamped with a warning, a dict's refused).
+    if let Some(r) = reflectance.filter(|r| r.min_element() < 0.0 || r.max_element() > 1.0) {
+        return Err(format!(
+            "reflectance {r} must be within [0, 1] (1 is read as {})",
+            crate::MAX_REFLECTANCE
+        ));
     }
     let emission = o.emission.map(|e| finite3(e, "emission")).transpose()?;
     if emission.is_some_and(|e| e.min_element() < 0.0) {
