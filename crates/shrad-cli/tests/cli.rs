@@ -986,3 +986,48 @@ fn render_refuses_to_write_over_the_scene_it_reads() {
         );
     }
 }
+
+/// Without `--frames` the grid renders its light settled: in a closed box whose walls emit
+/// M = 1 and reflect 0.9, B = M / (1 - 0.9) = 10 everywhere; at its fixed 8 frames (8
+/// bounces) the grid had 1 + 0.9 + ... + 0.9^8 = 6.1.
+#[test]
+fn a_grid_render_settles_in_a_bright_furnace() {
+    let dir = temp_dir("grid-furnace");
+    let scene = dir.join("furnace.toml");
+    std::fs::write(
+        &scene,
+        "[[object]]\nname = \"room\"\nrole = \"boundary\"\nshape = \"box\"\nsize = [1, 1, 1]\ninward = true\nreflectance = [0.9, 0.9, 0.9]\nemission = [0.3183099, 0.3183099, 0.3183099]\n",
+    )
+    .unwrap();
+    let csv = dir.join("patches.csv");
+    let o = shrad(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--solver",
+        "grid",
+        "--patches",
+        "600",
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--export-patches",
+        csv.to_str().unwrap(),
+        "-o",
+        dir.join("f.png").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let (mut area, mut power) = (0.0f64, 0.0f64);
+    for line in text.lines().skip(1) {
+        let f: Vec<f64> = line
+            .split(',')
+            .skip(2)
+            .map(|x| x.parse().unwrap())
+            .collect();
+        area += f[6];
+        power += f[6] * f[7];
+    }
+    let mean = power / area;
+    assert!((mean - 10.0).abs() < 0.1, "mean B {mean}, closed form 10");
+}

@@ -165,6 +165,10 @@ fn check_outputs(args: &RenderArgs) -> Result<()> {
 /// Run the frames of a solve on `engine` and report them unless `quiet` (also `bake`'s).
 pub(crate) fn solve(engine: &mut Engine, frames: Option<usize>, quiet: bool) {
     let reference = matches!(engine.solver_choice(), SolverChoice::Reference(_));
+    // Without --frames the grid, one bounce a frame, goes on until its light settles
+    // (`Engine::settle_by`): at 8 frames a room of reflectance 0.9 had 61 % of its
+    // indirect light.
+    let settle = frames.is_none() && matches!(engine.solver_choice(), SolverChoice::Grid(_));
     let frames = frames
         .filter(|_| !reference)
         .unwrap_or_else(|| engine.frames_to_converge(8));
@@ -179,14 +183,26 @@ pub(crate) fn solve(engine: &mut Engine, frames: Option<usize>, quiet: bool) {
     frame_bar.begin("frames", frames as u64);
     let mut last = None;
     let mut diverged = Vec::new();
-    for f in 0..frames {
+    let mut stepped = 0usize;
+    let mut frame = |engine: &mut Engine| {
         let stats = engine.step_with_progress(step_bar);
         if let Some(d) = &stats.diverged {
-            diverged.push((f, d.message.clone()));
+            diverged.push((stepped, d.message.clone()));
         }
-        last = Some(stats);
+        stepped += 1;
+        last = Some(stats.clone());
         frame_bar.advance(1);
+        Ok::<_, std::convert::Infallible>(stats)
+    };
+    for _ in 0..frames {
+        let Ok(_) = frame(engine);
     }
+    let frames = frames
+        + if settle {
+            engine.settle_by(&mut frame).map_or(0, |s| s.len())
+        } else {
+            0
+        };
     frame_bar.end();
     if let Some((f, message)) = diverged.first() {
         // Always said, even with --quiet: the published state was repaired.
