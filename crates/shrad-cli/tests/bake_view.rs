@@ -379,3 +379,17 @@ fn view_serves_the_page_on_the_printed_url() {
     );
     assert!(response.contains("<html") || response.contains("<!DOCTYPE"));
 }
+
+/// A short token is refused before anything is said of patching: the refusal was at once,
+/// but after "patching and precomputing...", as if it came after the work.
+#[test]
+fn view_refuses_a_short_token_before_it_patches() {
+    let o = shrad(&["view", "cornell", "--token", "short", "--port", "0"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--token: the token must have at least 16 characters")
+            && !err.contains("patching"),
+        "{err}"
+    );
+}
