@@ -45,7 +45,8 @@ pub struct RenderArgs {
     #[command(flatten)]
     pub solver: SolverArgs,
     /// Dispersive / grid: frames to run on the (static) scene before drawing
-    /// [default: 8 passes over the interior objects, 8 frames for the grid].
+    /// [default: 8 passes over the interior objects; for the grid 8 frames and then frames
+    /// until its light settles].
     #[arg(long)]
     frames: Option<usize>,
     /// Also solve the reference and print the error of spec section 8 (dispersive / grid).
