@@ -65,6 +65,25 @@ def test_a_failing_shot_is_named():
         shrad.sweep([{"scene": "cornell"}])
 
 
+def test_a_broken_pool_is_named_not_the_shot(tmp_path):
+    # A script that spawns a pool without the __main__ guard: its workers fail while
+    # importing it, and the error blamed "shot 0".
+    script = tmp_path / "unguarded.py"
+    script.write_text(
+        "import concurrent.futures, multiprocessing\n"
+        "import shrad\n"
+        "ctx = multiprocessing.get_context('spawn')\n"
+        "with concurrent.futures.ProcessPoolExecutor(1, mp_context=ctx) as pool:\n"
+        "    shrad.sweep([shrad.Shot('cornell', patches=300)], executor=pool, timeout=120)\n"
+    )
+    import subprocess
+    import sys
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert out.returncode != 0
+    assert "ShotError: the executor broke while shot 0" in out.stderr, out.stderr[-2000:]
+    assert 'if __name__ == "__main__":' in out.stderr
+
+
 def test_sweep_on_a_dask_local_cluster():
     import distributed  # pinned in requirements.txt, as ray is
     with distributed.LocalCluster(

@@ -20,6 +20,7 @@ inherits a thread pool whose threads it does not have.
 
 from __future__ import annotations
 
+import concurrent.futures
 import dataclasses
 import time
 from collections.abc import Iterable, Mapping, Sequence
@@ -174,6 +175,14 @@ def sweep(shots: Iterable[Shot], executor: Any = None, timeout: float | None = N
                 results.append(f.result(timeout=timeout))
             except ShotError:
                 raise
+            except concurrent.futures.BrokenExecutor as e:
+                # The pool, not the shot: its workers died or never started (it blamed the
+                # shot it was waiting for).
+                raise ShotError(
+                    f"the executor broke while {shots[i].label(i)} waited: {type(e).__name__}: {e} "
+                    "(a process pool that spawns its workers needs the script's work under "
+                    'if __name__ == "__main__":)'
+                ) from e
             except Exception as e:
                 # A worker that died, a timeout, an exception the executor re-wrapped.
                 raise ShotError(f"{shots[i].label(i)}: {type(e).__name__}: {e}") from e
