@@ -486,9 +486,30 @@ impl PyEngine {
     /// The relative L2 error of the current state against a reference solve of the same
     /// state (area-weighted, lights left out; fractions, not percent): a dict with
     /// ``overall``, ``boundary`` and ``interior`` (NaN where a role has no patches).
-    /// Ctrl-C (KeyboardInterrupt) stops the reference solve.
-    fn error<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let e = self.with_stoppable(py, |e, stop| e.error_with_progress(stop))?;
+    /// ``reference``: the reference's preset, ``"fast"`` (the default: 64 form-factor rays
+    /// a patch, 16 shadow rays) or ``"standard"`` (256 and 64, as ``shrad render
+    /// --compare``). Ctrl-C (KeyboardInterrupt) stops the reference solve.
+    #[pyo3(signature = (*, reference=None))]
+    fn error<'py>(
+        &self,
+        py: Python<'py>,
+        reference: Option<String>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let options = match reference.as_deref() {
+            None => None,
+            Some(name) => match shrad::solver::SolverChoice::preset("reference", name) {
+                Ok(shrad::solver::SolverChoice::Reference(r)) => Some(r),
+                _ => {
+                    return Err(PyValueError::new_err(format!(
+                    "error: reference '{name}' is not a preset of the reference (fast, standard)"
+                )))
+                }
+            },
+        };
+        let e = self.with_stoppable(py, |e, stop| match &options {
+            Some(o) => e.error_against(o, stop),
+            None => e.error_with_progress(stop),
+        })?;
         // Built here, not through JSON: JSON has no NaN, and a role without patches was None.
         let dict = PyDict::new(py);
         dict.set_item("overall", e.overall)?;

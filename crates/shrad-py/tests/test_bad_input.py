@@ -303,3 +303,15 @@ def test_a_negative_count_is_a_value_error_naming_it(cornell):
         cornell.with_patches(-5)
     with pytest.raises(ValueError, match="threads must be between 1 and 1024, got -1"):
         shrad.Engine(cornell, threads=-1)
+
+
+def test_error_against_the_standard_reference_or_the_fast(cornell):
+    # error() measures against the engine's reference (fast); reference="standard" is the
+    # one `shrad render --compare` uses; another name is a ValueError naming the presets.
+    e = shrad.Engine(cornell, solver="dispersive", preset="default")
+    e.converge(1)
+    own, fast, standard = e.error(), e.error(reference="fast"), e.error(reference="standard")
+    assert own["overall"] == pytest.approx(fast["overall"], rel=1e-6)
+    assert 0 < standard["overall"] < 0.2 and standard["overall"] != pytest.approx(fast["overall"], rel=1e-6)
+    with pytest.raises(ValueError, match="reference 'best' is not a preset of the reference"):
+        e.error(reference="best")

@@ -572,7 +572,17 @@ impl Engine {
     /// [`Engine::error`], reporting the reference solve to `progress`, or
     /// [`Error::Interrupted`] when it asks to stop ([`crate::reference::try_solve`]).
     pub fn error_with_progress(&self, progress: &dyn Progress) -> Result<RelativeError, Error> {
-        let (reference, _) = try_solve(&self.world, &self.reference_options, progress)?;
+        self.error_against(&self.reference_options, progress)
+    }
+
+    /// [`Engine::error_with_progress`] against a reference solved with `options` rather than
+    /// the engine's own ([`Engine::reference_options`]).
+    pub fn error_against(
+        &self,
+        options: &ReferenceOptions,
+        progress: &dyn Progress,
+    ) -> Result<RelativeError, Error> {
+        let (reference, _) = try_solve(&self.world, options, progress)?;
         Ok(relative_error(
             &self.world.patches,
             self.solver.radiosity(),
