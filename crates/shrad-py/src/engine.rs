@@ -383,12 +383,15 @@ impl PyEngine {
         path: std::path::PathBuf,
     ) -> PyResult<Bound<'py, PyDict>> {
         use shrad::probe_export::{corner_probes, to_json_text};
-        let (json, solver, overwrite) = self.with(py, |e| {
-            let json = corner_probes(e).map(|p| (to_json_text(e, &p), p.len()));
-            let overwrite = shrad::bake::refuse_overwriting_scene(e, &path);
-            (json, e.solver_choice().name(), overwrite)
-        });
-        overwrite.map_err(to_py_err)?;
+        // The scene file is checked first: the probes' JSON is not made to be refused.
+        let (json, solver) = self
+            .with(py, |e| {
+                shrad::bake::refuse_overwriting_scene(e, &path).map(|()| {
+                    let json = corner_probes(e).map(|p| (to_json_text(e, &p), p.len()));
+                    (json, e.solver_choice().name())
+                })
+            })
+            .map_err(to_py_err)?;
         let (text, n) = json.ok_or_else(|| {
             PyValueError::new_err(format!(
                 "export_probes: the {solver} solver has no per-object probes (use the dispersive solver)"
