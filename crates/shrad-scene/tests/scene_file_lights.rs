@@ -188,3 +188,47 @@ fn two_lights_of_one_name_are_refused() {
         "{e}"
     );
 }
+
+/// A box of side 2 about (0, 1, 0) with the given extra keys.
+fn lamp_in_a_box(name: &str, box_keys: &str, lamp_at: [f32; 3]) -> Vec<String> {
+    let p = write(
+        name,
+        &format!(
+            r#"
+[[object]]
+name = "crate"
+shape = "box"
+size = [2, 2, 2]
+position = [0, 1, 0]
+{box_keys}
+
+[[lights]]
+name = "lamp"
+kind = "point"
+position = {lamp_at:?}
+power = 100.0
+"#
+        ),
+    );
+    load(&p, &LoadOptions::default()).unwrap().warnings
+}
+
+#[test]
+fn a_light_shut_inside_a_closed_object_is_warned_of() {
+    let enclosed = |w: &Vec<String>| {
+        w.iter()
+            .any(|w| w.contains("light 'lamp' is inside object 'crate'"))
+    };
+    // Inside a box whose faces look out: its light reaches none of them.
+    let w = lamp_in_a_box("shut.toml", "", [0.2, 1.3, -0.4]);
+    assert!(enclosed(&w), "{w:?}");
+    // Outside it, inside a room facing in, or inside a double-sided box: no warning.
+    for (name, keys, at) in [
+        ("outside.toml", "", [3.0, 1.0, 0.0]),
+        ("room.toml", "inward = true", [0.2, 1.3, -0.4]),
+        ("two-sided.toml", "double_sided = true", [0.2, 1.3, -0.4]),
+    ] {
+        let w = lamp_in_a_box(name, keys, at);
+        assert!(!enclosed(&w), "{name}: {w:?}");
+    }
+}

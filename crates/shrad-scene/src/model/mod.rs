@@ -5,9 +5,11 @@
 //! One file an idea: [`Role`] and [`Object`] (`object.rs`), [`Material`], [`Mesh`], the
 //! keyframed [`Animation`], the animated light and emission properties
 //! (`property_tracks.rs`), [`Camera`] and [`Scene`] (`scene.rs`), and the checks every
-//! solver relies on ([`Scene::validate`], `validate.rs`).
+//! solver relies on ([`Scene::validate`], `validate.rs`) with the warning of a light shut
+//! inside an object (`enclosed_lights.rs`).
 
 mod animation;
+mod enclosed_lights;
 mod environment;
 mod light;
 mod material;

@@ -37,6 +37,7 @@ impl Scene {
                 return Err(SceneError::invalid(path, format!("{who}: {why}")));
             }
         }
+        self.warn_enclosed_lights();
         if !self.has_emitter() && !self.objects.is_empty() {
             self.warnings
                 .push("the scene has no emitter: every result will be black".to_string());
