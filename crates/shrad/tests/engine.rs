@@ -110,6 +110,20 @@ fn a_tiny_scale_is_a_move_and_a_flat_one_an_error_that_shows_it() {
             && !message.contains("Affine3A"),
         "{message}"
     );
+    // All but flat (one axis squashed by 1e-16: Embree aborted the process on the rays it
+    // gave, the BVH gave NaN), or shrunk whole below the smallest size a scene loads at (NaN
+    // too): refused, and the engine goes on where the block was.
+    for (squash, what) in [
+        (Vec3::new(1e-16, 1.0, 1.0), "singular, or all but"),
+        (Vec3::splat(1e-20), "world size would be"),
+    ] {
+        let message = (e.set_transform(block, rest * Affine3A::from_scale(squash)))
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains(what), "{message}");
+    }
+    e.step();
+    assert!(e.radiosity().iter().all(|b| b.is_finite()));
 }
 
 /// `converge` settles the grid too (it gathers one bounce a frame): in a closed box whose

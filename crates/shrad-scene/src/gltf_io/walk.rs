@@ -142,7 +142,7 @@ impl Walk<'_> {
             return false;
         }
         self.scene.warnings.push(format!(
-            "{node_label}: its scale is zero along some axis (a hidden node): its mesh is left out"
+            "{node_label}: its scale is zero, or all but, along some axis (a hidden node): its mesh is left out"
         ));
         true
     }

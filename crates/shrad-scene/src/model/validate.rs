@@ -88,8 +88,18 @@ fn geometry_problem(o: &Object) -> Option<String> {
 /// `set_transform`, is checked by it before anything moves: such a pose made the visibility
 /// backend abort (Embree's assertion on a ray that is not valid), not fail.
 pub fn placement_problem(world_from_local: glam::Affine3A, local: Option<Aabb>) -> Option<String> {
-    transform_problem(world_from_local)
-        .or_else(|| extent_problem(local?.transformed(world_from_local)))
+    transform_problem(world_from_local).or_else(|| {
+        let world = local?.transformed(world_from_local);
+        extent_problem(world).or_else(|| {
+            let size = world.diagonal();
+            (size < MIN_SIZE).then(|| {
+                format!(
+                    "its world size would be {size:.1e}, below the {MIN_SIZE:.0e} under which \
+                     32-bit arithmetic of its areas loses them"
+                )
+            })
+        })
+    })
 }
 
 /// What is wrong with a transform, if anything: not finite, or flattening space (to a
@@ -112,7 +122,7 @@ pub fn transform_problem(m: glam::Affine3A) -> Option<String> {
     }
     is_singular(&glam::Mat3::from(m.matrix3)).then(|| {
         format!(
-            "transform is singular: it flattens the object (its columns: {:?})",
+            "transform is singular, or all but: it flattens the object (its columns: {:?})",
             columns()
         )
     })
@@ -292,15 +302,28 @@ pub fn emission_problem(e: glam::Vec3) -> Option<String> {
     })
 }
 
-/// Whether a linear map flattens space (to a plane, a line or a point), relative to its own
-/// scale: a determinant that is tiny beside the product of its columns' lengths. (An
-/// absolute bound on the determinant refused a scene modelled in micrometres.)
-/// (In f64: a scale of 1e30 is finite, its cube is not in f32.)
+/// Whether a linear map flattens space (to a plane, a line or a point), or all but does,
+/// relative to its own scale: a determinant that is tiny beside the product of its columns'
+/// lengths (a shear that collapses), or a condition number over 1e7 (one axis
+/// squashed beside another). (An absolute bound on the determinant refused a scene
+/// modelled in micrometres.) (In f64: a scale of 1e30 is finite, its cube is not in f32.)
 pub fn is_singular(m: &glam::Mat3) -> bool {
     let m = m.as_dmat3();
     let scale = m.x_axis.length() * m.y_axis.length() * m.z_axis.length();
-    !(m.determinant().abs() > 1e-6 * scale && scale > 0.0)
+    if !(m.determinant().abs() > 1e-6 * scale && scale > 0.0) {
+        return true;
+    }
+    let frobenius = |m: glam::DMat3| m.to_cols_array().iter().map(|v| v * v).sum::<f64>().sqrt();
+    // |M|_F |M^-1|_F bounds the 2-norm condition number from above, within a factor of 3.
+    let condition = frobenius(m) * frobenius(m.inverse());
+    condition.is_nan() || condition > MAX_CONDITION
 }
+
+/// The largest condition number (Frobenius norms) a transform may have: an object squashed
+/// along one axis by 1e-16 beside the others made Embree abort (its instance-space rays
+/// left the range it accepts) and the pure-Rust BVH give NaN; 1e7 refuses squashes beyond
+/// about 1e-7, far from both, and keeps a rod of 1:1000.
+const MAX_CONDITION: f64 = 1e7;
 
 #[cfg(test)]
 mod tests {
@@ -335,9 +358,24 @@ mod tests {
         let wide = Affine3A::from_scale(Vec3::splat(MAX_SIZE));
         let why = placement_problem(wide, unit_box()).unwrap();
         assert!(why.contains("world size is 1.7e9"), "{why}");
-        // A small uniform scale is no problem, nor a shape without bounds.
+        // All but flat: one axis squashed by 1e-16 beside the others (Embree aborted).
+        let squashed = Affine3A::from_scale(Vec3::new(1e-16, 1.0, 1.0));
+        let why = placement_problem(squashed, unit_box()).unwrap();
+        assert!(why.contains("singular"), "{why}");
+        // A rod of 1:1000, turned, is no problem; nor a small uniform scale, nor a shape
+        // without bounds.
+        let rod = Affine3A::from_quat(glam::Quat::from_rotation_x(0.7))
+            * Affine3A::from_scale(Vec3::new(1e-3, 1e-3, 1.0));
+        assert_eq!(placement_problem(rod, unit_box()), None);
         let small = Affine3A::from_scale(Vec3::splat(1e-4));
         assert_eq!(placement_problem(small, unit_box()), None);
+        // Shrunk below the smallest size a scene may load at (the BVH's rays gave NaN).
+        let tiny = Affine3A::from_scale(Vec3::splat(1e-20));
+        let why = placement_problem(tiny, unit_box()).unwrap();
+        assert!(
+            why.contains("world size would be") && why.contains("below the 1e-9"),
+            "{why}"
+        );
         assert_eq!(placement_problem(Affine3A::IDENTITY, None), None);
     }
 }
