@@ -211,6 +211,71 @@ fn outputs_and_frames_are_checked_before_the_solve() {
     assert!(!Path::new(out).exists());
 }
 
+/// The outputs are all or nothing: an EXR that a device refuses, or a CSV whose path is a
+/// folder, leaves the picture at `-o` as it was (it was replaced, and the command failed).
+#[test]
+fn a_refused_second_output_leaves_the_old_picture() {
+    let dir = temp_dir("all-or-nothing");
+    let png = dir.join("old.png");
+    let folder = dir.join("patches.csv");
+    std::fs::create_dir_all(&folder).unwrap();
+    for (flag, path, says) in [
+        ("--hdr", Path::new("/dev/full"), "/dev/full"),
+        ("--export-patches", folder.as_path(), "that is a folder"),
+    ] {
+        std::fs::write(&png, "old").unwrap();
+        let o = render_small_cornell(&["-o", png.to_str().unwrap(), flag, path.to_str().unwrap()]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{flag}: {stderr}");
+        assert!(stderr.contains(says), "{flag}: {stderr}");
+        assert_eq!(std::fs::read_to_string(&png).unwrap(), "old", "{flag}");
+    }
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(
+        left.len(),
+        2,
+        "only the old picture and the folder: {left:?}"
+    );
+}
+
+/// `animate` writes every file or none: a folder where a frame or the statistics go is
+/// refused before the solve (the frames before it were left behind, or every frame was
+/// solved first), and `--warmup` is bounded (4294967295 ran on, silently).
+#[test]
+fn animate_refuses_a_taken_name_before_it_solves() {
+    let dir = temp_dir("animate-taken");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/moving_box.toml");
+    for taken in ["frame_0002.png", "stats.csv"] {
+        let out = dir.join(taken.replace('.', "-"));
+        std::fs::create_dir_all(out.join(taken)).unwrap();
+        let o = shrad(&[
+            "animate",
+            scene,
+            "-q",
+            "--patches",
+            "300",
+            "--frames",
+            "4",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{taken}: {stderr}");
+        assert!(
+            stderr.contains(taken) && stderr.contains("folder"),
+            "{stderr}"
+        );
+        let left: Vec<_> = std::fs::read_dir(&out).unwrap().collect();
+        assert_eq!(left.len(), 1, "{taken}: only the folder");
+    }
+    let o = shrad(&["animate", scene, "--warmup", "4294967295", "-o", "x"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("0..=1000"));
+}
+
 #[test]
 fn unwritable_output_leaves_nothing() {
     let o = render_small_cornell(&["-o", "/nonexistent-dir/x.png"]);

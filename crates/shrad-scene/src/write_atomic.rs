@@ -181,11 +181,14 @@ impl StagedFiles {
         })
     }
 
-    /// Rename every staged file into place, in order. When a rename fails (rare: each is in
-    /// its destination's folder), the files not yet renamed are removed, and so are those
+    /// Rename every staged file into place, in order, but a device or a pipe first (it is
+    /// written into, and `/dev/full` refuses: failing before any file is renamed, it leaves
+    /// every file of an earlier set as it was). When a rename fails (rare: each is in its
+    /// destination's folder), the files not yet renamed are removed, and so are those
     /// already renamed: what was at their names before is gone, but no part of the set stays.
     pub fn commit(mut self) -> Result<(), WriteError> {
-        let files = std::mem::take(&mut self.files);
+        let mut files = std::mem::take(&mut self.files);
+        files.sort_by_key(|(_, dest)| !is_special(dest));
         for (i, (staged, dest)) in files.iter().enumerate() {
             let put = match is_special(dest) {
                 true => copy_into(staged, dest).and_then(|()| std::fs::remove_file(staged)),

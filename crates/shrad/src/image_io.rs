@@ -107,46 +107,55 @@ impl From<shrad_scene::WriteError> for Error {
 
 /// Write a PNG.
 pub fn write_png(image: &Image, path: &Path, tonemap: Tonemap) -> Result<(), Error> {
-    // One NaN or infinity made the exposure (or the min-max) NaN, and the whole picture
-    // black, silently.
-    if let Some(k) = image.pixels.iter().position(|p| !p.is_finite()) {
-        let w = image.width.max(1) as usize;
-        return Err(Error::Invalid(format!(
-            "{}: pixel ({}, {}) is {}: a PNG's tone mapping needs finite radiance (an EXR \
-             keeps it as it is)",
-            path.display(),
-            k % w,
-            k / w,
-            image.pixels[k]
-        )));
-    }
+    png_problem(image).map_or(Ok(()), |why| {
+        Err(Error::Invalid(format!("{}: {why}", path.display())))
+    })?;
+    write_atomic(path, |tmp| png_into(image, tonemap, tmp)).map_err(Error::from)
+}
+
+/// Why `image` cannot be a PNG, if it cannot: a pixel that is not finite. (One NaN or
+/// infinity made the exposure, or the min-max, NaN and the whole picture black, silently.)
+pub fn png_problem(image: &Image) -> Option<String> {
+    let k = image.pixels.iter().position(|p| !p.is_finite())?;
+    let w = image.width.max(1) as usize;
+    Some(format!(
+        "pixel ({}, {}) is {}: a PNG's tone mapping needs finite radiance (an EXR keeps it \
+         as it is)",
+        k % w,
+        k / w,
+        image.pixels[k]
+    ))
+}
+
+/// Fill `path` with the PNG of `image` (no atomic write: for [`write_atomic`] or
+/// [`shrad_scene::StagedFiles`] to call, after [`png_problem`]).
+pub fn png_into(image: &Image, tonemap: Tonemap, path: &Path) -> Result<(), String> {
     let rgb = to_rgb8(image, tonemap);
-    write_atomic(path, |tmp| {
-        image::save_buffer_with_format(
-            tmp,
-            &rgb,
-            image.width,
-            image.height,
-            image::ColorType::Rgb8,
-            image::ImageFormat::Png,
-        )
-        .map_err(|e| e.to_string())
-    })
-    .map_err(Error::from)
+    image::save_buffer_with_format(
+        path,
+        &rgb,
+        image.width,
+        image.height,
+        image::ColorType::Rgb8,
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| e.to_string())
 }
 
 /// Write a linear OpenEXR (RGB, 32-bit float): radiance `B / pi`, `L_e` for emitters, 0
 /// for the background.
 pub fn write_exr(image: &Image, path: &Path) -> Result<(), Error> {
-    write_atomic(path, |tmp| {
-        let w = image.width as usize;
-        exr::prelude::write_rgb_file(tmp, w, image.height as usize, |x, y| {
-            let c = image.pixels[y * w + x];
-            (c.x, c.y, c.z)
-        })
-        .map_err(|e| e.to_string())
+    write_atomic(path, |tmp| exr_into(image, tmp)).map_err(Error::from)
+}
+
+/// Fill `path` with [`write_exr`]'s file (no atomic write, as [`png_into`]).
+pub fn exr_into(image: &Image, path: &Path) -> Result<(), String> {
+    let w = image.width as usize;
+    exr::prelude::write_rgb_file(path, w, image.height as usize, |x, y| {
+        let c = image.pixels[y * w + x];
+        (c.x, c.y, c.z)
     })
-    .map_err(Error::from)
+    .map_err(|e| e.to_string())
 }
 
 /// Read a linear OpenEXR written by [`write_exr`] (or any RGB EXR), for comparisons.
@@ -178,28 +187,35 @@ pub fn write_gif(
     fps: f32,
     path: &Path,
 ) -> Result<(), Error> {
+    write_atomic(path, |tmp| gif_into(frames, (width, height), fps, tmp)).map_err(Error::from)
+}
+
+/// Fill `path` with [`write_gif`]'s file (no atomic write, as [`png_into`]).
+pub fn gif_into(
+    frames: &[Vec<u8>],
+    (width, height): (u32, u32),
+    fps: f32,
+    path: &Path,
+) -> Result<(), String> {
     use image::codecs::gif::{GifEncoder, Repeat};
     use image::{Delay, Frame, RgbaImage};
-    write_atomic(path, |tmp| {
-        let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
-        let mut encoder = GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
+    let file = std::fs::File::create(path).map_err(|e| e.to_string())?;
+    let mut encoder = GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
+    encoder
+        .set_repeat(Repeat::Infinite)
+        .map_err(|e| e.to_string())?;
+    let delay = Delay::from_numer_denom_ms(1000, fps.max(0.01).round().max(1.0) as u32);
+    for rgb in frames {
+        let rgba: Vec<u8> = rgb
+            .chunks(3)
+            .flat_map(|c| [c[0], c[1], c[2], 255])
+            .collect();
+        let img = RgbaImage::from_raw(width, height, rgba).ok_or("frame size mismatch")?;
         encoder
-            .set_repeat(Repeat::Infinite)
+            .encode_frame(Frame::from_parts(img, 0, 0, delay))
             .map_err(|e| e.to_string())?;
-        let delay = Delay::from_numer_denom_ms(1000, fps.max(0.01).round().max(1.0) as u32);
-        for rgb in frames {
-            let rgba: Vec<u8> = rgb
-                .chunks(3)
-                .flat_map(|c| [c[0], c[1], c[2], 255])
-                .collect();
-            let img = RgbaImage::from_raw(width, height, rgba).ok_or("frame size mismatch")?;
-            encoder
-                .encode_frame(Frame::from_parts(img, 0, 0, delay))
-                .map_err(|e| e.to_string())?;
-        }
-        Ok(())
-    })
-    .map_err(Error::from)
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -10,11 +10,11 @@ use clap::Args;
 use shrad::engine::Engine;
 use shrad::frame::FrameStats;
 use shrad::frame::SolverStats;
-use shrad::image_io::{write_exr, write_png, Tonemap};
+use shrad::image_io::Tonemap;
 use shrad::metrics::RelativeError;
 use shrad::render::{Image, RenderOptions, Shading};
 use shrad_bench::StepMs;
-use shrad_scene::Scene;
+use shrad_scene::{Scene, StagedFiles};
 
 use crate::common::{build_world, check_positive, progress_for, SceneArgs};
 use crate::settings::FileSettings;
@@ -42,8 +42,8 @@ pub struct AnimateArgs {
     #[arg(long, default_value_t = 0)]
     error_every: usize,
     /// Passes over the objects before frame 0 (a converged start); 0: start from dark.
-    #[arg(long, default_value_t = 4)]
-    warmup: usize,
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u64).range(0..=1000))]
+    warmup: u64,
     /// Image width in pixels.
     #[arg(long, default_value_t = 320)]
     width: u32,
@@ -198,12 +198,10 @@ impl Stats {
         Ok(())
     }
 
-    fn write(self, dir: &Path) -> Result<()> {
+    fn stage(self, dir: &Path, staged: &mut StagedFiles) -> Result<()> {
         for (name, w) in [("stats.csv", self.main), ("stats_extra.csv", self.extra)] {
             let bytes = w.into_inner().map_err(|e| anyhow::anyhow!("{e}"))?;
-            shrad::image_io::write_atomic(&dir.join(name), |tmp| {
-                std::fs::write(tmp, &bytes).map_err(|e| e.to_string())
-            })?;
+            staged.stage_bytes(&dir.join(name), &bytes)?;
         }
         Ok(())
     }
@@ -223,6 +221,7 @@ pub fn run(args: AnimateArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     }
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("{}: cannot create directory", args.output.display()))?;
+    check_outputs(&args, frames)?;
     let options = RenderOptions {
         width: args.width,
         height: args.height,
@@ -234,7 +233,7 @@ pub fn run(args: AnimateArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     let names: Vec<String> = world.scene.objects.iter().map(|o| o.name.clone()).collect();
     let mut engine = Engine::from_world_with_progress(world, choice, &*progress_for(quiet))?;
     engine.set_reference_options(reference);
-    for _ in 0..args.warmup * engine.frames_to_converge(1) {
+    for _ in 0..args.warmup as usize * engine.frames_to_converge(1) {
         let _ = engine.step();
     }
     let mut stats = Stats::new()?;
@@ -261,8 +260,11 @@ pub fn run(args: AnimateArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     }
     progress.end();
     let solve_seconds = started.elapsed().as_secs_f64();
-    write_frames(&args, &images)?;
-    stats.write(&args.output)?;
+    // Every file or none (a frame that could not be written left the frames before it).
+    let mut staged = StagedFiles::new();
+    stage_frames(&args, &images, &mut staged)?;
+    stats.stage(&args.output, &mut staged)?;
+    staged.commit()?;
     let mp4 = write_mp4(&args);
     if !quiet {
         match mp4 {
@@ -282,32 +284,52 @@ pub fn run(args: AnimateArgs, scene: Scene, file: &FileSettings) -> Result<()> {
     Ok(())
 }
 
+/// The names the outputs take in the output folder, but the MP4 (made after them, from the
+/// PNGs, and only where ffmpeg is).
+fn output_names(args: &AnimateArgs, frames: usize) -> impl Iterator<Item = PathBuf> + '_ {
+    let exts: &[&str] = if args.hdr { &["png", "exr"] } else { &["png"] };
+    (0..frames)
+        .flat_map(move |f| exts.iter().map(move |e| format!("frame_{f:04}.{e}")))
+        .chain(["animation.gif", "stats.csv", "stats_extra.csv"].map(String::from))
+        .map(|name| args.output.join(name))
+}
+
+/// Before anything is solved: no output name is taken by a folder (found only when it was
+/// written, after every frame was solved).
+fn check_outputs(args: &AnimateArgs, frames: usize) -> Result<()> {
+    if let Some(folder) = output_names(args, frames).find(|p| p.is_dir()) {
+        bail!(
+            "{}: that is a folder, where this animation writes a file",
+            folder.display()
+        );
+    }
+    Ok(())
+}
+
 /// PNG (and EXR) per frame and the GIF, all at one exposure, so that brightness changes are
 /// the light's, not the camera's.
-fn write_frames(args: &AnimateArgs, images: &[Image]) -> Result<()> {
+fn stage_frames(args: &AnimateArgs, images: &[Image], staged: &mut StagedFiles) -> Result<()> {
     let scale = args
         .exposure
         .unwrap_or_else(|| shrad::image_io::auto_exposure(&images[images.len() / 2]));
     let tonemap = Tonemap::Exposure(Some(scale));
     let mut gif_frames = Vec::with_capacity(images.len());
     for (f, image) in images.iter().enumerate() {
-        write_png(
-            image,
-            &args.output.join(format!("frame_{f:04}.png")),
-            tonemap,
-        )?;
+        let png = args.output.join(format!("frame_{f:04}.png"));
+        if let Some(why) = shrad::image_io::png_problem(image) {
+            bail!("{}: {why}", png.display());
+        }
+        staged.stage(&png, |tmp| shrad::image_io::png_into(image, tonemap, tmp))?;
         if args.hdr {
-            write_exr(image, &args.output.join(format!("frame_{f:04}.exr")))?;
+            let exr = args.output.join(format!("frame_{f:04}.exr"));
+            staged.stage(&exr, |tmp| shrad::image_io::exr_into(image, tmp))?;
         }
         gif_frames.push(shrad::image_io::to_rgb8(image, tonemap));
     }
-    shrad::image_io::write_gif(
-        &gif_frames,
-        args.width,
-        args.height,
-        args.fps,
-        &args.output.join("animation.gif"),
-    )?;
+    let size = (args.width, args.height);
+    staged.stage(&args.output.join("animation.gif"), |tmp| {
+        shrad::image_io::gif_into(&gif_frames, size, args.fps, tmp)
+    })?;
     Ok(())
 }
 

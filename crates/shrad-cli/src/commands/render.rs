@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use shrad::engine::Engine;
 use shrad::frame::SolverStats;
-use shrad::image_io::{write_exr, write_png, Tonemap};
+use shrad::image_io::Tonemap;
 use shrad::render::{RenderOptions, Shading};
 use shrad::solver::SolverChoice;
 use shrad::{NoProgress, Progress, World};
@@ -142,6 +142,9 @@ fn check_outputs(args: &RenderArgs) -> Result<()> {
                     dir.display()
                 );
             }
+        }
+        if path.is_dir() {
+            bail!("{flag} {}: that is a folder, not a file", path.display());
         }
         refuse_overwriting_scene(flag, path, &args.scene.scene)?;
         check_writable(flag, path)?;
@@ -303,26 +306,44 @@ pub fn run(args: RenderArgs, scene: Scene, file: &FileSettings) -> Result<()> {
         .output
         .clone()
         .unwrap_or_else(|| default_output(&args.scene.scene));
-    write_png(&image, &output, tonemap)?;
+    write_outputs(&args, &engine, &image, tonemap, &output)?;
     if !quiet {
         if let Tonemap::Exposure(scale) = tonemap {
             let scale = scale.unwrap_or_else(|| shrad::image_io::auto_exposure(&image));
             eprintln!("exposure {scale:.6e}");
         }
     }
-    if let Some(hdr) = &args.hdr {
-        write_exr(&image, hdr)?;
-    }
-    if let Some(csv) = &args.export_patches {
-        let (world, radiosity) = (engine.world(), engine.radiosity());
-        shrad::image_io::write_atomic(csv, |tmp| {
-            export_patches(world, radiosity, tmp).map_err(|e| format!("{e:#}"))
-        })?;
-    }
     if !quiet {
         eprintln!("solved in {solve_seconds:.2} s; wrote {}", output.display());
     }
     Ok(())
+}
+
+/// The picture, and the EXR and the patches' CSV when asked for, all or nothing: each is
+/// staged whole beside its destination and only then renamed into place (a picture written
+/// and the EXR refused afterwards replaced the old picture and failed).
+fn write_outputs(
+    args: &RenderArgs,
+    engine: &Engine,
+    image: &shrad::render::Image,
+    tonemap: Tonemap,
+    output: &Path,
+) -> Result<()> {
+    if let Some(why) = shrad::image_io::png_problem(image) {
+        bail!("{}: {why}", output.display());
+    }
+    let mut staged = shrad::scene::StagedFiles::new();
+    staged.stage(output, |tmp| shrad::image_io::png_into(image, tonemap, tmp))?;
+    if let Some(hdr) = &args.hdr {
+        staged.stage(hdr, |tmp| shrad::image_io::exr_into(image, tmp))?;
+    }
+    if let Some(csv) = &args.export_patches {
+        let (world, radiosity) = (engine.world(), engine.radiosity());
+        staged.stage(csv, |tmp| {
+            export_patches(world, radiosity, tmp).map_err(|e| format!("{e:#}"))
+        })?;
+    }
+    Ok(staged.commit()?)
 }
 
 /// Every patch as a CSV row: object, role, centre, normal, area, radiosity.
