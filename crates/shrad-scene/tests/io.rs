@@ -1000,6 +1000,39 @@ fn gltf_unknown_role_in_extras() {
     let s = load(&p, &opts()).unwrap();
     assert_eq!(s.objects[0].role, Some(Role::Light));
     assert_eq!(s.objects[0].patch_size, Some(0.25));
+    // A patch size that is no positive length is an error, on the node or the mesh (it gave
+    // one patch a triangle, or was ignored).
+    for (at, bad) in [
+        ("nodes", json!(-1)),
+        ("nodes", json!(0)),
+        ("meshes", json!("big")),
+    ] {
+        let mut root = one_box_gltf();
+        root[at][0]["extras"] = json!({ "shrad_patch_size": bad });
+        std::fs::write(&p, serde_json::to_string(&root).unwrap()).unwrap();
+        assert_err_names(
+            load(&p, &opts()),
+            "role.gltf",
+            &format!("shrad_patch_size must be a positive number (a length in the file's units), not {bad}"),
+        );
+    }
+}
+
+/// A glTF whose corners lie beyond the coordinates a solve holds is refused by its reach:
+/// one unit apart 1e15 away, in 32-bit floats, its triangles read as of no area and were
+/// dropped with a warning that said so (false), and the file loaded empty.
+#[test]
+fn gltf_beyond_the_coordinates_a_solve_holds_is_refused_not_dropped() {
+    let dir = temp_dir("far-gltf");
+    let far = square().into_iter().map(|v| v + Vec3::X * 1e15).collect();
+    let s = tri_scene(far, vec![[0, 1, 2], [0, 2, 3]]);
+    let p = dir.join("far.gltf");
+    write_gltf(&s, &p).unwrap();
+    assert_err_names(
+        load(&p, &opts()),
+        "far.gltf",
+        "world coordinates reach 1.0e15",
+    );
 }
 
 #[test]

@@ -10,36 +10,7 @@ use gltf::mesh::Mode;
 use serde_json::Value;
 
 use super::{walk::Walk, PartNames};
-use crate::{Material, Mesh, Object, Role, SceneError};
-
-/// The `shrad_role` and `shrad_patch_size` of a node's or mesh's extras.
-fn extras_of(raw: &gltf::json::Extras, what: &str) -> Result<(Option<Role>, Option<f32>), String> {
-    let Some(raw) = raw else {
-        return Ok((None, None));
-    };
-    let Ok(v) = serde_json::from_str::<Value>(raw.get()) else {
-        return Ok((None, None));
-    };
-    let role = match v.get("shrad_role") {
-        None | Some(Value::Null) => None,
-        Some(Value::String(s)) => Some(match s.as_str() {
-            "boundary" => Role::Boundary,
-            "interior" => Role::Interior,
-            "light" => Role::Light,
-            other => {
-                return Err(format!(
-                    "{what}: unknown shrad_role '{other}' (expected boundary, interior or light)"
-                ))
-            }
-        }),
-        Some(other) => return Err(format!("{what}: shrad_role must be a string, not {other}")),
-    };
-    let patch = v
-        .get("shrad_patch_size")
-        .and_then(Value::as_f64)
-        .map(|x| x as f32);
-    Ok((role, patch))
-}
+use crate::{Material, Mesh, Object, Role, SceneError, MAX_COORDINATE};
 
 /// The named parent whose name and extras an unnamed mesh node takes, if it has one.
 /// gltfpack (meshoptimizer) moves each mesh of a named node to an unnamed child, so that the
@@ -96,17 +67,18 @@ impl Walk<'_> {
         let path = self.path;
         let bad = |m: String| SceneError::invalid(path, m);
         let (mut node_role, mut node_patch) = match inst.node {
-            Some(node) => extras_of(node.extras(), &inst.label).map_err(bad)?,
+            Some(node) => super::extras::extras_of(node.extras(), &inst.label).map_err(bad)?,
             None => (None, None),
         };
         let (mesh_role, mesh_patch) =
-            extras_of(mesh.extras(), &format!("meshes[{}]", mesh.index())).map_err(bad)?;
+            super::extras::extras_of(mesh.extras(), &format!("meshes[{}]", mesh.index()))
+                .map_err(bad)?;
         let named = named_parent(inst);
         if let Some(parent) = named {
             // gltfpack moves a named node's mesh to an unnamed child: the object is the
             // parent's, by name and by the roles its extras give.
             let label = format!("nodes[{}]", parent.index());
-            let (role, patch) = extras_of(parent.extras(), &label).map_err(bad)?;
+            let (role, patch) = super::extras::extras_of(parent.extras(), &label).map_err(bad)?;
             node_role = node_role.or(role);
             node_patch = node_patch.or(patch);
         }
@@ -334,7 +306,15 @@ impl Walk<'_> {
     /// file. Radiosity cannot light them (a patch needs an area), hence they go. A primitive
     /// left without triangles is skipped, with the same warning: returns false then.
     fn drop_zero_area(&mut self, shape: &mut Mesh, who: &str) -> bool {
-        let degenerate = shape.zero_area_triangles();
+        // A triangle beyond the coordinates a solve holds may read as of no area in 32-bit
+        // floats (corners 1e15 away, one unit apart): it stays, for the scene's check to
+        // refuse by its reach, not to be dropped as degenerate.
+        let beyond = |t: &[u32; 3]| {
+            (t.iter()).any(|&i| shape.positions[i as usize].abs().max_element() > MAX_COORDINATE)
+        };
+        let degenerate: Vec<usize> = (shape.zero_area_triangles().into_iter())
+            .filter(|&k| !beyond(&shape.triangles[k]))
+            .collect();
         if degenerate.is_empty() {
             return true;
         }

@@ -18,7 +18,8 @@
 //! - `anim`: the animations, into a node graph and the lights' and materials' tracks
 //!   (`KHR_animation_pointer`), which `blender_quirks` reads as Blender means them;
 //! - `walk`, `mesh`, `material`: the default scene's nodes walked into objects (an
-//!   instanced node's mesh once per instance); `skin`
+//!   instanced node's mesh once per instance), with the role and patch size of their
+//!   `extras`; `skin`
 //!   places the meshes of skinned nodes by their skins at rest (in world space).
 //!
 //! `write` is the exporter, on `builder` (accessors, buffer and GLB container), which
@@ -30,6 +31,7 @@ mod buffers;
 pub mod builder;
 mod container;
 mod cutout;
+mod extras;
 mod instancing;
 mod lights;
 mod material;
