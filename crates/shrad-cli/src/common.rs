@@ -16,7 +16,7 @@ pub struct SceneArgs {
     /// Scene: a .gltf, .glb, .obj or .toml file, or a built-in name (cornell, room).
     pub scene: String,
     /// Patch edge length in scene units [default: the scene file's, else --patches].
-    #[arg(long, conflicts_with = "patches", allow_negative_numbers = true)]
+    #[arg(value_parser = crate::common::parse_f32, long, conflicts_with = "patches", allow_negative_numbers = true)]
     pub patch_size: Option<f32>,
     /// Target total patch count [default: the scene file's, else 20000].
     #[arg(long)]
@@ -38,10 +38,10 @@ pub struct SceneArgs {
     #[arg(long, value_name = "FILE")]
     pub env: Option<std::path::PathBuf>,
     /// Turn the sky's map about +Y by this many degrees [default: the scene file's, else 0].
-    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    #[arg(value_parser = crate::common::parse_f32, long, value_name = "DEG", allow_negative_numbers = true)]
     pub env_rotate: Option<f32>,
     /// Scale the sky's radiance [default: the scene file's, else 1].
-    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    #[arg(value_parser = crate::common::parse_f32, long, value_name = "S", allow_negative_numbers = true)]
     pub env_scale: Option<f32>,
     /// Visibility backend.
     #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
@@ -130,6 +130,23 @@ pub fn apply_sky(args: &SceneArgs, scene: &mut Scene) -> Result<()> {
         bail!("{why}");
     }
     Ok(())
+}
+
+/// A number option read as the 32-bit float the library takes, refused when that float is
+/// not the number typed: `--time=-1e300` became -inf and `--exposure 1e-50` 0, and the
+/// errors said "got -inf", "got 0". (NaN and infinities typed as such pass, for the checks
+/// that name the option.)
+pub fn parse_f32(text: &str) -> Result<f32, String> {
+    let wide: f64 = text.trim().parse().map_err(|e| format!("{e}"))?;
+    let narrow = wide as f32;
+    let lost = wide.is_finite() && (!narrow.is_finite() || (narrow == 0.0) != (wide == 0.0));
+    if lost {
+        return Err(format!(
+            "{text} is beyond what a 32-bit float holds (up to 3.4e38 in size, and no closer \
+             to 0 than 1.4e-45)"
+        ));
+    }
+    Ok(narrow)
 }
 
 /// `value` must be a finite number above 0; the error names the option.

@@ -185,6 +185,17 @@ fn unknown_option_values_and_absurd_parameters() {
     let o = shrad(&["render", "cornell", "--solver", "magic"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("magic"));
+    // A number no 32-bit float holds is refused as typed (it became -inf or 0, and the
+    // error said "got -inf").
+    for (flag, value) in [("--time", "-1e300"), ("--exposure", "1e-50")] {
+        let o = shrad(&["render", "cornell", &format!("{flag}={value}")]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{stderr}");
+        assert!(
+            stderr.contains(&format!("{value} is beyond what a 32-bit float holds")),
+            "{stderr}"
+        );
+    }
 }
 
 /// Every output is checked before anything is solved: a second output that cannot be

@@ -32,7 +32,7 @@ pub struct AnimateArgs {
     #[arg(long)]
     frames: Option<usize>,
     /// Frames per second of scene time (frame f shows time f / fps).
-    #[arg(long, default_value_t = 30.0, allow_negative_numbers = true)]
+    #[arg(value_parser = crate::common::parse_f32, long, default_value_t = 30.0, allow_negative_numbers = true)]
     fps: f32,
     /// Output directory (created if missing).
     #[arg(short, long)]
@@ -54,7 +54,7 @@ pub struct AnimateArgs {
     #[arg(long, default_value_t = 1)]
     spp: u32,
     /// Exposure scale [default: auto from the middle frame, the same for every frame].
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(value_parser = crate::common::parse_f32, long, allow_negative_numbers = true)]
     exposure: Option<f32>,
     /// Also write each frame's linear radiance as OpenEXR (DIR/frame_NNNN.exr).
     #[arg(long)]

@@ -31,7 +31,7 @@ pub struct BakeArgs {
     #[arg(short, long)]
     output: PathBuf,
     /// Scene time in seconds to bake: animated objects and lights are posed at this time.
-    #[arg(long, allow_negative_numbers = true, conflicts_with = "frames")]
+    #[arg(value_parser = crate::common::parse_f32, long, allow_negative_numbers = true, conflicts_with = "frames")]
     time: Option<f32>,
     /// Bake the animation as N files evenly over [0, duration]: OUT_0000.glb, OUT_0001.glb...
     /// (glTF has no standard per-frame vertex colour; a file per frame shows everywhere).
@@ -50,7 +50,7 @@ pub struct BakeArgs {
     passes: u64,
     /// Display scale of COLOR_0 (clamp(exposure * B / pi, 0, 1)) [default: auto, as a PNG's:
     /// the 99th percentile of non-light luminance to 0.9, from the first file for them all].
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(value_parser = crate::common::parse_f32, long, allow_negative_numbers = true)]
     exposure: Option<f32>,
     /// Also write SH irradiance probes for dynamic objects as JSON beside the output
     /// (OUT.probes.json), in three.js's LightProbe coefficient order. `corners`: the
@@ -71,7 +71,8 @@ pub struct BakeArgs {
         value_name = "M",
         requires = "lightmap",
         conflicts_with = "lightmap_res",
-        allow_negative_numbers = true
+        allow_negative_numbers = true,
+        value_parser = crate::common::parse_f32
     )]
     texel_size: Option<f32>,
     /// With --lightmap: the atlas's side in texels [default: 1024]; the texel size is the

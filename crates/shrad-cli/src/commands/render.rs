@@ -54,7 +54,7 @@ pub struct RenderArgs {
     compare: bool,
     /// Scene time in seconds: animated objects and lights are posed at this time, and every
     /// solver solves that pose.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(value_parser = crate::common::parse_f32, long, default_value_t = 0.0, allow_negative_numbers = true)]
     time: f32,
     /// Output PNG [default: SCENE-NAME.png].
     #[arg(short, long)]
@@ -81,7 +81,7 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t = TonemapArg::Exposure)]
     tonemap: TonemapArg,
     /// Exposure scale for --tonemap exposure [default: auto, 99th percentile to 0.9].
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(value_parser = crate::common::parse_f32, long, allow_negative_numbers = true)]
     exposure: Option<f32>,
 }
 
