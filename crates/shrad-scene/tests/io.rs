@@ -846,6 +846,31 @@ fn index_out_of_range() {
         std::fs::write(&p, text).unwrap();
         assert_err_names(load(&p, &opts()), name, fault);
     }
+    // Elements short of numbers, or with a word for one, and bytes that are not UTF-8 (tobj:
+    // "position parse error", "read error", no line): each names its line.
+    for (name, line, fault) in [
+        (
+            "short.obj",
+            &b"v 1 1"[..],
+            "line 4: a vertex needs 3 coordinates, this one has 2",
+        ),
+        (
+            "word-v.obj",
+            b"v 1 1 x",
+            "line 4: 'v' number 3 is 'x', not a number",
+        ),
+        (
+            "short-vt.obj",
+            b"vt 0.5",
+            "line 4: a texture coordinate needs u and v, this one has 1",
+        ),
+        ("latin1.obj", b"o caf\xe9", "line 4: not UTF-8 text"),
+    ] {
+        let p = dir.join(name);
+        let text = [&b"o panel\nv 0 0 0\nv 1 0 0\n"[..], line, b"\nf 1 2 3\n"].concat();
+        std::fs::write(&p, text).unwrap();
+        assert_err_names(load(&p, &opts()), name, fault);
+    }
     // Faces of three or more, with texture and normal indices, negative ones, still load.
     let p = dir.join("fine.obj");
     let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3//1 -1\n";

@@ -25,8 +25,15 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
         path: path.to_path_buf(),
         source,
     })?;
-    check_face_indices(&String::from_utf8_lossy(&bytes))
-        .map_err(|m| SceneError::invalid(path, format!("invalid OBJ: {m}")))?;
+    // tobj reads lines of text: a byte that is not UTF-8 was "read error", with no line.
+    let text = std::str::from_utf8(&bytes).map_err(|e| {
+        let line = 1 + bytes[..e.valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        SceneError::invalid(path, format!("invalid OBJ: line {line}: not UTF-8 text"))
+    })?;
+    check_face_indices(text).map_err(|m| SceneError::invalid(path, format!("invalid OBJ: {m}")))?;
     let dir = path.parent().unwrap_or(Path::new("."));
     let parsed = parse(path, dir, &bytes)?;
     let mut scene = Scene {
@@ -301,6 +308,7 @@ fn check_face_indices(text: &str) -> Result<(), String> {
         let mut words = line.split_whitespace();
         let Some(key) = words.next() else { continue };
         if let Some(k) = KINDS.iter().position(|(w, _)| *w == key) {
+            check_element_numbers(ln, key, words)?;
             so_far[k] += 1;
             continue;
         }
@@ -337,6 +345,35 @@ fn check_face_indices(text: &str) -> Result<(), String> {
                     ));
                 }
             }
+        }
+    }
+    Ok(())
+}
+
+/// A `v`, `vt` or `vn` line (line `ln`, 0-based, its numbers `words`) starts with as many
+/// numbers as its kind needs: tobj said "position parse error" of `v 0 0` or `v 0 0 x`,
+/// with no line.
+fn check_element_numbers<'a>(
+    ln: usize,
+    key: &str,
+    mut words: impl Iterator<Item = &'a str>,
+) -> Result<(), String> {
+    let (needs, what) = match key {
+        "v" => (3, "a vertex needs 3 coordinates"),
+        "vn" => (3, "a normal needs 3 components"),
+        _ => (2, "a texture coordinate needs u and v"),
+    };
+    for k in 0..needs {
+        match words.next() {
+            Some(w) if w.parse::<f64>().is_ok() => {}
+            Some(w) => {
+                return Err(format!(
+                    "line {}: '{key}' number {} is '{w}', not a number",
+                    ln + 1,
+                    k + 1
+                ))
+            }
+            None => return Err(format!("line {}: {what}, this one has {k}", ln + 1)),
         }
     }
     Ok(())
