@@ -117,6 +117,19 @@ fn bad_values_are_errors_naming_the_file() {
         e.contains("junk.exr") && e.contains("not a readable map"),
         "{e}"
     );
+    // A header that declares more texels than a map may have is refused by its size, from
+    // the header (the decoder said "Memory limit exceeded").
+    let huge = dir().join("huge.hdr");
+    std::fs::write(
+        &huge,
+        "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 100000\njunk",
+    )
+    .unwrap();
+    let e = EnvMap::load(&huge).unwrap_err().to_string();
+    assert!(
+        e.contains("huge.hdr") && e.contains("100000x100000") && e.contains("1..=16384"),
+        "{e}"
+    );
     let png = dir().join("sky.png");
     std::fs::write(&png, "").unwrap();
     let e = EnvMap::load(&png).unwrap_err().to_string();

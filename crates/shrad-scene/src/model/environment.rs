@@ -55,18 +55,32 @@ impl EnvMap {
                 source,
             });
         }
-        let img = image::ImageReader::open(path)
-            .and_then(|r| r.with_guessed_format())
-            .map_err(|e| SceneError::invalid(path, format!("cannot read the map: {e}")))?
+        let open = || {
+            image::ImageReader::open(path)
+                .and_then(|r| r.with_guessed_format())
+                .map_err(|e| SceneError::invalid(path, format!("cannot read the map: {e}")))
+        };
+        // The size from the header, before the texels: a header declaring 100000x100000 was
+        // "Memory limit exceeded", the decoder's own limit, not this one.
+        let side_problem = |(width, height): (u32, u32)| {
+            let bad = width == 0 || height == 0 || width > MAX_ENV_SIDE || height > MAX_ENV_SIDE;
+            bad.then(|| {
+                SceneError::invalid(
+                    path,
+                    format!("the map is {width}x{height}; each side must be 1..={MAX_ENV_SIDE}"),
+                )
+            })
+        };
+        if let Some(e) = open()?.into_dimensions().ok().and_then(side_problem) {
+            return Err(e);
+        }
+        let img = open()?
             .decode()
             .map_err(|e| SceneError::invalid(path, format!("not a readable map: {e}")))?
             .into_rgb32f();
         let (width, height) = img.dimensions();
-        if width == 0 || height == 0 || width > MAX_ENV_SIDE || height > MAX_ENV_SIDE {
-            return Err(SceneError::invalid(
-                path,
-                format!("the map is {width}x{height}; each side must be 1..={MAX_ENV_SIDE}"),
-            ));
+        if let Some(e) = side_problem((width, height)) {
+            return Err(e);
         }
         let texels: Vec<Vec3> = img.pixels().map(|p| Vec3::from_array(p.0)).collect();
         EnvMap::new(path.to_path_buf(), width, height, texels)
