@@ -142,13 +142,19 @@ impl PyScene {
     }
 }
 
-/// Patch sizing by the library's one rule: `patch_size` wins, then `patches`, then the
-/// scene file's settings, then the default.
+/// Patch sizing by the library's one rule: `patch_size`, else `patches`, else the scene
+/// file's settings, else the default. Both given is a ValueError, as the CLI's two options
+/// conflict (`patch_size` won, silently).
 pub fn sizing(
     scene: &Scene,
     patches: Option<i64>,
     patch_size: Option<f32>,
 ) -> PyResult<PatchSizing> {
+    if let (Some(n), Some(h)) = (patches, patch_size) {
+        return Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "give patches or patch_size, not both (got patches={n}, patch_size={h})"
+        )));
+    }
     // Taken as a signed number, so that a negative count is a ValueError naming it (as
     // `usize`, pyo3 raised an OverflowError that named the argument only in its notes).
     let patches = (patches.map(usize::try_from).transpose()).map_err(|_| {

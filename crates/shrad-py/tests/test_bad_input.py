@@ -315,3 +315,29 @@ def test_error_against_the_standard_reference_or_the_fast(cornell):
     assert 0 < standard["overall"] < 0.2 and standard["overall"] != pytest.approx(fast["overall"], rel=1e-6)
     with pytest.raises(ValueError, match="reference 'best' is not a preset of the reference"):
         e.error(reference="best")
+
+
+def test_patches_and_patch_size_together_are_refused():
+    # patch_size won, silently, where the CLI refuses the two options together.
+    with pytest.raises(ValueError, match="give patches or patch_size, not both"):
+        shrad.load("cornell", patch_size=10, patches=100)
+    with pytest.raises(ValueError, match="give patches or patch_size, not both"):
+        shrad.load_dict(room_dict(patches=600), patches=100, patch_size=0.5)
+
+
+@pytest.mark.parametrize("solver", ["dispersive", "grid", "reference"])
+def test_a_block_squashed_all_but_flat_is_refused_not_an_abort(cornell, solver):
+    # Squashed by 1e-16 along one axis, Embree aborted the interpreter (exit 134) at the
+    # next step; shrunk whole by 1e-20, the BVH gave NaN.
+    e = shrad.Engine(cornell, solver=solver)
+    rest = e.transform("short_block")
+    squashed = rest.copy()
+    squashed[:3, 0] *= 1e-16
+    with pytest.raises(ValueError, match="singular, or all but"):
+        e.set_transform("short_block", squashed)
+    tiny = rest.copy()
+    tiny[:3, :3] *= 1e-20
+    with pytest.raises(ValueError, match="world size would be"):
+        e.set_transform("short_block", tiny)
+    e.step()
+    assert np.isfinite(e.radiosity).all()
