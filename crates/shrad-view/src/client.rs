@@ -278,6 +278,19 @@ async fn send_within(
     tokio::time::timeout(limit, sink.send(m)).await.ok()?.ok()
 }
 
+/// The close code (RFC 6455, 7.4.1) for what broke the stream: 1009 for a message over the
+/// limit, 1007 for text that is not UTF-8, 1002 for a frame against the protocol (masking,
+/// reserved bits, opcodes), 1011 for anything else. (Every one was 1009.)
+fn close_code(e: axum::Error) -> u16 {
+    use tungstenite::Error as Ws;
+    match e.into_inner().downcast_ref::<Ws>() {
+        Some(Ws::Capacity(_)) => 1009,
+        Some(Ws::Utf8(_)) => 1007,
+        Some(Ws::Protocol(_)) => 1002,
+        _ => 1011,
+    }
+}
+
 /// Read the client's messages until it leaves; the close frame to send, if any.
 async fn read(
     stream: &mut SplitStream<WebSocket>,
@@ -289,12 +302,14 @@ async fn read(
     loop {
         let message = match stream.next().await {
             None => return None,
-            // A message over the wire limit (or a broken stream): say why if we still can.
+            // A message over the wire limit, a frame against the protocol, or a broken
+            // stream: say why if we still can.
             Some(Err(e)) => {
+                let reason = format!("{e}").chars().take(100).collect::<String>();
                 return Some(CloseFrame {
-                    code: 1009,
-                    reason: format!("{e}").chars().take(100).collect::<String>().into(),
-                })
+                    code: close_code(e),
+                    reason: reason.into(),
+                });
             }
             Some(Ok(m)) => m,
         };

@@ -116,19 +116,34 @@ fn build_engine(options: &mut ServeOptions) -> Result<Engine> {
     Ok(engine)
 }
 
-/// The sharing rules `options` ask for: beyond loopback a token is required, generated
-/// unless one is given; a given one is checked.
-fn access_rules(options: &ServeOptions) -> Result<Arc<access::Access>> {
-    let mut rules = options.access.clone();
-    if rules.max_clients == 0 {
+/// What [`Server::start`] refuses before any work (the page's files, the sharing rules), for
+/// a front end to check before it says "patching and precomputing" (the refusal read as if
+/// it came after the work).
+pub fn check_options(options: &ServeOptions) -> Result<()> {
+    for need in ["src/index.html", "node_modules/three/build/three.module.js"] {
+        let file = options.web_root.join(need);
+        if !file.is_file() {
+            bail!(
+                "{}: missing (the viewer's page; run scripts/setup-browser to install three.js into web/node_modules)",
+                file.display()
+            );
+        }
+    }
+    if options.access.max_clients == 0 {
         bail!("--max-clients must be at least 1");
     }
-    match &rules.token {
-        Some(t) => access::check_token(t).map_err(|e| anyhow::anyhow!("--token: {e}"))?,
-        None if !options.host.is_loopback() => {
-            rules.token = Some(access::generate_token().map_err(anyhow::Error::msg)?);
-        }
-        None => {}
+    if let Some(t) = &options.access.token {
+        access::check_token(t).map_err(|e| anyhow::anyhow!("--token: {e}"))?;
+    }
+    Ok(())
+}
+
+/// The sharing rules `options` ask for, checked by [`check_options`]: beyond loopback a
+/// token is required, generated unless one is given.
+fn access_rules(options: &ServeOptions) -> Result<Arc<access::Access>> {
+    let mut rules = options.access.clone();
+    if rules.token.is_none() && !options.host.is_loopback() {
+        rules.token = Some(access::generate_token().map_err(anyhow::Error::msg)?);
     }
     Ok(access::Access::new(rules))
 }
@@ -152,15 +167,8 @@ pub struct Server {
 impl Server {
     /// Patch the scene, precompute the solver, bind, and start serving.
     pub fn start(mut options: ServeOptions) -> Result<Server> {
+        check_options(&options)?;
         let web_root = options.web_root.clone();
-        for need in ["src/index.html", "node_modules/three/build/three.module.js"] {
-            if !web_root.join(need).is_file() {
-                bail!(
-                    "{}: missing (the viewer's page; run scripts/setup-browser to install three.js into web/node_modules)",
-                    web_root.join(need).display()
-                );
-            }
-        }
         let access = access_rules(&options)?;
         let engine = build_engine(&mut options)?;
         let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -303,12 +311,24 @@ mod tests {
         let made = access_rules(&options).unwrap().options().token.clone();
         assert_eq!(made.map(|t| t.len()), Some(48));
         options.access.token = Some("short".to_string());
-        assert!(access_rules(&options).is_err());
+        assert!(check_options(&options)
+            .unwrap_err()
+            .to_string()
+            .contains("--token"));
         options.access.token = Some("a-token-of-enough-length".to_string());
+        check_options(&options).unwrap();
         let given = access_rules(&options).unwrap().options().token.clone();
         assert_eq!(given.as_deref(), Some("a-token-of-enough-length"));
         options.access.max_clients = 0;
-        assert!(access_rules(&options).is_err());
+        let e = check_options(&options).unwrap_err().to_string();
+        assert!(e.contains("--max-clients must be at least 1"), "{e}");
+        options.access.max_clients = 1;
+        options.web_root = PathBuf::from("/nonexistent-web");
+        let e = check_options(&options).unwrap_err().to_string();
+        assert!(
+            e.contains("/nonexistent-web/src/index.html: missing"),
+            "{e}"
+        );
     }
 
     #[test]

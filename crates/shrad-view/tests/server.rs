@@ -708,3 +708,77 @@ fn a_request_left_half_sent_is_dropped_after_the_header_timeout() {
     });
     s.stop().unwrap();
 }
+
+/// The close code the server sends after `frame` on a raw connection: the handshake, then
+/// the frame, then the server's frames read (unmasked, as a server's are) until its close.
+async fn close_code_after(s: &Server, frame: &[u8]) -> Option<u16> {
+    let mut tcp = tokio::net::TcpStream::connect(s.addr()).await.unwrap();
+    let hello = format!(
+        "GET /ws HTTP/1.1\r\nHost: {}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n",
+        s.addr()
+    );
+    tcp.write_all(hello.as_bytes()).await.unwrap();
+    let mut head = Vec::new();
+    while !head.ends_with(b"\r\n\r\n") {
+        head.push(tcp.read_u8().await.unwrap());
+    }
+    assert!(
+        head.starts_with(b"HTTP/1.1 101"),
+        "{}",
+        String::from_utf8_lossy(&head)
+    );
+    tcp.write_all(frame).await.unwrap();
+    let read = async {
+        loop {
+            let [first, second] = [tcp.read_u8().await.ok()?, tcp.read_u8().await.ok()?];
+            let len = match second & 0x7f {
+                126 => u64::from(tcp.read_u16().await.ok()?),
+                127 => tcp.read_u64().await.ok()?,
+                n => u64::from(n),
+            };
+            let mut payload = vec![0u8; len as usize];
+            tcp.read_exact(&mut payload).await.ok()?;
+            if first & 0x0f == 0x8 {
+                return payload.get(..2).map(|c| u16::from_be_bytes([c[0], c[1]]));
+            }
+        }
+    };
+    tokio::time::timeout(Duration::from_secs(20), read)
+        .await
+        .ok()?
+}
+
+/// A frame against the protocol closes the connection with the code that says so (RFC
+/// 6455, 7.4.1): every one was 1009, "message too big".
+#[test]
+fn a_broken_frame_is_closed_with_the_code_that_names_it() {
+    let s = server();
+    runtime().block_on(async {
+        let mask = [0x11u8, 0x22, 0x33, 0x44];
+        // A text frame of one byte, 0xff, masked: not UTF-8.
+        let not_utf8 = [
+            0x81,
+            0x81,
+            mask[0],
+            mask[1],
+            mask[2],
+            mask[3],
+            0xff ^ mask[0],
+        ];
+        assert_eq!(close_code_after(&s, &not_utf8).await, Some(1007));
+        // A client's frame unmasked, and one with a reserved bit set: the protocol.
+        assert_eq!(close_code_after(&s, &[0x81, 0x01, b'a']).await, Some(1002));
+        let reserved = [
+            0xc1,
+            0x81,
+            mask[0],
+            mask[1],
+            mask[2],
+            mask[3],
+            b'a' ^ mask[0],
+        ];
+        assert_eq!(close_code_after(&s, &reserved).await, Some(1002));
+    });
+    runtime().block_on(still_answers(&s));
+    s.stop().unwrap();
+}

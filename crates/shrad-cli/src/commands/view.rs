@@ -87,11 +87,10 @@ pub fn run(mut args: ViewArgs, scene: Scene, file: &FileSettings) -> Result<()> 
     if let Some(web) = args.web {
         options.web_root = web;
     }
-    // Before "patching and precomputing..." is said: a short token is refused at once,
-    // and the message made it look refused after the work.
-    if let Some(token) = &options.access.token {
-        shrad_view::access::check_token(token).map_err(|e| anyhow::anyhow!("--token: {e}"))?;
-    }
+    // Before "patching and precomputing..." is said: a short token, no client allowed or a
+    // page that is not there are refused at once, and the message made them look refused
+    // after the work.
+    shrad_view::check_options(&options)?;
     if !quiet {
         let patches = match sizing {
             shrad::PatchSizing::Count(n) => format!("about {n} patches"),
