@@ -9,8 +9,8 @@ use super::mover_spheres::Moves;
 use super::recent_moves::RecentMoves;
 use super::sample_ends::SampleEnds;
 use super::{
-    emitters, emitting_objects, occluded_where_lit, sample_shift, shadow_sample,
-    unoccluded_irradiance, visible_fraction, weighted_fraction, Emitter,
+    emitters, emitting_objects, occluded_where_lit, patch_unoccluded_irradiance, sample_shift,
+    shadow_sample, visible_fraction, weighted_fraction, Emitter,
 };
 use crate::shadow_rays::ShadowRays;
 use crate::World;
@@ -425,7 +425,7 @@ impl DirectCache {
                 let (x, n) = (p.centre[i], p.normal[i]);
                 let mut e_total = Vec3::ZERO;
                 for ((e, em), out) in ems.iter().enumerate().zip(per) {
-                    let unoccluded = unoccluded_irradiance(em, x, n);
+                    let unoccluded = patch_unoccluded_irradiance(em, world, i);
                     let fraction = match this.coarse[k] {
                         true => this.held[k * ne + e],
                         false => {
@@ -476,7 +476,7 @@ impl DirectCache {
                     .par_iter()
                     .map(|&k| {
                         let i = self.receivers[k] as usize;
-                        unoccluded_irradiance(em, p.centre[i], p.normal[i])
+                        patch_unoccluded_irradiance(em, world, i)
                     })
                     .collect();
                 // Shadow rays to stratified points on the emitter.
