@@ -125,13 +125,19 @@ fn copy_into(from: &Path, to: &Path) -> std::io::Result<()> {
 }
 
 /// The hidden name [`StagedFiles`] writes `dest` under until it commits: in the same folder
-/// (so the rename into place is atomic), `.out_0003.glb.staged-PID`.
+/// (so the rename into place is atomic), `.out_0003.glb.staged-PID`; for a device or a pipe
+/// (`-o /dev/null`), which is copied into, in the temporary directory (its own, `/dev`, is
+/// not a user's to write in).
 pub fn staged_path(dest: &Path) -> PathBuf {
     let name = dest
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    dest.with_file_name(format!(".{name}.staged-{}", std::process::id()))
+    let staged = format!(".{name}.staged-{}", std::process::id());
+    match is_special(dest) {
+        true => std::env::temp_dir().join(staged),
+        false => dest.with_file_name(staged),
+    }
 }
 
 /// Several files all or nothing, the companion of [`write_atomic`]. Each is written whole
@@ -313,6 +319,21 @@ mod tests {
         assert!(e.message.contains("does not exist"), "{e}");
         let e = write_atomic(Path::new("/"), |_| Ok(())).unwrap_err();
         assert_eq!(e.message, "not a file path");
+    }
+
+    #[test]
+    fn a_device_is_staged_in_the_temporary_directory_and_written_into() {
+        // Beside it, in /dev, a user may not write (`render -o /dev/null` as one failed).
+        let null = Path::new("/dev/null");
+        assert!(staged_path(null).starts_with(std::env::temp_dir()));
+        let d = dir("staged-device");
+        let file = d.join("out.png");
+        let mut set = StagedFiles::new();
+        set.stage_bytes(&file, b"png").unwrap();
+        set.stage_bytes(null, b"exr").unwrap();
+        set.commit().unwrap();
+        assert_eq!(entries(&d), ["out.png"]);
+        assert!(!staged_path(null).exists());
     }
 
     #[test]
