@@ -422,10 +422,10 @@ impl DirectCache {
         let values: Vec<Vec3> = (per.par_chunks_mut(ne.max(1)).zip(ks))
             .map(|(per, &k)| {
                 let i = this.receivers[k] as usize;
-                let (x, n) = (p.centre[i], p.normal[i]);
+                let (x, n, reach) = (p.centre[i], p.normal[i], p.radius(i));
                 let mut e_total = Vec3::ZERO;
                 for ((e, em), out) in ems.iter().enumerate().zip(per) {
-                    let unoccluded = patch_unoccluded_irradiance(em, world, i);
+                    let unoccluded = patch_unoccluded_irradiance(em, world, i, reach);
                     let fraction = match this.coarse[k] {
                         true => this.held[k * ne + e],
                         false => {
@@ -470,13 +470,15 @@ impl DirectCache {
         let mut coarse_value = vec![Vec3::ZERO; if coarse { ks.len() } else { 0 }];
         const CHUNK: usize = 2048;
         for ks in ks.chunks(CHUNK) {
+            let reach: Vec<f32> = (ks.par_iter())
+                .map(|&k| p.radius(self.receivers[k] as usize))
+                .collect();
             for (e, em) in ems.iter().enumerate() {
                 // Unoccluded irradiance, exact.
-                let unoccluded: Vec<f32> = ks
-                    .par_iter()
-                    .map(|&k| {
+                let unoccluded: Vec<f32> = (ks.par_iter().zip(&reach))
+                    .map(|(&k, &reach)| {
                         let i = self.receivers[k] as usize;
-                        patch_unoccluded_irradiance(em, world, i)
+                        patch_unoccluded_irradiance(em, world, i, reach)
                     })
                     .collect();
                 // Shadow rays to stratified points on the emitter.

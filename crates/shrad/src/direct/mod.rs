@@ -214,10 +214,12 @@ fn weighted_fraction(samples: impl Iterator<Item = (f32, bool)>) -> f32 {
 /// patch half over a panel hung 5 cm under it took the panel's full `pi L` for its whole
 /// area (or, a patch over, next to nothing): the room's absorbed light swung between 91 and
 /// 112 % of the emitted with the patch count.
-fn patch_unoccluded_irradiance(em: &Emitter, world: &World, i: usize) -> f32 {
+///
+/// `reach` is the patch's radius ([`crate::patches::Patches::radius`]), found once a patch by
+/// the caller, not once an emitter.
+fn patch_unoccluded_irradiance(em: &Emitter, world: &World, i: usize, reach: f32) -> f32 {
     let p = &world.patches;
     let (x, n) = (p.centre[i], p.normal[i]);
-    let reach = p.radius(i);
     let (c, r) = em.sphere;
     if (x - c).length() - r > NEAR_FIELD * reach {
         return unoccluded_irradiance(em, x, n);
