@@ -990,6 +990,11 @@ fn obj_materials_missing_mtl_and_malformed_lines() {
         s.warnings
     );
     assert_eq!(s.objects[1].material.reflectance, Vec3::splat(0.3));
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("usemtl")),
+        "{:?}",
+        s.warnings
+    );
     // Missing MTL: warning and default material (then no emitter: a warning too).
     std::fs::remove_file(dir.join("m.mtl")).unwrap();
     let s = load(&p, &opts()).unwrap();
@@ -1004,6 +1009,15 @@ fn obj_materials_missing_mtl_and_malformed_lines() {
     let s = load(&p, &opts()).unwrap();
     assert_eq!(s.objects[0].material.reflectance, Vec3::splat(0.5));
     assert_eq!(s.objects[0].material.emitted_radiance, Vec3::splat(2.0));
+    // That library has no `grey`: its faces take the default material, with a word.
+    assert_eq!(s.objects[1].material, Material::default());
+    assert!(
+        s.warnings.iter().any(|w| w.contains(
+            "line 14: usemtl 'grey' names no material of the libraries read (1 defined)"
+        )),
+        "{:?}",
+        s.warnings
+    );
     std::fs::write(dir.join("m.mtl"), "newmtl lamp\nKd 0.5 0.5\n").unwrap();
     let msg = err_of(load(&p, &opts()));
     assert!(

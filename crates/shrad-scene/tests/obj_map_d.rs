@@ -175,6 +175,23 @@ fn a_missing_map_warns_and_the_leaf_stays_whole() {
     );
 }
 
+/// A `map_d` naming a folder (here the OBJ's own) is named as not a regular file, not "not
+/// found" (a device such as /dev/zero is refused the same way, never read).
+#[test]
+fn a_map_naming_a_folder_says_so() {
+    let s = load_leaf("folder", "Kd 0.5 0.5 0.5\nmap_d .", |_| {});
+    let o = leaf(&s).unwrap_or_else(|| panic!("no leaf: {:?}", s.warnings));
+    assert!((coverage(o).0 - 1.0).abs() < 1e-6);
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("map_d '.' cannot be loaded")
+                && w.contains("is not a regular file (a folder or a device)")),
+        "{:?}",
+        s.warnings
+    );
+}
+
 /// `d 0` (and `Tr 1`, its complement, without `d`) leaves the leaf out with a warning; a
 /// partial `d 0.3` keeps it whole and opaque, with a warning; `d 1` says nothing; and `d 0`
 /// beside a `map_d` is not read (Blender 2.7x wrote it so): the map decides.

@@ -195,9 +195,15 @@ impl<'a> Maps<'a> {
         self.images
             .entry((file.to_string(), kind))
             .or_insert_with(|| {
-                let found = lib_dirs.iter().map(|d| d.join(file)).find(|p| p.is_file());
+                // The first place the name exists; a device or a folder there is named as
+                // such (reading /dev/zero would never end), not "not found".
+                let found = lib_dirs.iter().map(|d| d.join(file)).find(|p| p.exists());
                 let r = match &found {
                     None => Err("file not found".to_string()),
+                    Some(p) if !p.is_file() => Err(format!(
+                        "'{}' is not a regular file (a folder or a device)",
+                        p.display()
+                    )),
                     Some(p) => std::fs::read(p).map_err(|e| e.to_string()).and_then(|b| {
                         texels.check(TextureImage::declared_size(&b)?)?;
                         let name = file.to_string();

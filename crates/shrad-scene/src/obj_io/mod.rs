@@ -41,6 +41,9 @@ pub(crate) fn read(path: &Path) -> Result<Scene, SceneError> {
         ..Default::default()
     };
     let materials = materials_or_default(path, parsed.materials, &parsed.problems, &mut scene)?;
+    if parsed.problems.is_empty() {
+        warn_unknown_materials(path, text, &materials, &mut scene.warnings);
+    }
     let lib_dirs = parsed
         .libraries
         .into_iter()
@@ -170,6 +173,34 @@ fn materials_or_default(
                 path.display()
             ));
             Ok(Vec::new())
+        }
+    }
+}
+
+/// A warning for each material a `usemtl` names that no library read defines (tobj gives
+/// its faces no material, silently): a misspelt name, or a library that is not one.
+fn warn_unknown_materials(
+    path: &Path,
+    text: &str,
+    materials: &[tobj::Material],
+    warnings: &mut Vec<String>,
+) {
+    let known: HashSet<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+    let mut warned = HashSet::new();
+    for (ln, line) in text.lines().enumerate() {
+        // As tobj reads it: the rest of the line, trimmed; an empty name changes nothing.
+        let line = line.trim();
+        if line.split_whitespace().next() != Some("usemtl") {
+            continue;
+        }
+        let name = line.split_once(' ').map_or("", |(_, rest)| rest.trim());
+        if !name.is_empty() && !known.contains(name) && warned.insert(name) {
+            warnings.push(format!(
+                "{}: line {}: usemtl '{name}' names no material of the libraries read ({} defined); its faces take the default material",
+                path.display(),
+                ln + 1,
+                materials.len()
+            ));
         }
     }
 }
