@@ -46,6 +46,9 @@ fn two_clients_share_one_scene() {
         }
         ping(&mut a, 1).await;
         ping(&mut b, 2).await;
+        // A still scene's time is 0, whatever is asked.
+        let r = ask(&mut a, json!({"v": 1, "type": "set_time", "t": 1e30})).await;
+        assert_eq!(r["time"], 0.0, "{r}");
     });
     s.stop().unwrap();
 }
@@ -462,6 +465,10 @@ fn steering_requests_do_what_they_say() {
         // The animation: scrub, then play; frames say where it is.
         let r = ask(&mut ws, json!({"v": 1, "type": "set_time", "t": 1.5})).await;
         assert_eq!(r["type"], "ok", "{r}");
+        assert_eq!(r["time"], 1.5);
+        let r = ask(&mut ws, json!({"v": 1, "type": "set_time", "t": 1e30})).await;
+        assert_eq!(r["time"], 4.0, "clamped to the animation's 4 s: {r}");
+        let r = ask(&mut ws, json!({"v": 1, "type": "set_time", "t": 1.5})).await;
         assert_eq!(r["time"], 1.5);
         let r = ask(
             &mut ws,

@@ -120,11 +120,8 @@ impl EngineLoop {
                 }
                 self.playing = false;
                 let duration = self.duration();
-                let t = if duration > 0.0 {
-                    t.clamp(0.0, duration)
-                } else {
-                    t.max(0.0)
-                };
+                // A still scene's animation is the instant 0 (1e30 was echoed back).
+                let t = t.clamp(0.0, duration.max(0.0));
                 let t = protocol::single(t, "time")?;
                 self.engine.set_time(t).map_err(|e| e.to_string())?;
                 self.changed();
