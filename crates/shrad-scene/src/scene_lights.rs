@@ -6,7 +6,7 @@
 use glam::{Affine3A, Quat, Vec3};
 use serde::Deserialize;
 
-use crate::{Light, LightKind, LUMENS_PER_WATT};
+use crate::{ConeFalloff, Light, LightKind, LUMENS_PER_WATT};
 
 /// What a light's table may hold.
 #[derive(Deserialize)]
@@ -27,6 +27,8 @@ pub(crate) struct LightDef {
     range: Option<f32>,
     inner_cone_deg: Option<f32>,
     outer_cone_deg: Option<f32>,
+    /// Blender's spot blend, in place of `inner_cone_deg`: the falloff is Blender's.
+    blend: Option<f32>,
 }
 
 #[derive(Deserialize, Clone, Copy, PartialEq, Eq)]
@@ -44,19 +46,42 @@ fn vec3(v: [f32; 3], what: &str) -> Result<Vec3, String> {
         .ok_or_else(|| format!("{what} must be finite"))
 }
 
+/// The kind of light `d` is, with a spot's cones and falloff: the extension's between
+/// `inner_cone_deg` and `outer_cone_deg`, or Blender's for a `blend` (the inner angle the
+/// outer times 1 - blend, as Blender's exporter writes it).
+fn spot_cone(d: &LightDef) -> Result<(LightKind, ConeFalloff), String> {
+    let cones = d.inner_cone_deg.is_some() || d.outer_cone_deg.is_some() || d.blend.is_some();
+    if d.kind != Kind::Spot {
+        if cones {
+            return Err("only a spot light has cone angles or a blend".into());
+        }
+        let kind = match d.kind {
+            Kind::Point => LightKind::Point,
+            _ => LightKind::Directional,
+        };
+        return Ok((kind, ConeFalloff::Gltf));
+    }
+    let outer = d.outer_cone_deg.unwrap_or(45.0).to_radians();
+    let (inner, falloff) = match (d.inner_cone_deg, d.blend) {
+        (Some(_), Some(_)) => {
+            return Err("give inner_cone_deg or blend (Blender's), not both".into())
+        }
+        (_, Some(b)) if !(0.0..=1.0).contains(&b) => {
+            return Err(format!("blend {b} must be within [0, 1]"))
+        }
+        (_, Some(b)) => (outer * (1.0 - b), ConeFalloff::Blender),
+        (inner, None) => (inner.unwrap_or(0.0).to_radians(), ConeFalloff::Gltf),
+    };
+    let kind = LightKind::Spot {
+        inner_cone_angle: inner,
+        outer_cone_angle: outer,
+    };
+    Ok((kind, falloff))
+}
+
 /// The light `d` describes (its values checked by [`Light::problem`] afterwards).
 pub(crate) fn light(d: &LightDef, i: usize) -> Result<Light, String> {
-    let kind = match d.kind {
-        Kind::Point => LightKind::Point,
-        Kind::Directional => LightKind::Directional,
-        Kind::Spot => LightKind::Spot {
-            inner_cone_angle: d.inner_cone_deg.unwrap_or(0.0).to_radians(),
-            outer_cone_angle: d.outer_cone_deg.unwrap_or(45.0).to_radians(),
-        },
-    };
-    if d.kind != Kind::Spot && (d.inner_cone_deg.is_some() || d.outer_cone_deg.is_some()) {
-        return Err("only a spot light has cone angles".into());
-    }
+    let (kind, cone_falloff) = spot_cone(d)?;
     // The strength as written, before it becomes an intensity the user never wrote.
     for (key, v) in [
         ("power", d.power),
@@ -118,6 +143,7 @@ pub(crate) fn light(d: &LightDef, i: usize) -> Result<Light, String> {
         color: vec3(d.color.unwrap_or([1.0; 3]), "color")?,
         range: d.range,
         world_from_light: Affine3A::from_rotation_translation(rotation, position),
+        cone_falloff,
         ..Light::new(
             d.name.clone().unwrap_or_else(|| format!("light{i}")),
             kind,

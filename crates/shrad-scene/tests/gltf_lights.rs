@@ -179,13 +179,19 @@ fn bad_light_values_name_the_file_and_json_path() {
         let e = load(&p, &LoadOptions::default()).unwrap_err().to_string();
         assert!(e.contains(name) && e.contains(path), "{name}: {e}");
     }
-    // Equal cones, as Blender's exporter writes a spot of blend 0: refused, with a hint.
+    // Equal cones, as Blender's exporter writes a spot of blend 0: refused, with a hint,
+    // unless Blender wrote the file (then a hard edge: `ConeFalloff::Blender`).
     let mut v = file();
     v["extensions"]["KHR_lights_punctual"]["lights"][1]["spot"]["innerConeAngle"] = json!(0.6);
     let p = write(&dir, "equal-cones.gltf", &v);
     let e = load(&p, &LoadOptions::default()).unwrap_err().to_string();
     assert!(
-        e.contains("lights[1].spot.innerConeAngle") && e.contains("blend above 0"),
+        e.contains("lights[1].spot.innerConeAngle") && e.contains("names Blender"),
         "{e}"
     );
+    v["asset"]["generator"] = json!("Khronos glTF Blender I/O v5.0.21");
+    let p = write(&dir, "equal-cones-blender.gltf", &v);
+    let s = load(&p, &LoadOptions::default()).unwrap();
+    let spot = s.lights.iter().find(|l| l.kind.name() == "spot").unwrap();
+    assert_eq!(spot.cone_falloff, shrad_scene::ConeFalloff::Blender);
 }

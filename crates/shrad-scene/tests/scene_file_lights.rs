@@ -100,6 +100,21 @@ fn bad_lights_name_the_file_the_light_and_the_line() {
             "kind = \"point\"\nposition = [1e13, 2, 0]\npower = 100",
             "is beyond the 1e12",
         ),
+        (
+            "blendtwice.toml",
+            "kind = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nintensity = 1\ninner_cone_deg = 10\nblend = 0.3",
+            "give inner_cone_deg or blend (Blender's), not both",
+        ),
+        (
+            "blendbig.toml",
+            "kind = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nintensity = 1\nblend = 1.5",
+            "blend 1.5 must be within [0, 1]",
+        ),
+        (
+            "blendpoint.toml",
+            "kind = \"point\"\nposition = [0, 1, 0]\nintensity = 1\nblend = 0.5",
+            "only a spot light has cone angles or a blend",
+        ),
         ("nodir.toml", "kind = \"directional\"\nirradiance = 1", "direction missing"),
         ("nopos.toml", "kind = \"point\"\npower = 1", "position missing"),
         // Finite, but beyond what a solve's 32-bit sums hold (it was "intensity inf").
@@ -230,5 +245,28 @@ fn a_light_shut_inside_a_closed_object_is_warned_of() {
     ] {
         let w = lamp_in_a_box(name, keys, at);
         assert!(!enclosed(&w), "{name}: {w:?}");
+    }
+}
+
+/// A spot given Blender's `blend` falls off as Blender's: its inner angle the outer times
+/// 1 - blend, and a blend of 0 (equal cones) is a hard edge, not an error.
+#[test]
+fn a_spot_with_blenders_blend_falls_off_as_blenders() {
+    for (name, blend) in [("blend3.toml", 0.3f32), ("blend0.toml", 0.0)] {
+        let body = format!(
+            "[[lights]]\nkind = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nintensity = 1\nouter_cone_deg = 40\nblend = {blend}\n"
+        );
+        let s = load(&write(name, &body), &LoadOptions::default()).unwrap();
+        let l = &s.lights[0];
+        assert_eq!(l.cone_falloff, shrad_scene::ConeFalloff::Blender);
+        let LightKind::Spot {
+            inner_cone_angle,
+            outer_cone_angle,
+        } = l.kind
+        else {
+            panic!("{:?}", l.kind)
+        };
+        assert!((outer_cone_angle - 40f32.to_radians()).abs() < 1e-6);
+        assert!((inner_cone_angle - outer_cone_angle * (1.0 - blend)).abs() < 1e-6);
     }
 }

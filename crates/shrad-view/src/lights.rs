@@ -56,7 +56,14 @@ pub fn lights_json(engine: &Engine) -> Value {
             LightKind::Spot {
                 inner_cone_angle,
                 outer_cone_angle,
-            } => json!({ "inner": inner_cone_angle, "outer": outer_cone_angle }),
+            } => json!({
+                "inner": inner_cone_angle,
+                "outer": outer_cone_angle,
+                "falloff": match light.cone_falloff {
+                    shrad::scene::ConeFalloff::Gltf => "gltf",
+                    shrad::scene::ConeFalloff::Blender => "blender",
+                },
+            }),
             _ => Value::Null,
         };
         v["name"] = json!(light.name);

@@ -114,6 +114,7 @@ fn a_point_light_moved_through_the_viewer_lights_the_scene_as_one_loaded_there()
         let cd = lights[lamp]["intensity"].as_f64().unwrap();
         assert!((cd - 683.0 * w_per_sr).abs() < 1e-3 * cd, "{cd} cd");
         assert!(lights[1]["cone"]["outer"].as_f64().unwrap() > 0.5);
+        assert_eq!(lights[1]["cone"]["falloff"], "gltf");
         assert_eq!(intro["sky"]["kind"], "uniform");
         assert!(
             close(&intro["sky"]["radiance"], [0.35, 0.5, 0.9]),

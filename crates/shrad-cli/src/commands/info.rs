@@ -84,6 +84,14 @@ fn print_lights(scene: &Scene) {
             LightKind::Spot {
                 inner_cone_angle,
                 outer_cone_angle,
+            } if light.cone_falloff == shrad::scene::ConeFalloff::Blender => format!(
+                " (cone {:.1} deg, Blender's blend {:.2})",
+                outer_cone_angle.to_degrees(),
+                1.0 - inner_cone_angle / outer_cone_angle.max(f32::MIN_POSITIVE)
+            ),
+            LightKind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
             } => format!(
                 " (cone {:.1}..{:.1} deg)",
                 inner_cone_angle.to_degrees(),

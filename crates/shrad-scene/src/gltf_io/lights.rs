@@ -7,7 +7,7 @@
 
 use serde_json::Value;
 
-use crate::{Light, LightKind};
+use crate::{ConeFalloff, Light, LightKind};
 
 /// The extension's name.
 pub(super) const EXTENSION: &str = "KHR_lights_punctual";
@@ -32,9 +32,49 @@ fn number(obj: &Value, key: &str, at: &str, default: f64) -> Result<f64, String>
     }
 }
 
+/// A spot's cones, checked (`at` the light's JSON path); equal cones are Blender's blend of
+/// 0 in a file Blender wrote (`blender`), else an error.
+fn spot(v: &Value, at: &str, blender: bool) -> Result<LightKind, String> {
+    let spot = v.get("spot").cloned().unwrap_or(Value::Null);
+    let here = format!("{at}.spot");
+    let inner = number(&spot, "innerConeAngle", &here, 0.0)?;
+    let outer = number(&spot, "outerConeAngle", &here, std::f64::consts::FRAC_PI_4)?;
+    if inner < 0.0 {
+        return Err(format!("{here}.innerConeAngle: {inner} must be >= 0"));
+    }
+    if inner >= outer && !(blender && inner == outer) {
+        // Blender's exporter writes inner = outer (1 - blend): equal cones for a spot of
+        // blend 0, which the extension forbids (read as Blender means them in its files).
+        let hint = if inner == outer {
+            " (Blender writes equal cones for a spot whose blend is 0, read so in a file whose asset.generator names Blender)"
+        } else {
+            ""
+        };
+        return Err(format!(
+            "{here}.innerConeAngle: {inner} must be less than outerConeAngle ({outer}){hint}"
+        ));
+    }
+    if outer > std::f64::consts::FRAC_PI_2 + 1e-9 {
+        return Err(format!(
+            "{here}.outerConeAngle: {outer} is beyond pi/2 (the extension's maximum)"
+        ));
+    }
+    Ok(LightKind::Spot {
+        inner_cone_angle: inner as f32,
+        outer_cone_angle: (outer as f32).min(std::f32::consts::FRAC_PI_2),
+    })
+}
+
 /// Light `i` of the list, checked; `None` for a type the extension does not define (the
-/// glTF validator accepts it, so it is warned about and ignored).
-fn light(v: &Value, i: usize, warnings: &mut Vec<String>) -> Result<Option<Light>, String> {
+/// glTF validator accepts it, so it is warned about and ignored). In a file Blender wrote
+/// (`blender`) a spot falls off as Blender's blend does ([`ConeFalloff::Blender`]), and its
+/// blend of 0, written as equal cones, is a hard edge.
+fn light(
+    v: &Value,
+    i: usize,
+    blender: bool,
+    warnings: &mut Vec<String>,
+) -> Result<Option<Light>, String> {
     let at = format!("extensions.{EXTENSION}.lights[{i}]");
     if !v.is_object() {
         return Err(format!("{at}: must be an object, not {v}"));
@@ -45,36 +85,7 @@ fn light(v: &Value, i: usize, warnings: &mut Vec<String>) -> Result<Option<Light
     let kind = match ty {
         "point" => LightKind::Point,
         "directional" => LightKind::Directional,
-        "spot" => {
-            let spot = v.get("spot").cloned().unwrap_or(Value::Null);
-            let here = format!("{at}.spot");
-            let inner = number(&spot, "innerConeAngle", &here, 0.0)?;
-            let outer = number(&spot, "outerConeAngle", &here, std::f64::consts::FRAC_PI_4)?;
-            if inner < 0.0 {
-                return Err(format!("{here}.innerConeAngle: {inner} must be >= 0"));
-            }
-            if inner >= outer {
-                // Blender's exporter writes inner = outer (1 - blend): equal cones for a
-                // spot of blend 0, which the extension forbids.
-                let hint = if inner == outer {
-                    " (Blender writes equal cones for a spot whose blend is 0: give it a blend above 0)"
-                } else {
-                    ""
-                };
-                return Err(format!(
-                    "{here}.innerConeAngle: {inner} must be less than outerConeAngle ({outer}){hint}"
-                ));
-            }
-            if outer > std::f64::consts::FRAC_PI_2 + 1e-9 {
-                return Err(format!(
-                    "{here}.outerConeAngle: {outer} is beyond pi/2 (the extension's maximum)"
-                ));
-            }
-            LightKind::Spot {
-                inner_cone_angle: inner as f32,
-                outer_cone_angle: (outer as f32).min(std::f32::consts::FRAC_PI_2),
-            }
-        }
+        "spot" => spot(v, &at, blender)?,
         other => {
             warnings.push(format!(
                 "{at}.type: '{other}' is not a punctual light type (\"point\", \"spot\" or \"directional\"): the light is ignored"
@@ -119,9 +130,14 @@ fn light(v: &Value, i: usize, warnings: &mut Vec<String>) -> Result<Option<Light
         .get("name")
         .and_then(Value::as_str)
         .map_or_else(|| format!("light{i}"), str::to_string);
+    let cone_falloff = match kind {
+        LightKind::Spot { .. } if blender => ConeFalloff::Blender,
+        _ => ConeFalloff::Gltf,
+    };
     Ok(Some(Light {
         color,
         range,
+        cone_falloff,
         ..Light::new(name, kind, intensity as f32)
     }))
 }
@@ -129,6 +145,8 @@ fn light(v: &Value, i: usize, warnings: &mut Vec<String>) -> Result<Option<Light
 /// Read and check the file's lights and the nodes' references to them.
 pub(super) fn read(root: &Value, warnings: &mut Vec<String>) -> Result<FileLights, String> {
     let mut out = FileLights::default();
+    let generator = root.pointer("/asset/generator").and_then(Value::as_str);
+    let blender = generator.is_some_and(|g| g.contains("Blender"));
     if let Some(ext) = root.pointer(&format!("/extensions/{EXTENSION}")) {
         let list = match ext.get("lights") {
             None | Some(Value::Null) => &[][..],
@@ -142,7 +160,7 @@ pub(super) fn read(root: &Value, warnings: &mut Vec<String>) -> Result<FileLight
         out.lights = list
             .iter()
             .enumerate()
-            .map(|(i, v)| light(v, i, warnings))
+            .map(|(i, v)| light(v, i, blender, warnings))
             .collect::<Result<_, _>>()?;
     }
     let nodes = root.get("nodes").and_then(Value::as_array);
@@ -240,5 +258,28 @@ mod tests {
         let mut warnings = vec![];
         let f = read(&with(json!({ "type": "area" })), &mut warnings).unwrap();
         assert!(f.lights[0].is_none() && warnings[0].contains("lights[0].type"));
+    }
+
+    /// In a file Blender wrote a spot falls off as Blender's, and its blend of 0 (equal
+    /// cones) is a hard edge; from another writer equal cones stay an error, and a point
+    /// light keeps the extension's (it has no cone).
+    #[test]
+    fn a_spot_blender_wrote_falls_off_as_blenders() {
+        let spot =
+            json!({ "type": "spot", "spot": { "innerConeAngle": 0.8, "outerConeAngle": 0.8 } });
+        let mut file = with(spot.clone());
+        file["asset"] =
+            json!({ "version": "2.0", "generator": "Khronos glTF Blender I/O v5.0.21" });
+        let l = read(&file, &mut vec![]).unwrap().lights[0].clone().unwrap();
+        assert_eq!(l.cone_falloff, ConeFalloff::Blender);
+        assert_eq!(l.problem(), None);
+        file["asset"]["generator"] = json!("three.js GLTFExporter");
+        assert!(read(&file, &mut vec![]).is_err());
+        let mut point = with(json!({ "type": "point" }));
+        point["asset"] = json!({ "version": "2.0", "generator": "Khronos glTF Blender I/O" });
+        let l = read(&point, &mut vec![]).unwrap().lights[0]
+            .clone()
+            .unwrap();
+        assert_eq!(l.cone_falloff, ConeFalloff::Gltf);
     }
 }

@@ -21,7 +21,7 @@ mod validate;
 
 pub use animation::{Animation, EmissionKey, Keyframe, ReflectanceKey};
 pub use environment::{EnvMap, Environment, MAX_ENV_SIDE};
-pub use light::{Light, LightKind, LUMENS_PER_WATT};
+pub use light::{ConeFalloff, Light, LightKind, LUMENS_PER_WATT};
 pub use material::{Material, MAX_REFLECTANCE};
 pub use mesh::Mesh;
 pub use object::{Object, Role};

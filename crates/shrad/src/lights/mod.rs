@@ -15,7 +15,7 @@
 //! The falloffs are the extension's recommended ones: the range window
 //! `max(min(1 - (d / range)^4, 1), 0)` and the spot's `t^2`,
 //! `t = clamp((cos a - cos outer) / (cos inner - cos outer), 0, 1)`, `a` the angle from the
-//! spot's axis.
+//! spot's axis; or, for a spot Blender wrote, Blender's ([`shrad_scene::ConeFalloff`]).
 
 mod cache;
 #[cfg(test)]
@@ -24,7 +24,7 @@ mod tests;
 pub use cache::PunctualCache;
 
 use glam::Vec3;
-use shrad_scene::{Light, LightKind};
+use shrad_scene::{ConeFalloff, Light, LightKind};
 
 /// One punctual light in world space at the current time, in radiometric units.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,8 +40,20 @@ pub struct LightState {
     pub strength: Vec3,
     /// Range of a point or spot light (`None`: infinite).
     pub range: Option<f32>,
-    /// `cos(inner)`, `cos(outer)` of a spot (1, 0 otherwise).
-    cos_cone: (f32, f32),
+    /// A spot's falloff between its cones (none for other kinds).
+    cone: SpotCone,
+}
+
+/// A spot's falloff as a function of `cos a`, `a` the angle from its axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum SpotCone {
+    /// Not a spot: 1 everywhere.
+    None,
+    /// The extension's `t^2`, `t = clamp((cos a - cos_outer) / (cos_inner - cos_outer))`.
+    Gltf { cos_inner: f32, cos_outer: f32 },
+    /// Blender's: `smoothstep((cos a - cos_outer) * scale)`, `scale = 1 / ((1 - cos_outer)
+    /// blend)` (infinite for a blend of 0: a hard edge).
+    Blender { cos_outer: f32, scale: f32 },
 }
 
 impl LightState {
@@ -58,12 +70,33 @@ impl LightState {
             None if light.kind == LightKind::Point => -Vec3::Z,
             None => return None,
         };
-        let cos_cone = match light.kind {
-            LightKind::Spot {
-                inner_cone_angle,
-                outer_cone_angle,
-            } => (inner_cone_angle.cos(), outer_cone_angle.cos()),
-            _ => (1.0, 0.0),
+        let cone = match (light.kind, light.cone_falloff) {
+            (
+                LightKind::Spot {
+                    inner_cone_angle: inner,
+                    outer_cone_angle: outer,
+                },
+                ConeFalloff::Gltf,
+            ) => SpotCone::Gltf {
+                cos_inner: inner.cos(),
+                cos_outer: outer.cos(),
+            },
+            (
+                LightKind::Spot {
+                    inner_cone_angle: inner,
+                    outer_cone_angle: outer,
+                },
+                ConeFalloff::Blender,
+            ) => {
+                // As Blender's importer reads the blend back from the cones.
+                let blend = (1.0 - inner / outer.max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
+                let cos_outer = outer.cos();
+                SpotCone::Blender {
+                    cos_outer,
+                    scale: 1.0 / ((1.0 - cos_outer) * blend),
+                }
+            }
+            _ => SpotCone::None,
         };
         Some(LightState {
             kind: light.kind,
@@ -71,7 +104,7 @@ impl LightState {
             direction,
             strength: light.radiometric(),
             range: light.range,
-            cos_cone,
+            cone,
         })
     }
 
@@ -145,7 +178,12 @@ impl LightState {
             LightKind::Spot { .. } => {
                 // Integrate f over the cone numerically (f depends on the angle only).
                 let n = 4096;
-                let (_, outer) = self.cos_cone;
+                let outer = match self.cone {
+                    SpotCone::Gltf { cos_outer, .. } | SpotCone::Blender { cos_outer, .. } => {
+                        cos_outer
+                    }
+                    SpotCone::None => -1.0,
+                };
                 let mut sum = 0.0;
                 for k in 0..n {
                     let c = outer + (1.0 - outer) * (k as f32 + 0.5) / n as f32;
@@ -158,9 +196,24 @@ impl LightState {
 
     /// The spot falloff at `cos a = c`.
     fn cone_cos(&self, c: f32) -> f32 {
-        let (inner, outer) = self.cos_cone;
-        let t = ((c - outer) / (inner - outer).max(1e-6)).clamp(0.0, 1.0);
-        t * t
+        match self.cone {
+            SpotCone::None => 1.0,
+            SpotCone::Gltf {
+                cos_inner,
+                cos_outer,
+            } => {
+                let t = ((c - cos_outer) / (cos_inner - cos_outer).max(1e-6)).clamp(0.0, 1.0);
+                t * t
+            }
+            SpotCone::Blender { cos_outer, scale } => {
+                if c <= cos_outer {
+                    return 0.0;
+                }
+                // (c - cos_outer) * inf is inf for a blend of 0: the full light.
+                let x = ((c - cos_outer) * scale).min(1.0);
+                x * x * (3.0 - 2.0 * x)
+            }
+        }
     }
 }
 

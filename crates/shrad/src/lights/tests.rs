@@ -131,6 +131,58 @@ fn a_spot_falls_off_smoothly_between_its_cones() {
     }
 }
 
+/// A spot Blender wrote falls off as Cycles' `smoothstep((cos a - cos outer) / ((1 - cos
+/// outer) b))`, `b = 1 - inner / outer`: half its light where that argument is 1/2, the
+/// flux `2 pi I (1 - cos outer) (1 - b / 2)` (the smoothstep's mean over its window is 1/2),
+/// and a blend of 0 (equal cones) a hard edge, the flux of the whole cone.
+#[test]
+fn a_spot_blender_wrote_falls_off_as_blenders_blend() {
+    let outer = 0.6f32;
+    let down = Affine3A::from_rotation_translation(Quat::from_rotation_x(-PI / 2.0), Vec3::Y);
+    for blend in [0.3f32, 0.0] {
+        let spot = Light {
+            world_from_light: down,
+            cone_falloff: shrad_scene::ConeFalloff::Blender,
+            ..Light::new(
+                "spot",
+                LightKind::Spot {
+                    inner_cone_angle: outer * (1.0 - blend),
+                    outer_cone_angle: outer,
+                },
+                683.0,
+            )
+        };
+        assert_eq!(spot.problem(), None, "blend {blend}");
+        let state = super::LightState::new(&spot, &down).unwrap();
+        let co = outer.cos();
+        let at_cos = |c: f32| {
+            let a = c.clamp(-1.0, 1.0).acos();
+            state.cone(Vec3::new(a.sin(), -a.cos(), 0.0))
+        };
+        let w = (1.0 - co) * blend;
+        assert_eq!(at_cos(co - 1e-3), 0.0);
+        assert!((at_cos(1.0) - 1.0).abs() < 1e-6);
+        if blend > 0.0 {
+            assert!(
+                (at_cos(co + 0.5 * w) - 0.5).abs() < 1e-3,
+                "{}",
+                at_cos(co + 0.5 * w)
+            );
+            let x = 0.25f32;
+            let smooth = x * x * (3.0 - 2.0 * x);
+            assert!((at_cos(co + x * w) - smooth).abs() < 1e-3);
+        } else {
+            assert!((at_cos(co + 1e-4) - 1.0).abs() < 1e-6, "a hard edge");
+        }
+        let expected = 2.0 * std::f64::consts::PI * (1.0 - co as f64) * (1.0 - blend as f64 / 2.0);
+        let flux = state.emitted_flux();
+        assert!(
+            (flux / expected - 1.0).abs() < 1e-3,
+            "blend {blend}: {flux} vs {expected}"
+        );
+    }
+}
+
 #[test]
 fn a_sun_gives_e_cos_theta_everywhere() {
     let theta = 0.7f32;
