@@ -15,7 +15,8 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use shrad::scene::scene_def::{
-    from_value, CameraDef, EnvironmentDef, ObjectDef, SceneBuilder, SettingsDef, Table, Value,
+    from_value, CameraDef, EnvironmentDef, LightDef, ObjectDef, SceneBuilder, SettingsDef, Table,
+    Value,
 };
 use shrad::scene::Mesh;
 
@@ -46,6 +47,11 @@ use crate::scene::{sizing, PyScene};
 ///          "emission_key": [{"time": 0, "emission": [0, 0, 0]}],
 ///          "interpolation": "linear"},               # or "step"
 ///     ],
+///     "lights": [                                   # punctual lights, as [[lights]]
+///         {"kind": "point", "position": [0, 2, 0], "power": 100},
+///         {"kind": "spot", "position": [0, 2.9, 0], "direction": [0, -1, 0],
+///          "power": 500, "outer_cone_deg": 40, "blend": 0.2},
+///     ],
 /// })
 /// ```
 ///
@@ -74,7 +80,14 @@ pub fn load_dict(
     let fail = |m: String| PyValueError::new_err(format!("{source}: {m}"));
     check_keys(
         definition,
-        &["name", "camera", "settings", "environment", "objects"],
+        &[
+            "name",
+            "camera",
+            "settings",
+            "environment",
+            "objects",
+            "lights",
+        ],
         "the scene",
     )
     .map_err(fail)?;
@@ -102,7 +115,7 @@ pub fn load_dict(
     })
 }
 
-/// The dict's settings, camera and objects through the scene definition's `builder`
+/// The dict's settings, camera, objects and lights through the scene definition's `builder`
 /// (files named in the dict are found from the working directory, as Python opens files).
 fn build(definition: &Bound<'_, PyDict>, builder: &mut SceneBuilder) -> Result<(), String> {
     if let Some(s) = present(definition, "settings")? {
@@ -142,6 +155,16 @@ fn build(definition: &Bound<'_, PyDict>, builder: &mut SceneBuilder) -> Result<(
         let at = |m: String| format!("object {i} '{name}': {m}");
         let def = object_def(&o).map_err(at)?;
         builder.object(i, def).map_err(at)?;
+    }
+    if let Some(lights) = present(definition, "lights")? {
+        let lights = lights
+            .cast_into::<PyList>()
+            .map_err(|_| "'lights' must be a list of dicts".to_string())?;
+        for (i, l) in lights.iter().enumerate() {
+            let at = |m: String| format!("lights {i}: {m}");
+            let def: LightDef = from_value(to_value(&l).map_err(at)?).map_err(at)?;
+            builder.light(i, &def).map_err(at)?;
+        }
     }
     Ok(())
 }

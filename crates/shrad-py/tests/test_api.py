@@ -264,6 +264,60 @@ position = [-0.6, 0.3, 0.0]
 """
 
 
+LIGHTS_TOML = """
+[[lights]]
+name = "bulb"
+kind = "point"
+position = [0.5, 2.0, 0.5]
+power = 40
+
+[[lights]]
+name = "spot"
+kind = "spot"
+position = [0, 2.4, 0]
+direction = [0, -1, 0]
+power = 200
+outer_cone_deg = 35
+blend = 0.25
+"""
+
+LIGHTS_DICT = [
+    {"name": "bulb", "kind": "point", "position": [0.5, 2.0, 0.5], "power": 40},
+    {"name": "spot", "kind": "spot", "position": [0, 2.4, 0], "direction": [0, -1, 0],
+     "power": 200, "outer_cone_deg": 35, "blend": 0.25},
+]
+
+
+def test_a_dicts_lights_are_a_scene_files_lights(tmp_path):
+    """``load_dict`` takes ``lights`` with the keys of ``[[lights]]``: the same light, and the
+    same mistakes refused with the same words."""
+    room = room_dict()["objects"][0]  # the walls alone: no lamp, no block
+    (tmp_path / "lit.toml").write_text(
+        '[settings]\npatches = 500\n\n[[object]]\nname = "room"\nshape = "box"\nsize = [3, 2.5, 4]\n'
+        'inward = true\nrole = "boundary"\nposition = [0, 1.25, 0]\nreflectance = [0.7, 0.7, 0.7]\n'
+        + LIGHTS_TOML
+    )
+    from_file = shrad.load(tmp_path / "lit.toml")
+    from_dict = shrad.load_dict({"settings": {"patches": 500}, "objects": [room], "lights": LIGHTS_DICT})
+    radiosity = []
+    for s in (from_file, from_dict):
+        e = shrad.Engine(s, solver="reference", preset="fast")
+        e.step()
+        radiosity.append(e.radiosity)
+    assert radiosity[0].max() > 0, "the lights light the room"
+    np.testing.assert_array_equal(radiosity[0], radiosity[1])
+    e.set_light("spot", intensity=0.0)  # found by its name
+    bad = dict(LIGHTS_DICT[1], inner_cone_deg=10)
+    with pytest.raises(ValueError, match=r"lights 1: give inner_cone_deg or blend \(Blender's\), not both"):
+        shrad.load_dict({"objects": [room], "lights": [LIGHTS_DICT[0], bad]})
+    with pytest.raises(ValueError, match="lights 1: the name 'bulb' is already light 0's"):
+        shrad.load_dict({"objects": [room], "lights": [LIGHTS_DICT[0], LIGHTS_DICT[0]]})
+    with pytest.raises(ValueError, match="lights 0: .*unknown field `watts`"):
+        shrad.load_dict({"objects": [room], "lights": [{"kind": "point", "watts": 3}]})
+    with pytest.raises(ValueError, match="'lights' must be a list of dicts"):
+        shrad.load_dict({"objects": [room], "lights": LIGHTS_DICT[0]})
+
+
 def test_a_toml_file_and_a_dict_make_the_same_scene(tmp_path):
     pos, tris = box_mesh((0.3, 0.3, 0.3))
     obj = tmp_path / "block.obj"

@@ -2,14 +2,13 @@
 //! built from primitives (quad, box, sphere) or taken from glTF / OBJ files, each with a
 //! material, an optional role, a rest transform and optional keyframed animation. The keys
 //! are [`crate::scene_def`]'s, which Python's `load_dict` reads too; this file adds only
-//! the TOML syntax: parsing, `[[object]]` and line numbers in errors; and punctual lights
-//! (`[[lights]]`, `scene_lights.rs`), which `load_dict` does not take yet.
+//! the TOML syntax: parsing, `[[object]]` / `[[lights]]` and line numbers in errors.
 
 use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-use crate::scene_def::{CameraDef, EnvironmentDef, ObjectDef, SceneBuilder, SettingsDef};
+use crate::scene_def::{CameraDef, EnvironmentDef, LightDef, ObjectDef, SceneBuilder, SettingsDef};
 use crate::{Scene, SceneError};
 
 #[derive(Deserialize)]
@@ -21,7 +20,7 @@ struct FileDef {
     #[serde(default)]
     object: Vec<toml::Spanned<ObjectDef>>,
     #[serde(default)]
-    lights: Vec<toml::Spanned<crate::scene_lights::LightDef>>,
+    lights: Vec<toml::Spanned<LightDef>>,
 }
 
 /// 1-based line of byte offset `pos` in `text`.
@@ -84,24 +83,12 @@ pub(crate) fn read_nested(path: &Path, chain: Vec<PathBuf>) -> Result<Scene, Sce
             return Err(builder.error(path, format!("{label}: {m}")));
         }
     }
-    let mut scene = builder.finish();
     for (i, spanned) in def.lights.iter().enumerate() {
         let line = line_of(&text, spanned.span().start);
-        let light = crate::scene_lights::light(spanned.get_ref(), i)
-            .and_then(|l| l.problem().map_or(Ok(l), Err))
+        builder
+            .light(i, spanned.get_ref())
             .map_err(|m| SceneError::invalid(path, format!("lights {i} (line {line}): {m}")))?;
-        // Unique, as objects' names are: `set_light("bulb")` changed the first of two.
-        if let Some(k) = scene
-            .lights
-            .iter()
-            .position(|l| !l.name.is_empty() && l.name == light.name)
-        {
-            return Err(SceneError::invalid(
-                path,
-                format!("lights {i} (line {line}): the name '{}' is already light {k}'s: names must be unique", light.name),
-            ));
-        }
-        scene.lights.push(light);
     }
+    let scene = builder.finish();
     Ok(scene)
 }

@@ -8,10 +8,10 @@ use serde::Deserialize;
 
 use crate::{ConeFalloff, Light, LightKind, LUMENS_PER_WATT};
 
-/// What a light's table may hold.
-#[derive(Deserialize)]
+/// `[[lights]]`: what a light's table may hold (docs/scene-format.md, "Lights").
+#[derive(Deserialize, Clone, Debug)]
 #[serde(deny_unknown_fields)]
-pub(crate) struct LightDef {
+pub struct LightDef {
     name: Option<String>,
     kind: Kind,
     position: Option<[f32; 3]>,
@@ -31,7 +31,7 @@ pub(crate) struct LightDef {
     blend: Option<f32>,
 }
 
-#[derive(Deserialize, Clone, Copy, PartialEq, Eq)]
+#[derive(Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 enum Kind {
     Point,

@@ -2,7 +2,7 @@
 //! scene file (docs/scene-format.md, read by `scene_file.rs`) and Python's
 //! `shrad.load_dict` (a dict turned into a [`Value`] tree, its numpy meshes into
 //! [`ObjectDef::mesh_data`]), and the one [`SceneBuilder`] that checks them and makes the
-//! [`Scene`]. A key therefore means the same, and is refused with the same words, whichever
+//! [`Scene`] (punctual lights too: [`LightDef`]). A key therefore means the same, and is refused with the same words, whichever
 //! syntax gave it (Mitsuba's XML and `load_dict` share their plugin constructors likewise).
 
 mod mesh_file;
@@ -16,6 +16,8 @@ use serde::de::DeserializeOwned;
 use serde::Deserialize;
 
 use crate::{Camera, Mesh, Role, Scene, SceneError, SceneSettings};
+
+pub use crate::scene_lights::LightDef;
 
 /// The value tree a definition is read from; what a front end other than the TOML file
 /// (Python's dicts) converts its data into.
@@ -379,6 +381,27 @@ impl SceneBuilder {
             }
         }
         self.scene.objects.extend(objects);
+        Ok(())
+    }
+
+    /// Add light `index` of the definition, checked ([`crate::Light::problem`]); its name
+    /// must be unique among the lights (`set_light("bulb")` changed the first of two).
+    pub fn light(&mut self, index: usize, def: &LightDef) -> Result<(), String> {
+        let light = crate::scene_lights::light(def, index)?;
+        if let Some(why) = light.problem() {
+            return Err(why);
+        }
+        let lights = &self.scene.lights;
+        if let Some(k) = lights
+            .iter()
+            .position(|l| !l.name.is_empty() && l.name == light.name)
+        {
+            return Err(format!(
+                "the name '{}' is already light {k}'s: names must be unique",
+                light.name
+            ));
+        }
+        self.scene.lights.push(light);
         Ok(())
     }
 
