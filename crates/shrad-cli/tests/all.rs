@@ -5,5 +5,6 @@
 mod bake_lightmap;
 mod bake_view;
 mod cli;
+mod cli_doc;
 mod common;
 mod empty_scene;

@@ -21,7 +21,7 @@ mod locking;
 
 /// The live engine over one scene: a patched world and one solver.
 ///
-/// ``Engine(scene, solver="dispersive", preset="default", *, backend="auto", **settings)``
+/// ``Engine(scene, solver="dispersive", preset="default", *, backend="auto", threads=None, **settings)``
 ///
 /// ``solver`` is ``"dispersive"`` (the paper's method), ``"grid"`` (the uniform probe grid
 /// baseline) or ``"reference"`` (converged radiosity every frame); ``preset`` one of
@@ -32,7 +32,7 @@ mod locking;
 /// engines in several Python threads each keep their cores. The precomputation runs here,
 /// with the GIL released; Ctrl-C (KeyboardInterrupt) stops it (no engine is made).
 ///
-/// Steer it with ``set_transform``, ``set_emission``, ``set_time`` and ``set_option``;
+/// Steer it with ``set_transform``, ``set_emission``, ``set_light``, ``set_sky``, ``set_time``, ``set_option``;
 /// advance it with ``step()``; read ``radiosity``, ``vertex_colors``, the patch arrays
 /// (``centres``, ``normals``, ``areas``, ``object_ids``), ``render(...)`` a picture,
 /// measure ``error()`` against a reference solve, ``export_gltf(path)`` the baked light.
@@ -92,7 +92,7 @@ impl PyEngine {
         self.with(py, |e| e.solver_choice().name())
     }
 
-    /// Every setting of the solver in use, ``{key: value as text}``.
+    /// Every setting of the solver in use, a list of ``(key, value as text)`` pairs.
     #[getter]
     fn settings(&self, py: Python<'_>) -> PyResult<Vec<(String, String)>> {
         self.with(py, |e| {

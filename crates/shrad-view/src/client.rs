@@ -351,6 +351,11 @@ async fn write(
     let period = app.access.options().keepalive;
     let mut keepalive = tokio::time::interval_at(tokio::time::Instant::now() + period, period);
     let limit = send_limit(app);
+    // What is already queued (the `role` message of `Seat::join`) goes ahead of the first
+    // frame, as the protocol says: the frame went first, as the loop looks at frames first.
+    while let Ok(reply) = replies.try_recv() {
+        send_within(sink, Message::Text(reply.into()), limit).await?;
+    }
     // A frame may be out that this client has not had.
     let mut newer = true;
     loop {

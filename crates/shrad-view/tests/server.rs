@@ -53,6 +53,40 @@ fn two_clients_share_one_scene() {
     s.stop().unwrap();
 }
 
+/// A client joining a running server is told its role before any frame (step 2 of the
+/// protocol's connection): the first frame out went ahead of the `role` already queued.
+#[test]
+fn a_joining_client_learns_its_role_before_its_first_frame() {
+    let s = server();
+    runtime().block_on(async {
+        let mut first = connect(&s).await;
+        colour_frame(&mut first).await; // frames are out
+        let mut late = connect_raw(&s).await;
+        let mut kinds = Vec::new();
+        while kinds.len() < 3 {
+            let m = tokio::time::timeout(Duration::from_secs(30), late.next())
+                .await
+                .expect("a message within 30 s")
+                .unwrap()
+                .unwrap();
+            match m {
+                Message::Text(t) => {
+                    let v: Value = serde_json::from_str(t.as_str()).unwrap();
+                    kinds.push(v["type"].as_str().unwrap_or("?").to_string());
+                }
+                Message::Binary(_) => kinds.push("binary".to_string()),
+                _ => {}
+            }
+        }
+        assert_eq!(
+            kinds,
+            ["scene", "binary", "role"],
+            "the geometry, then the role"
+        );
+    });
+    s.stop().unwrap();
+}
+
 #[test]
 fn a_client_that_vanishes_mid_frame_breaks_nothing() {
     let s = server();

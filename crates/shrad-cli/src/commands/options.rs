@@ -57,7 +57,7 @@ pub fn run(args: OptionsArgs) -> Result<()> {
     };
     say!("# Solver settings\n");
     say!("The output of `shrad options`; docs/options.md is regenerated with `cargo run --release -p shrad-cli -- options > docs/options.md`.\n");
-    say!("Each key is set with `--set KEY=VALUE` (repeatable) on `shrad render` and `shrad animate`, in a scene file's `[settings.solver]` table (with `solver` and `preset`), or from Python, by the same name (`-` may stand for `_`). A value outside its range is an error naming the key. \"precomputes\": changing it on a running engine runs the solver's precomputation again; \"-\": the preset's schedule does not use the key.\n");
+    say!("Each key is set with `--set KEY=VALUE` (repeatable) on `shrad render`, `animate`, `bake` and `view`, in a scene file's `[settings.solver]` table (with `solver` and `preset`), or from Python, by the same name (`-` may stand for `_`). A value outside its range is an error naming the key. \"precomputes\": changing it on a running engine runs the solver's precomputation again; \"-\": the preset's schedule does not use the key.\n");
     for solver in solvers {
         say!("{}", table(solver)?);
     }

@@ -46,10 +46,19 @@ pub(super) fn size_for_count(
         }
     }
     // The coarser of the two brackets never overshoots the target by much.
-    if count(lo).abs_diff(n) < count(hi).abs_diff(n) {
+    let h = if count(lo).abs_diff(n) < count(hi).abs_diff(n) {
         lo
     } else {
         hi
+    };
+    // Below one patch a face the count stops falling and the bracket grew without end
+    // (`info cornell --patches 5` said "patch size: 8.2e22"): no face is longer than the
+    // scene's diagonal, so that size already gives the fewest patches there are.
+    let diagonal = scene.bounds().map_or(f32::INFINITY, |b| b.diagonal());
+    if diagonal > 0.0 && h > diagonal && count(diagonal) == count(h) {
+        diagonal
+    } else {
+        h
     }
 }
 

@@ -171,3 +171,17 @@ fn an_objects_world_box_and_sphere_follow_it_and_hold_its_patches() {
         }
     }
 }
+
+/// A target below one patch a face gives the fewest patches at a size no larger than the
+/// scene's diagonal (it was 8.2e22 for five patches of the Cornell box).
+#[test]
+fn a_target_below_one_patch_a_face_gives_a_size_within_the_scene() {
+    let scene = shrad_scene::cornell_box();
+    let diagonal = scene.bounds().unwrap().diagonal();
+    let fewest = Patches::plan(&scene, PatchSizing::Size(diagonal)).count;
+    for n in [1, 5] {
+        let plan = Patches::plan(&scene, PatchSizing::Count(n));
+        assert!(plan.patch_size <= diagonal, "{n}: {}", plan.patch_size);
+        assert_eq!(plan.count, fewest, "{n}");
+    }
+}

@@ -120,7 +120,7 @@ pub const DISPERSIVE_KEYS: &[KeySpec] = &[
     ),
     KeySpec {
         name: "budget_ms",
-        doc: "per-frame deadline for the whole frame (all four steps); an object or Step 1 that does not fit waits a frame, and no object starves (schedule budget)",
+        doc: "per-frame deadline for the whole frame (all four steps); an object or Step 1 that does not fit waits a frame, and no object starves (schedule budget; 20 when that schedule is chosen without it)",
         range: Range::Float {
             min: 0.0,
             max: 60_000.0,
