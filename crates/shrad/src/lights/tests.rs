@@ -183,6 +183,59 @@ fn a_spot_blender_wrote_falls_off_as_blenders_blend() {
     }
 }
 
+/// A rug 1 mm above the floor of a 10 m room shadows the floor under it: with rays offset by
+/// 1e-4 of the scene's diagonal (1.4 mm here) the floor's shadow rays began above the rug
+/// and the floor under it took the lamp's full light (Mitsuba: 0.1 % of it).
+#[test]
+fn a_rug_a_millimetre_above_the_floor_shadows_it() {
+    let a = 5.0;
+    let floor = quad([
+        Vec3::new(-a, 0.0, -a),
+        Vec3::new(-a, 0.0, a),
+        Vec3::new(a, 0.0, a),
+        Vec3::new(a, 0.0, -a),
+    ]);
+    let r = 0.5;
+    let rug = quad([
+        Vec3::new(-r, 0.001, -r),
+        Vec3::new(-r, 0.001, r),
+        Vec3::new(r, 0.001, r),
+        Vec3::new(r, 0.001, -r),
+    ]);
+    let s = Scene {
+        source: "rug".into(),
+        objects: vec![
+            Object {
+                role: Some(Role::Boundary),
+                ..Object::new("floor", floor, Material::diffuse(Vec3::splat(0.5)))
+            },
+            Object {
+                role: Some(Role::Boundary),
+                ..Object::new("rug", rug, Material::diffuse(Vec3::splat(0.5)))
+            },
+        ],
+        lights: vec![point(Vec3::new(0.3, 3.0, 0.2), 683.0)],
+        ..Default::default()
+    };
+    let w = world(s, 20000);
+    let e = punctual_irradiance_all(&w, 16);
+    let (mut under, mut open) = (0, 0);
+    for i in w.patches.range(0) {
+        let c = w.patches.centre[i];
+        let reach = w.patches.radius(i);
+        if c.x.abs() + reach < r && c.z.abs() + reach < r {
+            under += 1;
+            assert_eq!(e[i].x, 0.0, "floor patch at {c} under the rug is lit");
+        } else if c.x.abs() - reach > r || c.z.abs() - reach > r {
+            open += (e[i].x > 0.0) as usize;
+        }
+    }
+    assert!(
+        under > 20 && open > 1000,
+        "{under} patches under the rug, {open} lit beside it"
+    );
+}
+
 #[test]
 fn a_sun_gives_e_cos_theta_everywhere() {
     let theta = 0.7f32;
