@@ -402,7 +402,7 @@ fn info_lists_the_punctual_lights_with_both_units_and_where_they_are() {
     );
     let spot = line("spot");
     assert!(
-        spot.contains("spot") && spot.contains("cone 15.0..30.0 deg"),
+        spot.contains("spot") && spot.contains("cone 15.0..30.0 deg") && spot.contains("towards"),
         "{spot}"
     );
     let sun = line("sun");

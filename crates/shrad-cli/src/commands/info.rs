@@ -75,9 +75,20 @@ fn print_lights(scene: &Scene) {
                     format!("towards {:.3} {:.3} {:.3}", d.x, d.y, d.z),
                 )
             }
-            _ => {
+            LightKind::Point => {
                 let p = Light::position(&m);
                 ("cd", "W/sr", format!("at {:.3} {:.3} {:.3}", p.x, p.y, p.z))
+            }
+            LightKind::Spot { .. } => {
+                let (p, d) = (
+                    Light::position(&m),
+                    Light::direction(&m).unwrap_or_default(),
+                );
+                let place = format!(
+                    "at {:.3} {:.3} {:.3} towards {:.3} {:.3} {:.3}",
+                    p.x, p.y, p.z, d.x, d.y, d.z
+                );
+                ("cd", "W/sr", place)
             }
         };
         let cone = match light.kind {
