@@ -217,11 +217,11 @@ pub fn print_energy(e: &shrad::energy::EnergyBalance, escaped: Option<f64>) {
     let open = escaped.filter(|&x| x > 1e-4 * e.emitted);
     let left = match open {
         Some(x) => format!(
-            "; left through the openings {x:.4e} ({:.1} %; absorbed + left {:.1} % of emitted, 100 % at rest)",
+            "; left through the openings {x:.4e} ({:.1} %; absorbed + left {:.1} % of emitted, where exact light at rest gives 100 %)",
             100.0 * x / e.emitted.max(f64::MIN_POSITIVE),
             100.0 * (e.absorbed + x) / e.emitted.max(f64::MIN_POSITIVE)
         ),
-        None => " (100 % in a closed scene at rest)".to_string(),
+        None => " (exact light in a closed scene at rest absorbs 100 %)".to_string(),
     };
     eprintln!(
         "energy: emitted {:.4e}, absorbed {:.4e} ({:.1} % of emitted){left}, reflected {:.4e} ({:.0} % of the bound {:.4e})",
