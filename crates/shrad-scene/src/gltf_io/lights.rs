@@ -46,7 +46,7 @@ fn spot(v: &Value, at: &str, blender: bool) -> Result<LightKind, String> {
         // Blender's exporter writes inner = outer (1 - blend): equal cones for a spot of
         // blend 0, which the extension forbids (read as Blender means them in its files).
         let hint = if inner == outer {
-            " (Blender writes equal cones for a spot whose blend is 0, read so in a file whose asset.generator names Blender)"
+            " (equal cones are how Blender writes a spot of blend 0, and are read so when asset.generator names Blender; this file's does not)"
         } else {
             ""
         };
