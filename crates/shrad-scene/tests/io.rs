@@ -1009,6 +1009,40 @@ fn obj_materials_missing_mtl_and_malformed_lines() {
     let s = load(&p, &opts()).unwrap();
     assert_eq!(s.objects[0].material.reflectance, Vec3::splat(0.5));
     assert_eq!(s.objects[0].material.emitted_radiance, Vec3::splat(2.0));
+    // A bare `usemtl` is an error with its line (tobj said "material parse error").
+    let bare = dir.join("bare.obj");
+    std::fs::write(&bare, "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl\nf 1 2 3\n").unwrap();
+    let msg = err_of(load(&bare, &opts()));
+    assert!(
+        msg.contains("line 4: usemtl without a material name"),
+        "{msg}"
+    );
+    // A library that is a folder (or a device: /dev/zero was read until memory ran out) is
+    // named as such, and the default material taken.
+    std::fs::create_dir_all(dir.join("folder.mtl")).unwrap();
+    let odd = dir.join("odd.obj");
+    std::fs::write(
+        &odd,
+        "mtllib folder.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let o = load(&odd, &opts()).unwrap();
+    assert!(
+        o.warnings.iter().any(|w| w.contains("it is a folder")),
+        "{:?}",
+        o.warnings
+    );
+    #[cfg(target_os = "linux")]
+    {
+        std::fs::write(
+            &odd,
+            "mtllib /dev/zero\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+        )
+        .unwrap();
+        let o = load(&odd, &opts()).unwrap();
+        let said = |w: &String| w.contains("/dev/zero") && w.contains("not a regular file");
+        assert!(o.warnings.iter().any(said), "{:?}", o.warnings);
+    }
     // That library has no `grey`: its faces take the default material, with a word.
     assert_eq!(s.objects[1].material, Material::default());
     assert!(

@@ -115,6 +115,21 @@ fn bad_lights_name_the_file_the_light_and_the_line() {
             "kind = \"point\"\nposition = [0, 1, 0]\nintensity = 1\nblend = 0.5",
             "only a spot light has cone angles or a blend",
         ),
+        (
+            "blendnocone.toml",
+            "kind = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nintensity = 1\nouter_cone_deg = 0\nblend = 0.3",
+            "the outer cone angle 0 deg must be > 0",
+        ),
+        (
+            "blendneg.toml",
+            "kind = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nintensity = 1\nouter_cone_deg = -10\nblend = 0.3",
+            "the outer cone angle -10 deg must be > 0",
+        ),
+        (
+            "justover.toml",
+            "kind = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nintensity = 1\nouter_cone_deg = 90.001",
+            "the outer cone angle 90.001 deg is beyond 90 deg",
+        ),
         ("nodir.toml", "kind = \"directional\"\nirradiance = 1", "direction missing"),
         ("nopos.toml", "kind = \"point\"\npower = 1", "position missing"),
         // Finite, but beyond what a solve's 32-bit sums hold (it was "intensity inf").

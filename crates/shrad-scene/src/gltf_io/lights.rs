@@ -39,6 +39,11 @@ fn spot(v: &Value, at: &str, blender: bool) -> Result<LightKind, String> {
     let here = format!("{at}.spot");
     let inner = number(&spot, "innerConeAngle", &here, 0.0)?;
     let outer = number(&spot, "outerConeAngle", &here, std::f64::consts::FRAC_PI_4)?;
+    if outer <= 0.0 {
+        return Err(format!(
+            "{here}.outerConeAngle: {outer} must be > 0 (a spot of no cone lights nothing)"
+        ));
+    }
     if inner < 0.0 {
         return Err(format!("{here}.innerConeAngle: {inner} must be >= 0"));
     }
@@ -281,5 +286,11 @@ mod tests {
             .clone()
             .unwrap();
         assert_eq!(l.cone_falloff, ConeFalloff::Gltf);
+        // Equal cones of nothing are no spot, Blender's or not.
+        file["asset"]["generator"] = json!("Khronos glTF Blender I/O");
+        file["extensions"]["KHR_lights_punctual"]["lights"][0]["spot"] =
+            json!({ "innerConeAngle": 0.0, "outerConeAngle": 0.0 });
+        let e = read(&file, &mut vec![]).unwrap_err();
+        assert!(e.contains("spot.outerConeAngle: 0 must be > 0"), "{e}");
     }
 }

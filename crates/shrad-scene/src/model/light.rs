@@ -159,16 +159,28 @@ impl Light {
         } = self.kind
         {
             // In degrees, as a scene file writes them (a glTF file's radians are checked,
-            // by their own names, where it is read: `gltf_io/lights.rs`).
-            // (Three decimals, trimmed: 30 deg read back from radians is 30.000002.)
+            // by their own names, where it is read: `gltf_io/lights.rs`). Up to four
+            // decimals, trimmed: 30 deg read back from radians is 30.000002, and 90.0001 deg
+            // must not read "90 deg is beyond 90 deg".
             let deg = |a: f32| {
-                let text = format!("{:.3}", a.to_degrees());
+                let text = format!("{:.4}", a.to_degrees());
                 text.trim_end_matches('0').trim_end_matches('.').to_string()
             };
             let (i, o) = (deg(inner), deg(outer));
             if !(inner.is_finite() && outer.is_finite()) {
                 return Some(format!(
                     "the cone angles must be finite (inner {i} deg, outer {o} deg)"
+                ));
+            }
+            // The outer angle first: it is the one given (a blend derives the inner from it).
+            if outer <= 0.0 {
+                return Some(format!(
+                    "the outer cone angle {o} deg must be > 0 (a spot of no cone lights nothing)"
+                ));
+            }
+            if outer > std::f32::consts::FRAC_PI_2 * (1.0 + 1e-6) {
+                return Some(format!(
+                    "the outer cone angle {o} deg is beyond 90 deg (a spot light lights at most a hemisphere)"
                 ));
             }
             if inner < 0.0 {
@@ -179,11 +191,6 @@ impl Light {
             if inner >= outer && !equal_allowed {
                 return Some(format!(
                     "the inner cone angle {i} deg must be less than the outer {o} deg"
-                ));
-            }
-            if outer > std::f32::consts::FRAC_PI_2 * (1.0 + 1e-6) {
-                return Some(format!(
-                    "the outer cone angle {o} deg is beyond 90 deg (a spot light lights at most a hemisphere)"
                 ));
             }
         }

@@ -346,6 +346,10 @@ fn check_face_indices(text: &str) -> Result<(), String> {
         if key == "f" && !line.trim_end().ends_with('\\') {
             check_face_shape(ln, words.clone())?;
         }
+        // tobj refuses it as "material parse error", with no line.
+        if key == "usemtl" && words.clone().next().is_none() {
+            return Err(format!("line {}: usemtl without a material name", ln + 1));
+        }
         if !matches!(key, "f" | "l") || words.clone().count() < 3 {
             continue;
         }
@@ -470,6 +474,20 @@ fn load_mtl_once(
 /// are recorded as errors with their line.
 fn load_mtl(dir: &Path, name: &Path, problems: &RefCell<Vec<MtlProblem>>) -> tobj::MTLLoadResult {
     let file = dir.join(name);
+    // Only a regular file is read: `mtllib /dev/zero` read until memory ran out, and a
+    // pipe never ended.
+    if let Some(m) = std::fs::metadata(&file).ok().filter(|m| !m.is_file()) {
+        let what = if m.is_dir() {
+            "a folder"
+        } else {
+            "not a regular file (a device or a pipe)"
+        };
+        problems.borrow_mut().push(MtlProblem::Missing(format!(
+            "cannot read '{}': it is {what}",
+            file.display()
+        )));
+        return Err(tobj::LoadError::OpenFileFailed);
+    }
     let text = match std::fs::read_to_string(&file) {
         Ok(t) => t,
         Err(e) => {

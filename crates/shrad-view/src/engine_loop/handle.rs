@@ -121,7 +121,7 @@ impl EngineLoop {
                 self.playing = false;
                 let duration = self.duration();
                 // A still scene's animation is the instant 0 (1e30 was echoed back).
-                let t = t.clamp(0.0, duration.max(0.0));
+                let t = t.clamp(0.0, duration.max(0.0)) + 0.0; // (-0 is 0)
                 let t = protocol::single(t, "time")?;
                 self.engine.set_time(t).map_err(|e| e.to_string())?;
                 self.changed();
