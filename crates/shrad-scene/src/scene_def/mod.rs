@@ -2,8 +2,9 @@
 //! scene file (docs/scene-format.md, read by `scene_file.rs`) and Python's
 //! `shrad.load_dict` (a dict turned into a [`Value`] tree, its numpy meshes into
 //! [`ObjectDef::mesh_data`]), and the one [`SceneBuilder`] that checks them and makes the
-//! [`Scene`] (punctual lights too: [`LightDef`]). A key therefore means the same, and is refused with the same words, whichever
-//! syntax gave it (Mitsuba's XML and `load_dict` share their plugin constructors likewise).
+//! [`Scene`] (punctual lights too: [`LightDef`]). A key therefore means the same, and is
+//! refused with the same words, whichever syntax gave it (Mitsuba's XML and `load_dict`
+//! share their plugin constructors likewise).
 
 mod mesh_file;
 mod object;
@@ -402,7 +403,8 @@ impl SceneBuilder {
             ));
         }
         if !light.name.is_empty() {
-            (self.light_names).insert(light.name.clone(), self.scene.lights.len());
+            let index = self.scene.lights.len();
+            self.light_names.insert(light.name.clone(), index);
         }
         self.scene.lights.push(light);
         Ok(())
