@@ -36,7 +36,7 @@ pub struct World {
     pub sky: Option<Arc<crate::sky::Sky>>,
     /// Current time (seconds).
     pub time: f32,
-    /// Ray offset off surfaces (scene units): [`ray_offset`], 1e-5 of the scene's diagonal.
+    /// Ray offset off surfaces (scene units): 1e-5 of the scene's diagonal (`ray_offset`).
     pub eps: f32,
     /// Rays `vis` has cast (shared with the counting wrapper around the backend).
     rays_cast: Arc<AtomicU64>,
@@ -485,7 +485,7 @@ impl World {
 /// floor of a 10 m room did not shadow the floor (its shadow rays began above the rug: the
 /// floor under it was lit in full, against Mitsuba's 0.1 %), nor did a lamp panel 1 mm
 /// before a wall shade the wall behind it (which then took more light than the lamp gave).
-pub fn ray_offset(bounds: Option<shrad_scene::Aabb>) -> f32 {
+fn ray_offset(bounds: Option<shrad_scene::Aabb>) -> f32 {
     let Some(b) = bounds else {
         return 1e-5;
     };
