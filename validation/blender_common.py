@@ -10,6 +10,17 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 
+def black_world(sc) -> None:
+    """A black world: Blender 5 gives a new world a node tree with a grey background."""
+    sc.world = bpy.data.worlds.new("black")
+    sc.world.color = (0.0, 0.0, 0.0)
+    if sc.world.node_tree is not None:
+        for n in sc.world.node_tree.nodes:
+            if n.type == "BACKGROUND":
+                n.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+                n.inputs["Strength"].default_value = 0.0
+
+
 def render_cycles(out: Path, size: int, spp: int, seed: int = 0, name: str = "cycles") -> float:
     sc = bpy.context.scene
     sc.cycles.seed = seed
@@ -33,14 +44,7 @@ def render_cycles(out: Path, size: int, spp: int, seed: int = 0, name: str = "cy
     sc.render.image_settings.file_format = "OPEN_EXR"
     sc.render.image_settings.color_depth = "32"
     sc.render.filepath = str(out / f"{name}.exr")
-    # A black world: Blender 5 gives a new world a node tree with a grey background.
-    sc.world = bpy.data.worlds.new("black")
-    sc.world.color = (0.0, 0.0, 0.0)
-    if sc.world.node_tree is not None:
-        for n in sc.world.node_tree.nodes:
-            if n.type == "BACKGROUND":
-                n.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
-                n.inputs["Strength"].default_value = 0.0
+    black_world(sc)
     t0 = time.time()
     bpy.ops.render.render(write_still=True)
     return time.time() - t0

@@ -19,6 +19,9 @@ import bpy
 import bmesh
 from mathutils import Vector
 
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from blender_common import black_world  # noqa: E402
+
 ap = argparse.ArgumentParser()
 ap.add_argument("out")
 ap.add_argument("--size", type=float, default=90.0)
@@ -131,14 +134,7 @@ sc.render.resolution_x, sc.render.resolution_y = W, H
 sc.render.resolution_percentage = 100
 sc.render.pixel_aspect_x = sc.render.pixel_aspect_y = 1.0
 
-# world: black
-sc.world = bpy.data.worlds.new("black")
-sc.world.color = (0.0, 0.0, 0.0)
-if sc.world.node_tree is not None:
-    for n in sc.world.node_tree.nodes:
-        if n.type == "BACKGROUND":
-            n.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
-            n.inputs["Strength"].default_value = 0.0
+black_world(sc)
 
 bpy.context.view_layer.update()
 info = dict(size=a.size, blend=a.blend, walls=a.walls, floor=a.floor, power=a.power,

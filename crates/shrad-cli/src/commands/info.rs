@@ -93,12 +93,11 @@ fn print_lights(scene: &Scene) {
         };
         let cone = match light.kind {
             LightKind::Spot {
-                inner_cone_angle,
-                outer_cone_angle,
+                outer_cone_angle, ..
             } if light.cone_falloff == shrad::scene::ConeFalloff::Blender => format!(
                 " (cone {:.1} deg, Blender's blend {:.2})",
                 outer_cone_angle.to_degrees(),
-                1.0 - inner_cone_angle / outer_cone_angle.max(f32::MIN_POSITIVE)
+                light.spot_blend().unwrap_or(0.0)
             ),
             LightKind::Spot {
                 inner_cone_angle,

@@ -103,6 +103,18 @@ impl Light {
         }
     }
 
+    /// A spot's blend as Blender has it, `1 - inner / outer` in [0, 1] (how Blender's
+    /// importer reads it back from the cones); `None` for other kinds.
+    pub fn spot_blend(&self) -> Option<f32> {
+        match self.kind {
+            LightKind::Spot {
+                inner_cone_angle: inner,
+                outer_cone_angle: outer,
+            } => Some((1.0 - inner / outer.max(f32::MIN_POSITIVE)).clamp(0.0, 1.0)),
+            _ => None,
+        }
+    }
+
     /// The radiometric strength, RGB: radiant intensity in W/sr (point, spot) or irradiance
     /// in W/m^2 (directional), `color * intensity / 683`.
     pub fn radiometric(&self) -> Vec3 {

@@ -83,13 +83,12 @@ impl LightState {
             },
             (
                 LightKind::Spot {
-                    inner_cone_angle: inner,
                     outer_cone_angle: outer,
+                    ..
                 },
                 ConeFalloff::Blender,
             ) => {
-                // As Blender's importer reads the blend back from the cones.
-                let blend = (1.0 - inner / outer.max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
+                let blend = light.spot_blend().unwrap_or(0.0);
                 let cos_outer = outer.cos();
                 SpotCone::Blender {
                     cos_outer,
